@@ -1,0 +1,31 @@
+# Each target sets up what is missing first: a .venv with bpy 5.0.1, numpy,
+# pytest, the fast ray caster and the package in editable mode.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+WILDSCAN := $(VENV)/bin/wildscan
+STAMP  := $(VENV)/.wildscan-installed
+OUT    ?= out
+
+.PHONY: setup demo test bench addon lint clean
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest plyfile ruff
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(WILDSCAN) scan --seed 1 --pose 0 0 0 --out $(OUT)/demo/scan_seed1.ply
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+clean:
+	rm -rf $(OUT) dist

@@ -1,0 +1,1 @@
+"""Numpy-only core of WildScan. Nothing under this package may import bpy."""

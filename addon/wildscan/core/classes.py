@@ -1,0 +1,119 @@
+"""The class table (DESIGN.md, paper Table I): the single source of class ids,
+names, reflectivities and colour tags.
+
+Ids are a contract with users (they are the PLY `label` field): never renumber.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ElementClass:
+    id: int
+    name: str
+    reflectivity: float
+    color: tuple[int, int, int]
+
+
+UNLABELED = ElementClass(0, "unlabeled", 0.0, (255, 255, 255))
+
+CLASSES: tuple[ElementClass, ...] = (
+    ElementClass(1, "terrain", 100.0, (139, 90, 43)),
+    ElementClass(2, "trunk", 90.0, (255, 0, 255)),
+    ElementClass(3, "treetop", 80.0, (128, 128, 0)),
+    ElementClass(4, "table", 75.0, (255, 255, 0)),
+    ElementClass(5, "bush", 70.0, (0, 160, 0)),
+    ElementClass(6, "fence", 60.0, (0, 0, 0)),
+    ElementClass(7, "bench", 55.0, (255, 150, 200)),
+    ElementClass(8, "low grass", 50.0, (255, 165, 0)),
+    ElementClass(9, "rock", 40.0, (128, 128, 128)),
+    ElementClass(10, "high grass", 30.0, (255, 0, 0)),
+    ElementClass(11, "wire", 20.0, (0, 0, 255)),
+    ElementClass(12, "pole", 15.0, (0, 255, 255)),
+)
+
+# Water is an element, not a label: a beam whose first hit is water returns no
+# point (the paper drops ranges with water reflectivity). It gets an internal id
+# so backends can report it; that id never reaches a PLY file.
+WATER = ElementClass(13, "water", 120.0, (0, 0, 0))
+WATER_ID = WATER.id
+
+ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER)
+BY_ID: dict[int, ElementClass] = {c.id: c for c in ALL_ELEMENTS}
+NUM_IDS = max(BY_ID) + 1
+
+# Lookup tables indexed by internal class id.
+REFLECTIVITY_BY_ID = np.array([BY_ID[i].reflectivity for i in range(NUM_IDS)], dtype=np.float32)
+COLOR_BY_ID = np.array([BY_ID[i].color for i in range(NUM_IDS)], dtype=np.uint8)
+
+# Class names as users write them in the `wildscan_class` custom property;
+# "low grass", "low_grass" and "Low-Grass" all mean the same class.
+_BY_NAME: dict[str, ElementClass] = {c.name: c for c in (*CLASSES, WATER)}
+TAG_NAMES: tuple[str, ...] = tuple(c.name for c in (*CLASSES, WATER))
+
+
+def normalize_name(name: str) -> str:
+    return " ".join(str(name).strip().lower().replace("_", " ").replace("-", " ").split())
+
+
+def class_by_name(name: str) -> ElementClass:
+    """The class a `wildscan_class` tag names; KeyError with the allowed names otherwise."""
+    try:
+        return _BY_NAME[normalize_name(name)]
+    except KeyError:
+        allowed = ", ".join(repr(n) for n in TAG_NAMES)
+        raise KeyError(f"unknown class {name!r}; allowed: {allowed}") from None
+
+
+def class_id_for_tag(tag: object) -> int:
+    """Internal id for a custom-property value; untagged or unknown tags give 0 (unlabeled)."""
+    if tag is None:
+        return UNLABELED.id
+    try:
+        return class_by_name(str(tag)).id
+    except KeyError:
+        return UNLABELED.id
+
+
+def reflectivity_of(class_ids: np.ndarray) -> np.ndarray:
+    """What the emulated sensor measures as intensity for each hit class."""
+    return REFLECTIVITY_BY_ID[np.asarray(class_ids, dtype=np.intp)]
+
+
+def label_from_reflectivity(intensity: np.ndarray) -> np.ndarray:
+    """Label each return by its intensity, as the paper does (Table I is a bijection).
+
+    Water (120) maps to WATER_ID so the caller can drop it; an intensity that
+    matches no class is a programming error and raises.
+    """
+    intensity = np.asarray(intensity, dtype=np.float32)
+    order = np.argsort(REFLECTIVITY_BY_ID)
+    sorted_refl = REFLECTIVITY_BY_ID[order]
+    pos = np.clip(np.searchsorted(sorted_refl, intensity), 0, len(sorted_refl) - 1)
+    if not np.all(sorted_refl[pos] == intensity):
+        bad = np.unique(intensity[sorted_refl[pos] != intensity])
+        raise ValueError(f"intensities match no class: {bad[:5]}")
+    return order[pos].astype(np.uint16)
+
+
+def colors_of(labels: np.ndarray) -> np.ndarray:
+    """(N, 3) uint8 colour tags for PLY labels."""
+    return COLOR_BY_ID[np.asarray(labels, dtype=np.intp)]
+
+
+def class_table_lines() -> list[str]:
+    """One line per PLY label, for file headers and sidecars."""
+    return [
+        f"{c.id} {c.name.replace(' ', '_')} reflectivity={c.reflectivity:g} rgb={c.color[0]},{c.color[1]},{c.color[2]}"
+        for c in (UNLABELED, *CLASSES)
+    ]
+
+
+def class_table_dict() -> list[dict]:
+    return [
+        {"id": c.id, "name": c.name, "reflectivity": c.reflectivity, "color": list(c.color)}
+        for c in (UNLABELED, *CLASSES)
+    ]

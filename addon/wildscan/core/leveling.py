@@ -1,0 +1,65 @@
+"""Rotations between the sensor, leveled and world frames (paper Eq. 2). Numpy only.
+
+Eq. (2) as printed has a typo: the top-right entry of its pitch matrix reads
+−cos(−β) where −sin(−β) belongs (as printed the matrix is not a rotation).
+With the fix, Eq. (2) maps sensor coordinates to leveled ones:
+
+    leveled = Ry'(−β) · Rx(−α) · sensor,   Ry'(t) = [[cos t, 0, −sin t], [0, 1, 0], [sin t, 0, cos t]]
+
+(Ry'(t) is the standard Ry(−t)). The angles are therefore defined by the
+structure's attitude in its heading frame: pitch β > 0 when the front (+X) arm
+tip is lower than the rear one (nose down), roll α > 0 when the left (+Y) arm
+tip is lower than the right one. The property that decides it (DESIGN.md):
+without noise, every leveled point equals Rz(−yaw) · (p_world − optical_centre).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def rot_x(t: float) -> np.ndarray:
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def rot_z(t: float) -> np.ndarray:
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def paper_pitch_matrix(t: float) -> np.ndarray:
+    """The pitch factor of Eq. (2) with its typo fixed (−sin in the top-right entry)."""
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+
+
+def leveling_matrix(roll_rad: float, pitch_rad: float) -> np.ndarray:
+    """Eq. (2): sensor-frame coordinates -> leveled-frame coordinates."""
+    return paper_pitch_matrix(-pitch_rad) @ rot_x(-roll_rad)
+
+
+def sensor_to_world_matrix(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.ndarray:
+    """The sensor's axes in the world frame: heading rotation after leveling."""
+    return rot_z(yaw_rad) @ leveling_matrix(roll_rad, pitch_rad)
+
+
+def roll_pitch_from_slopes(slope_x: float, slope_y: float) -> tuple[float, float]:
+    """Roll and pitch (radians) of a structure resting on the plane z = slope_x·u + slope_y·v,
+    with u along the heading and v to its left.
+
+    The structure's Z axis must be the plane normal (−slope_x, −slope_y, 1)/‖·‖.
+    """
+    pitch = -math.atan(slope_x)
+    roll = math.atan(-slope_y * math.cos(pitch))
+    return roll, pitch
+
+
+def tilt_deg(roll_rad: float, pitch_rad: float) -> float:
+    """Angle between the column and the vertical."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, math.cos(roll_rad) * math.cos(pitch_rad)))))
+
+
+def level_points(points_sensor: np.ndarray, roll_rad: float, pitch_rad: float) -> np.ndarray:
+    return points_sensor @ leveling_matrix(roll_rad, pitch_rad).T

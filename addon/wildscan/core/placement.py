@@ -1,0 +1,230 @@
+"""Standing the sensor structure on the ground the way Andabata would (paper IV-A). Numpy only.
+
+The structure has two arms, along its local X (the heading) and Y, with a
+downward 1D laser at each arm tip, and a column carrying the optical centre
+0.723 m above the ground. The four laser distances give the ground's height,
+roll and pitch; the four reflectivities check that all four lasers land on
+terrain or flooring.
+
+Arm half-lengths follow Andabata's footprint (about 0.67 m long and 0.54 m
+wide), so every tip lies well inside the blind cone, whose radius on flat ground
+equals the column height (0.723 m): the structure never shows up in a scan.
+
+How the lasers find the ground: unless the user gives a start height
+(--z-start), a probe is cast straight down from high above the pose; it passes
+through everything that is not terrain or water (tree crowns, wires, tables,
+rocks — the robot may stand under them or be rejected by its lasers, not by the
+probe) and stops at the first terrain or water surface. The four lasers then
+start LASER_CLEARANCE above that surface, so an overhead crown is never
+mistaken for the ground while a rock, bench or table under the footprint still
+is. The first terrain surface from above a cave is its roof; to stand inside
+the cave, give --z-start under the roof.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .classes import BY_ID, WATER_ID
+from .errors import PoseRejected, UserError
+from .leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
+
+COLUMN_HEIGHT = 0.723  # m, optical centre above the ground (paper section II)
+ARM_X = 0.335  # m, half-length of the X arm (half of Andabata's ~0.67 m length)
+ARM_Y = 0.27  # m, half-length of the Y arm (half of Andabata's ~0.54 m width)
+MAX_TILT_DEG = 25.0  # steeper than this, a skid-steer robot like Andabata slips or tips over
+MAX_UNEVENNESS = 0.10  # m, the two arms' mid-heights may differ this much before the robot would rock
+LASER_CLEARANCE = 1.0  # m, lasers start this far above the ground the probe found
+PROBE_TOP_Z = 10_000.0  # m, the probe starts here (worlds are far lower)
+PROBE_MAX_LAYERS = 64  # surfaces the probe may pass through before giving up
+PROBE_STEP = 1e-4  # m, how far past a surface the probe restarts
+
+TERRAIN_ID = 1
+
+# (name, offset along heading, offset to the left)
+LASERS: tuple[tuple[str, float, float], ...] = (
+    ("front (+X)", ARM_X, 0.0),
+    ("rear (-X)", -ARM_X, 0.0),
+    ("left (+Y)", 0.0, ARM_Y),
+    ("right (-Y)", 0.0, -ARM_Y),
+)
+
+
+@dataclass(frozen=True)
+class Pose:
+    """Where the user wants the scan: x, y (world metres), yaw (degrees CCW from +X)."""
+
+    x: float
+    y: float
+    yaw_deg: float
+
+    def validate(self) -> "Pose":
+        for name, v in (("x", self.x), ("y", self.y), ("yaw", self.yaw_deg)):
+            if not math.isfinite(v):
+                raise UserError(f"--pose {name} must be a finite number, got {v}")
+        return self
+
+    def to_dict(self) -> dict:
+        return {"x": self.x, "y": self.y, "yaw_deg": self.yaw_deg}
+
+
+@dataclass(frozen=True)
+class LaserHit:
+    name: str
+    origin: tuple[float, float, float]
+    distance: float  # inf when the laser saw nothing
+    class_id: int  # -1 for a miss
+    instance: int
+
+    @property
+    def hit_z(self) -> float:
+        return self.origin[2] - self.distance
+
+    @property
+    def class_name(self) -> str:
+        return BY_ID[self.class_id].name if self.class_id >= 0 else "nothing"
+
+    def describe(self) -> str:
+        if self.class_id < 0:
+            return f"laser {self.name} hit nothing"
+        what = self.class_name if self.class_id else "an untagged object"
+        return f"laser {self.name} hit {what} at z={self.hit_z:.3f}"
+
+    def to_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "origin": list(self.origin),
+            "distance": self.distance if math.isfinite(self.distance) else None,
+            "hit_z": self.hit_z if math.isfinite(self.distance) else None,
+            "class": self.class_name,
+            "reflectivity": BY_ID[self.class_id].reflectivity if self.class_id >= 0 else None,
+            "instance": self.instance,
+        }
+
+
+@dataclass(frozen=True)
+class Placement:
+    pose: Pose
+    optical_centre: np.ndarray  # (3,) world metres
+    ground_centre: np.ndarray  # (3,) where the column meets the fitted ground plane
+    roll_rad: float
+    pitch_rad: float
+    lasers: tuple[LaserHit, ...] = field(default=())
+
+    @property
+    def yaw_rad(self) -> float:
+        return math.radians(self.pose.yaw_deg)
+
+    @property
+    def roll_deg(self) -> float:
+        return math.degrees(self.roll_rad)
+
+    @property
+    def pitch_deg(self) -> float:
+        return math.degrees(self.pitch_rad)
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Sensor frame -> world frame."""
+        return sensor_to_world_matrix(self.roll_rad, self.pitch_rad, self.yaw_rad)
+
+    def to_dict(self) -> dict:
+        return {
+            "pose": self.pose.to_dict(),
+            "optical_centre": [float(v) for v in self.optical_centre],
+            "ground_centre": [float(v) for v in self.ground_centre],
+            "roll_deg": self.roll_deg,
+            "pitch_deg": self.pitch_deg,
+            "tilt_deg": tilt_deg(self.roll_rad, self.pitch_rad),
+            "column_height": COLUMN_HEIGHT,
+            "arm_half_lengths": [ARM_X, ARM_Y],
+            "lasers": [laser.to_dict() for laser in self.lasers],
+        }
+
+
+def laser_xy(pose: Pose) -> np.ndarray:
+    """(4,2) horizontal positions of the arm tips."""
+    heading = rot_z(math.radians(pose.yaw_deg))[:2, :2]
+    offsets = np.array([[dx, dy] for _, dx, dy in LASERS])
+    return np.array([pose.x, pose.y]) + offsets @ heading.T
+
+
+def probe_ground_z(backend, x: float, y: float) -> float | None:
+    """Height of the first terrain or water surface straight below (x, y), seen from above."""
+    down = np.array([[0.0, 0.0, -1.0]])
+    z = PROBE_TOP_Z
+    for _ in range(PROBE_MAX_LAYERS):
+        hits = backend.cast(np.array([[x, y, z]]), down, 2 * PROBE_TOP_Z)
+        if not np.isfinite(hits.distance[0]):
+            return None
+        z_hit = z - float(hits.distance[0])
+        if int(hits.class_id[0]) in (TERRAIN_ID, WATER_ID):
+            return z_hit
+        z = z_hit - PROBE_STEP
+    return None
+
+
+def cast_lasers(backend, pose: Pose, z_start: float) -> tuple[LaserHit, ...]:
+    xy = laser_xy(pose)
+    origins = np.column_stack([xy, np.full(4, z_start)])
+    down = np.tile([0.0, 0.0, -1.0], (4, 1))
+    hits = backend.cast(origins, down, 2 * PROBE_TOP_Z)
+    return tuple(
+        LaserHit(
+            name=name,
+            origin=tuple(float(v) for v in origins[i]),
+            distance=float(hits.distance[i]),
+            class_id=int(hits.class_id[i]),
+            instance=int(hits.instance[i]),
+        )
+        for i, (name, _, _) in enumerate(LASERS)
+    )
+
+
+def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
+    """Stand the structure at `pose`; raise PoseRejected naming each laser that says no."""
+    pose.validate()
+    where = f"pose ({pose.x:g}, {pose.y:g}, yaw {pose.yaw_deg:g})"
+    if z_start is None:
+        ground = probe_ground_z(backend, pose.x, pose.y)
+        if ground is None:
+            raise PoseRejected(f"{where} is off the world: there is no terrain below it")
+        z_start = ground + LASER_CLEARANCE
+    elif not math.isfinite(z_start):
+        raise UserError(f"--z-start must be a finite height in metres, got {z_start}")
+
+    lasers = cast_lasers(backend, pose, z_start)
+    bad = [laser for laser in lasers if laser.class_id != TERRAIN_ID]
+    if bad:
+        if all(laser.class_id < 0 for laser in lasers):
+            raise PoseRejected(f"{where} rejected: all four lasers hit nothing from z={z_start:g} (off the world?)")
+        raise PoseRejected(
+            f"{where} rejected: " + "; ".join(laser.describe() for laser in bad) + " (all four must hit terrain or flooring)"
+        )
+
+    z_front, z_rear, z_left, z_right = (laser.hit_z for laser in lasers)
+    unevenness = abs((z_front + z_rear) - (z_left + z_right)) / 2
+    if unevenness > MAX_UNEVENNESS:
+        raise PoseRejected(
+            f"{where} rejected: the ground under the footprint is uneven (the arms' mid-heights differ by "
+            f"{unevenness:.2f} m, at most {MAX_UNEVENNESS:g} m)"
+        )
+    roll, pitch = roll_pitch_from_slopes((z_front - z_rear) / (2 * ARM_X), (z_left - z_right) / (2 * ARM_Y))
+    tilt = tilt_deg(roll, pitch)
+    if tilt > MAX_TILT_DEG:
+        raise PoseRejected(
+            f"{where} rejected: the ground tilts {tilt:.1f} deg (roll {math.degrees(roll):.1f}, pitch "
+            f"{math.degrees(pitch):.1f}); at most {MAX_TILT_DEG:g} deg"
+        )
+    ground_centre = np.array([pose.x, pose.y, (z_front + z_rear + z_left + z_right) / 4])
+    column = sensor_to_world_matrix(roll, pitch, math.radians(pose.yaw_deg)) @ np.array([0.0, 0.0, COLUMN_HEIGHT])
+    return Placement(
+        pose=pose,
+        optical_centre=ground_centre + column,
+        ground_centre=ground_centre,
+        roll_rad=roll,
+        pitch_rad=pitch,
+        lasers=lasers,
+    )

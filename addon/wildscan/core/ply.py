@@ -1,0 +1,362 @@
+"""PLY + JSON sidecar writer (and a small reader) for WildScan point clouds.
+
+Numpy only. The files are a contract with users (DESIGN.md "PLY"): the vertex
+fields and their order come from `pointcloud.PLY_FIELDS`, the header comments
+carry the tool version, the scan metadata and the class table.
+
+Writes are atomic: a scan either leaves both `scan.ply` and `scan.json` or
+neither, so a crash or Ctrl-C never leaves a truncated cloud that a user
+could mistake for a real (small) scan.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from .classes import BY_ID, class_table_dict, class_table_lines
+from .errors import UserError
+from .pointcloud import PLY_FIELDS, PointCloud
+
+# numpy kind+size -> PLY type name (the names plyfile, PCL and CloudCompare all read).
+_PLY_TYPE_BY_CODE = {"f4": "float", "f8": "double", "u4": "uint", "i4": "int",
+                     "u2": "ushort", "i2": "short", "u1": "uchar", "i1": "char"}
+# Every spelling the PLY spec allows, for the reader.
+_NUMPY_CODE_BY_PLY_TYPE = {
+    "float": "f4", "float32": "f4", "double": "f8", "float64": "f8",
+    "uint": "u4", "uint32": "u4", "int": "i4", "int32": "i4",
+    "ushort": "u2", "uint16": "u2", "short": "i2", "int16": "i2",
+    "uchar": "u1", "uint8": "u1", "char": "i1", "int8": "i1",
+}
+_FORMATS = {"binary_little_endian": "<", "binary_big_endian": ">", "ascii": "<"}
+
+# Metadata keys written first in the header, in this order; the rest follow sorted.
+_LEADING_KEYS = ("seed", "pose", "frame", "sensor")
+# Written to the header by other means (the class table has its own lines).
+_NOT_IN_HEADER = frozenset({"classes", "class_counts", "wildscan_version", "ply_file", "point_count"})
+# Strings made only of these characters are written bare; others are JSON-quoted
+# so a comment line stays one line of ASCII and `key=value` pairs stay unambiguous.
+_PLAIN_TEXT = re.compile(r"[A-Za-z0-9_.,:/+\-]+")
+
+
+# --------------------------------------------------------------------------- paths
+
+
+def check_output_path(path: str | os.PathLike) -> Path:
+    """The resolved output path, or UserError saying why it cannot be written.
+
+    Called before any scanning so a typo in `--out` costs nothing.
+    """
+    out = Path(path).expanduser().resolve()
+
+    def fail(why: str) -> UserError:
+        return UserError(f"cannot write {out}: {why}")
+
+    if out.suffix.lower() != ".ply":
+        raise fail("the output file name must end in .ply")
+    if out.is_dir():
+        raise fail("it is a directory; give a file name ending in .ply")
+    if sidecar_path(out).is_dir():
+        raise fail(f"its sidecar {sidecar_path(out)} is a directory")
+    parent = out.parent
+    if not parent.exists():
+        raise fail(f"directory {parent} does not exist")
+    if not parent.is_dir():
+        raise fail(f"{parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise fail(f"directory {parent} is not writable")
+    return out
+
+
+def sidecar_path(ply_path: str | os.PathLike) -> Path:
+    """Where the JSON metadata of a PLY file lives: same name, `.json` suffix."""
+    return Path(ply_path).with_suffix(".json")
+
+
+def _temp_path(final: Path) -> Path:
+    # Same directory as the target so os.replace is an atomic rename, hidden
+    # so file browsers and globs like *.ply never pick up a half-written file.
+    return final.with_name(f".{final.name}.tmp-{os.getpid()}")
+
+
+# --------------------------------------------------------------------------- header text
+
+
+def _scalar_text(value: object) -> str:
+    """One metadata value as header text: deterministic, one line, ASCII."""
+    if value is None:
+        return "null"
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))  # shortest text that round-trips
+    if isinstance(value, np.ndarray):
+        value = value.ravel().tolist()
+    if isinstance(value, (list, tuple)):
+        return ",".join(_scalar_text(v) for v in value)
+    if isinstance(value, dict):
+        return " ".join(_flatten_dict(value))
+    text = str(value)
+    return text if _PLAIN_TEXT.fullmatch(text) else json.dumps(text)  # json escapes \n and non-ASCII
+
+
+def _key_text(key: object) -> str:
+    text = str(key)
+    return text if _PLAIN_TEXT.fullmatch(text) else re.sub(r"[^A-Za-z0-9_.:/+\-]", "_", text) or "_"
+
+
+def _flatten_dict(d: dict, prefix: str = "") -> list[str]:
+    """`{"a": 1, "b": {"c": 2}}` -> ["a=1", "b.c=2"], keys sorted for determinism."""
+    pairs: list[str] = []
+    for key in sorted(d, key=str):
+        name = prefix + _key_text(key)
+        value = d[key]
+        if isinstance(value, dict) and value:
+            pairs.extend(_flatten_dict(value, name + "."))
+        else:
+            pairs.append(f"{name}={_scalar_text(value)}")
+    return pairs
+
+
+def _metadata_comments(metadata: dict) -> list[str]:
+    leading = [k for k in _LEADING_KEYS if k in metadata]
+    rest = sorted((k for k in metadata if k not in _LEADING_KEYS and k not in _NOT_IN_HEADER), key=str)
+    lines = []
+    for key in (*leading, *rest):
+        value = _scalar_text(metadata[key])
+        lines.append(f"{_key_text(key)} {value}".rstrip())
+    return lines
+
+
+def _vertex_dtype() -> np.dtype:
+    return np.dtype(list(PLY_FIELDS))
+
+
+def _ply_header(count: int, comments: list[str], ascii: bool) -> bytes:
+    fmt = "ascii" if ascii else "binary_little_endian"
+    lines = ["ply", f"format {fmt} 1.0"]
+    lines += [f"comment {c}" for c in comments]
+    lines.append(f"element vertex {count}")
+    for name, code in PLY_FIELDS:
+        np_code = np.dtype(code).str[1:]  # '<f4' -> 'f4', '|u1' -> 'u1'
+        lines.append(f"property {_PLY_TYPE_BY_CODE[np_code]} {name}")
+    lines.append("end_header")
+    for line in lines:  # a stray newline would corrupt the header for every reader
+        assert "\n" not in line and "\r" not in line, line
+    return ("\n".join(lines) + "\n").encode("ascii")
+
+
+def _ascii_formats() -> list[str]:
+    # '%.9g' round-trips float32 exactly; integers print as integers.
+    return ["%.9g" if np.dtype(code).kind == "f" else "%d" for _, code in PLY_FIELDS]
+
+
+def header_comments(cloud: PointCloud, metadata: dict) -> list[str]:
+    """The header comment texts (without the `comment ` keyword), in file order."""
+    meta = _with_defaults(cloud, metadata)
+    return [f"generated by WildScan {__version__}", *_metadata_comments(meta),
+            *(f"class {line}" for line in class_table_lines())]
+
+
+# --------------------------------------------------------------------------- sidecar
+
+
+def _json_default(value: object) -> object:
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.floating):
+        return float(value)
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    raise TypeError(f"metadata value {value!r} of type {type(value).__name__} is not JSON serialisable")
+
+
+def _with_defaults(cloud: PointCloud, metadata: dict) -> dict:
+    meta = dict(metadata)
+    meta.setdefault("frame", cloud.frame)
+    return meta
+
+
+def _class_counts_by_name(cloud: PointCloud) -> dict[str, int]:
+    return {(BY_ID[i].name if i in BY_ID else str(i)): n for i, n in cloud.class_counts().items()}
+
+
+def sidecar_dict(ply_path: Path, cloud: PointCloud, metadata: dict, ascii: bool = False) -> dict:
+    """What the JSON sidecar holds: the metadata plus facts about the file."""
+    meta = _with_defaults(cloud, metadata)
+    meta.setdefault("wildscan_version", __version__)
+    meta.setdefault("classes", class_table_dict())
+    # Facts of this very file: always computed, never taken from the caller.
+    meta["ply_file"] = Path(ply_path).name
+    meta["ply_format"] = "ascii" if ascii else "binary_little_endian"
+    meta["point_count"] = len(cloud)
+    meta["class_counts"] = _class_counts_by_name(cloud)
+    return meta
+
+
+def _sidecar_bytes(ply_path: Path, cloud: PointCloud, metadata: dict, ascii: bool) -> bytes:
+    text = json.dumps(sidecar_dict(ply_path, cloud, metadata, ascii), indent=2, sort_keys=True,
+                      default=_json_default)
+    return (text + "\n").encode("utf-8")
+
+
+# --------------------------------------------------------------------------- writing
+
+
+_ASCII_CHUNK = 65536  # rows formatted at a time: bounds memory on big scans
+
+
+def _write_ascii_rows(f, records: np.ndarray) -> None:
+    # Column-wise tolist + one %-format per row is about twice as fast as
+    # np.savetxt, which builds a tuple from every structured record.
+    row_format = " ".join(_ascii_formats()) + "\n"
+    for start in range(0, len(records), _ASCII_CHUNK):
+        chunk = records[start:start + _ASCII_CHUNK]
+        columns = [chunk[name].tolist() for name in chunk.dtype.names]
+        f.write("".join([row_format % row for row in zip(*columns, strict=True)]).encode("ascii"))
+
+
+def _write_vertices(f, records: np.ndarray, ascii: bool) -> None:
+    records = records.astype(_vertex_dtype(), copy=False)
+    if ascii:
+        _write_ascii_rows(f, records)
+    else:
+        f.write(records.tobytes())
+
+
+def _write_durably(path: Path, write) -> None:
+    # fsync before the rename so a power cut cannot leave a renamed-but-empty file.
+    with open(path, "wb") as f:
+        write(f)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def _fsync_dir(directory: Path) -> None:
+    # Makes the renames themselves durable; not possible on every platform.
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _remove_quietly(paths) -> None:
+    for p in paths:
+        try:
+            os.unlink(p)
+        except OSError:
+            pass  # already gone, or cleanup failing: never hide the original error
+
+
+def write_scan_files(ply_path: str | os.PathLike, cloud: PointCloud, metadata: dict,
+                     ascii: bool = False) -> tuple[Path, Path]:
+    """Write `cloud` as a PLY file plus its JSON sidecar; return both paths.
+
+    Both files appear together or not at all, and the same inputs always give
+    byte-identical files (no timestamps, sorted keys).
+    """
+    ply_path = check_output_path(ply_path)
+    json_path = sidecar_path(ply_path)
+    # Build everything that can fail on bad input before touching the disk.
+    records = cloud.to_structured()
+    header = _ply_header(len(records), header_comments(cloud, metadata), ascii)
+    sidecar = _sidecar_bytes(ply_path, cloud, metadata, ascii)
+
+    tmp_ply, tmp_json = _temp_path(ply_path), _temp_path(json_path)
+    placed: list[Path] = []
+    try:
+        _write_durably(tmp_ply, lambda f: (f.write(header), _write_vertices(f, records, ascii)))
+        _write_durably(tmp_json, lambda f: f.write(sidecar))
+        os.replace(tmp_ply, ply_path)
+        placed.append(ply_path)
+        os.replace(tmp_json, json_path)
+        placed.append(json_path)
+    except BaseException:  # KeyboardInterrupt too: never leave half a scan behind
+        _remove_quietly([tmp_ply, tmp_json, *placed])
+        raise
+    _fsync_dir(ply_path.parent)
+    return ply_path, json_path
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def _parse_header(f, path: Path) -> tuple[str, int, np.dtype, list[str]]:
+    def fail(why: str) -> UserError:
+        return UserError(f"cannot read {path}: {why}")
+
+    if f.readline().rstrip(b"\r\n") != b"ply":
+        raise fail("not a PLY file (no 'ply' magic line)")
+    fmt, count, fields, comments = None, None, [], []
+    element = None
+    while True:
+        raw = f.readline()
+        if not raw:
+            raise fail("header has no end_header line")
+        line = raw.decode("ascii", errors="replace").rstrip("\r\n")
+        words = line.split()
+        if not words:
+            continue
+        if words[0] == "end_header":
+            break
+        if words[0] == "comment":
+            comments.append(line[len("comment "):] if line.startswith("comment ") else "")
+        elif words[0] == "format":
+            if len(words) < 2 or words[1] not in _FORMATS:
+                raise fail(f"unsupported format line {line!r}")
+            fmt = words[1]
+        elif words[0] == "element":
+            if element is not None:
+                raise fail("only files with a single 'vertex' element are supported")
+            element = words[1]
+            if element != "vertex":
+                raise fail(f"unsupported element {element!r}")
+            count = int(words[2])
+        elif words[0] == "property":
+            if words[1] == "list" or words[1] not in _NUMPY_CODE_BY_PLY_TYPE:
+                raise fail(f"unsupported property {line!r}")
+            fields.append((words[2], words[1]))
+    if fmt is None or count is None:
+        raise fail("header lacks a format or a vertex element")
+    order = _FORMATS[fmt]
+    dtype = np.dtype([(name, order + _NUMPY_CODE_BY_PLY_TYPE[t]) for name, t in fields])
+    return fmt, count, dtype, comments
+
+
+def read_ply(path: str | os.PathLike) -> tuple[np.ndarray, list[str]]:
+    """Vertex records (structured array, PLY field names) and header comments.
+
+    Reads the files this module writes (binary or ascii, one vertex element,
+    no list properties) without needing plyfile.
+    """
+    path = Path(path)
+    with open(path, "rb") as f:
+        fmt, count, dtype, comments = _parse_header(f, path)
+        if fmt == "ascii":
+            if count == 0:
+                return np.empty(0, dtype=dtype), comments
+            data = np.loadtxt(f, dtype=dtype, max_rows=count, ndmin=1)
+        else:
+            blob = f.read(count * dtype.itemsize)
+            if len(blob) != count * dtype.itemsize:
+                raise UserError(f"cannot read {path}: truncated, expected {count} vertices")
+            data = np.frombuffer(blob, dtype=dtype, count=count).copy()
+    if len(data) != count:
+        raise UserError(f"cannot read {path}: truncated, expected {count} vertices, found {len(data)}")
+    return data, comments

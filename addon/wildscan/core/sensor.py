@@ -1,0 +1,137 @@
+"""The emulated 3D laser rangefinder of Andabata: a Hokuyo UTM-30LX-EW 2D scanner
+turned 180° about its vertical axis (paper section II, Eq. 1). Numpy only.
+
+Sensor frame: origin at the optical centre, Z along the column (up), X along
+the structure's X arm (the heading). Beam n of 2D scan m points along
+
+    Rz(m·r_h) · (sin θn, 0, cos θn),   θn = n·r_v − 135°   (angle from the column)
+
+so n = 0 looks 45° away from straight down behind, n = 540 straight up, and the
+90° wedge around −Z is never scanned (the blind cone).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .errors import UserError
+
+BEAMS_PER_2D_SCAN = 1080
+R_V_DEG = 0.25
+FIRST_BEAM_DEG = -135.0
+SWEEP_DEG = 180.0
+# The blind cone: no beam comes closer than this to straight down.
+BLIND_CONE_HALF_ANGLE_DEG = 45.0
+
+DEFAULT_MIN_RANGE = 0.1
+DEFAULT_MAX_RANGE = 15.0  # the UTM-30LX-EW under direct sunlight
+MAX_RANGE_LIMIT = 30.0  # the UTM-30LX-EW's range in the dark
+DEFAULT_NOISE_SIGMA = 0.015
+DEFAULT_RH_DEG = 1.0
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    rh_deg: float = DEFAULT_RH_DEG
+    min_range: float = DEFAULT_MIN_RANGE
+    max_range: float = DEFAULT_MAX_RANGE
+    noise_sigma: float = DEFAULT_NOISE_SIGMA
+    noise_seed: int = 0
+
+    @property
+    def sweeps(self) -> int:
+        """M, the number of 2D scans in a 180° turn."""
+        return sweep_count(self.rh_deg)
+
+    @property
+    def beam_count(self) -> int:
+        return BEAMS_PER_2D_SCAN * self.sweeps
+
+    def validate(self) -> "SensorConfig":
+        sweep_count(self.rh_deg)
+        _check_finite("--min-range", self.min_range, "m")
+        _check_finite("--max-range", self.max_range, "m")
+        _check_finite("--noise", self.noise_sigma, "m")
+        if self.min_range < 0:
+            raise UserError(f"--min-range must be >= 0 m, got {self.min_range:g}")
+        if self.max_range <= 0 or self.max_range > MAX_RANGE_LIMIT:
+            raise UserError(
+                f"--max-range must be in (0, {MAX_RANGE_LIMIT:g}] m (the UTM-30LX-EW's limit), got {self.max_range:g}"
+            )
+        if self.min_range >= self.max_range:
+            raise UserError(
+                f"--min-range ({self.min_range:g} m) must be below --max-range ({self.max_range:g} m)"
+            )
+        if self.noise_sigma < 0:
+            raise UserError(f"--noise must be >= 0 m (0 turns noise off), got {self.noise_sigma:g}")
+        if not (0 <= int(self.noise_seed) < 2**63):
+            raise UserError(f"--noise-seed must be an integer in [0, 2^63), got {self.noise_seed}")
+        return self
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d.update(
+            model="Hokuyo UTM-30LX-EW",
+            rv_deg=R_V_DEG,
+            beams_per_2d_scan=BEAMS_PER_2D_SCAN,
+            sweeps=self.sweeps,
+        )
+        return d
+
+
+def _check_finite(option: str, value: float, unit: str) -> None:
+    if not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise UserError(f"{option} must be a finite number of {unit}, got {value}")
+
+
+def sweep_count(rh_deg: float) -> int:
+    """M = 180 / r_h, which must come out whole."""
+    if not isinstance(rh_deg, (int, float)) or not math.isfinite(rh_deg) or rh_deg <= 0:
+        raise UserError(f"--rh must be a positive number of degrees dividing 180 (e.g. 0.25, 0.5, 1, 2), got {rh_deg}")
+    m = SWEEP_DEG / rh_deg
+    whole = round(m)
+    if whole < 1 or abs(m - whole) > 1e-9 * max(1.0, m):
+        raise UserError(
+            f"--rh must divide 180 into a whole number of 2D scans (e.g. 0.25, 0.5, 1, 2, 4), got {rh_deg:g} "
+            f"(180/{rh_deg:g} = {m:g})"
+        )
+    return int(whole)
+
+
+def elevation_angles_rad() -> np.ndarray:
+    """θn = n·r_v − 135°, the angle of beam n from the column (+Z), n = 0…1079."""
+    n = np.arange(BEAMS_PER_2D_SCAN, dtype=np.float64)
+    return np.deg2rad(n * R_V_DEG + FIRST_BEAM_DEG)
+
+
+def beam_directions(rh_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit beam directions of a full 3D scan in the sensor frame (Eq. 1 with ρ = 1).
+
+    Returns (dirs (N,3) float64, ring n (N,) uint16, sweep m (N,) uint16), ordered
+    sweep-major: all 1080 beams of 2D scan 0, then of scan 1, …
+    """
+    m_count = sweep_count(rh_deg)
+    theta = elevation_angles_rad()
+    phi = np.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg)
+    sin_t, cos_t = np.sin(theta), np.cos(theta)
+    dirs = np.empty((m_count, BEAMS_PER_2D_SCAN, 3))
+    dirs[:, :, 0] = np.cos(phi)[:, None] * sin_t[None, :]
+    dirs[:, :, 1] = np.sin(phi)[:, None] * sin_t[None, :]
+    dirs[:, :, 2] = cos_t[None, :]
+    ring = np.tile(np.arange(BEAMS_PER_2D_SCAN, dtype=np.uint16), m_count)
+    sweep = np.repeat(np.arange(m_count, dtype=np.uint16), BEAMS_PER_2D_SCAN)
+    return dirs.reshape(-1, 3), ring, sweep
+
+
+def range_noise(sensor: SensorConfig, beam_count: int) -> np.ndarray:
+    """Gaussian range noise per beam (zero bias, σ = noise_sigma) from the sensor's own seed.
+
+    One draw per beam, hit or not, so a beam's noise depends only on the noise
+    seed and its (n, m) — not on what the scene happens to contain.
+    """
+    if sensor.noise_sigma == 0:
+        return np.zeros(beam_count)
+    rng = np.random.Generator(np.random.PCG64(int(sensor.noise_seed)))
+    return rng.normal(0.0, sensor.noise_sigma, beam_count)

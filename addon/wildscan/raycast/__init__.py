@@ -1,0 +1,1 @@
+"""Ray backends behind one interface (see base.py)."""

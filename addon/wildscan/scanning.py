@@ -1,0 +1,30 @@
+"""Scan the current Blender scene: the one function the CLI, the Blender scripts
+and the add-on's Scan operator all call, so they give the same points."""
+from __future__ import annotations
+
+from typing import Callable
+
+from .core.placement import Pose
+from .core.scan import Progress, ScanResult, run_scan
+from .core.sensor import SensorConfig
+
+
+def make_scene_backend(name: str, pose: Pose, sensor: SensorConfig, notify: Callable[[str], None] = print):
+    """A ray backend over the current scene, cropped to what a scan from `pose` can reach."""
+    from .raycast.select import make_backend
+
+    return make_backend(name, center=(pose.x, pose.y), radius=sensor.max_range, notify=notify)
+
+
+def scan_current_scene(
+    pose: Pose,
+    sensor: SensorConfig,
+    frame: str = "leveled",
+    z_start: float | None = None,
+    backend: str = "auto",
+    progress: Progress | None = None,
+    notify: Callable[[str], None] = print,
+) -> ScanResult:
+    sensor.validate()
+    pose.validate()
+    return run_scan(make_scene_backend(backend, pose, sensor, notify), pose, sensor, frame, z_start, progress)

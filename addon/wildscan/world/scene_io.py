@@ -1,0 +1,41 @@
+"""Opening worlds for a scan (bpy). Thin: checks what a user could get wrong first."""
+from __future__ import annotations
+
+import os
+
+from ..core.errors import UserError
+
+# First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
+BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
+
+
+def check_blend_file(path: str) -> str:
+    path = os.path.abspath(path)
+    if not os.path.isfile(path):
+        raise UserError(f"--world {path}: no such file")
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError as e:
+        raise UserError(f"--world {path}: cannot read it ({e.strerror})") from None
+    if not head.startswith(BLEND_MAGICS):
+        raise UserError(f"--world {path}: not a Blender .blend file")
+    return path
+
+
+def open_world(path: str) -> None:
+    import bpy
+
+    path = check_blend_file(path)
+    try:
+        bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+    except RuntimeError as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else "unknown error"
+        raise UserError(f"--world {path}: Blender could not open it ({first})") from None
+
+
+def empty_scene() -> None:
+    """Start from an empty factory scene so a seed-built world holds nothing else."""
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)

@@ -1,0 +1,205 @@
+"""The foundation end to end on a real Blender scene: the test world, the
+reference ray caster, the commands on the bpy wheel and on Debian's Blender 3.4."""
+import json
+
+import numpy as np
+import pytest
+from plyfile import PlyData
+
+from wildscan.core.classes import CLASSES
+from wildscan.core.placement import Pose
+from wildscan.core.scan import run_scan
+from wildscan.core.sensor import SensorConfig
+
+from scene_helpers import (
+    BLENDER,
+    WILDSCAN,
+    blender_scan,
+    distance_to_class,
+    fresh_scene,
+    run,
+    user_error_line,
+)
+
+QUIET_RH2 = SensorConfig(rh_deg=2.0, noise_sigma=0.0)
+
+
+@pytest.fixture(scope="module")
+def test_world():
+    from wildscan.world.testworld import build_test_world
+
+    fresh_scene()
+    return build_test_world(1)
+
+
+def test_noise_off_every_labeled_point_lies_on_an_element_of_its_class(test_world):
+    from wildscan.raycast.blender_backend import BlenderRayCastBackend
+
+    result = run_scan(BlenderRayCastBackend(), Pose(0, 0, 0), QUIET_RH2, frame="world")
+    labels = result.cloud.label
+    assert len(set(labels.tolist()) - {0}) >= 6
+    d = distance_to_class(result.cloud.xyz, labels)
+    assert d.max() < 1e-3, f"{(d >= 1e-3).sum()} points farther than 1 mm from their class"
+
+
+def test_untagged_meshes_block_beams_and_are_counted(test_world):
+    import bpy
+
+    from wildscan.raycast.blender_backend import BlenderRayCastBackend
+
+    mesh = bpy.data.meshes.new("user_box")
+    mesh.from_pydata(
+        [(3, -1, -5), (4, -1, -5), (4, 1, -5), (3, 1, -5), (3, -1, 9), (4, -1, 9), (4, 1, 9), (3, 1, 9)],
+        [],
+        [(0, 1, 2, 3), (4, 7, 6, 5), (0, 4, 5, 1), (1, 5, 6, 2), (2, 6, 7, 3), (3, 7, 4, 0)],
+    )
+    box = bpy.data.objects.new("user_box", mesh)
+    bpy.context.scene.collection.objects.link(box)
+    try:
+        result = run_scan(BlenderRayCastBackend(), Pose(0, 0, 0), QUIET_RH2, frame="world")
+    finally:
+        bpy.data.objects.remove(box)
+        bpy.data.meshes.remove(mesh)
+    assert result.untagged_objects == frozenset({"user_box"})
+    unlabeled = result.cloud.xyz[result.cloud.label == 0]
+    assert len(unlabeled) > 100
+    assert np.all((unlabeled[:, 0] > 3 - 1e-3) & (unlabeled[:, 0] < 4 + 1e-3))
+
+
+@pytest.fixture(scope="module")
+def cli_scan(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cli") / "scan.ply"
+    proc = run([WILDSCAN, "scan", "--seed", "1", "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
+                "--backend", "blender", "--frame", "world", "--out", str(out)])
+    assert proc.returncode == 0, proc.stderr
+    return out, proc
+
+
+def test_wildscan_scan_writes_a_labeled_ply_and_sidecar(cli_scan):
+    out, proc = cli_scan
+    ply = PlyData.read(str(out))
+    v = ply["vertex"]
+    assert v.count > 50_000
+    assert {c.id for c in CLASSES} - set(np.unique(v["label"]).tolist()) <= {4, 6, 7}  # all but maybe furniture
+    meta = json.loads(out.with_suffix(".json").read_text())
+    assert meta["point_count"] == v.count and meta["seed"] == 1
+    assert meta["placement"]["lasers"][0]["class"] == "terrain"
+    assert str(out) in proc.stdout and "untagged objects hit: 0" in proc.stdout
+    for c in CLASSES:
+        if c.id in np.unique(v["label"]):
+            assert c.name in proc.stdout
+
+
+def test_blender_34_and_bpy_50_give_the_same_scan(cli_scan, tmp_path):
+    out, _ = cli_scan
+    other = tmp_path / "b34.ply"
+    proc = blender_scan(["--seed", "1", "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
+                         "--backend", "blender", "--frame", "world", "--out", str(other)])
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
+    a, b = PlyData.read(str(out))["vertex"], PlyData.read(str(other))["vertex"]
+    assert a.count == b.count
+    assert np.array_equal(a["label"], b["label"]) and np.array_equal(a["instance"], b["instance"])
+    assert np.array_equal(a["ring"], b["ring"]) and np.array_equal(a["sweep"], b["sweep"])
+    for axis in "xyz":
+        assert np.abs(a[axis] - b[axis]).max() < 1e-4
+
+
+def test_blender_scans_the_blend_it_was_opened_with(tmp_path):
+    blend = tmp_path / "mine.blend"
+    build = run([BLENDER, "-b", "--factory-startup", "--python-expr",
+                 "import sys, bpy; sys.path.insert(0, 'addon');"
+                 "from wildscan.world.testworld import build_test_world;"
+                 "bpy.ops.wm.read_factory_settings(use_empty=True); build_test_world(3);"
+                 f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"])
+    assert blend.exists(), build.stdout[-2000:] + build.stderr
+    out = tmp_path / "mine.ply"
+    proc = blender_scan(["--pose", "0", "0", "90", "--rh", "4", "--out", str(out)], blend=str(blend))
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
+    assert PlyData.read(str(out))["vertex"].count > 10_000
+    # The bpy wheel reads a .blend saved by Blender 3.4 too.
+    out2 = tmp_path / "wheel.ply"
+    proc = run([WILDSCAN, "scan", "--world", str(blend), "--pose", "0", "0", "90", "--rh", "4", "--out", str(out2)])
+    assert proc.returncode == 0, proc.stderr
+    assert PlyData.read(str(out2))["vertex"].count == PlyData.read(str(out))["vertex"].count
+
+
+def test_same_noise_seed_gives_byte_identical_files_and_another_seed_does_not(tmp_path):
+    outs = {}
+    for name, seed in (("a", 5), ("b", 5), ("c", 6)):
+        outs[name] = tmp_path / f"{name}.ply"
+        proc = run([WILDSCAN, "scan", "--seed", "2", "--pose", "0", "0", "0", "--rh", "4", "--noise-seed", str(seed),
+                    "--out", str(outs[name])])
+        assert proc.returncode == 0, proc.stderr
+    assert outs["a"].read_bytes() == outs["b"].read_bytes()
+    assert outs["a"].with_suffix(".json").read_bytes() == outs["b"].with_suffix(".json").read_bytes()
+    assert outs["a"].read_bytes() != outs["c"].read_bytes()
+
+
+# Each bad input replaces options of a good scan command (None drops the option).
+BAD_INPUTS = [
+    ({"--rh": "7"}, "--rh"),
+    ({"--rh": "0"}, "--rh"),
+    ({"--max-range": "31"}, "--max-range"),
+    ({"--max-range": "-5"}, "--max-range"),
+    ({"--min-range": "nan"}, "--min-range"),
+    ({"--min-range": "-1"}, "--min-range"),
+    ({"--min-range": "20", "--max-range": "10"}, "--min-range"),
+    ({"--noise": "-0.1"}, "--noise"),
+    ({"--frame": "robot"}, "--frame"),
+    ({"--backend": "gpu"}, "--backend"),
+    ({"--noise-seed": "-3"}, "--noise-seed"),
+    ({"--pose": "1 2"}, "--pose"),
+    ({"--pose": "100 100 0"}, "off the world"),
+    ({"--pose": "12 -10 0"}, "water"),
+    ({"--out": "/nonexistent-dir/x.ply"}, "does not exist"),
+    ({"--out": "scan.txt"}, ".ply"),
+    ({"--world": "/nonexistent.blend", "--seed": None}, "no such file"),
+    ({"--world": "README.md", "--seed": None}, "not a Blender .blend"),
+    ({"--seed": "-1"}, "--seed"),
+    ({"--seed": "1.5"}, "--seed"),
+    ({"--bogus": ""}, "unrecognized"),
+]
+
+
+def scan_args(replace: dict, out) -> list[str]:
+    """A good scan command line with some options replaced."""
+    args = {"--seed": "1", "--pose": "0 0 0", "--rh": "4", "--out": str(out)}
+    args.update(replace)
+    return [tok for key, value in args.items() if value is not None for tok in (key, *value.split())]
+
+
+def ids(cases):
+    return [" ".join(f"{k} {v}" for k, v in replace.items() if v is not None) for replace, _ in cases]
+
+
+@pytest.mark.parametrize("replace, expected", BAD_INPUTS, ids=ids(BAD_INPUTS))
+def test_bad_input_exits_2_with_one_clear_line_and_no_file(replace, expected, tmp_path):
+    out = tmp_path / "scan.ply"
+    proc = run([WILDSCAN, "scan", *scan_args(replace, out)])
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert expected in user_error_line(proc)
+    assert list(tmp_path.iterdir()) == []
+
+
+BLENDER_BAD_INPUTS = [BAD_INPUTS[0], BAD_INPUTS[13], BAD_INPUTS[14], BAD_INPUTS[16]]
+
+
+@pytest.mark.parametrize("replace, expected", BLENDER_BAD_INPUTS, ids=ids(BLENDER_BAD_INPUTS))
+def test_bad_input_in_blender_34_exits_2_with_one_clear_line(replace, expected, tmp_path):
+    out = tmp_path / "scan.ply"
+    proc = blender_scan(scan_args(replace, out))
+    assert proc.returncode == 2, proc.stdout[-2000:] + proc.stderr
+    assert expected in user_error_line(proc)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_help_explains_every_option_with_unit_and_default():
+    proc = run([WILDSCAN, "scan", "--help"])
+    assert proc.returncode == 0
+    for option in ("--world", "--seed", "--pose", "--z-start", "--rh", "--min-range", "--max-range", "--noise",
+                   "--noise-seed", "--frame", "--backend", "--ascii", "--out"):
+        assert option in proc.stdout
+    for words in ("metres", "degrees", "default 1", "default 0.1", "default 15", "default 0.015", "default leveled"):
+        assert words in " ".join(proc.stdout.split())
+    proc = blender_scan(["--help"])
+    assert proc.returncode == 0 and "--max-range" in proc.stdout
