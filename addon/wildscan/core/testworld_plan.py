@@ -1,0 +1,556 @@
+"""A small tagged test world, as numpy meshes (no bpy here).
+
+The test world is a fixed 60 m x 60 m layout with a little seed jitter: every
+class of Table I plus water within ~14 m of the origin, so one r_h = 1 deg scan
+from (0, 0) sees them all. It exists for tests and demos; the real worlds come
+from the full world planner.
+
+Also holds the small mesh primitives (box, cylinder, cone, uv-sphere, tube,
+heightfield grid) as (vertices (V,3) float64, faces (F,3) int32) pairs, all
+triangles wound counter-clockwise seen from outside.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .rng import stage_rng
+
+Mesh = tuple[np.ndarray, np.ndarray]
+
+# ---------------------------------------------------------------------------
+# primitives
+
+
+def _faces(rows) -> np.ndarray:
+    return np.asarray(rows, dtype=np.int32).reshape(-1, 3)
+
+
+def merge(parts: list[Mesh]) -> Mesh:
+    """One mesh from several, offsetting face indices."""
+    verts, faces, offset = [], [], 0
+    for v, f in parts:
+        verts.append(np.asarray(v, dtype=np.float64))
+        faces.append(np.asarray(f, dtype=np.int32) + offset)
+        offset += len(v)
+    return np.concatenate(verts), np.concatenate(faces)
+
+
+def box(center=(0.0, 0.0, 0.0), size=(1.0, 1.0, 1.0)) -> Mesh:
+    """Axis-aligned box."""
+    c = np.asarray(center, dtype=np.float64)
+    h = np.asarray(size, dtype=np.float64) / 2.0
+    corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], dtype=np.float64)
+    # vertex k = x + 2y + 4z with each bit 0 for -1, 1 for +1
+    quads = [
+        (0, 2, 3, 1),  # -z
+        (4, 5, 7, 6),  # +z
+        (0, 1, 5, 4),  # -y
+        (2, 6, 7, 3),  # +y
+        (0, 4, 6, 2),  # -x
+        (1, 3, 7, 5),  # +x
+    ]
+    tris = [t for a, b, cc, d in quads for t in ((a, b, cc), (a, cc, d))]
+    return c + corners * h, _faces(tris)
+
+
+def _ring_frames(path: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Tangent and two normals per path point; the reference axis is world Z unless the
+    path runs near-vertical, so a planar curve gets a twist-free frame."""
+    tangent = np.gradient(path, axis=0)
+    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    ref = np.where(np.abs(tangent[:, 2:3]) > 0.9, [[1.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
+    normal = np.cross(ref, tangent)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    binormal = np.cross(tangent, normal)
+    return tangent, normal, binormal
+
+
+def tube(path, radius: float, sides: int = 8, caps: bool = True, angle0: float = 0.0) -> Mesh:
+    """Closed tube of `sides` facets along a polyline (K,3), K >= 2."""
+    path = np.asarray(path, dtype=np.float64)
+    k = len(path)
+    _, normal, binormal = _ring_frames(path)
+    theta = angle0 + 2.0 * np.pi * np.arange(sides) / sides
+    ring = np.cos(theta)[None, :, None] * normal[:, None, :] + np.sin(theta)[None, :, None] * binormal[:, None, :]
+    verts = (path[:, None, :] + radius * ring).reshape(-1, 3)
+    s = np.arange(sides)
+    a = np.arange(k - 1)[:, None] * sides + s[None, :]
+    b = np.arange(k - 1)[:, None] * sides + (s[None, :] + 1) % sides
+    c, d = b + sides, a + sides
+    faces = [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
+    if caps:
+        start, end = len(verts), len(verts) + 1
+        verts = np.concatenate([verts, path[:1], path[-1:]])
+        faces.append(np.stack([np.full(sides, start), (s + 1) % sides, s], -1))
+        last = (k - 1) * sides
+        faces.append(np.stack([np.full(sides, end), last + s, last + (s + 1) % sides], -1))
+    return verts, np.concatenate(faces).astype(np.int32)
+
+
+def cylinder(radius: float, height: float, sides: int = 12, base=(0.0, 0.0, 0.0)) -> Mesh:
+    """Vertical capped cylinder standing on `base`."""
+    base = np.asarray(base, dtype=np.float64)
+    return tube([base, base + [0.0, 0.0, height]], radius, sides)
+
+
+def beam(p0, p1, width: float, sides: int = 4) -> Mesh:
+    """Square bar (sides=4) of the given width between two points."""
+    return tube([p0, p1], width / np.sqrt(2.0), sides, angle0=np.pi / 4)
+
+
+def cone(radius: float, height: float, sides: int = 12, base=(0.0, 0.0, 0.0)) -> Mesh:
+    """Vertical cone with its base disc on `base`."""
+    base = np.asarray(base, dtype=np.float64)
+    theta = 2.0 * np.pi * np.arange(sides) / sides
+    ring = base + np.stack([radius * np.cos(theta), radius * np.sin(theta), np.zeros(sides)], -1)
+    verts = np.concatenate([ring, [base + [0.0, 0.0, height]], [base]])
+    s = np.arange(sides)
+    apex, centre = sides, sides + 1
+    side = np.stack([s, (s + 1) % sides, np.full(sides, apex)], -1)
+    cap = np.stack([np.full(sides, centre), (s + 1) % sides, s], -1)
+    return verts, np.concatenate([side, cap]).astype(np.int32)
+
+
+def uv_sphere(radius: float = 1.0, rings: int = 8, segments: int = 12, center=(0.0, 0.0, 0.0)) -> Mesh:
+    """UV sphere with single pole vertices (so per-vertex noise keeps it closed)."""
+    phi = np.pi * np.arange(1, rings) / rings  # polar angle of the inner rings
+    theta = 2.0 * np.pi * np.arange(segments) / segments
+    ring_pts = np.stack(
+        [
+            np.sin(phi)[:, None] * np.cos(theta)[None, :],
+            np.sin(phi)[:, None] * np.sin(theta)[None, :],
+            np.broadcast_to(np.cos(phi)[:, None], (rings - 1, segments)),
+        ],
+        -1,
+    ).reshape(-1, 3)
+    verts = np.concatenate([[[0.0, 0.0, 1.0]], ring_pts, [[0.0, 0.0, -1.0]]])
+    top, bottom = 0, len(verts) - 1
+    s = np.arange(segments)
+    faces = [np.stack([np.full(segments, top), 1 + s, 1 + (s + 1) % segments], -1)]
+    for r in range(rings - 2):
+        a = 1 + r * segments + s
+        b = 1 + r * segments + (s + 1) % segments
+        c, d = b + segments, a + segments
+        faces += [np.stack([a, d, c], -1), np.stack([a, c, b], -1)]
+    last = 1 + (rings - 2) * segments
+    faces.append(np.stack([np.full(segments, bottom), last + (s + 1) % segments, last + s], -1))
+    return np.asarray(center, dtype=np.float64) + radius * verts, np.concatenate(faces).astype(np.int32)
+
+
+def grid_heightfield(xs, ys, heights) -> Mesh:
+    """Triangulated heightfield: heights[j, i] at (xs[i], ys[j]); each cell is split along
+    its (i, j)-(i+1, j+1) diagonal (what `TestWorldPlan.height_at` interpolates)."""
+    xs, ys = np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64)
+    heights = np.asarray(heights, dtype=np.float64)
+    nx, ny = len(xs), len(ys)
+    gx, gy = np.meshgrid(xs, ys)
+    verts = np.stack([gx, gy, heights], -1).reshape(-1, 3)
+    v00 = (np.arange(ny - 1)[:, None] * nx + np.arange(nx - 1)[None, :]).ravel()
+    v10, v01 = v00 + 1, v00 + nx
+    v11 = v01 + 1
+    faces = np.concatenate([np.stack([v00, v10, v11], -1), np.stack([v00, v11, v01], -1)])
+    return verts, faces.astype(np.int32)
+
+
+def disc(radius: float, z: float, center=(0.0, 0.0), sides: int = 48) -> Mesh:
+    """Flat horizontal disc facing up."""
+    theta = 2.0 * np.pi * np.arange(sides) / sides
+    ring = np.stack([center[0] + radius * np.cos(theta), center[1] + radius * np.sin(theta), np.full(sides, z)], -1)
+    verts = np.concatenate([ring, [[center[0], center[1], z]]])
+    s = np.arange(sides)
+    return verts, np.stack([np.full(sides, sides), s, (s + 1) % sides], -1).astype(np.int32)
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Volume enclosed by a closed triangle mesh; positive when faces wind outward."""
+    v = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
+    return float(np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6.0)
+
+
+def rotate_z(vertices: np.ndarray, yaw: float, about=(0.0, 0.0)) -> np.ndarray:
+    c, s = np.cos(yaw), np.sin(yaw)
+    out = np.array(vertices, dtype=np.float64)
+    x, y = out[:, 0] - about[0], out[:, 1] - about[1]
+    out[:, 0], out[:, 1] = about[0] + c * x - s * y, about[1] + s * x + c * y
+    return out
+
+
+# ---------------------------------------------------------------------------
+# the plan
+
+
+@dataclass
+class Element:
+    """One object of the test world."""
+
+    name: str
+    wildscan_class: str
+    instance: int
+    vertices: np.ndarray  # (V, 3) float64 world metres
+    faces: np.ndarray  # (F, 3) int32
+
+
+@dataclass
+class TestWorldPlan:
+    __test__ = False  # not a pytest test class despite the name
+
+    seed: int
+    xs: np.ndarray  # terrain grid x coordinates (nx,)
+    ys: np.ndarray  # terrain grid y coordinates (ny,)
+    heights: np.ndarray  # (ny, nx) terrain z at the grid vertices
+    pond_center: tuple[float, float]
+    pond_radius: float  # radius of the depression
+    water_radius: float  # radius of the flat water disc
+    pond_water_z: float
+    rock_positions: np.ndarray  # (K, 3) rock centres (x, y, ground z there), largest first
+    rock_radii: np.ndarray  # (K,) horizontal radius of each rock
+    poses: dict[str, tuple[float, float, float]]
+    elements: list[Element] = field(default_factory=list)
+
+    @property
+    def spacing(self) -> float:
+        return float(self.xs[1] - self.xs[0])
+
+    @property
+    def classes(self) -> set[str]:
+        return {e.wildscan_class for e in self.elements}
+
+    def elements_of(self, wildscan_class: str) -> list[Element]:
+        return [e for e in self.elements if e.wildscan_class == wildscan_class]
+
+    def height_at(self, x, y):
+        """Terrain z at (x, y), exactly as the triangulated mesh; NaN off the terrain."""
+        return height_on_grid(self.xs, self.ys, self.heights, x, y)
+
+
+def height_on_grid(xs, ys, heights, x, y):
+    """Piecewise-linear interpolation over the triangles of `grid_heightfield`."""
+    scalar = np.ndim(x) == 0 and np.ndim(y) == 0
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+    step_x, step_y = xs[1] - xs[0], ys[1] - ys[0]
+    u, v = (x - xs[0]) / step_x, (y - ys[0]) / step_y
+    nx, ny = len(xs), len(ys)
+    inside = (u >= 0) & (u <= nx - 1) & (v >= 0) & (v <= ny - 1)
+    i = np.clip(np.floor(np.where(inside, u, 0)), 0, nx - 2).astype(np.intp)
+    j = np.clip(np.floor(np.where(inside, v, 0)), 0, ny - 2).astype(np.intp)
+    fx, fy = u - i, v - j
+    z00, z10 = heights[j, i], heights[j, i + 1]
+    z01, z11 = heights[j + 1, i], heights[j + 1, i + 1]
+    lower = z00 + fx * (z10 - z00) + fy * (z11 - z10)  # triangle (00, 10, 11)
+    upper = z00 + fy * (z01 - z00) + fx * (z11 - z01)  # triangle (00, 11, 01)
+    z = np.where(inside, np.where(fx >= fy, lower, upper), np.nan)
+    return float(z) if scalar else z
+
+
+HALF_SIZE = 30.0
+SPACING = 0.5
+CLEAR_RADIUS = 3.0
+MAX_SLOPE_DEG = 14.0
+POND_CENTER = (12.0, -10.0)
+POND_RADIUS = 7.0
+
+# Anchors of the layout (x, y) before seed jitter; chosen so nothing enters the
+# clear zone, the pond, or another element (see the tests).
+_POLES = ((-7.0, 5.0), (0.0, 9.0))
+_TREES = (((7.5, 6.5), "conifer"), ((-9.5, -3.0), "broadleaf"), ((-3.0, -10.5), "broadleaf"))
+_ROCKS = (((5.0, -3.5), 1.2), ((-6.0, -7.0), 0.8), ((10.5, 0.5), 0.7), ((1.5, -8.0), 0.5))
+_TABLE = (4.5, 2.5)
+_FENCE = ((-12.5, -6.0), (-12.5, 4.0))
+_BUSHES = ((-3.5, 4.0), (9.0, 3.0), (-8.5, -9.0), (2.0, -12.0))
+_LOW_GRASS = ((-1.5, -5.0), (0.5, 5.0), (-6.5, 0.5))
+_HIGH_GRASS = ((-10.0, 9.0), (3.0, 12.5))
+JITTER = 0.5
+
+
+def _smoothstep(e0: float, e1: float, x):
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _terrain_heights(seed: int, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """Gentle relief: two long sine waves (damped near the origin), a few broad gaussian
+    bumps away from the origin and the pond depression; rescaled so no triangle is
+    steeper than MAX_SLOPE_DEG; z = 0 at the origin."""
+    rng = stage_rng(seed, "testworld.terrain")
+    gx, gy = np.meshgrid(xs, ys)
+    r = np.hypot(gx, gy)
+    waves = np.zeros_like(gx)
+    for _ in range(2):
+        ang, phase = rng.uniform(0, 2 * np.pi, 2)
+        wavelength, amp = rng.uniform(24.0, 36.0), rng.uniform(0.1, 0.2)
+        waves += amp * np.sin(2 * np.pi * (gx * np.cos(ang) + gy * np.sin(ang)) / wavelength + phase)
+    relief = waves * (0.25 + 0.75 * _smoothstep(2.0, 12.0, r))
+    for cx, cy, amp, sigma in _bumps(rng):
+        relief += amp * np.exp(-((gx - cx) ** 2 + (gy - cy) ** 2) / (2 * sigma**2))
+    rp = np.hypot(gx - POND_CENTER[0], gy - POND_CENTER[1]) / POND_RADIUS
+    depth = rng.uniform(1.0, 1.2)
+    z = relief - depth * np.clip(1.0 - rp**2, 0.0, None) ** 2
+    slope = _max_slope(xs, ys, z)
+    limit = np.tan(np.radians(MAX_SLOPE_DEG))
+    if slope > limit:
+        z *= limit / slope
+    origin = np.argmin(np.abs(ys)), np.argmin(np.abs(xs))
+    return z - z[origin]
+
+
+def _bumps(rng, count: int = 4):
+    """Broad gaussian hills and dips away from the origin and away from the pond, so the
+    pond's rim stays level enough to hold water."""
+    bumps = []
+    while len(bumps) < count:
+        dist, ang = rng.uniform(14.0, 26.0), rng.uniform(0, 2 * np.pi)
+        amp, sigma = rng.uniform(-0.6, 1.0), rng.uniform(6.0, 9.0)
+        cx, cy = dist * np.cos(ang), dist * np.sin(ang)
+        if np.hypot(cx - POND_CENTER[0], cy - POND_CENTER[1]) >= 14.0:
+            bumps.append((cx, cy, amp, sigma))
+    return bumps
+
+
+def _max_slope(xs, ys, z) -> float:
+    """Largest gradient magnitude over the mesh triangles."""
+    dx, dy = xs[1] - xs[0], ys[1] - ys[0]
+    z00, z10, z01, z11 = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
+    lower = np.hypot((z10 - z00) / dx, (z11 - z10) / dy)
+    upper = np.hypot((z11 - z01) / dx, (z01 - z00) / dy)
+    return float(max(lower.max(), upper.max()))
+
+
+class _Builder:
+    """Collects elements with consecutive instance ids; places parts on the terrain."""
+
+    def __init__(self, seed: int, xs, ys, heights):
+        self.seed = seed
+        self.xs, self.ys, self.heights = xs, ys, heights
+        self.elements: list[Element] = []
+
+    def ground(self, x, y):
+        return height_on_grid(self.xs, self.ys, self.heights, x, y)
+
+    def rng(self, stage: str) -> np.random.Generator:
+        return stage_rng(self.seed, f"testworld.{stage}")
+
+    def add(self, name: str, wildscan_class: str, mesh: Mesh) -> Element:
+        v, f = mesh
+        el = Element(name, wildscan_class, len(self.elements) + 1, np.asarray(v, np.float64), np.asarray(f, np.int32))
+        self.elements.append(el)
+        return el
+
+    def jittered(self, rng, anchor) -> np.ndarray:
+        return np.asarray(anchor, dtype=np.float64) + rng.uniform(-JITTER, JITTER, 2)
+
+    def post(self, x: float, y: float, width: float, height: float, sink: float = 0.1) -> Mesh:
+        """A square post from below the lowest ground under it up to `height` above its centre."""
+        h = width / 2
+        z0 = float(np.min(self.ground(x + np.array([-h, h, -h, h]), y + np.array([-h, -h, h, h])))) - sink
+        z1 = self.ground(x, y) + height
+        return box((x, y, (z0 + z1) / 2), (width, width, z1 - z0))
+
+
+def _add_trees(b: _Builder) -> None:
+    rng = b.rng("trees")
+    for k, (anchor, kind) in enumerate(_TREES, start=1):
+        x, y = b.jittered(rng, anchor)
+        g = b.ground(x, y)
+        r_trunk = rng.uniform(0.15, 0.25)
+        if kind == "conifer":
+            height = rng.uniform(6.0, 7.5)
+            trunk_top = height * 0.7
+            crown = cone(rng.uniform(1.4, 1.8), height - 1.5, 14, (x, y, g + 1.5))
+        else:
+            trunk_top = rng.uniform(2.8, 3.6)
+            rc = rng.uniform(1.5, 2.0)
+            crown = uv_sphere(rc, 7, 12, (x, y, g + trunk_top + 0.6 * rc))
+        trunk = tube([(x, y, g - 0.3), (x, y, g + trunk_top)], r_trunk, 10)
+        b.add(f"tree_{k}_trunk", "trunk", trunk)
+        b.add(f"tree_{k}_crown", "treetop", crown)
+
+
+def _lumpy(rng, radii, rings: int, segments: int, roughness: float) -> Mesh:
+    """Ellipsoid with smooth-ish radial noise, centred on the origin."""
+    v, f = uv_sphere(1.0, rings, segments)
+    noise = 1.0 + roughness * rng.uniform(-1.0, 1.0, len(v))
+    return v * noise[:, None] * np.asarray(radii), f
+
+
+def _add_rocks(b: _Builder) -> tuple[np.ndarray, np.ndarray]:
+    rng = b.rng("rocks")
+    centres, radii = [], []
+    for k, (anchor, size) in enumerate(_ROCKS, start=1):
+        x, y = b.jittered(rng, anchor)
+        sx, sy = size * rng.uniform(0.85, 1.15, 2)
+        sz = size * rng.uniform(0.55, 0.75)
+        v, f = _lumpy(rng, (sx, sy, sz), 7, 12, 0.1)
+        v = rotate_z(v, rng.uniform(0, 2 * np.pi))
+        g = b.ground(x, y)
+        # sunk by a third of its height so it sits in the ground, not on a point
+        b.add(f"rock_{k}", "rock", (v + [x, y, g + 0.3 * sz], f))
+        centres.append((x, y, g))
+        radii.append(max(sx, sy))
+    return np.asarray(centres), np.asarray(radii)
+
+
+def _add_furniture(b: _Builder) -> None:
+    rng = b.rng("furniture")
+    cx, cy = b.jittered(rng, _TABLE)
+    yaw = rng.uniform(0, 2 * np.pi)
+
+    def local(dx, dy):
+        c, s = np.cos(yaw), np.sin(yaw)
+        return cx + c * dx - s * dy, cy + s * dx + c * dy
+
+    def furniture(parts_local):
+        """Boxes given in the piece's frame (dx, dy, size, z above ground); legs reach the ground."""
+        g = b.ground(cx, cy)
+        parts = []
+        for (dx, dy), size, z in parts_local:
+            v, f = box((dx, dy, g + z), size)
+            parts.append((rotate_z(v, yaw) + [cx, cy, 0.0], f))
+        return parts
+
+    top = furniture([((0.0, 0.0), (1.6, 0.8, 0.05), 0.75)])
+    legs = [b.post(*local(sx * 0.72, sy * 0.32), 0.06, 0.75) for sx in (-1, 1) for sy in (-1, 1)]
+    b.add("table", "table", merge(top + legs))
+
+    seat = furniture([((0.0, -0.85), (1.5, 0.4, 0.05), 0.45), ((0.0, -1.03), (1.5, 0.05, 0.35), 0.72)])
+    bench_legs = [b.post(*local(sx * 0.65, -0.85 + sy * 0.15), 0.05, 0.45) for sx in (-1, 1) for sy in (-1, 1)]
+    back_posts = [b.post(*local(sx * 0.65, -1.03), 0.05, 0.9) for sx in (-1, 1)]
+    b.add("bench", "bench", merge(seat + bench_legs + back_posts))
+
+
+def _add_fence(b: _Builder) -> None:
+    rng = b.rng("fence")
+    p0, p1 = b.jittered(rng, _FENCE[0]), b.jittered(rng, _FENCE[1])
+    n_posts = 6
+    t = np.linspace(0.0, 1.0, n_posts)
+    xy = p0[None, :] + t[:, None] * (p1 - p0)[None, :]
+    g = b.ground(xy[:, 0], xy[:, 1])
+    parts = [b.post(x, y, 0.1, 1.2) for x, y in xy]
+    for h in (0.45, 0.95):
+        for k in range(n_posts - 1):
+            a = (xy[k, 0], xy[k, 1], g[k] + h)
+            c = (xy[k + 1, 0], xy[k + 1, 1], g[k + 1] + h)
+            parts.append(beam(a, c, 0.07))
+    b.add("fence", "fence", merge(parts))
+
+
+def _add_bushes(b: _Builder) -> None:
+    rng = b.rng("bushes")
+    for k, anchor in enumerate(_BUSHES, start=1):
+        x, y = b.jittered(rng, anchor)
+        r = rng.uniform(0.5, 0.9)
+        v, f = _lumpy(rng, (r, r, 0.7 * r), 6, 10, 0.15)
+        b.add(f"bush_{k}", "bush", (v + [x, y, b.ground(x, y) + 0.45 * r], f))
+
+
+def _tuft(rng, b: _Builder, x: float, y: float, height: float, width: float, blades: int) -> Mesh:
+    """Blades as single triangles fanned around (x, y), rooted just below the ground."""
+    ang = rng.uniform(0, 2 * np.pi, blades)
+    h = height * rng.uniform(0.7, 1.1, blades)
+    lean = h * rng.uniform(0.1, 0.35, blades)
+    bx, by = x + 0.03 * np.cos(ang), y + 0.03 * np.sin(ang)
+    gz = b.ground(bx, by) - 0.02
+    px, py = -np.sin(ang) * width / 2, np.cos(ang) * width / 2  # across the blade
+    v = np.stack(
+        [
+            np.stack([bx - px, by - py, gz], -1),
+            np.stack([bx + px, by + py, gz], -1),
+            np.stack([bx + lean * np.cos(ang), by + lean * np.sin(ang), gz + h], -1),
+        ],
+        1,
+    ).reshape(-1, 3)
+    return v, np.arange(3 * blades, dtype=np.int32).reshape(-1, 3)
+
+
+def _add_grass(b: _Builder) -> None:
+    rng = b.rng("grass")
+    kinds = (("low_grass", "low grass", _LOW_GRASS, 0.25, 0.03, 1.2), ("high_grass", "high grass", _HIGH_GRASS, 0.9, 0.04, 1.5))
+    for prefix, cls, anchors, height, width, radius in kinds:
+        for k, anchor in enumerate(anchors, start=1):
+            cx, cy = b.jittered(rng, anchor)
+            n_tufts = 14
+            rr = radius * np.sqrt(rng.uniform(0, 1, n_tufts))
+            aa = rng.uniform(0, 2 * np.pi, n_tufts)
+            tufts = [
+                _tuft(rng, b, cx + r * np.cos(a), cy + r * np.sin(a), height, width, 7) for r, a in zip(rr, aa)
+            ]
+            b.add(f"{prefix}_{k}", cls, merge(tufts))
+
+
+def catenary(p0, p1, sag: float, n: int = 48) -> np.ndarray:
+    """Points of a hanging cable between two attachment points whose lowest point is about
+    `sag` below the straight chord's midpoint (closed form, no solver)."""
+    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
+    span = float(np.hypot(*(p1 - p0)[:2]))
+    a = span**2 / (8.0 * sag)  # parabola approximation of the catenary parameter
+    dz = p1[2] - p0[2]
+    u0 = span / 2 - a * np.arcsinh(dz / (2 * a * np.sinh(span / (2 * a))))
+    c = p0[2] - a * np.cosh(u0 / a)
+    u = np.linspace(0.0, span, n)
+    t = u / span
+    xy = p0[None, :2] + t[:, None] * (p1 - p0)[None, :2]
+    return np.column_stack([xy, a * np.cosh((u - u0) / a) + c])
+
+
+def _add_poles_and_wire(b: _Builder) -> None:
+    rng = b.rng("wire")
+    tops = []
+    for k, anchor in enumerate(_POLES, start=1):
+        x, y = b.jittered(rng, anchor)
+        g = b.ground(x, y)
+        height = rng.uniform(5.8, 6.3)
+        b.add(f"pole_{k}", "pole", tube([(x, y, g - 0.4), (x, y, g + height)], 0.1, 12))
+        tops.append((x, y, g + height - 0.2))
+    path = catenary(tops[0], tops[1], sag=rng.uniform(0.9, 1.3))
+    b.add("wire", "wire", tube(path, 0.015, 6))
+
+
+def _add_water(b: _Builder) -> tuple[float, float]:
+    """A flat disc inside the depression, just below the lowest ground on its rim so its
+    edge is hidden under the terrain."""
+    water_radius = 0.95 * POND_RADIUS
+    theta = np.linspace(0, 2 * np.pi, 96, endpoint=False)
+    rim = b.ground(POND_CENTER[0] + water_radius * np.cos(theta), POND_CENTER[1] + water_radius * np.sin(theta))
+    water_z = float(rim.min()) - 0.05
+    b.add("water", "water", disc(water_radius, water_z, POND_CENTER))
+    return water_radius, water_z
+
+
+def plan_test_world(seed: int) -> TestWorldPlan:
+    """The test world for `seed`: same seed, identical arrays."""
+    seed = int(seed)
+    n = int(round(2 * HALF_SIZE / SPACING)) + 1
+    xs = np.linspace(-HALF_SIZE, HALF_SIZE, n)
+    ys = xs.copy()
+    heights = _terrain_heights(seed, xs, ys)
+    b = _Builder(seed, xs, ys, heights)
+    b.add("terrain", "terrain", grid_heightfield(xs, ys, heights))
+    water_radius, water_z = _add_water(b)
+    _add_trees(b)
+    rock_centres, rock_radii = _add_rocks(b)
+    _add_furniture(b)
+    _add_fence(b)
+    _add_bushes(b)
+    _add_grass(b)
+    _add_poles_and_wire(b)
+    poses = {
+        "origin": (0.0, 0.0, 0.0),
+        "on_water": (POND_CENTER[0], POND_CENTER[1], 0.0),
+        "on_rock": (float(rock_centres[0, 0]), float(rock_centres[0, 1]), 0.0),
+        "off_world": (100.0, 100.0, 0.0),
+    }
+    return TestWorldPlan(
+        seed=seed,
+        xs=xs,
+        ys=ys,
+        heights=heights,
+        pond_center=POND_CENTER,
+        pond_radius=POND_RADIUS,
+        water_radius=water_radius,
+        pond_water_z=water_z,
+        rock_positions=rock_centres,
+        rock_radii=rock_radii,
+        poses=poses,
+        elements=b.elements,
+    )

@@ -1,0 +1,119 @@
+"""numpy -> Blender mesh objects, and the bookkeeping that keeps WildScan's objects
+apart from the user's (every object or collection created here carries
+`wildscan_generated = True`; only those are ever removed).
+
+Works on Blender 3.4 and 5.0: polygons are built with foreach_set on
+`loop_start` (and on `loop_total` where it is still writable, i.e. before 4.0).
+"""
+from __future__ import annotations
+
+import bpy
+import numpy as np
+
+from ..core.classes import COLOR_BY_ID, WATER_ID, class_id_for_tag
+
+GENERATED = "wildscan_generated"
+CLASS_PROP = "wildscan_class"
+INSTANCE_PROP = "wildscan_instance"
+
+# Since 4.0 a polygon's size is derived from the next polygon's loop_start.
+_LOOP_TOTAL_WRITABLE = not bpy.types.MeshPolygon.bl_rna.properties["loop_total"].is_readonly
+
+
+def mesh_data(name: str, vertices, faces) -> bpy.types.Mesh:
+    """Mesh datablock from (V,3) vertices and (F,3) or (F,4) vertex indices, without any
+    per-vertex Python."""
+    verts = np.ascontiguousarray(vertices, dtype=np.float32).reshape(-1, 3)
+    faces = np.ascontiguousarray(faces, dtype=np.int32)
+    if faces.ndim != 2 or faces.shape[1] not in (3, 4):
+        raise ValueError(f"faces must be (F, 3) or (F, 4), got shape {faces.shape}")
+    if faces.size and (faces.min() < 0 or faces.max() >= len(verts)):
+        raise ValueError(f"face indices out of range 0..{len(verts) - 1}")
+    n_faces, corners = faces.shape
+    mesh = bpy.data.meshes.new(name)
+    mesh.vertices.add(len(verts))
+    mesh.vertices.foreach_set("co", verts.ravel())
+    mesh.loops.add(faces.size)
+    mesh.loops.foreach_set("vertex_index", faces.ravel())
+    mesh.polygons.add(n_faces)
+    mesh.polygons.foreach_set("loop_start", np.arange(0, faces.size, corners, dtype=np.int32))
+    if _LOOP_TOTAL_WRITABLE:
+        mesh.polygons.foreach_set("loop_total", np.full(n_faces, corners, dtype=np.int32))
+    mesh.update(calc_edges=True)
+    mesh[GENERATED] = True
+    return mesh
+
+
+def tag_object(obj: bpy.types.Object, wildscan_class: str | None, instance: int | None) -> None:
+    """Write the class/instance tags a scan reads; also colour the object by its class
+    so the viewport (Object colour mode) shows the labels."""
+    if wildscan_class is not None:
+        obj[CLASS_PROP] = str(wildscan_class)
+        class_id = class_id_for_tag(wildscan_class)
+        # water has no colour tag (it never reaches a point cloud); show it as water
+        r, g, b = (0.2, 0.45, 0.8) if class_id == WATER_ID else (COLOR_BY_ID[class_id] / 255.0).tolist()
+        obj.color = (r, g, b, 1.0)
+    if instance is not None:
+        obj[INSTANCE_PROP] = int(instance)
+
+
+def mesh_object(
+    name: str,
+    vertices,
+    faces,
+    collection: bpy.types.Collection,
+    wildscan_class: str | None = None,
+    instance: int | None = None,
+) -> bpy.types.Object:
+    """A new generated mesh object linked into `collection`."""
+    obj = bpy.data.objects.new(name, mesh_data(name, vertices, faces))
+    obj[GENERATED] = True
+    tag_object(obj, wildscan_class, instance)
+    collection.objects.link(obj)
+    return obj
+
+
+def wildscan_collection(name: str = "WildScan", parent: bpy.types.Collection | None = None) -> bpy.types.Collection:
+    """Get or create the collection WildScan builds into, linked under `parent` (default:
+    the scene's master collection). An existing user collection of that name is reused
+    but not marked, so removing generated objects never deletes it."""
+    coll = bpy.data.collections.get(name)
+    if coll is None:
+        coll = bpy.data.collections.new(name)
+        coll[GENERATED] = True
+    if parent is None:
+        parent = bpy.context.scene.collection
+        if coll in parent.children_recursive:
+            return coll  # already in the scene, wherever the user moved it
+    if coll.name not in parent.children:
+        parent.children.link(coll)
+    return coll
+
+
+def _tree(coll: bpy.types.Collection) -> list[bpy.types.Collection]:
+    out = [coll]
+    for child in coll.children:
+        out += _tree(child)
+    return out
+
+
+def remove_generated(collection_name: str = "WildScan") -> int:
+    """Delete the generated objects in that collection (and its children), the generated
+    meshes they leave unused, and the generated collections left empty. User objects,
+    meshes and collections are left as they are. Returns the number of objects removed."""
+    root = bpy.data.collections.get(collection_name)
+    if root is None:
+        return 0
+    collections = _tree(root)
+    objects = {o for c in collections for o in c.objects if o.get(GENERATED)}
+    meshes = {o.data for o in objects if isinstance(o.data, bpy.types.Mesh) and o.data.get(GENERATED)}
+    if objects:
+        bpy.data.batch_remove(list(objects))
+    orphans = [m for m in meshes if m.users == 0]
+    if orphans:
+        bpy.data.batch_remove(orphans)
+    # children first, so a parent becomes empty once its generated children are gone
+    for coll in reversed(collections):
+        if coll.get(GENERATED) and not coll.objects and not coll.children:
+            bpy.data.collections.remove(coll)
+    return len(objects)

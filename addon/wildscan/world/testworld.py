@@ -1,0 +1,16 @@
+"""Realise the numpy test-world plan as tagged Blender objects."""
+from __future__ import annotations
+
+from ..core.testworld_plan import TestWorldPlan, plan_test_world
+from .mesh import mesh_object, remove_generated, wildscan_collection
+
+
+def build_test_world(seed: int, collection_name: str = "WildScan") -> TestWorldPlan:
+    """Replace the generated objects of `collection_name` with the test world for `seed`
+    (the user's own objects are left alone) and return its plan."""
+    plan = plan_test_world(seed)
+    remove_generated(collection_name)
+    coll = wildscan_collection(collection_name)
+    for el in plan.elements:
+        mesh_object(el.name, el.vertices, el.faces, coll, el.wildscan_class, el.instance)
+    return plan
