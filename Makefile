@@ -19,6 +19,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
+	mkdir -p $(OUT)/demo
 	$(WILDSCAN) scan --seed 1 --pose 0 0 0 --out $(OUT)/demo/scan_seed1.ply
 
 test: $(STAMP)

@@ -126,7 +126,8 @@ def test_blender_scans_the_blend_it_was_opened_with(tmp_path):
 def test_same_noise_seed_gives_byte_identical_files_and_another_seed_does_not(tmp_path):
     outs = {}
     for name, seed in (("a", 5), ("b", 5), ("c", 6)):
-        outs[name] = tmp_path / f"{name}.ply"
+        (tmp_path / name).mkdir()
+        outs[name] = tmp_path / name / "scan.ply"
         proc = run([WILDSCAN, "scan", "--seed", "2", "--pose", "0", "0", "0", "--rh", "4", "--noise-seed", str(seed),
                     "--out", str(outs[name])])
         assert proc.returncode == 0, proc.stderr

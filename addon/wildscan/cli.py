@@ -221,7 +221,7 @@ def run_scan_command(args, in_blender: bool) -> int:
     result = scan_current_scene(
         pose, sensor, args.frame, args.z_start, args.backend,
         progress=Progress("scanning", args.quiet),
-        notify=lambda text: print(text, file=sys.stderr),
+        notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
     )
     metadata = dict(result.metadata, seed=args.seed, world=args.world)
     ply, sidecar = write_scan_files(out, result.cloud, metadata, ascii=args.ascii)
@@ -264,7 +264,7 @@ COMMANDS = {"scan": run_scan_command}
 
 def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:
     args = parser.parse_args(argv)
-    where = f"{parser.prog.split()[0]} {args.command}"
+    where = f"blender_scripts/{args.command}.py" if in_blender else f"wildscan {args.command}"
     try:
         return COMMANDS[args.command](args, in_blender)
     except UserError as e:

@@ -8,12 +8,16 @@ from .core.placement import Pose
 from .core.scan import Progress, ScanResult, run_scan
 from .core.sensor import SensorConfig
 
+# Crop margin around the pose: the optical centre sits up to a column height
+# off the pose's xy on tilted ground, and noise lets ranges run a little long.
+CROP_MARGIN = 2.0  # m
+
 
 def make_scene_backend(name: str, pose: Pose, sensor: SensorConfig, notify: Callable[[str], None] = print):
     """A ray backend over the current scene, cropped to what a scan from `pose` can reach."""
     from .raycast.select import make_backend
 
-    return make_backend(name, center=(pose.x, pose.y), radius=sensor.max_range, notify=notify)
+    return make_backend(name, center=(pose.x, pose.y), radius=sensor.max_range + CROP_MARGIN, notify=notify)
 
 
 def scan_current_scene(
