@@ -66,10 +66,27 @@ def test_untagged_meshes_block_beams_and_are_counted(test_world):
     assert np.all((unlabeled[:, 0] > 3 - 1e-3) & (unlabeled[:, 0] < 4 + 1e-3))
 
 
+def save_test_world_with_blender_34(seed: int, blend) -> None:
+    """The test world saved by Debian's Blender 3.4, whose files both Blenders read."""
+    build = run([BLENDER, "-b", "--factory-startup", "--python-expr",
+                 "import sys, bpy; sys.path.insert(0, 'addon');"
+                 "from wildscan.world.testworld import build_test_world;"
+                 f"bpy.ops.wm.read_factory_settings(use_empty=True); build_test_world({seed});"
+                 f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"])
+    assert blend.exists(), build.stdout[-2000:] + build.stderr
+
+
 @pytest.fixture(scope="module")
-def cli_scan(tmp_path_factory):
+def world_blend(tmp_path_factory):
+    blend = tmp_path_factory.mktemp("world") / "testworld1.blend"
+    save_test_world_with_blender_34(1, blend)
+    return blend
+
+
+@pytest.fixture(scope="module")
+def cli_scan(tmp_path_factory, world_blend):
     out = tmp_path_factory.mktemp("cli") / "scan.ply"
-    proc = run([WILDSCAN, "scan", "--seed", "1", "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
+    proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
                 "--backend", "blender", "--frame", "world", "--out", str(out)])
     assert proc.returncode == 0, proc.stderr
     return out, proc
@@ -82,7 +99,7 @@ def test_wildscan_scan_writes_a_labeled_ply_and_sidecar(cli_scan):
     assert v.count > 25_000
     assert {c.id for c in CLASSES} - set(np.unique(v["label"]).tolist()) <= {4, 6, 7}  # all but maybe furniture
     meta = json.loads(out.with_suffix(".json").read_text())
-    assert meta["point_count"] == v.count and meta["seed"] == 1
+    assert meta["point_count"] == v.count and meta["world"].endswith("testworld1.blend")
     assert meta["placement"]["lasers"][0]["class"] == "terrain"
     assert str(out) in proc.stdout and "untagged objects hit: 0" in proc.stdout
     for c in CLASSES:
@@ -90,10 +107,10 @@ def test_wildscan_scan_writes_a_labeled_ply_and_sidecar(cli_scan):
             assert c.name in proc.stdout
 
 
-def test_blender_34_and_bpy_50_give_the_same_scan(cli_scan, tmp_path):
+def test_blender_34_and_bpy_50_give_the_same_scan(cli_scan, world_blend, tmp_path):
     out, _ = cli_scan
     other = tmp_path / "b34.ply"
-    proc = blender_scan(["--seed", "1", "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
+    proc = blender_scan(["--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
                          "--backend", "blender", "--frame", "world", "--out", str(other)])
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
     a, b = PlyData.read(str(out))["vertex"], PlyData.read(str(other))["vertex"]
@@ -106,12 +123,7 @@ def test_blender_34_and_bpy_50_give_the_same_scan(cli_scan, tmp_path):
 
 def test_blender_scans_the_blend_it_was_opened_with(tmp_path):
     blend = tmp_path / "mine.blend"
-    build = run([BLENDER, "-b", "--factory-startup", "--python-expr",
-                 "import sys, bpy; sys.path.insert(0, 'addon');"
-                 "from wildscan.world.testworld import build_test_world;"
-                 "bpy.ops.wm.read_factory_settings(use_empty=True); build_test_world(3);"
-                 f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"])
-    assert blend.exists(), build.stdout[-2000:] + build.stderr
+    save_test_world_with_blender_34(3, blend)
     out = tmp_path / "mine.ply"
     proc = blender_scan(["--pose", "0", "0", "90", "--rh", "4", "--out", str(out)], blend=str(blend))
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
@@ -123,12 +135,13 @@ def test_blender_scans_the_blend_it_was_opened_with(tmp_path):
     assert PlyData.read(str(out2))["vertex"].count == PlyData.read(str(out))["vertex"].count
 
 
-def test_same_noise_seed_gives_byte_identical_files_and_another_seed_does_not(tmp_path):
+def test_same_noise_seed_gives_byte_identical_files_and_another_seed_does_not(world_blend, tmp_path):
     outs = {}
     for name, seed in (("a", 5), ("b", 5), ("c", 6)):
         (tmp_path / name).mkdir()
         outs[name] = tmp_path / name / "scan.ply"
-        proc = run([WILDSCAN, "scan", "--seed", "2", "--pose", "0", "0", "0", "--rh", "4", "--noise-seed", str(seed),
+        proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "4",
+                    "--noise-seed", str(seed),
                     "--out", str(outs[name])])
         assert proc.returncode == 0, proc.stderr
     assert outs["a"].read_bytes() == outs["b"].read_bytes()
@@ -154,17 +167,18 @@ BAD_INPUTS = [
     ({"--pose": "12 -10 0"}, "water"),
     ({"--out": "/nonexistent-dir/x.ply"}, "does not exist"),
     ({"--out": "scan.txt"}, ".ply"),
-    ({"--world": "/nonexistent.blend", "--seed": None}, "no such file"),
-    ({"--world": "README.md", "--seed": None}, "not a Blender .blend"),
-    ({"--seed": "-1"}, "--seed"),
-    ({"--seed": "1.5"}, "--seed"),
+    ({"--world": "/nonexistent.blend"}, "no such file"),
+    ({"--world": "README.md"}, "not a Blender .blend"),
+    ({"--world": None, "--seed": "-1"}, "--seed"),
+    ({"--world": None, "--seed": "1.5"}, "--seed"),
+    ({"--seed": "1"}, "not allowed with argument --world"),
     ({"--bogus": ""}, "unrecognized"),
 ]
 
 
-def scan_args(replace: dict, out) -> list[str]:
+def scan_args(replace: dict, out, world) -> list[str]:
     """A good scan command line with some options replaced."""
-    args = {"--seed": "1", "--pose": "0 0 0", "--rh": "4", "--out": str(out)}
+    args = {"--world": str(world), "--pose": "0 0 0", "--rh": "4", "--out": str(out)}
     args.update(replace)
     return [tok for key, value in args.items() if value is not None for tok in (key, *value.split())]
 
@@ -174,9 +188,9 @@ def ids(cases):
 
 
 @pytest.mark.parametrize("replace, expected", BAD_INPUTS, ids=ids(BAD_INPUTS))
-def test_bad_input_exits_2_with_one_clear_line_and_no_file(replace, expected, tmp_path):
+def test_bad_input_exits_2_with_one_clear_line_and_no_file(replace, expected, world_blend, tmp_path):
     out = tmp_path / "scan.ply"
-    proc = run([WILDSCAN, "scan", *scan_args(replace, out)])
+    proc = run([WILDSCAN, "scan", *scan_args(replace, out, world_blend)])
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert expected in user_error_line(proc)
     assert list(tmp_path.iterdir()) == []
@@ -186,9 +200,9 @@ BLENDER_BAD_INPUTS = [BAD_INPUTS[0], BAD_INPUTS[13], BAD_INPUTS[14], BAD_INPUTS[
 
 
 @pytest.mark.parametrize("replace, expected", BLENDER_BAD_INPUTS, ids=ids(BLENDER_BAD_INPUTS))
-def test_bad_input_in_blender_34_exits_2_with_one_clear_line(replace, expected, tmp_path):
+def test_bad_input_in_blender_34_exits_2_with_one_clear_line(replace, expected, world_blend, tmp_path):
     out = tmp_path / "scan.ply"
-    proc = blender_scan(scan_args(replace, out))
+    proc = blender_scan(scan_args(replace, out, world_blend))
     assert proc.returncode == 2, proc.stdout[-2000:] + proc.stderr
     assert expected in user_error_line(proc)
     assert list(tmp_path.iterdir()) == []

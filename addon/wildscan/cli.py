@@ -140,7 +140,26 @@ COMMAND_HELP = {
 ADD_ARGUMENTS = {"scan": add_scan_arguments}
 
 
-def build_parser(prog: str = "wildscan", commands=("scan",)) -> ArgumentParser:
+def _register_world_commands() -> None:
+    from . import demo, world_cli
+
+    for name, (add, run, short) in world_cli.COMMANDS.items():
+        COMMAND_HELP[name] = (short, world_cli.DESCRIPTIONS[name])
+        ADD_ARGUMENTS[name] = add
+        COMMANDS[name] = run
+    COMMAND_HELP["demo"] = (
+        "build the default world, its map, and scan every zone",
+        "Build the world of a seed with its aerial map, then scan one valid pose in every zone (hills by the "
+        "power line, forest, park, lake shore, cave, trail), writing a PLY and an oblique preview image per scan.",
+    )
+    ADD_ARGUMENTS["demo"] = demo.add_demo_arguments
+    COMMANDS["demo"] = demo.run_demo
+
+
+ALL_COMMANDS = ("world", "scan", "poses", "demo", "bench-world")
+
+
+def build_parser(prog: str = "wildscan", commands=ALL_COMMANDS) -> ArgumentParser:
     """The `wildscan` parser: one sub-command per entry of `commands`."""
     parser = ArgumentParser(
         prog=prog,
@@ -254,12 +273,17 @@ def load_world_for_scan(args, in_blender: bool) -> None:
 
         empty_scene()
         say(args, f"building the world of seed {args.seed}")
-        generate_world(args.seed)
+        generate_world(args.seed, progress=None if args.quiet else world_stage_progress)
     elif not in_blender:
         raise UserError("give --world FILE.blend or --seed S")
 
 
+def world_stage_progress(stage: str, seconds: float) -> None:
+    sys.stderr.write(f"world: {stage:<16} {seconds:7.3f} s\n")
+
+
 COMMANDS = {"scan": run_scan_command}
+_register_world_commands()
 
 
 def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:

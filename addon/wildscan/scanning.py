@@ -13,11 +13,19 @@ from .core.sensor import SensorConfig
 CROP_MARGIN = 2.0  # m
 
 
-def make_scene_backend(name: str, pose: Pose, sensor: SensorConfig, notify: Callable[[str], None] = print):
-    """A ray backend over the current scene, cropped to what a scan from `pose` can reach."""
+def make_scene_backend(
+    name: str, pose: Pose, sensor: SensorConfig, notify: Callable[[str], None] = print, geometry=None
+):
+    """A ray backend over the current scene, cropped to what a scan from `pose` can reach.
+
+    Pass `geometry` (raycast.extract.extract_scene()) to scan many poses of one
+    world from a single extraction.
+    """
     from .raycast.select import make_backend
 
-    return make_backend(name, center=(pose.x, pose.y), radius=sensor.max_range + CROP_MARGIN, notify=notify)
+    return make_backend(
+        name, center=(pose.x, pose.y), radius=sensor.max_range + CROP_MARGIN, notify=notify, geometry=geometry
+    )
 
 
 def scan_current_scene(
@@ -28,7 +36,9 @@ def scan_current_scene(
     backend: str = "auto",
     progress: Progress | None = None,
     notify: Callable[[str], None] = print,
+    geometry=None,
 ) -> ScanResult:
     sensor.validate()
     pose.validate()
-    return run_scan(make_scene_backend(backend, pose, sensor, notify), pose, sensor, frame, z_start, progress)
+    backend_ = make_scene_backend(backend, pose, sensor, notify, geometry)
+    return run_scan(backend_, pose, sensor, frame, z_start, progress)

@@ -1,0 +1,102 @@
+"""`wildscan world` / `wildscan poses` / world benchmark, through world_cli.main (the same
+functions cli.py wires in): files written, sidecar contents, bad input -> exit 2."""
+from __future__ import annotations
+
+import io
+import json
+import subprocess
+import sys
+
+import pytest
+
+from wildscan.cli import main
+from wildscan.core.worldplan import ZONES
+from wildscan.world.scene_io import BLEND_MAGICS
+from wildscan.world_cli import bench_world
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_world_writes_blend_sidecar_and_map(tmp_path, capsys):
+    out = tmp_path / "w.blend"
+    code, stdout, err = run(capsys, "world", "--seed", "3", "--out", str(out), "--map", str(tmp_path / "m.png"),
+                            "--detail", "low")
+    assert code == 0, err
+    assert out.read_bytes().startswith(BLEND_MAGICS)
+    assert (tmp_path / "m.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    side = json.loads((tmp_path / "w.json").read_text())
+    assert [z["name"] for z in side["zones"]] == list(ZONES)
+    for z in side["zones"]:
+        e = z["extent"]
+        assert -75 <= e["xmin"] < e["xmax"] <= 75 and -75 <= e["ymin"] < e["ymax"] <= 75
+        assert len(z["poses"]) >= 3, z["name"]
+        for p in z["poses"]:
+            assert e["xmin"] <= p["x"] <= e["xmax"] and e["ymin"] <= p["y"] <= e["ymax"]
+    assert side["seed"] == 3 and side["detail"] == "low"
+    assert side["terrain"]["error"]["max"] <= side["terrain"]["tolerance"]
+    # progress by stage, then the files written
+    for stage in ("terrain", "trees", "grass", "powerline", "blender.objects", "save .blend"):
+        assert f"world: {stage}" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.png", "w.blend", "w.json"]  # no temporaries left
+
+
+def test_poses_prints_valid_poses_per_zone(capsys):
+    code, out, err = run(capsys, "poses", "--seed", "1", "--zone", "cave", "--count", "4")
+    assert code == 0, err
+    rows = [line.split() for line in out.splitlines() if not line.startswith("#")]
+    assert len(rows) == 4 and all(r[0] == "cave" for r in rows)
+    assert rows[0][4] != "-"  # the first cave pose stands inside: it needs --z-start
+    code, out, _ = run(capsys, "poses", "--seed", "1", "--count", "2", "--json")
+    data = json.loads(out)
+    assert set(data["poses"]) == set(ZONES) and all(len(v) == 2 for v in data["poses"].values())
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["world", "--seed", "-1"], "--seed must be a non-negative integer"),
+        (["world", "--seed", "1.5"], "--seed must be a non-negative integer"),
+        (["world", "--seed", "x7"], "--seed must be a non-negative integer"),
+        (["world", "--seed", "1", "--detail", "ultra"], "--detail must be one of low, default, high"),
+        (["world", "--seed", "1", "--out", "{tmp}/missing/w.blend"], "does not exist"),
+        (["world", "--seed", "1", "--out", "{tmp}"], "must end in .blend"),
+        (["world", "--seed", "1", "--out", "{tmp}/w.txt"], "must end in .blend"),
+        (["world", "--seed", "1", "--map", "{tmp}/nowhere/m.png"], "does not exist"),
+        (["poses", "--seed", "1", "--zone", "desert"], "--zone must be one of"),
+        (["poses", "--seed", "1", "--count", "0"], "--count must be a whole number from 1"),
+        (["poses", "--seed", "-4"], "--seed must be a non-negative integer"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, argv, message):
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    if argv[0] == "world" and "--out" not in argv:
+        argv += ["--out", str(tmp_path / "w.blend")]
+    code, out, err = run(capsys, *argv)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_output_in_a_subprocess(tmp_path):
+    """The real process: exit code 2, one line on stderr, nothing written."""
+    target = tmp_path / "sub" / "w.blend"
+    proc = subprocess.run([sys.executable, "-m", "wildscan.cli", "world", "--seed", "2", "--out", str(target)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and "does not exist" in proc.stderr
+    assert not target.parent.exists()
+
+
+def test_bench_reports_every_stage(capsys):
+    stream = io.StringIO()
+    rows = bench_world(0, ("low",), stream=stream)
+    text = stream.getvalue()
+    for stage in ("layout", "terrain", "poses", "trees", "grass", "park", "powerline", "blender.objects"):
+        assert stage in rows[0]["stages_s"] and stage in text
+    assert rows[0]["objects"] > 1000 and rows[0]["triangles"] > rows[0]["terrain_triangles"]
+    assert "uniform 1 m" in text and "adaptive" in text
