@@ -19,8 +19,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	mkdir -p $(OUT)/demo
-	$(WILDSCAN) scan --seed 1 --pose 0 0 0 --out $(OUT)/demo/scan_seed1.ply
+	$(WILDSCAN) demo --seed 1 --out $(OUT)/demo
 
 test: $(STAMP)
 	$(PY) -m pytest -q
