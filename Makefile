@@ -24,6 +24,9 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q
 
+addon: $(STAMP)
+	$(PY) tools/build_addon.py
+
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 

@@ -1,0 +1,485 @@
+"""Scene geometry as plain numpy: what every fast ray backend reads (numpy only, no bpy).
+
+`SceneGeometry` is one indexed triangle mesh of the whole (cropped) scene in
+world metres, with per-triangle class id, instance id and the object it came
+from. It is built once per world by `extract.extract_scene` and shared by every
+pose scanned in that world.
+
+Precision, and why there is an `offset`
+---------------------------------------
+Vertices are kept in float64 world coordinates. Accelerated backends (Embree,
+mathutils' BVHTree) work in float32, whose spacing is about 1 mm at 10 km:
+a world moved 10 km from the origin would lose its millimetres there. So every
+float32 copy is made *relative to* `offset`, a local origin near the scan
+(the crop centre, or the middle of the geometry's bounding box): within the
+sensor's 30 m reach float32 keeps ~2 µm. Ray origins are shifted by the same
+offset before casting. Backends then recompute each hit distance in float64
+against the hit triangle's plane (`refine_distances`), so reported ranges are
+those of the float64 geometry, not of its float32 copy.
+
+Sealed edges
+------------
+Single-precision ray/triangle tests are not watertight: a ray through a shared
+edge or vertex can slip between neighbouring triangles (tests/test_stability.py
+counts it per backend). The float32 backends therefore upload each triangle grown
+in its own plane by a few float32 ulps (`pad_triangles`), so neighbours overlap
+and no ray slips through; refined ranges are unaffected.
+
+Cropping
+--------
+A scan cannot see farther than its max range, so only triangles near the pose
+matter. `cropped(center, radius)` keeps every triangle whose axis-aligned
+bounding box comes within `radius` of `center` measured in the XY plane (an
+infinite vertical cylinder). XY, not 3D, because the optical centre's height
+is only known after placement, which itself casts rays down through this
+geometry. The box test is conservative: a triangle that a ray can reach within
+the radius is never dropped; a few farther ones may be kept.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .base import RayHits
+
+# Metres added to the max range when cropping around a pose: covers the
+# structure's arms and placement lasers (all within a metre of the pose) with room to spare.
+CROP_MARGIN = 5.0
+
+
+def scan_radius(max_range: float, margin: float = CROP_MARGIN) -> float:
+    """The crop radius for a scan with this max range (metres)."""
+    return float(max_range) + float(margin)
+
+
+@dataclass
+class SceneGeometry:
+    """One indexed triangle mesh of the scene, world metres (float64), Z up.
+
+    vertices:     float64 (V, 3) world coordinates.
+    faces:        int32 (T, 3) vertex indices of each triangle.
+    class_id:     int16 (T,) internal class id per triangle (classes.BY_ID; 0 untagged, WATER_ID water).
+    instance:     int32 (T,) `wildscan_instance` of the triangle's object (0 when absent).
+    object_index: int32 (T,) index into `object_names` of the object the triangle came from.
+    object_names: names of the extracted objects (instances use the instanced object's name).
+    offset:       float64 (3,) local origin for float32 copies (see module docstring).
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    class_id: np.ndarray
+    instance: np.ndarray
+    object_index: np.ndarray
+    object_names: tuple[str, ...] = ()
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
+        self.faces = np.ascontiguousarray(self.faces, dtype=np.int32).reshape(-1, 3)
+        t = len(self.faces)
+        self.class_id = _per_triangle(self.class_id, t, np.int16, "class_id")
+        self.instance = _per_triangle(self.instance, t, np.int32, "instance")
+        self.object_index = _per_triangle(self.object_index, t, np.int32, "object_index")
+        self.object_names = tuple(self.object_names)
+        self.offset = np.asarray(self.offset, dtype=np.float64).reshape(3)
+        if t and (self.faces.min() < 0 or self.faces.max() >= len(self.vertices)):
+            raise ValueError("faces index vertices that do not exist")
+
+    # -- sizes and views ---------------------------------------------------------------
+
+    @property
+    def triangle_count(self) -> int:
+        return len(self.faces)
+
+    def triangles(self) -> np.ndarray:
+        """(T, 3, 3) float64 world coordinates of each triangle's corners."""
+        return self.vertices[self.faces]
+
+    def local_vertices(self, dtype=np.float32) -> np.ndarray:
+        """Vertices relative to `offset` (subtracted in float64, then cast)."""
+        return np.ascontiguousarray(self.vertices - self.offset, dtype=dtype)
+
+    def padded_local_triangles(self, pad: float | None = None, dtype=np.float32) -> np.ndarray:
+        """(T, 3, 3) offset-local triangles, each grown in its own plane so every edge moves
+        outward by `pad` metres (default `edge_pad`). See `pad_triangles` for why."""
+        tris = (self.vertices - self.offset)[self.faces]
+        if pad is None:
+            pad = edge_pad(tris)
+        return np.ascontiguousarray(pad_triangles(tris, pad), dtype=dtype)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """(min (3,), max (3,)) of the vertices actually used by triangles."""
+        if not self.triangle_count:
+            return np.zeros(3), np.zeros(3)
+        used = self.vertices[used_vertices(self.faces, len(self.vertices))]
+        return used.min(axis=0), used.max(axis=0)
+
+    def local_planes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per-triangle plane in offset-local float64 coordinates: (unit normal (T,3), d (T,))
+        with n·x = d on the plane; degenerate triangles get a zero normal."""
+        local = self.vertices - self.offset
+        v0, v1, v2 = (local[self.faces[:, k]] for k in range(3))
+        normal = np.cross(v1 - v0, v2 - v0)
+        length = np.linalg.norm(normal, axis=1)
+        normal /= np.where(length > 0, length, 1.0)[:, None]
+        return normal, np.einsum("ij,ij->i", normal, v0)
+
+    # -- cropping ------------------------------------------------------------------------
+
+    def cropped(self, center, radius: float) -> "SceneGeometry":
+        """Triangles whose XY bounding box comes within `radius` of `center` (see module
+        docstring); vertices are compacted and `offset` moves to the centre."""
+        center = np.asarray(center, dtype=np.float64).ravel()
+        if center.size not in (2, 3):
+            raise ValueError(f"crop centre must have 2 or 3 coordinates, got {center.size}")
+        keep = triangles_near_xy(self.vertices, self.faces, center[:2], float(radius))
+        part = self.subset(keep)
+        part.offset = local_origin(part.vertices, part.faces, center)
+        return part
+
+    def subset(self, keep: np.ndarray) -> "SceneGeometry":
+        """The triangles selected by a boolean mask or index array, with unused vertices dropped."""
+        faces = self.faces[keep]
+        used = used_vertices(faces, len(self.vertices))
+        remap = np.cumsum(used, dtype=np.int64) - 1
+        return SceneGeometry(
+            vertices=self.vertices[used],
+            faces=remap[faces].astype(np.int32),
+            class_id=self.class_id[keep],
+            instance=self.instance[keep],
+            object_index=self.object_index[keep],
+            object_names=self.object_names,
+            offset=self.offset.copy(),
+        )
+
+    # -- turning triangle hits into RayHits ---------------------------------------------
+
+    def hits(self, triangle: np.ndarray, distance: np.ndarray) -> RayHits:
+        """RayHits from per-ray hit triangle index (-1 for a miss) and distance."""
+        triangle = np.asarray(triangle, dtype=np.int64)
+        out = RayHits.empty(len(triangle))
+        hit = triangle >= 0
+        tri = triangle[hit]
+        out.distance[hit] = distance[hit]
+        out.class_id[hit] = self.class_id[tri]
+        out.instance[hit] = self.instance[tri]
+        out.untagged_objects = self.untagged_names(tri)
+        return out
+
+    def untagged_names(self, triangles: np.ndarray) -> frozenset[str]:
+        """Names of the untagged (class 0) objects owning these triangles."""
+        if not len(triangles) or not self.object_names:
+            return frozenset()
+        untagged = triangles[self.class_id[triangles] == 0]
+        idx = np.unique(self.object_index[untagged])
+        return frozenset(self.object_names[i] for i in idx if 0 <= i < len(self.object_names))
+
+
+def _per_triangle(values, count: int, dtype, name: str) -> np.ndarray:
+    arr = np.asarray(values, dtype=dtype).ravel()
+    if arr.size == 1 and count != 1:
+        arr = np.full(count, arr[0], dtype=dtype)
+    if len(arr) != count:
+        raise ValueError(f"{name} has {len(arr)} entries for {count} triangles")
+    return np.ascontiguousarray(arr)
+
+
+def triangles_near_xy(vertices: np.ndarray, faces: np.ndarray, center_xy, radius: float) -> np.ndarray:
+    """Boolean mask: the triangle's XY bounding box is within `radius` of `center_xy`."""
+    xy = vertices[:, :2][faces]  # (T, 3, 2)
+    lo, hi = xy.min(axis=1), xy.max(axis=1)
+    c = np.asarray(center_xy, dtype=np.float64)[:2]
+    gap = np.clip(c, lo, hi) - c
+    return np.einsum("ij,ij->i", gap, gap) <= radius * radius
+
+
+def used_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
+    """Boolean mask of the vertices some face uses."""
+    used = np.zeros(vertex_count, dtype=bool)
+    used[faces.ravel()] = True
+    return used
+
+
+def local_origin(vertices: np.ndarray, faces: np.ndarray, center=None) -> np.ndarray:
+    """A local origin near the data: `center` in XY (and Z when given), else the middle of
+    the used vertices' bounding box. Rounded to whole metres so it prints cleanly;
+    float32 precision near it is unaffected by that."""
+    if len(faces):
+        used = vertices[used_vertices(faces, len(vertices))]
+        mid = 0.5 * (used.min(axis=0) + used.max(axis=0))
+    else:
+        mid = np.zeros(3)
+    if center is not None:
+        center = np.asarray(center, dtype=np.float64).ravel()
+        mid[: center.size] = center[:3]
+    return np.round(mid)
+
+
+def concatenate(parts: list[SceneGeometry], object_names=None, offset=None) -> SceneGeometry:
+    """Join geometries into one; object indices must already refer to `object_names`."""
+    if not parts:
+        return empty_geometry(object_names or ())
+    starts = np.cumsum([0] + [len(p.vertices) for p in parts[:-1]])
+    geometry = SceneGeometry(
+        vertices=np.concatenate([p.vertices for p in parts]),
+        faces=np.concatenate([p.faces.astype(np.int64) + s for p, s in zip(parts, starts)]),
+        class_id=np.concatenate([p.class_id for p in parts]),
+        instance=np.concatenate([p.instance for p in parts]),
+        object_index=np.concatenate([p.object_index for p in parts]),
+        object_names=object_names if object_names is not None else parts[0].object_names,
+    )
+    geometry.offset = local_origin(geometry.vertices, geometry.faces) if offset is None else offset
+    return geometry
+
+
+def empty_geometry(object_names=()) -> SceneGeometry:
+    return SceneGeometry(
+        vertices=np.zeros((0, 3)),
+        faces=np.zeros((0, 3), dtype=np.int32),
+        class_id=np.zeros(0, dtype=np.int16),
+        instance=np.zeros(0, dtype=np.int32),
+        object_index=np.zeros(0, dtype=np.int32),
+        object_names=tuple(object_names),
+    )
+
+
+def from_triangles(triangles, class_id=0, instance=0, object_index=0, object_names=("mesh",)) -> SceneGeometry:
+    """A SceneGeometry from a (T, 3, 3) triangle soup (tests and benchmarks)."""
+    tris = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    faces = np.arange(3 * len(tris)).reshape(-1, 3)
+    geometry = SceneGeometry(tris.reshape(-1, 3), faces, class_id, instance, object_index, object_names)
+    geometry.offset = local_origin(geometry.vertices, geometry.faces)
+    return geometry
+
+
+# -- closing the cracks between triangles -------------------------------------------------
+
+# In-plane growth of a triangle: 8 float32 spacings (ulps) of the largest offset-local
+# coordinate, at least 10 µm. One ulp already closes every crack the stability tests
+# find; 8 is margin. Within a cropped scan (coordinates <= ~35 m) that is ~3e-5 m,
+# far below anything a 15 mm-noise sensor can see.
+PAD_ULPS = 8.0
+MIN_EDGE_PAD = 1e-5
+# A vertex never moves more than this many pads (very acute corners of slivers).
+_MAX_PAD_STRETCH = 20.0
+
+
+def edge_pad(local_coordinates: np.ndarray) -> float:
+    """The pad that float32 coordinates of this size need: well above their rounding."""
+    extent = float(np.abs(local_coordinates).max()) if local_coordinates.size else 0.0
+    return max(MIN_EDGE_PAD, PAD_ULPS * float(np.finfo(np.float32).eps) * extent)
+
+
+def pad_triangles(tris: np.ndarray, pad: float) -> np.ndarray:
+    """Grow each triangle (T,3,3) in its own plane so that each edge moves outward by `pad`.
+
+    Why: single-precision ray/triangle tests (Embree, BVHTree) are not watertight;
+    a ray through a shared edge or vertex can slip between the two triangles and
+    report the surface behind, or nothing (the stability tests measure it). With
+    every triangle overlapping its neighbours by `pad`, such a ray hits one of them.
+    Growing in-plane keeps each triangle's plane, so float64 refined ranges are
+    unchanged; silhouettes grow by `pad` (10-30 µm in a cropped scan).
+
+    Offsetting all three edges by `pad` is a scaling about the incentre by
+    (r + pad) / r (r the inradius). Slivers' acute corners would shoot far out,
+    so no vertex moves more than _MAX_PAD_STRETCH pads; degenerate triangles stay.
+    """
+    tris = np.asarray(tris, dtype=np.float64)
+    v0, v1, v2 = tris[:, 0], tris[:, 1], tris[:, 2]
+    a = np.linalg.norm(v1 - v2, axis=1)  # side lengths opposite each vertex
+    b = np.linalg.norm(v2 - v0, axis=1)
+    c = np.linalg.norm(v0 - v1, axis=1)
+    perimeter = a + b + c
+    double_area = np.linalg.norm(np.cross(v1 - v0, v2 - v0), axis=1)
+    ok = (double_area > 0) & (perimeter > 0)
+    safe_perimeter = np.where(ok, perimeter, 1.0)
+    inradius = np.where(ok, double_area / safe_perimeter, 1.0)
+    incentre = (a[:, None] * v0 + b[:, None] * v1 + c[:, None] * v2) / safe_perimeter[:, None]
+    out = tris.copy()
+    for k in range(3):
+        away = tris[:, k] - incentre
+        length = np.linalg.norm(away, axis=1)
+        shift = np.minimum(pad * length / inradius, _MAX_PAD_STRETCH * pad)
+        scale = np.where(ok & (length > 0), shift / np.where(length > 0, length, 1.0), 0.0)
+        out[:, k] += away * scale[:, None]
+    return out
+
+
+# -- float64 hit refinement (shared by the float32 backends) -----------------------------
+
+
+def prepare_rays(origins: np.ndarray, directions: np.ndarray, offset: np.ndarray):
+    """Float64 offset-local origins (N,3) and directions (N,3) for N rays; origins may be (3,)."""
+    directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    origins = np.asarray(origins, dtype=np.float64)
+    local = origins.reshape(-1, 3) - offset
+    if origins.ndim == 1:
+        local = np.broadcast_to(local, directions.shape)
+    if local.shape != directions.shape:
+        raise ValueError(f"{len(local)} origins for {len(directions)} directions")
+    return local, directions
+
+
+# Below this |cos| between ray and triangle plane the ray runs along the plane and the
+# plane intersection is ill-posed: the backend's own distance is kept.
+_PARALLEL_COS = 1e-9
+
+
+def refine_distances(
+    normal: np.ndarray,
+    d: np.ndarray,
+    origins_local: np.ndarray,
+    directions: np.ndarray,
+    triangle: np.ndarray,
+    rough: np.ndarray,
+) -> np.ndarray:
+    """Float64 distance along each ray to the plane of its hit triangle.
+
+    `normal`, `d` from `SceneGeometry.local_planes`; `triangle` (N,) is the hit
+    triangle per ray (>= 0 only), `rough` (N,) the backend's float32 distance. The
+    plane intersection is what Möller–Trumbore's t is, computed in float64 from the
+    float64 vertices: float32 intersection tests lose millimetres on long thin
+    triangles (a wire's facets), this does not. Only for a ray lying in the
+    triangle's plane is the rough value kept.
+    """
+    n = normal[triangle]
+    cos = np.einsum("ij,ij->i", n, directions)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (d[triangle] - np.einsum("ij,ij->i", n, origins_local)) / cos
+    bad = ~np.isfinite(t) | (np.abs(cos) < _PARALLEL_COS)
+    t[bad] = rough[bad]
+    return np.maximum(t, 0.0)
+
+
+# -- brute-force ground truth (tests, debugging) ------------------------------------------------
+
+_REFERENCE_CHUNK = 512  # rays per block: keeps the (rays x triangles) arrays small
+
+
+def _edge_frames(geometry: SceneGeometry):
+    """Per triangle: plane (unit normal, offset) and, per edge, the in-plane unit inward
+    normal with its offset, all in offset-local float64."""
+    local = geometry.vertices - geometry.offset
+    v = [local[geometry.faces[:, k]] for k in range(3)]
+    normal = np.cross(v[1] - v[0], v[2] - v[0])
+    length = np.linalg.norm(normal, axis=1)
+    ok = length > 0
+    normal = normal / np.where(ok, length, 1.0)[:, None]
+    inward = []
+    for k in range(3):
+        a, b = v[k], v[(k + 1) % 3]
+        m = np.cross(normal, b - a)
+        m /= np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
+        inward.append((m, np.einsum("ij,ij->i", m, a)))
+    return normal, np.einsum("ij,ij->i", normal, v[0]), inward, ok
+
+
+def reference_hits(
+    geometry: SceneGeometry, origins, directions, max_range: float, edge_tol: float = 1e-4
+) -> dict:
+    """Exact float64 first hits by brute force over every triangle, O(rays x triangles).
+
+    For each ray and triangle the ray meets the triangle's plane at t; `depth` is how far
+    inside the triangle (metres, in its plane) that point lies. A hit is *clear* when
+    depth > edge_tol and *ambiguous* when |depth| <= edge_tol: a correct float32 backend may
+    or may not report those. Returns a dict of (N,) arrays:
+      distance, triangle        the first clear hit (inf, -1 when none)
+      ambiguous_before          an ambiguous hit lies before (or at) the first clear one
+    and `candidates(i)` is not computed here; use `check_hits` to judge a backend.
+    """
+    local, dirs = prepare_rays(origins, directions, geometry.offset)
+    count = len(dirs)
+    distance = np.full(count, np.inf)
+    triangle = np.full(count, -1, dtype=np.int64)
+    ambiguous_before = np.zeros(count, dtype=bool)
+    if not geometry.triangle_count:
+        return {"distance": distance, "triangle": triangle, "ambiguous_before": ambiguous_before}
+    frames = _edge_frames(geometry)
+    for start in range(0, count, _REFERENCE_CHUNK):
+        sl = slice(start, start + _REFERENCE_CHUNK)
+        t, depth, valid, _ = _plane_hits(frames, local[sl], dirs[sl], max_range)
+        clear = valid & (depth > edge_tol)
+        t_clear = np.where(clear, t, np.inf)
+        first = np.argmin(t_clear, axis=1)
+        rows = np.arange(len(first))
+        best = t_clear[rows, first]
+        distance[sl] = best
+        triangle[sl] = np.where(np.isfinite(best), first, -1)
+        amb = valid & (np.abs(depth) <= edge_tol) & (t <= best[:, None] + edge_tol)
+        ambiguous_before[sl] = amb.any(axis=1)
+    return {"distance": distance, "triangle": triangle, "ambiguous_before": ambiguous_before}
+
+
+def _plane_hits(frames, local: np.ndarray, dirs: np.ndarray, max_range: float):
+    """(t, depth, valid, front), each (rays, triangles); front: the ray meets the
+    triangle's front (normal-facing) side."""
+    normal, d, inward, ok = frames
+    denom = dirs @ normal.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (d[None, :] - local @ normal.T) / denom
+    valid = ok[None, :] & (np.abs(denom) > 1e-12) & (t > 0) & (t <= max_range)
+    t = np.where(valid, t, np.inf)
+    finite_t = np.where(valid, t, 0.0)
+    depth = np.full(t.shape, np.inf)
+    for m, off in inward:
+        s = local @ m.T + finite_t * (dirs @ m.T) - off[None, :]
+        depth = np.minimum(depth, s)
+    return t, depth, valid, denom < 0
+
+
+def check_hits(
+    geometry: SceneGeometry, origins, directions, max_range: float, hits: RayHits,
+    edge_tol: float = 1e-4, range_tol: float = 1e-4,
+) -> np.ndarray:
+    """Per ray, whether a backend's answer is correct within tolerances (bool (N,)).
+
+    Correct means: the backend reports a surface (class, instance) that the exact ray
+    meets within `range_tol` of the reported range, with nothing clearly hit before it;
+    or it reports a miss and nothing is clearly hit. Triangles the ray meets within
+    `edge_tol` of an edge may be reported or not (float32 backends legitimately differ
+    there), except that a ray crossing a surface through a shared edge or vertex must
+    stop there: going on to the surface behind, or to nothing, is a leak.
+    """
+    local, dirs = prepare_rays(origins, directions, geometry.offset)
+    count = len(dirs)
+    ok = np.zeros(count, dtype=bool)
+    if not geometry.triangle_count:
+        return ~hits.hit
+    frames = _edge_frames(geometry)
+    labels = geometry.class_id.astype(np.int64) * (1 << 32) + geometry.instance.astype(np.int64)
+    hit_label = hits.class_id.astype(np.int64) * (1 << 32) + hits.instance.astype(np.int64)
+    for start in range(0, count, _REFERENCE_CHUNK):
+        sl = slice(start, start + _REFERENCE_CHUNK)
+        with np.errstate(invalid="ignore"):  # inf - inf where neither side hit: compares False
+            ok[sl] = _check_block(frames, labels, local[sl], dirs[sl], max_range, hits.distance[sl],
+                                  hit_label[sl], edge_tol, range_tol)
+    return ok
+
+
+def _check_block(frames, labels, local, dirs, max_range, t_b, label_b, edge_tol, range_tol):
+    t, depth, valid, front = _plane_hits(frames, local, dirs, max_range + range_tol)
+    clear = valid & (depth > edge_tol)
+    maybe = valid & (depth >= -edge_tol)
+    t_clear = np.where(clear, t, np.inf).min(axis=1)
+    # a correct hit: a triangle the ray (at least ambiguously) meets, with the same label
+    # and range, not behind the first clear hit
+    match = maybe & (np.abs(t - t_b[:, None]) <= range_tol) & (labels[None, :] == label_b[:, None])
+    good_hit = np.isfinite(t_b) & match.any(axis=1) & (t_b <= t_clear + range_tol)
+    # a leak: the ray crosses a shared edge or vertex before the reported hit, i.e. meets
+    # two or more triangles there ambiguously, all from the same side (a silhouette,
+    # met from both sides, may be missed)
+    amb_before = maybe & ~clear & (t < t_b[:, None] - range_tol)
+    leaked = _crossing_covered(amb_before & front, t, range_tol)
+    leaked |= _crossing_covered(amb_before & ~front, t, range_tol)
+    good_miss = ~np.isfinite(t_b) & ~np.isfinite(t_clear)
+    near_limit = ~np.isfinite(t_b) & (t_clear > max_range - range_tol)
+    return (good_hit | good_miss | near_limit) & ~leaked
+
+
+def _crossing_covered(amb_before: np.ndarray, t: np.ndarray, range_tol: float) -> np.ndarray:
+    """Rays that pass ambiguously through two or more of the marked triangles at the same
+    point (a shared edge or vertex)."""
+    tt = np.where(amb_before, t, np.inf)
+    order = np.sort(tt, axis=1)[:, :2] if tt.shape[1] >= 2 else np.full((len(tt), 2), np.inf)
+    return np.isfinite(order[:, 1]) & (order[:, 1] - order[:, 0] <= range_tol)

@@ -1,0 +1,220 @@
+"""The add-on's settings, stored in the scene as `scene.wildscan` (saved with the .blend,
+scriptable: set them, then call the operators).
+
+The pose (x, y, yaw) is the pose marker's: while the marker exists the three
+properties read and move it, so dragging the marker and typing numbers are the
+same thing. Without a marker they are plain stored values.
+
+Sensor limits are deliberately loose: a value the sensor does not allow (an r_h
+that does not divide 180, a min range above the max range) is accepted here and
+named by the Scan operator's report, as `wildscan scan` names it.
+"""
+
+import math
+
+import bpy
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.types import PropertyGroup
+
+from ..core import sensor as S
+from ..raycast.select import BACKEND_NAMES
+from ..world.generate import DETAILS
+from . import scene as wscene
+
+_DETAIL_TEXT = {
+    "low": "Fewer, coarser elements: quick to build and scan",
+    "default": "The standard world",
+    "high": "More, finer elements: slower to build",
+}
+_FRAME_TEXT = (
+    ("leveled", "Leveled", "Origin at the optical centre, Z vertical, X along the heading (as the paper)"),
+    ("sensor", "Sensor", "Tilted with the structure, origin at the optical centre"),
+    ("world", "World", "Blender's world frame"),
+)
+_BACKEND_TEXT = {
+    "auto": "The fastest available (embree, else bvh, else blender)",
+    "embree": "Embree through the embreex wheel (fastest)",
+    "bvh": "mathutils BVH tree over the extracted triangles",
+    "blender": "Blender's scene.ray_cast (the reference, slowest)",
+}
+_STORED = {"pose_x": "_pose_x", "pose_y": "_pose_y", "pose_yaw": "_pose_yaw"}
+
+
+def _marker(self):
+    return wscene.pose_marker(self.id_data) if isinstance(self.id_data, bpy.types.Scene) else None
+
+
+def _pose_getter(name: str):
+    def get(self):
+        marker = _marker(self)
+        if marker is None:
+            return float(self.get(_STORED[name], 0.0))
+        x, y, yaw = wscene.marker_pose(marker)
+        return {"pose_x": x, "pose_y": y, "pose_yaw": yaw}[name]
+
+    return get
+
+
+def _pose_setter(name: str):
+    def set_(self, value):
+        self[_STORED[name]] = float(value)
+        marker = _marker(self)
+        if marker is None:
+            return
+        if name == "pose_x":
+            marker.location[0] = value
+        elif name == "pose_y":
+            marker.location[1] = value
+        else:
+            marker.rotation_euler[2] = math.radians(value)
+
+    return set_
+
+
+def _world_layer_collection():
+    """The view layer's entry for the world collection (its eye icon), if the world is in it."""
+    context = bpy.context
+    if context.view_layer is None:
+        return None
+    todo = [context.view_layer.layer_collection]
+    while todo:
+        layer = todo.pop()
+        if layer.name == wscene.WORLD_COLLECTION:
+            return layer
+        todo.extend(layer.children)
+    return None
+
+
+def _get_show_world(self):
+    layer = _world_layer_collection()
+    return layer is None or not layer.hide_viewport
+
+
+def _set_show_world(self, value):
+    layer = _world_layer_collection()
+    if layer is not None:
+        layer.hide_viewport = not value
+
+
+class WildScanSettings(PropertyGroup):
+    # World
+    seed: IntProperty(name="Seed", description="World seed: the same seed builds the same world", min=0, default=0)
+    detail: EnumProperty(
+        name="Detail",
+        description="How detailed the generated world is",
+        items=[(d, d.capitalize(), _DETAIL_TEXT.get(d, d)) for d in DETAILS],
+        default="default" if "default" in DETAILS else DETAILS[0],
+    )
+
+    # Pose
+    pose_x: FloatProperty(
+        name="X", description="Where the robot stands: world X in metres (moves the pose marker)",
+        unit="LENGTH", get=_pose_getter("pose_x"), set=_pose_setter("pose_x"),
+    )
+    pose_y: FloatProperty(
+        name="Y", description="Where the robot stands: world Y in metres (moves the pose marker)",
+        unit="LENGTH", get=_pose_getter("pose_y"), set=_pose_setter("pose_y"),
+    )
+    pose_yaw: FloatProperty(
+        name="Yaw", description="Heading of the structure's X arm, degrees counter-clockwise from +X",
+        precision=1, step=500, get=_pose_getter("pose_yaw"), set=_pose_setter("pose_yaw"),
+    )
+    use_z_start: BoolProperty(
+        name="Start height",
+        description="Start the four placement lasers at a given height (e.g. under an overhang or inside the cave) "
+        "instead of above the first terrain surface found from above",
+        default=False,
+    )
+    z_start: FloatProperty(
+        name="Z", description="World height in metres where the placement lasers start", unit="LENGTH", default=1.0
+    )
+    marker: PointerProperty(type=bpy.types.Object, name="Pose marker", options={"HIDDEN"})
+
+    # Sensor
+    rh: FloatProperty(
+        name="r_h", description="Horizontal resolution in degrees; 180/r_h must be whole (1 deg: 180 2D scans)",
+        default=S.DEFAULT_RH_DEG, soft_min=0.25, soft_max=10.0, precision=2, step=25,
+    )
+    min_range: FloatProperty(
+        name="Min range", description="Shortest range kept, metres", unit="LENGTH", default=S.DEFAULT_MIN_RANGE,
+        soft_min=0.0, soft_max=S.MAX_RANGE_LIMIT,
+    )
+    max_range: FloatProperty(
+        name="Max range", description=f"Longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g}",
+        unit="LENGTH", default=S.DEFAULT_MAX_RANGE, soft_min=0.1, soft_max=S.MAX_RANGE_LIMIT,
+    )
+    noise: FloatProperty(
+        name="Noise", description="Standard deviation of the Gaussian range noise, metres (0 turns it off)",
+        unit="LENGTH", default=S.DEFAULT_NOISE_SIGMA, soft_min=0.0, soft_max=0.1, precision=3, step=0.1,
+    )
+    noise_seed: IntProperty(name="Noise seed", description="Seed of the range noise, independent of the world seed",
+                            min=0, default=0)
+    frame: EnumProperty(name="Frame", description="Coordinate frame of the exported points", items=_FRAME_TEXT,
+                        default="leveled")
+
+    # Scan
+    backend: EnumProperty(
+        name="Ray caster", description="Which ray caster scans (all give the same labels)",
+        items=[(b, b.capitalize() if b != "bvh" else "BVH", _BACKEND_TEXT.get(b, b)) for b in BACKEND_NAMES],
+        default="auto",
+    )
+    keep_previous: BoolProperty(
+        name="Keep previous scans", description="Keep the clouds of earlier scans instead of replacing them",
+        default=False,
+    )
+
+    # Result display
+    point_size: IntProperty(name="Point size", description="Size of the cloud's points in the viewport, pixels",
+                            min=1, max=12, default=3)
+    show_world: BoolProperty(
+        name="Show world", description="Show the generated world in the viewport (its collection's eye icon); "
+        "hide it to look at the cloud alone", get=_get_show_world, set=_set_show_world,
+    )
+    points_in_front: BoolProperty(name="In front", description="Draw the cloud's points over the world's surfaces",
+                                  default=True)
+
+
+CLASSES = (WildScanSettings,)
+
+
+def attach() -> None:
+    bpy.types.Scene.wildscan = PointerProperty(type=WildScanSettings)
+
+
+def detach() -> None:
+    if hasattr(bpy.types.Scene, "wildscan"):
+        del bpy.types.Scene.wildscan
+
+
+def typed_value(value: float) -> float:
+    """The number the user typed, from a Blender float property.
+
+    Blender stores float properties (and object locations) in single precision: 0.02
+    comes back as 0.0199999995529651. The shortest decimal that single precision maps to
+    the same value is what was typed, and what `wildscan scan --noise 0.02` reads, so
+    the panel and the command scan with the very same numbers.
+    """
+    import numpy as np
+
+    return float(str(np.float32(value)))
+
+
+def sensor_from(settings):
+    """The SensorConfig the settings describe (not validated: the caller decides when)."""
+    return S.SensorConfig(
+        rh_deg=typed_value(settings.rh),
+        min_range=typed_value(settings.min_range),
+        max_range=typed_value(settings.max_range),
+        noise_sigma=typed_value(settings.noise),
+        noise_seed=int(settings.noise_seed),
+    )
+
+
+def pose_from(settings):
+    from ..core.placement import Pose
+
+    return Pose(typed_value(settings.pose_x), typed_value(settings.pose_y), typed_value(settings.pose_yaw))
+
+
+def z_start_from(settings) -> float | None:
+    return typed_value(settings.z_start) if settings.use_z_start else None
