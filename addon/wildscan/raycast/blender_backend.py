@@ -20,17 +20,81 @@ from .base import RayHits, broadcast_origins
 PROGRESS_EVERY = 10_000
 
 
-def _object_tags(obj) -> tuple[int, int, str | None]:
+# A hit's matrix and a depsgraph instance's matrix are the same float32 numbers; this
+# only absorbs round-off should a Blender version recompute one of them.
+MATRIX_MATCH_TOL = 1e-4
+
+
+def _original(obj):
+    return obj.original if obj.original is not None else obj
+
+
+def _object_tags(obj, instancer=None) -> tuple[int, int, str | None]:
     """(class id, instance, name if untagged) of the hit object, read from the original
-    object: evaluated copies may not carry custom properties."""
-    orig = obj.original if obj.original is not None else obj
-    class_id = class_id_for_tag(orig.get("wildscan_class"))
+    objects (evaluated copies may not carry custom properties): each property from the
+    object itself when it has it, else from its instancer (as extract.py does)."""
+    sources = [_original(obj)] + ([_original(instancer)] if instancer is not None else [])
+    class_id = class_id_for_tag(_first_prop(sources, "wildscan_class"))
     try:
-        instance = int(orig.get("wildscan_instance", 0))
+        instance = int(_first_prop(sources, "wildscan_instance") or 0)
     except (TypeError, ValueError):
         instance = 0
-    untagged = orig.name if class_id == UNLABELED.id else None
+    untagged = sources[0].name if class_id == UNLABELED.id else None
     return class_id, instance, untagged
+
+
+def _first_prop(objects, key: str):
+    for obj in objects:
+        value = obj.get(key)
+        if value is not None:
+            return value
+    return None
+
+
+def scene_depsgraph(scene):
+    """The evaluated depsgraph of `scene`. The context's scene has one at hand; a scene
+    outside any window has none (view_layers[0].depsgraph is None) until one is asked
+    for in its own context."""
+    if scene == bpy.context.scene:
+        return bpy.context.evaluated_depsgraph_get()
+    with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+        return bpy.context.evaluated_depsgraph_get()
+
+
+class InstanceCopies:
+    """Where the depsgraph puts copies of instanced objects, to tell which copy a
+    ray_cast hit (ray_cast gives the instanced object and the copy's matrix only)."""
+
+    def __init__(self, depsgraph):
+        instanced = set()
+        entries = []
+        for inst in depsgraph.object_instances:
+            obj = inst.object
+            if obj is None:
+                continue
+            # copy now: an instance's data is only valid during this iteration step
+            entries.append((_original(obj), np.array(inst.matrix_world, dtype=np.float64).ravel(),
+                            _original(inst.parent) if inst.is_instance and inst.parent is not None else None))
+            if inst.is_instance:
+                instanced.add(_original(obj))
+        # originals that are instanced somewhere; their direct (non-instance) uses are
+        # candidates too, so a hit on the object itself is matched to itself
+        self.objects = frozenset(instanced)
+        self._candidates: dict = {}
+        for orig, matrix, parent in entries:
+            if orig in instanced:
+                self._candidates.setdefault(orig, []).append((matrix, parent))
+
+    def instancer(self, obj, matrix):
+        """The instancer of the copy of `obj` at world `matrix` (None: the object itself,
+        or no copy matches)."""
+        candidates = self._candidates.get(_original(obj))
+        if not candidates:
+            return None
+        m = np.array(matrix, dtype=np.float64).ravel()
+        diffs = [float(np.abs(c - m).max()) for c, _ in candidates]
+        best = int(np.argmin(diffs))
+        return candidates[best][1] if diffs[best] <= MATRIX_MATCH_TOL else None
 
 
 class BlenderRayCastBackend:
@@ -44,11 +108,7 @@ class BlenderRayCastBackend:
         self.depsgraph = depsgraph if depsgraph is not None else self._evaluated_depsgraph()
 
     def _evaluated_depsgraph(self):
-        if self.scene == bpy.context.scene:
-            return bpy.context.evaluated_depsgraph_get()
-        depsgraph = self.scene.view_layers[0].depsgraph
-        depsgraph.update()
-        return depsgraph
+        return scene_depsgraph(self.scene)
 
     def cast(
         self,
@@ -71,26 +131,30 @@ class BlenderRayCastBackend:
             raise ValueError(f"origins {origins.shape} do not match directions {directions.shape}")
         if self._own_depsgraph:
             self.depsgraph = self._evaluated_depsgraph()
+        copies = InstanceCopies(self.depsgraph)
         # The loop allocates several objects per ray; with generational GC on, each
         # collection walks the growing lists below, which costs ~30% of the run.
         gc_was_enabled = gc.isenabled()
         gc.disable()
         try:
-            found = self._loop(origins, directions, max_range, single_origin, progress)
+            found = self._loop(origins, directions, max_range, single_origin, progress, copies.objects)
+            if found[0]:
+                self._fill(hits, origins, max_range, copies, *found)
         finally:
             if gc_was_enabled:
                 gc.enable()
-        if found[0]:
-            self._fill(hits, origins, max_range, *found)
         return hits
 
-    def _loop(self, origins, directions, max_range, single_origin, progress):
+    def _loop(self, origins, directions, max_range, single_origin, progress, instanced):
+        """(ray indices, locations, objects, {ray index: matrix}) of the hits; matrices are
+        kept only for hits on `instanced` objects (the few that need telling copies apart)."""
         n = len(directions)
         # Python floats in tuples are what ray_cast converts fastest.
         d_list = list(map(tuple, directions.tolist()))
         hit_index: list[int] = []
         hit_loc: list = []
         hit_obj: list = []
+        hit_matrix: dict[int, object] = {}
         ray_cast, depsgraph = self.scene.ray_cast, self.depsgraph
         add_index, add_loc, add_obj = hit_index.append, hit_loc.append, hit_obj.append
         if single_origin:
@@ -101,24 +165,28 @@ class BlenderRayCastBackend:
             stop = min(start + PROGRESS_EVERY, n)
             if single_origin:
                 for k in range(start, stop):
-                    ok, loc, _normal, _face, obj, _matrix = ray_cast(depsgraph, origin, d_list[k], distance=max_range)
+                    ok, loc, _normal, _face, obj, matrix = ray_cast(depsgraph, origin, d_list[k], distance=max_range)
                     if ok:
                         add_index(k)
                         add_loc(loc)
                         add_obj(obj)
+                        if instanced and obj in instanced:
+                            hit_matrix[k] = matrix
             else:
                 for k in range(start, stop):
-                    ok, loc, _normal, _face, obj, _matrix = ray_cast(depsgraph, o_list[k], d_list[k], distance=max_range)
+                    ok, loc, _normal, _face, obj, matrix = ray_cast(depsgraph, o_list[k], d_list[k], distance=max_range)
                     if ok:
                         add_index(k)
                         add_loc(loc)
                         add_obj(obj)
+                        if instanced and obj in instanced:
+                            hit_matrix[k] = matrix
             if progress is not None:
                 progress(stop, n)
-        return hit_index, hit_loc, hit_obj
+        return hit_index, hit_loc, hit_obj, hit_matrix
 
     @staticmethod
-    def _fill(hits: RayHits, origins, max_range, hit_index, hit_loc, hit_obj) -> None:
+    def _fill(hits: RayHits, origins, max_range, copies, hit_index, hit_loc, hit_obj, hit_matrix) -> None:
         idx = np.asarray(hit_index, dtype=np.intp)
         loc = np.array([v[:] for v in hit_loc], dtype=np.float64).reshape(-1, 3)
         dist = np.linalg.norm(loc - origins[idx], axis=1)
@@ -129,11 +197,20 @@ class BlenderRayCastBackend:
         tags: dict = {}
         class_ids = np.empty(len(keep), dtype=np.int16)
         instances = np.empty(len(keep), dtype=np.int32)
+        instancers: dict = {}
         for j, k in enumerate(keep.tolist()):
             obj = hit_obj[k]
-            tag = tags.get(obj)
+            key = obj
+            matrix = hit_matrix.get(hit_index[k])
+            if matrix is not None:
+                # a copy of an instanced object: which one, by its matrix
+                m_key = (obj, tuple(v for row in matrix for v in row))
+                if m_key not in instancers:
+                    instancers[m_key] = copies.instancer(obj, matrix)
+                key = (obj, instancers[m_key])
+            tag = tags.get(key)
             if tag is None:
-                tag = tags[obj] = _object_tags(obj)
+                tag = tags[key] = _object_tags(obj, key[1] if isinstance(key, tuple) else None)
             class_ids[j], instances[j] = tag[0], tag[1]
         idx = idx[keep]
         hits.distance[idx] = dist[keep]
