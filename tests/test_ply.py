@@ -285,7 +285,7 @@ def test_interrupt_after_ply_rename_removes_the_ply_too(tmp_path, monkeypatch):
 
 
 def test_interrupt_while_writing_sidecar_leaves_nothing(tmp_path, monkeypatch):
-    real_write_durably = ply._write_durably
+    real_write_durably = ply.write_durably
 
     def interrupt_on_json(path, write):
         if ".json" in path.name:
@@ -294,7 +294,7 @@ def test_interrupt_while_writing_sidecar_leaves_nothing(tmp_path, monkeypatch):
             raise KeyboardInterrupt
         real_write_durably(path, write)
 
-    monkeypatch.setattr(ply, "_write_durably", interrupt_on_json)
+    monkeypatch.setattr(ply, "write_durably", interrupt_on_json)
     with pytest.raises(KeyboardInterrupt):
         write_scan_files(tmp_path / "scan.ply", make_cloud(), METADATA, ascii=True)
     assert list(tmp_path.iterdir()) == []

@@ -10,6 +10,7 @@ from wildscan.core.classes import CLASSES
 from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
 from wildscan.core.sensor import SensorConfig
+from wildscan.core.testworld_plan import plan_test_world
 
 from scene_helpers import (
     BLENDER,
@@ -165,6 +166,7 @@ BAD_INPUTS = [
     ({"--pose": "1 2"}, "--pose"),
     ({"--pose": "100 100 0"}, "off the world"),
     ({"--pose": "12 -10 0"}, "water"),
+    ({"--pose": " ".join(f"{v:.4f}" for v in plan_test_world(1).poses["on_rock"])}, "hit rock"),
     ({"--out": "/nonexistent-dir/x.ply"}, "does not exist"),
     ({"--out": "scan.txt"}, ".ply"),
     ({"--world": "/nonexistent.blend"}, "no such file"),
@@ -196,7 +198,7 @@ def test_bad_input_exits_2_with_one_clear_line_and_no_file(replace, expected, wo
     assert list(tmp_path.iterdir()) == []
 
 
-BLENDER_BAD_INPUTS = [BAD_INPUTS[0], BAD_INPUTS[13], BAD_INPUTS[14], BAD_INPUTS[16]]
+BLENDER_BAD_INPUTS = [case for case in BAD_INPUTS if case[1] in ("--rh", "water", "hit rock", "does not exist", "no such file")]
 
 
 @pytest.mark.parametrize("replace, expected", BLENDER_BAD_INPUTS, ids=ids(BLENDER_BAD_INPUTS))

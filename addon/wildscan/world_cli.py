@@ -22,6 +22,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from .core.errors import PoseRejected, UserError
+from .core.files import atomic_outputs, check_output_path
 from .core.worldplan import (
     DETAILS,
     ZONES,
@@ -83,20 +84,6 @@ def positive_count(text, option: str) -> int:
     return int(s)
 
 
-def check_output(path, suffix: str, option: str) -> Path:
-    """Resolved path that can be written, or UserError saying why not."""
-    out = Path(path).expanduser().resolve()
-    if out.suffix.lower() != suffix:
-        raise UserError(f"{option} {out}: the file name must end in {suffix}")
-    if out.is_dir():
-        raise UserError(f"{option} {out}: it is a directory; give a file name ending in {suffix}")
-    if not out.parent.is_dir():
-        raise UserError(f"{option} {out}: directory {out.parent} does not exist")
-    if not os.access(out.parent, os.W_OK) or (out.exists() and not os.access(out, os.W_OK)):
-        raise UserError(f"{option} {out}: not writable")
-    return out
-
-
 def sidecar_path(blend: Path) -> Path:
     return blend.with_suffix(".json")
 
@@ -113,11 +100,6 @@ def quiet_stdout():
     finally:
         os.dup2(saved, 1)
         os.close(saved)
-
-
-def _temp(final: Path) -> Path:
-    # beside the target so the final os.replace is an atomic rename; hidden from globs
-    return final.with_name(f".{final.stem}.tmp-{os.getpid()}{final.suffix}")
 
 
 # ---------------------------------------------------------------------------------------
@@ -211,11 +193,9 @@ def run_world(args, in_blender: bool = False) -> int:
     seed = check_seed(args.seed)
     detail_level(args.detail)
     count = positive_count(args.poses, "--poses")
-    out = check_output(args.out, ".blend", "--out")
+    out = check_output_path(args.out, ".blend", "--out", companions=(".json",))
     sidecar = sidecar_path(out)
-    if sidecar.is_dir():
-        raise UserError(f"--out {out}: its sidecar {sidecar} is a directory")
-    map_path = check_output(args.map, ".png", "--map") if args.map else None
+    map_path = check_output_path(args.map, ".png", "--map") if args.map else None
     if map_path is not None:
         from .core.aerial_map import require_matplotlib
 
@@ -237,42 +217,27 @@ def run_world(args, in_blender: bool = False) -> int:
     poses = valid_poses(plan, plan_backend(plan), count)
     progress("valid poses", time.perf_counter() - t0)
 
-    temps: list[tuple[Path, Path]] = []
+    finals = (out, sidecar, map_path) if map_path is not None else (out, sidecar)
     try:
-        t0 = time.perf_counter()
-        tmp = _temp(out)
-        temps.append((tmp, out))
-        with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
-            bpy.ops.wm.save_as_mainfile(filepath=str(tmp), check_existing=False, copy=True, compress=True)
-        progress("save .blend", time.perf_counter() - t0)
-        if map_path is not None:
-            from .core.aerial_map import render_map
-            from .core.worldplan import Site
-
+        with atomic_outputs(*finals) as temps:
             t0 = time.perf_counter()
-            tmp = _temp(map_path)
-            temps.append((tmp, map_path))
-            crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]
-            render_map(plan, str(tmp), poses=crosses)
-            progress("aerial map", time.perf_counter() - t0)
-        description = plan.describe(poses)
-        description["blend"] = str(out)
-        description["map"] = str(map_path) if map_path else None
-        tmp = _temp(sidecar)
-        temps.append((tmp, sidecar))
-        tmp.write_text(json.dumps(description, indent=1) + "\n")
-        for tmp, final in temps:
-            os.replace(tmp, final)
+            with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
+                bpy.ops.wm.save_as_mainfile(filepath=str(temps[0]), check_existing=False, copy=True, compress=True)
+            progress("save .blend", time.perf_counter() - t0)
+            if map_path is not None:
+                from .core.aerial_map import render_map
+                from .core.worldplan import Site
+
+                t0 = time.perf_counter()
+                crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]
+                render_map(plan, str(temps[2]), poses=crosses)
+                progress("aerial map", time.perf_counter() - t0)
+            description = plan.describe(poses)
+            description["blend"] = str(out)
+            description["map"] = str(map_path) if map_path else None
+            temps[1].write_text(json.dumps(description, indent=1) + "\n")
     except OSError as e:
         raise UserError(f"cannot write the world files: {e.strerror or e}") from None
-    finally:
-        for tmp, _ in temps:
-            if tmp.exists():
-                tmp.unlink()
-            # Blender may leave a backup of an overwritten temp
-            backup = tmp.with_name(tmp.name + "1")
-            if backup.exists():
-                backup.unlink()
 
     counts = plan.counts()
     if not quiet:

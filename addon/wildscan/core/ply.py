@@ -18,8 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from . import files
 from .classes import BY_ID, class_table_dict, class_table_lines
 from .errors import UserError
+from .files import atomic_outputs, write_durably
 from .pointcloud import PLY_FIELDS, PointCloud
 
 # numpy kind+size -> PLY type name (the names plyfile, PCL and CloudCompare all read).
@@ -47,29 +49,8 @@ _PLAIN_TEXT = re.compile(r"[A-Za-z0-9_.,:/+\-]+")
 
 
 def check_output_path(path: str | os.PathLike) -> Path:
-    """The resolved output path, or UserError saying why it cannot be written.
-
-    Called before any scanning so a typo in `--out` costs nothing.
-    """
-    out = Path(path).expanduser().resolve()
-
-    def fail(why: str) -> UserError:
-        return UserError(f"cannot write {out}: {why}")
-
-    if out.suffix.lower() != ".ply":
-        raise fail("the output file name must end in .ply")
-    if out.is_dir():
-        raise fail("it is a directory; give a file name ending in .ply")
-    if sidecar_path(out).is_dir():
-        raise fail(f"its sidecar {sidecar_path(out)} is a directory")
-    parent = out.parent
-    if not parent.exists():
-        raise fail(f"directory {parent} does not exist")
-    if not parent.is_dir():
-        raise fail(f"{parent} is not a directory")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise fail(f"directory {parent} is not writable")
-    return out
+    """The resolved PLY path, or UserError saying why it (or its sidecar) cannot be written."""
+    return files.check_output_path(path, ".ply", "--out", companions=(".json",))
 
 
 def sidecar_path(ply_path: str | os.PathLike) -> Path:
@@ -77,10 +58,6 @@ def sidecar_path(ply_path: str | os.PathLike) -> Path:
     return Path(ply_path).with_suffix(".json")
 
 
-def _temp_path(final: Path) -> Path:
-    # Same directory as the target so os.replace is an atomic rename, hidden
-    # so file browsers and globs like *.ply never pick up a half-written file.
-    return final.with_name(f".{final.name}.tmp-{os.getpid()}")
 
 
 # --------------------------------------------------------------------------- header text
@@ -234,34 +211,10 @@ def _write_vertices(f, records: np.ndarray, ascii: bool) -> None:
         f.write(records.tobytes())
 
 
-def _write_durably(path: Path, write) -> None:
-    # fsync before the rename so a power cut cannot leave a renamed-but-empty file.
-    with open(path, "wb") as f:
-        write(f)
-        f.flush()
-        os.fsync(f.fileno())
 
 
-def _fsync_dir(directory: Path) -> None:
-    # Makes the renames themselves durable; not possible on every platform.
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
-def _remove_quietly(paths) -> None:
-    for p in paths:
-        try:
-            os.unlink(p)
-        except OSError:
-            pass  # already gone, or cleanup failing: never hide the original error
 
 
 def write_scan_files(ply_path: str | os.PathLike, cloud: PointCloud, metadata: dict,
@@ -278,19 +231,9 @@ def write_scan_files(ply_path: str | os.PathLike, cloud: PointCloud, metadata: d
     header = _ply_header(len(records), header_comments(cloud, metadata), ascii)
     sidecar = _sidecar_bytes(ply_path, cloud, metadata, ascii)
 
-    tmp_ply, tmp_json = _temp_path(ply_path), _temp_path(json_path)
-    placed: list[Path] = []
-    try:
-        _write_durably(tmp_ply, lambda f: (f.write(header), _write_vertices(f, records, ascii)))
-        _write_durably(tmp_json, lambda f: f.write(sidecar))
-        os.replace(tmp_ply, ply_path)
-        placed.append(ply_path)
-        os.replace(tmp_json, json_path)
-        placed.append(json_path)
-    except BaseException:  # KeyboardInterrupt too: never leave half a scan behind
-        _remove_quietly([tmp_ply, tmp_json, *placed])
-        raise
-    _fsync_dir(ply_path.parent)
+    with atomic_outputs(ply_path, json_path) as (tmp_ply, tmp_json):
+        write_durably(tmp_ply, lambda f: (f.write(header), _write_vertices(f, records, ascii)))
+        write_durably(tmp_json, lambda f: f.write(sidecar))
     return ply_path, json_path
 
 

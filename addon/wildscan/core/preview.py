@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from .classes import BY_ID
 from .errors import UserError
+from .files import atomic_outputs
 from .pointcloud import PointCloud
 
 _DPI = 100
@@ -341,12 +341,6 @@ def _save_atomically(fig, out: Path) -> None:
 
     if not isinstance(fig.canvas, FigureCanvasAgg):
         FigureCanvasAgg(fig)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".png.tmp", dir=out.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            # No Software/date text: the same cloud gives the same bytes.
-            fig.savefig(fh, format="png", dpi=_DPI, facecolor=fig.get_facecolor(), metadata={"Software": None})
-        os.replace(tmp, out)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_outputs(out) as (tmp,):
+        # No Software/date text: the same cloud gives the same bytes.
+        fig.savefig(tmp, format="png", dpi=_DPI, facecolor=fig.get_facecolor(), metadata={"Software": None})

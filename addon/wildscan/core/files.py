@@ -1,0 +1,98 @@
+"""Writing output files all-or-nothing (numpy-free, bpy-free).
+
+Every file WildScan writes goes to a hidden temporary name beside its target
+and is renamed into place only when everything it belongs with is written, so
+a failed or interrupted command never leaves a partial cloud, map or world.
+"""
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+from pathlib import Path
+
+from .errors import UserError
+
+
+def check_output_path(path, suffix: str, option: str = "--out", companions: tuple[str, ...] = ()) -> Path:
+    """The resolved output path, or UserError saying why it cannot be written.
+
+    Called before any work so a typo in an output option costs nothing.
+    `companions` are suffixes of files written beside it (a sidecar .json).
+    """
+    out = Path(path).expanduser().resolve()
+
+    def fail(why: str) -> UserError:
+        return UserError(f"{option} {out}: {why}")
+
+    if out.suffix.lower() != suffix:
+        raise fail(f"the file name must end in {suffix}")
+    if out.is_dir():
+        raise fail(f"it is a directory; give a file name ending in {suffix}")
+    for companion in companions:
+        if out.with_suffix(companion).is_dir():
+            raise fail(f"its sidecar {out.with_suffix(companion)} is a directory")
+    parent = out.parent
+    if not parent.exists():
+        raise fail(f"directory {parent} does not exist")
+    if not parent.is_dir():
+        raise fail(f"{parent} is not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise fail(f"directory {parent} is not writable")
+    if out.exists() and not os.access(out, os.W_OK):
+        raise fail("the file exists and is not writable")
+    return out
+
+
+def temp_path(final: Path) -> Path:
+    """Beside the target (so os.replace is an atomic rename), hidden from globs like *.ply,
+    and ending in the target's own suffix (Blender and matplotlib pick formats by it)."""
+    return final.with_name(f".{final.stem}.tmp-{os.getpid()}{final.suffix}")
+
+
+def remove_quietly(paths) -> None:
+    for p in paths:
+        try:
+            os.unlink(p)
+        except OSError:
+            pass  # already gone, or cleanup failing: never hide the original error
+
+
+def fsync_dir(directory: Path) -> None:
+    """Make renames durable where the platform allows it."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def atomic_outputs(*finals: Path):
+    """Yield one temporary path per target; rename them all into place when the block
+    succeeds, and leave none of them (temporary or final) when anything fails."""
+    finals = tuple(Path(p) for p in finals)
+    temps = [temp_path(p) for p in finals]
+    placed: list[Path] = []
+    try:
+        yield temps
+        for tmp, final in zip(temps, finals, strict=True):
+            os.replace(tmp, final)
+            placed.append(final)
+    except BaseException:  # KeyboardInterrupt too
+        remove_quietly([*temps, *placed])
+        raise
+    for directory in {p.parent for p in finals}:
+        fsync_dir(directory)
+
+
+def write_durably(path: Path, write) -> None:
+    """Open `path`, let `write(f)` fill it, and fsync before the caller renames it."""
+    with open(path, "wb") as f:
+        write(f)
+        f.flush()
+        os.fsync(f.fileno())
