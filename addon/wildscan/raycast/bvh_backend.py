@@ -14,8 +14,7 @@ import gc
 
 import numpy as np
 
-from .base import RayHits
-from .geometry import SceneGeometry, prepare_rays, refine_distances
+from .geometry import RefiningBackend, SceneGeometry
 
 _FAR_SLACK = 1e-3  # see embree_backend: cast a little long, cut in float64
 _CHUNK = 16384  # rays converted to Python floats at a time
@@ -32,7 +31,7 @@ def load_bvhtree():
     return BVHTree
 
 
-class BVHBackend:
+class BVHBackend(RefiningBackend):
     """First hits against one mathutils BVHTree of the extracted triangles."""
 
     name = "bvh"
@@ -51,23 +50,10 @@ class BVHBackend:
             self._tree = BVHTree.FromPolygons(
                 vertices.tolist(), faces.tolist(), all_triangles=True, epsilon=epsilon
             )
-        self._normal, self._d = geometry.local_planes()
+        self._planes = geometry.local_planes()
 
-    def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
-        local, dirs = prepare_rays(origins, directions, self.geometry.offset)
-        count = len(dirs)
-        if count == 0 or self._tree is None:
-            return RayHits.empty(count)
-        triangle, rough = self._first_hits(local, dirs, max_range)
-        hit = triangle >= 0
-        distance = np.full(count, np.inf)
-        distance[hit] = refine_distances(
-            self._normal, self._d, local[hit], dirs[hit], triangle[hit], rough[hit]
-        )
-        beyond = hit & (distance > max_range)
-        triangle[beyond] = -1
-        distance[beyond] = np.inf
-        return self.geometry.hits(triangle, distance)
+    def _ready(self) -> bool:
+        return self._tree is not None
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
         triangle = np.full(len(dirs), -1, dtype=np.int64)

@@ -23,15 +23,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import RayHits
-from .geometry import SceneGeometry, prepare_rays, refine_distances
+from .geometry import RefiningBackend, SceneGeometry
 
 # Rays are cast a little past max range in float32, then cut in float64, so a
 # hit right at max range is decided by the float64 distance, not by rounding.
 _FAR_SLACK = 1e-3
 
 
-class EmbreeBackend:
+class EmbreeBackend(RefiningBackend):
     """First hits against one Embree scene of the extracted triangles."""
 
     name = "embree"
@@ -51,23 +50,10 @@ class EmbreeBackend:
                 self._mesh = mesh_construction.TriangleMesh(
                     self._scene, geometry.local_vertices(np.float32), geometry.faces
                 )
-        self._normal, self._d = geometry.local_planes()
+        self._planes = geometry.local_planes()
 
-    def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
-        local, dirs = prepare_rays(origins, directions, self.geometry.offset)
-        count = len(dirs)
-        if count == 0 or self._mesh is None:
-            return RayHits.empty(count)
-        triangle, rough = self._first_hits(local, dirs, max_range)
-        hit = triangle >= 0
-        distance = np.full(count, np.inf)
-        distance[hit] = refine_distances(
-            self._normal, self._d, local[hit], dirs[hit], triangle[hit], rough[hit]
-        )
-        beyond = hit & (distance > max_range)
-        triangle[beyond] = -1
-        distance[beyond] = np.inf
-        return self.geometry.hits(triangle, distance)
+    def _ready(self) -> bool:
+        return self._mesh is not None
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
         """Embree's answer: hit triangle per ray (-1 for none) and float32 distance."""

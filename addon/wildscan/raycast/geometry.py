@@ -483,3 +483,34 @@ def _crossing_covered(amb_before: np.ndarray, t: np.ndarray, range_tol: float) -
     tt = np.where(amb_before, t, np.inf)
     order = np.sort(tt, axis=1)[:, :2] if tt.shape[1] >= 2 else np.full((len(tt), 2), np.inf)
     return np.isfinite(order[:, 1]) & (order[:, 1] - order[:, 0] <= range_tol)
+
+
+class RefiningBackend:
+    """What the backends over extracted triangles share: each finds first hits its own
+    way (`_first_hits`, in float32 or float64), then every hit distance is recomputed
+    in float64 against the exact plane of the hit triangle and cut at max range."""
+
+    geometry: SceneGeometry
+
+    def _ready(self) -> bool:
+        """Whether there is anything to hit (an empty crop casts nothing)."""
+        raise NotImplementedError
+
+    def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
+        """(hit triangle per ray, -1 for none; its approximate distance)."""
+        raise NotImplementedError
+
+    def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
+        local, dirs = prepare_rays(origins, directions, self.geometry.offset)
+        count = len(dirs)
+        if count == 0 or not self._ready():
+            return RayHits.empty(count)
+        triangle, rough = self._first_hits(local, dirs, max_range)
+        hit = triangle >= 0
+        distance = np.full(count, np.inf)
+        normal, d = self._planes
+        distance[hit] = refine_distances(normal, d, local[hit], dirs[hit], triangle[hit], rough[hit])
+        beyond = hit & (distance > max_range)
+        triangle[beyond] = -1
+        distance[beyond] = np.inf
+        return self.geometry.hits(triangle, distance)
