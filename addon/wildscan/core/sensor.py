@@ -11,6 +11,7 @@ so n = 0 looks 45° away from straight down behind, n = 540 straight up, and the
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import asdict, dataclass
 
@@ -110,9 +111,14 @@ def beam_directions(rh_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit beam directions of a full 3D scan in the sensor frame (Eq. 1 with ρ = 1).
 
     Returns (dirs (N,3) float64, ring n (N,) uint16, sweep m (N,) uint16), ordered
-    sweep-major: all 1080 beams of 2D scan 0, then of scan 1, …
+    sweep-major: all 1080 beams of 2D scan 0, then of scan 1, … The arrays are
+    cached per r_h (many scans share them) and read-only.
     """
-    m_count = sweep_count(rh_deg)
+    return _beam_directions(float(rh_deg), sweep_count(rh_deg))
+
+
+@functools.lru_cache(maxsize=8)
+def _beam_directions(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     theta = elevation_angles_rad()
     phi = np.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg)
     sin_t, cos_t = np.sin(theta), np.cos(theta)
@@ -122,7 +128,10 @@ def beam_directions(rh_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     dirs[:, :, 2] = cos_t[None, :]
     ring = np.tile(np.arange(BEAMS_PER_2D_SCAN, dtype=np.uint16), m_count)
     sweep = np.repeat(np.arange(m_count, dtype=np.uint16), BEAMS_PER_2D_SCAN)
-    return dirs.reshape(-1, 3), ring, sweep
+    arrays = (dirs.reshape(-1, 3), ring, sweep)
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 def range_noise(sensor: SensorConfig, beam_count: int) -> np.ndarray:
