@@ -57,9 +57,6 @@ class WILDSCAN_OT_generate_world(Operator):
         from ..world.generate import DETAILS, generate_world
         from . import status
         from .scene import (
-            WORLD_COLLECTION,
-            WORLD_DETAIL_PROP,
-            WORLD_SEED_PROP,
             generate_replacing,
             world_info,
         )
@@ -79,10 +76,6 @@ class WILDSCAN_OT_generate_world(Operator):
             return internal_error(self, f"building the world of seed {seed}", e)
         finally:
             status.invalidate()
-        root = bpy.data.collections.get(WORLD_COLLECTION)
-        if root is not None:
-            root[WORLD_SEED_PROP] = seed
-            root[WORLD_DETAIL_PROP] = detail
         info = world_info(context.scene)
         count = info["objects"] if info else 0
         self.report({"INFO"}, f"Built the world of seed {seed} ({detail} detail): {count} objects")

@@ -58,6 +58,10 @@ def realise(plan: WorldPlan, collection_name: str = ROOT, progress: Progress | N
     t0 = time.perf_counter()
     remove_generated(collection_name)
     root = wildscan_collection(collection_name)
+    # Recorded on the world itself, so a saved world says what it was built from
+    # (the add-on's panel reads these).
+    root["wildscan_seed"] = int(plan.seed)
+    root["wildscan_detail"] = plan.detail.name
     t0 = _timed(plan, "blender.clear", t0, progress)
 
     used = {el.proto for el in plan.elements}
