@@ -24,6 +24,9 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q
 
+bench: $(STAMP)
+	$(WILDSCAN) bench --out $(OUT)/bench
+
 addon: $(STAMP)
 	$(PY) tools/build_addon.py
 

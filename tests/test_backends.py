@@ -334,11 +334,11 @@ INSTANCE_TARGETS = (
 )
 
 
-# scene.ray_cast reports the instanced object but not its instancer, so the blender
-# backend cannot fall back to the instancer's `wildscan_instance` (it reports 0 for the
-# two rock copies). Recorded here; when blender_backend.py learns instancer tags, set
-# this to False.
-BLENDER_MISSES_INSTANCER_TAGS = True
+# scene.ray_cast reports the instanced object but not its instancer; the blender backend
+# finds the instancer by matching the hit's matrix against depsgraph.object_instances, so
+# it gives the copies their instancer's `wildscan_instance` as extraction does. Set this
+# back to True only if a Blender version breaks that matching.
+BLENDER_MISSES_INSTANCER_TAGS = False
 
 
 def test_extraction_expands_instances_and_modifiers_without_changing_the_scene():

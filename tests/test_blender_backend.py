@@ -115,6 +115,41 @@ def test_tags_come_from_the_original_object_under_a_modifier():
     assert hits.class_id[0] == ROCK and hits.instance[0] == 7
 
 
+def test_instanced_copies_take_the_instancers_tags_and_the_template_its_own():
+    # the template rock (class only) is in the scene itself and instanced by two empties
+    # that carry instance ids: each copy gets its instancer's id, the template none
+    template = _box("template", (0, 0, 0), (1, 1, 1), "rock", None)
+    source = bpy.data.collections.new("templates")
+    source.objects.link(template)
+    for i, x in enumerate((5.0, 10.0)):
+        empty = bpy.data.objects.new(f"instancer {i}", None)
+        empty.instance_type = "COLLECTION"
+        empty.instance_collection = source
+        empty.location = (x, 0.0, 0.0)
+        empty["wildscan_instance"] = 21 + i
+        empty["wildscan_class"] = "bush"  # the template's own class wins, as in extract.py
+        bpy.context.scene.collection.objects.link(empty)
+    origins = np.array([[0.0, 0.0, 5.0], [5.0, 0.0, 5.0], [10.0, 0.0, 5.0], [10.0, 0.0, 5.0]])
+    hits = _cast(origins, np.tile([0.0, 0.0, -1.0], (4, 1)))
+    assert hits.class_id.tolist() == [ROCK] * 4
+    assert hits.instance.tolist() == [0, 21, 22, 22]
+    np.testing.assert_allclose(hits.distance, 4.5, atol=1e-6)
+
+
+def test_a_scene_outside_any_window_is_cast_in_its_own_depsgraph():
+    other = bpy.data.scenes.new("not shown")
+    v, f = tw.box((0, 0, 0), (2, 2, 2))
+    obj = bpy.data.objects.new("far rock", bpy.data.meshes.new("far rock"))
+    obj.data.from_pydata(v.tolist(), [], f.tolist())
+    obj["wildscan_class"], obj["wildscan_instance"] = "rock", 8
+    other.collection.objects.link(obj)
+    assert other.view_layers[0].depsgraph is None  # what broke the backend before
+    hits = BlenderRayCastBackend(scene=other).cast(np.array([-10.0, 0.0, 0.0]), np.array([[1.0, 0.0, 0.0]]), 20.0)
+    assert hits.distance[0] == pytest.approx(9.0, abs=1e-6) and hits.instance[0] == 8
+    # the active scene is empty: the backend did not look there
+    assert not _cast([-10.0, 0.0, 0.0], [[1.0, 0.0, 0.0]]).hit[0]
+
+
 def test_sees_objects_added_after_the_backend_was_made():
     backend = BlenderRayCastBackend()
     _box("late", (0, 0, 0), (2, 2, 2), "bush", 9)

@@ -156,7 +156,20 @@ def _register_world_commands() -> None:
     COMMANDS["demo"] = demo.run_demo
 
 
-ALL_COMMANDS = ("world", "scan", "poses", "demo", "bench-world")
+def _register_bench_command() -> None:
+    from . import bench
+
+    COMMAND_HELP["bench"] = (
+        "time and check every ray backend against scene.ray_cast",
+        "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
+        "world, analytic primitives and the default world at each detail level, print ratios against "
+        "scene.ray_cast and scaling tables, and write a CSV and a chart of time against error.",
+    )
+    ADD_ARGUMENTS["bench"] = bench.add_bench_arguments
+    COMMANDS["bench"] = bench.run_bench_command
+
+
+ALL_COMMANDS = ("world", "scan", "poses", "demo", "bench", "bench-world")
 
 
 def build_parser(prog: str = "wildscan", commands=ALL_COMMANDS) -> ArgumentParser:
@@ -284,6 +297,7 @@ def world_stage_progress(stage: str, seconds: float) -> None:
 
 COMMANDS = {"scan": run_scan_command}
 _register_world_commands()
+_register_bench_command()
 
 
 def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:

@@ -66,24 +66,27 @@ class InstanceCopies:
     ray_cast hit (ray_cast gives the instanced object and the copy's matrix only)."""
 
     def __init__(self, depsgraph):
-        instanced = set()
-        entries = []
+        copies: list = []
+        direct: list = []
         for inst in depsgraph.object_instances:
-            obj = inst.object
-            if obj is None:
+            if not inst.is_instance:
+                direct.append(inst.object)  # evaluated objects stay valid; read them later
                 continue
-            # copy now: an instance's data is only valid during this iteration step
-            entries.append((_original(obj), np.array(inst.matrix_world, dtype=np.float64).ravel(),
-                            _original(inst.parent) if inst.is_instance and inst.parent is not None else None))
-            if inst.is_instance:
-                instanced.add(_original(obj))
-        # originals that are instanced somewhere; their direct (non-instance) uses are
-        # candidates too, so a hit on the object itself is matched to itself
-        self.objects = frozenset(instanced)
+            obj = inst.object
+            if obj is not None:
+                # copy now: an instance's data is only valid during this iteration step
+                parent = _original(inst.parent) if inst.parent is not None else None
+                copies.append((_original(obj), np.array(inst.matrix_world, dtype=np.float64).ravel(), parent))
+        self.objects = frozenset(orig for orig, _, _ in copies)  # originals instanced somewhere
         self._candidates: dict = {}
-        for orig, matrix, parent in entries:
-            if orig in instanced:
-                self._candidates.setdefault(orig, []).append((matrix, parent))
+        for orig, matrix, parent in copies:
+            self._candidates.setdefault(orig, []).append((matrix, parent))
+        if self.objects:
+            # an instanced object may also be in the scene itself: a hit there is its own
+            for obj in direct:
+                orig = _original(obj) if obj is not None else None
+                if orig in self.objects:
+                    self._candidates[orig].append((np.array(obj.matrix_world, dtype=np.float64).ravel(), None))
 
     def instancer(self, obj, matrix):
         """The instancer of the copy of `obj` at world `matrix` (None: the object itself,
