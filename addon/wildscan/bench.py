@@ -1497,11 +1497,6 @@ def _print_flush(text: str) -> None:
     print(text, flush=True)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """A stand-alone parser (`python -m wildscan.bench`) until cli.py registers `wildscan bench`."""
-    p = argparse.ArgumentParser(prog="wildscan bench", description=__doc__.split("\n\n")[0])
-    add_bench_arguments(p)
-    return p
 
 
 # =============================================================================================
@@ -1720,14 +1715,3 @@ def run_bench(object_counts: Sequence[int] = (200, 3000), poses: Sequence = DEFA
         write_csv(rows, csv_path)
     return rows
 
-
-if __name__ == "__main__":
-    import sys
-
-    from .core.errors import UserError as _UserError
-
-    try:
-        sys.exit(run_bench_command(build_parser().parse_args()))
-    except _UserError as exc:
-        sys.stderr.write(f"wildscan bench: error: {exc}\n")
-        sys.exit(2)

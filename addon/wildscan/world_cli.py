@@ -49,7 +49,7 @@ def add_world_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
                    help="world seed, a whole number >= 0; every seed gives another world with all six zones")
     p.add_argument("--detail", default="default", metavar="LEVEL",
                    help="low | default | high: how finely shapes are modelled (terrain max height error "
-                        "0.15 / 0.05 / 0.015 m); the layout is the same at every level (default: default)")
+                        "0.15 / 0.05 / 0.02 m); the layout is the same at every level (default: default)")
     p.add_argument("--out", required=True, metavar="WORLD.blend",
                    help="the Blender file to write; zones and scan poses go beside it as WORLD.json")
     p.add_argument("--map", metavar="MAP.png", help="also write an aerial map (classes in colour, zones, poses)")
