@@ -35,7 +35,6 @@ import csv
 import gc
 import io
 import math
-import os
 import statistics
 import tempfile
 import time
@@ -47,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from .core.errors import PoseRejected, UserError
+from .core.files import output_directory
 
 RANGE_TOLERANCE = 1e-4  # metres: "ranges within 1e-4 m"
 AGREEMENT_TARGET = 0.9999
@@ -1445,20 +1445,8 @@ def config_from_args(args) -> BenchConfig:
     runs = _whole_number(args.runs, "--runs", 1, 50) if args.runs is not None else (QUICK_RUNS if quick else DEFAULT_RUNS)
     ref_rays = (_whole_number(args.reference_rays, "--reference-rays", 100, 194_400) if args.reference_rays is not None
                 else (QUICK_REFERENCE_RAYS if quick else DEFAULT_REFERENCE_RAYS))
-    return BenchConfig(seed, tuple(dict.fromkeys(details)), tuple(fast), runs, ref_rays, _out_dir(args.out), quick)
+    return BenchConfig(seed, tuple(dict.fromkeys(details)), tuple(fast), runs, ref_rays, output_directory(args.out), quick)
 
-
-def _out_dir(text) -> Path:
-    out = Path(str(text)).expanduser()
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: it is a file; give a directory for bench.csv and bench.png")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UserError(f"--out {out}: cannot create the directory ({e.strerror or e})") from None
-    if not os.access(out, os.W_OK):
-        raise UserError(f"--out {out}: not writable")
-    return out.resolve()
 
 
 def run_bench_command(args, in_blender: bool = False, out: Callable[[str], None] | None = None) -> int:

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from .core.errors import UserError
+from .core.files import output_directory
 
 # Point counts of the paper's r_h = 1 deg scans (Figs. 8-12), for comparison.
 PAPER_POINTS = {"hills": 83_056, "lake": 63_998, "park": 60_669, "cave": 80_307, "forest": 85_479}
@@ -32,16 +32,6 @@ def add_demo_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> 
                    help="ray caster (default auto, the fastest available)")
 
 
-def demo_directory(text: str) -> Path:
-    out = Path(text).expanduser().resolve()
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: exists and is not a directory")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UserError(f"--out {out}: cannot create it ({e.strerror})") from None
-    return out
-
 
 def first_pose_per_zone(world_json: Path) -> dict[str, dict]:
     zones = json.loads(world_json.read_text())["zones"]
@@ -61,7 +51,7 @@ def run_demo(args, in_blender: bool = False) -> int:
 
     seed = check_seed(args.seed)
     sensor = SensorConfig(rh_deg=args.rh, noise_seed=seed).validate()
-    out = demo_directory(args.out)
+    out = output_directory(args.out)
 
     world_args = argparse.Namespace(seed=str(seed), detail="default", out=str(out / "world.blend"),
                                     map=str(out / "map.png"), poses="3", quiet=False)

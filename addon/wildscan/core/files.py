@@ -71,6 +71,20 @@ def fsync_dir(directory: Path) -> None:
         os.close(fd)
 
 
+def output_directory(text, option: str = "--out") -> Path:
+    """A directory to write into, created (with its parents) if missing, or UserError."""
+    out = Path(str(text)).expanduser().resolve()
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{option} {out}: it is a file; give a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UserError(f"{option} {out}: cannot create the directory ({e.strerror or e})") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise UserError(f"{option} {out}: directory is not writable")
+    return out
+
+
 @contextmanager
 def atomic_outputs(*finals: Path):
     """Yield one temporary path per target; rename them all into place when the block

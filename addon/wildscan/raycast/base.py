@@ -50,3 +50,30 @@ def broadcast_origins(origins: np.ndarray, n: int) -> np.ndarray:
     if origins.ndim == 1:
         origins = np.broadcast_to(origins, (n, 3))
     return origins
+
+
+CLASS_PROP = "wildscan_class"
+INSTANCE_PROP = "wildscan_instance"
+
+
+def tags_from(sources) -> tuple[int, int]:
+    """(class id, instance id) from the WildScan custom properties of `sources`, each
+    property taken from the first source that has it: an instanced object, then its
+    instancer, so a tagged template instanced by empties that carry their own
+    `wildscan_instance` gives every copy its own id. Untagged: (0, 0)."""
+    from ..core.classes import class_id_for_tag
+
+    class_id = class_id_for_tag(_first_prop(sources, CLASS_PROP))
+    try:
+        instance = int(_first_prop(sources, INSTANCE_PROP) or 0)
+    except (TypeError, ValueError):
+        instance = 0
+    return class_id, instance
+
+
+def _first_prop(objects, key: str):
+    for obj in objects:
+        value = obj.get(key)
+        if value is not None:
+            return value
+    return None

@@ -17,8 +17,8 @@ from collections.abc import Callable
 import bpy
 import numpy as np
 
-from ..core.classes import UNLABELED, class_id_for_tag
-from .base import RayHits, broadcast_origins
+from ..core.classes import UNLABELED
+from .base import RayHits, broadcast_origins, tags_from
 
 PROGRESS_EVERY = 10_000
 
@@ -34,24 +34,10 @@ def _original(obj):
 
 def _object_tags(obj, instancer=None) -> tuple[int, int, str | None]:
     """(class id, instance, name if untagged) of the hit object, read from the original
-    objects (evaluated copies may not carry custom properties): each property from the
-    object itself when it has it, else from its instancer (as extract.py does)."""
+    objects (evaluated copies may not carry custom properties)."""
     sources = [_original(obj)] + ([_original(instancer)] if instancer is not None else [])
-    class_id = class_id_for_tag(_first_prop(sources, "wildscan_class"))
-    try:
-        instance = int(_first_prop(sources, "wildscan_instance") or 0)
-    except (TypeError, ValueError):
-        instance = 0
-    untagged = sources[0].name if class_id == UNLABELED.id else None
-    return class_id, instance, untagged
-
-
-def _first_prop(objects, key: str):
-    for obj in objects:
-        value = obj.get(key)
-        if value is not None:
-            return value
-    return None
+    class_id, instance = tags_from(sources)
+    return class_id, instance, sources[0].name if class_id == UNLABELED.id else None
 
 
 def scene_depsgraph(scene):

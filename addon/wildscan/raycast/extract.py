@@ -29,11 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.classes import class_id_for_tag
+from .base import tags_from
 from .geometry import SceneGeometry, concatenate, local_origin, triangles_near_xy
 
-CLASS_PROP = "wildscan_class"
-INSTANCE_PROP = "wildscan_instance"
 # Object types whose evaluated geometry to_mesh() can turn into triangles.
 MESH_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "FONT", "META"})
 
@@ -140,18 +138,5 @@ def _tags(inst) -> tuple[int, int, str]:
     sources = [own]
     if inst.is_instance and inst.parent is not None:
         sources.append(inst.parent.original)
-    class_tag = _first_prop(sources, CLASS_PROP)
-    instance = _first_prop(sources, INSTANCE_PROP)
-    try:
-        instance = int(instance) if instance is not None else 0
-    except (TypeError, ValueError):
-        instance = 0
-    return class_id_for_tag(class_tag), instance, own.name
-
-
-def _first_prop(objects, key: str):
-    for obj in objects:
-        value = obj.get(key)
-        if value is not None:
-            return value
-    return None
+    class_id, instance = tags_from(sources)
+    return class_id, instance, own.name
