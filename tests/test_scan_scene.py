@@ -220,3 +220,22 @@ def test_help_explains_every_option_with_unit_and_default():
         assert words in " ".join(proc.stdout.split())
     proc = blender_scan(["--help"])
     assert proc.returncode == 0 and "--max-range" in proc.stdout
+
+
+def test_a_missing_fast_backend_falls_back_and_says_so_once(world_blend, tmp_path):
+    # Debian's Blender 3.4 has no embreex: the default backend falls back to bvh.
+    proc = blender_scan(["--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "4",
+                         "--out", str(tmp_path / "b.ply")])
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
+    notices = [ln for ln in proc.stdout.splitlines() if "is not available" in ln]
+    assert len(notices) == 1 and "using 'bvh' instead" in notices[0], proc.stdout
+    meta = json.loads((tmp_path / "b.json").read_text())
+    assert meta["backend"] == "bvh"
+    # The wheel has embreex: no notice, embree used.
+    proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "4",
+                "--out", str(tmp_path / "w.ply")])
+    assert proc.returncode == 0 and "is not available" not in proc.stdout + proc.stderr
+    assert json.loads((tmp_path / "w.json").read_text())["backend"] == "embree"
+    # …and both give the same points.
+    a, b = PlyData.read(str(tmp_path / "b.ply"))["vertex"], PlyData.read(str(tmp_path / "w.ply"))["vertex"]
+    assert a.count == b.count and np.array_equal(a["label"], b["label"])
