@@ -5,9 +5,10 @@ import numpy as np
 from matplotlib.image import imread
 from plyfile import PlyData
 
-from scene_helpers import WILDSCAN, run
 from wildscan.core.classes import CLASSES
 from wildscan.world_cli import ZONES
+
+from scene_helpers import WILDSCAN, run
 
 
 def test_demo_builds_the_world_its_map_and_a_scan_with_preview_per_zone(tmp_path):

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import plyfile
 import pytest
+
 import wildscan
 from wildscan.core import ply
 from wildscan.core.classes import COLOR_BY_ID, class_table_dict, class_table_lines
@@ -262,7 +263,7 @@ def test_failure_while_writing_vertices_leaves_nothing(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr(ply, "_write_vertices", half_then_fail)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(UserError, match="cannot write .*scan.ply: disk full"):
         write_scan_files(tmp_path / "scan.ply", make_cloud(), METADATA)
     assert list(tmp_path.iterdir()) == []
 

@@ -175,6 +175,12 @@ BAD_INPUTS = [
     ({"--world": None, "--seed": "1.5"}, "--seed"),
     ({"--seed": "1"}, "not allowed with argument --world"),
     ({"--bogus": ""}, "unrecognized"),
+    ({"--rh": "1e-12"}, "at least 0.05"),
+    ({"--pose": "1e308 0 0"}, "within"),
+    ({"--z-start": "1e308"}, "--z-start"),
+    ({"--world": None, "--seed": "3000000000"}, "--seed"),
+    # passes every check up front, then the OS refuses the write itself
+    ({"--out": "/proc/wildscan-scan.ply", "--quiet": ""}, "cannot write /proc/wildscan-scan.ply"),
 ]
 
 

@@ -66,6 +66,8 @@ def test_poses_prints_valid_poses_per_zone(capsys):
         (["world", "--seed", "1", "--out", "{tmp}"], "must end in .blend"),
         (["world", "--seed", "1", "--out", "{tmp}/w.txt"], "must end in .blend"),
         (["world", "--seed", "1", "--map", "{tmp}/nowhere/m.png"], "does not exist"),
+        (["world", "--seed", "2147483648"], "up to 2147483647"),
+        (["world", "--seed", "1", "--detail", "low", "--quiet", "--out", "/proc/wildscan-world.blend"], "cannot write"),
         (["poses", "--seed", "1", "--zone", "desert"], "--zone must be one of"),
         (["poses", "--seed", "1", "--count", "0"], "--count must be a whole number from 1"),
         (["poses", "--seed", "-4"], "--seed must be a non-negative integer"),

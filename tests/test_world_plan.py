@@ -289,7 +289,9 @@ def test_bad_seed_is_a_user_error(bad):
 
 
 def test_good_seeds():
-    assert check_seed(0) == 0 and check_seed("42") == 42 and check_seed(2**40) == 2**40
+    assert check_seed(0) == 0 and check_seed("42") == 42 and check_seed(2**31 - 1) == 2**31 - 1
+    with pytest.raises(UserError, match="up to 2147483647"):
+        check_seed(2**31)  # stored on the world as a 32-bit Blender property
 
 
 def test_unknown_detail_and_zone():

@@ -44,14 +44,23 @@ def non_negative_int(text: str) -> int:
     return value
 
 
+def world_seed(text: str) -> int:
+    from .core.worldplan import check_seed
+
+    try:
+        return check_seed(text)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(str(e).removeprefix("--seed ")) from None
+
+
 def add_scan_arguments(p: argparse.ArgumentParser, in_blender: bool) -> None:
     source = p.add_mutually_exclusive_group(required=not in_blender)
     source.add_argument("--world", metavar="FILE.blend", help="scan this saved world (or any .blend with tagged objects)")
     source.add_argument(
         "--seed",
-        type=non_negative_int,
+        type=world_seed,
         metavar="S",
-        help="build the world from this seed (integer >= 0) and scan it",
+        help="build the world from this seed (integer from 0 to 2147483647) and scan it",
     )
     p.add_argument(
         "--pose",
@@ -74,7 +83,7 @@ def add_scan_arguments(p: argparse.ArgumentParser, in_blender: bool) -> None:
         type=finite_float,
         default=S.DEFAULT_RH_DEG,
         metavar="DEG",
-        help=f"horizontal resolution r_h in degrees; 180/r_h must be whole (default {S.DEFAULT_RH_DEG:g}: "
+        help=f"horizontal resolution r_h in degrees, at least {S.MIN_RH_DEG:g}; 180/r_h must be whole (default {S.DEFAULT_RH_DEG:g}: "
         "180 2D scans, 194,400 beams)",
     )
     p.add_argument(
@@ -234,7 +243,7 @@ def print_class_counts(counts: dict[int, int]) -> None:
 
 
 def run_scan_command(args, in_blender: bool) -> int:
-    from .core.placement import Pose
+    from .core.placement import Pose, check_z_start
     from .core.ply import check_output_path, sidecar_path, write_scan_files
     from .core.sensor import SensorConfig
     from .scanning import scan_current_scene
@@ -247,6 +256,7 @@ def run_scan_command(args, in_blender: bool) -> int:
         noise_seed=args.noise_seed,
     ).validate()
     pose = Pose(*args.pose).validate()
+    check_z_start(args.z_start)
     out = check_output_path(args.out)
 
     load_world_for_scan(args, in_blender)

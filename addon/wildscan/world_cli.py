@@ -189,6 +189,18 @@ class StageProgress:
             self.stream.flush()
 
 
+def save_blend(tmp: Path, final: Path) -> None:
+    """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError."""
+    import bpy
+
+    try:
+        with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
+            bpy.ops.wm.save_as_mainfile(filepath=str(tmp), check_existing=False, copy=True, compress=True)
+    except RuntimeError as e:
+        reason = str(e).strip().splitlines()[0] if str(e).strip() else "Blender could not save it"
+        raise UserError(f"cannot write {final}: {reason.replace(str(tmp), str(final))}") from None
+
+
 def run_world(args, in_blender: bool = False) -> int:
     seed = check_seed(args.seed)
     detail_level(args.detail)
@@ -201,7 +213,6 @@ def run_world(args, in_blender: bool = False) -> int:
 
         require_matplotlib()
 
-    import bpy
 
     from .world.builder import build_world
     from .world.scene_io import empty_scene
@@ -221,8 +232,7 @@ def run_world(args, in_blender: bool = False) -> int:
     try:
         with atomic_outputs(*finals) as temps:
             t0 = time.perf_counter()
-            with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
-                bpy.ops.wm.save_as_mainfile(filepath=str(temps[0]), check_existing=False, copy=True, compress=True)
+            save_blend(temps[0], out)
             progress("save .blend", time.perf_counter() - t0)
             if map_path is not None:
                 from .core.aerial_map import render_map

@@ -97,11 +97,22 @@ def atomic_outputs(*finals: Path):
         for tmp, final in zip(temps, finals, strict=True):
             os.replace(tmp, final)
             placed.append(final)
+    except OSError as e:  # a full disk, a path the OS refuses: the user's to fix
+        remove_quietly([*temps, *placed])
+        raise UserError(f"cannot write {_target_of(e.filename, temps, finals)}: {e.strerror or e}") from None
     except BaseException:  # KeyboardInterrupt too
         remove_quietly([*temps, *placed])
         raise
     for directory in {p.parent for p in finals}:
         fsync_dir(directory)
+
+
+def _target_of(filename, temps, finals) -> Path:
+    """The file the user asked for, when an error names its temporary stand-in."""
+    for tmp, final in zip(temps, finals):
+        if filename is not None and Path(filename) == tmp:
+            return final
+    return Path(filename) if filename else finals[0]
 
 
 def write_durably(path: Path, write) -> None:

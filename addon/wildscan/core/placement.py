@@ -40,6 +40,7 @@ LASER_CLEARANCE = 1.0  # m, lasers start this far above the ground the probe fou
 PROBE_TOP_Z = 10_000.0  # m, the probe starts here (worlds are far lower)
 PROBE_MAX_LAYERS = 64  # surfaces the probe may pass through before giving up
 PROBE_STEP = 1e-4  # m, how far past a surface the probe restarts
+MAX_COORDINATE = 1e6  # m; float64 keeps 0.1 um steps out there, and no world is bigger
 
 TERRAIN_ID = 1
 
@@ -64,6 +65,9 @@ class Pose:
         for name, v in (("x", self.x), ("y", self.y), ("yaw", self.yaw_deg)):
             if not math.isfinite(v):
                 raise UserError(f"--pose {name} must be a finite number, got {v}")
+        for name, v in (("x", self.x), ("y", self.y)):
+            if abs(v) > MAX_COORDINATE:
+                raise UserError(f"--pose {name} must be within +-{MAX_COORDINATE:g} m, got {v:g}")
         return self
 
     def to_dict(self) -> dict:
@@ -144,6 +148,12 @@ class Placement:
         }
 
 
+def check_z_start(z_start: float | None) -> float | None:
+    if z_start is not None and (not math.isfinite(z_start) or abs(z_start) > MAX_COORDINATE):
+        raise UserError(f"--z-start must be a height within +-{MAX_COORDINATE:g} m, got {z_start:g}")
+    return z_start
+
+
 def laser_xy(pose: Pose) -> np.ndarray:
     """(4,2) horizontal positions of the arm tips."""
     heading = rot_z(math.radians(pose.yaw_deg))[:2, :2]
@@ -192,8 +202,8 @@ def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
         if ground is None:
             raise PoseRejected(f"{where} is off the world: there is no terrain below it")
         z_start = ground + LASER_CLEARANCE
-    elif not math.isfinite(z_start):
-        raise UserError(f"--z-start must be a finite height in metres, got {z_start}")
+    else:
+        check_z_start(z_start)
 
     lasers = cast_lasers(backend, pose, z_start)
     bad = [laser for laser in lasers if laser.class_id != TERRAIN_ID]

@@ -31,6 +31,7 @@ DEFAULT_MAX_RANGE = 15.0  # the UTM-30LX-EW under direct sunlight
 MAX_RANGE_LIMIT = 30.0  # the UTM-30LX-EW's range in the dark
 DEFAULT_NOISE_SIGMA = 0.015
 DEFAULT_RH_DEG = 1.0
+MIN_RH_DEG = 0.05  # 3,600 2D scans, 3.9 M beams: finer would need gigabytes of beams
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,8 @@ def sweep_count(rh_deg: float) -> int:
     """M = 180 / r_h, which must come out whole."""
     if not isinstance(rh_deg, (int, float)) or not math.isfinite(rh_deg) or rh_deg <= 0:
         raise UserError(f"--rh must be a positive number of degrees dividing 180 (e.g. 0.25, 0.5, 1, 2), got {rh_deg}")
+    if rh_deg < MIN_RH_DEG:
+        raise UserError(f"--rh must be at least {MIN_RH_DEG:g} deg (finer scans need gigabytes), got {rh_deg:g}")
     m = SWEEP_DEG / rh_deg
     whole = round(m)
     if whole < 1 or abs(m - whole) > 1e-9 * max(1.0, m):

@@ -134,11 +134,16 @@ def detail_level(name: str) -> DetailLevel:
     return DETAILS[name]
 
 
+# Seeds are stored on the world in Blender (ID properties are 32-bit) and in the
+# add-on's seed field, so they stay within a signed 32-bit int.
+MAX_SEED = 2**31 - 1
+
+
 def check_seed(seed) -> int:
-    """A seed is a non-negative integer (given as int or text)."""
+    """A seed is a non-negative integer up to MAX_SEED (given as int or text)."""
     text = str(seed).strip()
-    if isinstance(seed, bool) or not text.isdigit():
-        raise UserError(f"--seed must be a non-negative integer, got {seed!r}")
+    if isinstance(seed, bool) or not text.isdigit() or int(text) > MAX_SEED:
+        raise UserError(f"--seed must be a non-negative integer up to {MAX_SEED}, got {seed!r}")
     return int(text)
 
 
