@@ -178,7 +178,7 @@ def test_closed_form_truth_of_the_primitives():
     (["--backends", "blender"], "at least one fast backend"),
     (["--runs", "0"], "--runs must be a whole number from 1 to 50"),
     (["--reference-rays", "ten"], "--reference-rays must be a whole number"),
-    (["--seed", "-3"], "--seed must be a non-negative integer"),
+    (["--seed", "-3"], "--seed must be a whole number from 0 to 2147483647"),
 ])
 def test_bad_options_are_refused_in_one_line(argv, message, tmp_path, capsys):
     assert run_bench(argv + ["--out", str(tmp_path / "b")]) == 2

@@ -14,6 +14,7 @@ from wildscan.core.testworld_plan import plan_test_world
 
 from scene_helpers import (
     BLENDER,
+    REPO,
     WILDSCAN,
     blender_scan,
     distance_to_class,
@@ -174,25 +175,61 @@ BAD_INPUTS = [
     ({"--world": None, "--seed": "-1"}, "--seed"),
     ({"--world": None, "--seed": "1.5"}, "--seed"),
     ({"--seed": "1"}, "not allowed with argument --world"),
-    ({"--bogus": ""}, "unrecognized"),
+    ({"--bogus": True}, "unrecognized"),
     ({"--rh": "1e-12"}, "at least 0.05"),
     ({"--pose": "1e308 0 0"}, "within"),
     ({"--z-start": "1e308"}, "--z-start"),
     ({"--world": None, "--seed": "3000000000"}, "--seed"),
     # passes every check up front, then the OS refuses the write itself
-    ({"--out": "/proc/wildscan-scan.ply", "--quiet": ""}, "cannot write /proc/wildscan-scan.ply"),
+    ({"--out": "/proc/wildscan-scan.ply", "--quiet": True}, "cannot write /proc/wildscan-scan.ply"),
+    ({"--world": None, "--seed": "\u00b2"}, "--seed"),  # a digit int() refuses
+    ({"--world": ""}, "empty"),
+    ({"--world": "/"}, "is a directory"),
+    ({"--out": ""}, "empty"),
+    ({"--noise": "1e300"}, "--noise"),
 ]
+
+
+def test_negative_numbers_in_exponent_form_are_values_not_options(world_blend, tmp_path):
+    proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "-2e0", "-1.5e0", "-9e1", "--rh", "4",
+                "--out", str(tmp_path / "s.ply")])
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads((tmp_path / "s.json").read_text())["pose"] == {"x": -2.0, "y": -1.5, "yaw_deg": -90.0}
+
+
+def test_a_bug_inside_blender_exits_1_not_0(tmp_path):
+    # Blender itself would print an escaping exception and exit 0; blender_main turns it into 1.
+    script = tmp_path / "crash.py"
+    script.write_text(
+        "import sys\n"
+        f"sys.path.insert(0, {str(REPO / 'addon')!r})\n"
+        "from wildscan import cli\n"
+        "def boom(args, in_blender):\n"
+        "    raise RuntimeError('a bug')\n"
+        "cli.COMMANDS['scan'] = boom\n"
+        "sys.exit(cli.blender_main('scan'))\n"
+    )
+    proc = run([BLENDER, "-b", "--factory-startup", "-P", str(script), "--", "--seed", "1", "--pose", "0", "0", "0",
+                "--out", str(tmp_path / "x.ply")])
+    assert proc.returncode == 1 and "RuntimeError: a bug" in proc.stderr
 
 
 def scan_args(replace: dict, out, world) -> list[str]:
     """A good scan command line with some options replaced."""
     args = {"--world": str(world), "--pose": "0 0 0", "--rh": "4", "--out": str(out)}
     args.update(replace)
-    return [tok for key, value in args.items() if value is not None for tok in (key, *value.split())]
+    return [tok for key, value in args.items() if value is not None for tok in (key, *tokens(value))]
+
+
+def tokens(value) -> list[str]:
+    """Command-line words of an option's value: True is a flag, "" one empty argument."""
+    if value is True:
+        return []
+    return value.split() or [value]
 
 
 def ids(cases):
-    return [" ".join(f"{k} {v}" for k, v in replace.items() if v is not None) for replace, _ in cases]
+    return [" ".join(f"{k} {'' if v is True else v}" for k, v in replace.items() if v is not None) for replace, _ in cases]
 
 
 @pytest.mark.parametrize("replace, expected", BAD_INPUTS, ids=ids(BAD_INPUTS))

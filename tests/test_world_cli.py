@@ -58,19 +58,19 @@ def test_poses_prints_valid_poses_per_zone(capsys):
 @pytest.mark.parametrize(
     "argv,message",
     [
-        (["world", "--seed", "-1"], "--seed must be a non-negative integer"),
-        (["world", "--seed", "1.5"], "--seed must be a non-negative integer"),
-        (["world", "--seed", "x7"], "--seed must be a non-negative integer"),
+        (["world", "--seed", "-1"], "--seed must be a whole number from 0 to 2147483647"),
+        (["world", "--seed", "1.5"], "--seed must be a whole number from 0 to 2147483647"),
+        (["world", "--seed", "x7"], "--seed must be a whole number from 0 to 2147483647"),
         (["world", "--seed", "1", "--detail", "ultra"], "--detail must be one of low, default, high"),
         (["world", "--seed", "1", "--out", "{tmp}/missing/w.blend"], "does not exist"),
         (["world", "--seed", "1", "--out", "{tmp}"], "must end in .blend"),
         (["world", "--seed", "1", "--out", "{tmp}/w.txt"], "must end in .blend"),
         (["world", "--seed", "1", "--map", "{tmp}/nowhere/m.png"], "does not exist"),
-        (["world", "--seed", "2147483648"], "up to 2147483647"),
+        (["world", "--seed", "2147483648"], "from 0 to 2147483647"),
         (["world", "--seed", "1", "--detail", "low", "--quiet", "--out", "/proc/wildscan-world.blend"], "cannot write"),
         (["poses", "--seed", "1", "--zone", "desert"], "--zone must be one of"),
         (["poses", "--seed", "1", "--count", "0"], "--count must be a whole number from 1"),
-        (["poses", "--seed", "-4"], "--seed must be a non-negative integer"),
+        (["poses", "--seed", "-4"], "--seed must be a whole number from 0 to 2147483647"),
     ],
 )
 def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, argv, message):

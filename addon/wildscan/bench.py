@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .core.checks import whole_number
 from .core.errors import PoseRejected, UserError
 from .core.files import output_directory
 
@@ -1405,12 +1406,6 @@ def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
                         "scene.ray_cast scan of the default world")
 
 
-def _whole_number(text, option: str, low: int, high: int) -> int:
-    s = str(text).strip()
-    if not s.isdigit() or not low <= int(s) <= high:
-        raise UserError(f"{option} must be a whole number from {low} to {high}, got {text!r}")
-    return int(s)
-
 
 def _names(text: str, option: str) -> list[str]:
     names = [n.strip() for n in str(text).split(",")]
@@ -1442,8 +1437,8 @@ def config_from_args(args) -> BenchConfig:
             fast.append(name)
     if not fast:
         raise UserError("--backends must name at least one fast backend (embree or bvh) to compare with scene.ray_cast")
-    runs = _whole_number(args.runs, "--runs", 1, 50) if args.runs is not None else (QUICK_RUNS if quick else DEFAULT_RUNS)
-    ref_rays = (_whole_number(args.reference_rays, "--reference-rays", 100, 194_400) if args.reference_rays is not None
+    runs = whole_number(args.runs, "--runs", 1, 50) if args.runs is not None else (QUICK_RUNS if quick else DEFAULT_RUNS)
+    ref_rays = (whole_number(args.reference_rays, "--reference-rays", 100, 194_400) if args.reference_rays is not None
                 else (QUICK_REFERENCE_RAYS if quick else DEFAULT_REFERENCE_RAYS))
     return BenchConfig(seed, tuple(dict.fromkeys(details)), tuple(fast), runs, ref_rays, output_directory(args.out), quick)
 

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
+import traceback
 
 from . import __version__
 from .core import sensor as S
@@ -16,8 +18,16 @@ from .core.errors import UserError
 EXIT_USER_ERROR = 2
 
 
+# argparse takes "-1e3" for an option (it only knows -1 and -1.5 as numbers).
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
 class ArgumentParser(argparse.ArgumentParser):
     """argparse that reports a mistake in one line (not usage + error) and exits 2."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message: str):
         sys.stderr.write(f"{self.prog}: error: {message} (see --help)\n")
@@ -35,13 +45,12 @@ def finite_float(text: str) -> float:
 
 
 def non_negative_int(text: str) -> int:
+    from .core.checks import whole_number
+
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0 or value >= 2**63:
-        raise argparse.ArgumentTypeError(f"expected a whole number in [0, 2^63), got {text!r}")
-    return value
+        return whole_number(text, "", 0, 2**63 - 1)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(str(e).strip()) from None
 
 
 def world_seed(text: str) -> int:
@@ -51,6 +60,7 @@ def world_seed(text: str) -> int:
         return check_seed(text)
     except UserError as e:
         raise argparse.ArgumentTypeError(str(e).removeprefix("--seed ")) from None
+
 
 
 def add_scan_arguments(p: argparse.ArgumentParser, in_blender: bool) -> None:
@@ -106,7 +116,7 @@ def add_scan_arguments(p: argparse.ArgumentParser, in_blender: bool) -> None:
         type=finite_float,
         default=S.DEFAULT_NOISE_SIGMA,
         metavar="SIGMA",
-        help=f"standard deviation of the Gaussian range noise, metres; 0 turns it off (default {S.DEFAULT_NOISE_SIGMA:g})",
+        help=f"standard deviation of the Gaussian range noise, metres, 0 (off) to {S.MAX_NOISE_SIGMA:g} (default {S.DEFAULT_NOISE_SIGMA:g})",
     )
     p.add_argument(
         "--noise-seed",
@@ -289,7 +299,7 @@ def run_scan_command(args, in_blender: bool) -> int:
 def load_world_for_scan(args, in_blender: bool) -> None:
     from .world.scene_io import empty_scene, open_world
 
-    if args.world:
+    if args.world is not None:
         open_world(args.world)
     elif args.seed is not None:
         from .world.generate import generate_world
@@ -328,9 +338,16 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def blender_main(command: str) -> int:
-    """Entry for `blender -b [file.blend] -P blender_scripts/<command>.py -- ARGS`."""
+    """Entry for `blender -b [file.blend] -P blender_scripts/<command>.py -- ARGS`.
+
+    Blender would print an escaping exception and still exit 0, so a bug ends
+    here with its traceback and exit code 1."""
     argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
-    return dispatch(build_blender_parser(command), argv, in_blender=True)
+    try:
+        return dispatch(build_blender_parser(command), argv, in_blender=True)
+    except Exception:
+        traceback.print_exc()
+        return 1
 
 
 if __name__ == "__main__":

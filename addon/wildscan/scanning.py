@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .core.placement import Pose
-from .core.scan import Progress, ScanResult, run_scan
+from .core.placement import COLUMN_HEIGHT, Pose
+from .core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
 from .core.sensor import SensorConfig
 
-# Crop margin around the pose: the optical centre sits up to a column height
-# off the pose's xy on tilted ground, and noise lets ranges run a little long.
-CROP_MARGIN = 2.0  # m
+# Crop margin around the pose beyond max range: the optical centre sits up to a
+# column height off the pose's xy on tilted ground, plus a little slack.
+CROP_MARGIN = 1.0  # m
 
 
 def make_scene_backend(
@@ -23,9 +23,13 @@ def make_scene_backend(
     """
     from .raycast.select import make_backend
 
-    return make_backend(
-        name, center=(pose.x, pose.y), radius=sensor.max_range + CROP_MARGIN, notify=notify, geometry=geometry
-    )
+    return make_backend(name, center=(pose.x, pose.y), radius=crop_radius(sensor), notify=notify, geometry=geometry)
+
+
+def crop_radius(sensor: SensorConfig) -> float:
+    """How far from the pose (in xy) a scan can reach: rays are cast past max range by
+    the noise margin (core.scan), from an optical centre up to a column height off the pose."""
+    return sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.noise_sigma + COLUMN_HEIGHT + CROP_MARGIN
 
 
 def scan_current_scene(

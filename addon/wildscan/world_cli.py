@@ -21,6 +21,7 @@ import time
 from contextlib import contextmanager
 from pathlib import Path
 
+from .core.checks import whole_number
 from .core.errors import PoseRejected, UserError
 from .core.files import atomic_outputs, check_output_path
 from .core.worldplan import (
@@ -78,10 +79,7 @@ def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
 
 
 def positive_count(text, option: str) -> int:
-    s = str(text).strip()
-    if not s.isdigit() or not 1 <= int(s) <= MAX_POSE_COUNT:
-        raise UserError(f"{option} must be a whole number from 1 to {MAX_POSE_COUNT}, got {text!r}")
-    return int(s)
+    return whole_number(text, option, 1, MAX_POSE_COUNT)
 
 
 def sidecar_path(blend: Path) -> Path:
@@ -157,7 +155,7 @@ def valid_poses(plan: WorldPlan, backend, count: int = DEFAULT_POSES_PER_ZONE, z
 def run_poses(args, in_blender: bool = False) -> int:
     seed = check_seed(args.seed)
     detail_level(args.detail)
-    zones = (check_zone(args.zone),) if args.zone else ZONES
+    zones = (check_zone(args.zone),) if args.zone is not None else ZONES
     count = positive_count(args.count, "--count")
     plan = plan_world(seed, args.detail)
     poses = valid_poses(plan, plan_backend(plan), count, zones)
@@ -207,7 +205,7 @@ def run_world(args, in_blender: bool = False) -> int:
     count = positive_count(args.poses, "--poses")
     out = check_output_path(args.out, ".blend", "--out", companions=(".json",))
     sidecar = sidecar_path(out)
-    map_path = check_output_path(args.map, ".png", "--map") if args.map else None
+    map_path = check_output_path(args.map, ".png", "--map") if args.map is not None else None
     if map_path is not None:
         from .core.aerial_map import require_matplotlib
 

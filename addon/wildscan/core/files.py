@@ -19,6 +19,8 @@ def check_output_path(path, suffix: str, option: str = "--out", companions: tupl
     Called before any work so a typo in an output option costs nothing.
     `companions` are suffixes of files written beside it (a sidecar .json).
     """
+    if not str(path).strip():
+        raise UserError(f"{option} needs a file name ending in {suffix}, got an empty one")
     out = Path(path).expanduser().resolve()
 
     def fail(why: str) -> UserError:
@@ -73,6 +75,8 @@ def fsync_dir(directory: Path) -> None:
 
 def output_directory(text, option: str = "--out") -> Path:
     """A directory to write into, created (with its parents) if missing, or UserError."""
+    if not str(text).strip():
+        raise UserError(f"{option} needs a directory name, got an empty one")
     out = Path(str(text)).expanduser().resolve()
     if out.exists() and not out.is_dir():
         raise UserError(f"{option} {out}: it is a file; give a directory")

@@ -30,6 +30,7 @@ DEFAULT_MIN_RANGE = 0.1
 DEFAULT_MAX_RANGE = 15.0  # the UTM-30LX-EW under direct sunlight
 MAX_RANGE_LIMIT = 30.0  # the UTM-30LX-EW's range in the dark
 DEFAULT_NOISE_SIGMA = 0.015
+MAX_NOISE_SIGMA = 1.0  # m; far past any real rangefinder, and rays are cast 6 sigma past max range
 DEFAULT_RH_DEG = 1.0
 MIN_RH_DEG = 0.05  # 3,600 2D scans, 3.9 M beams: finer would need gigabytes of beams
 
@@ -66,8 +67,10 @@ class SensorConfig:
             raise UserError(
                 f"--min-range ({self.min_range:g} m) must be below --max-range ({self.max_range:g} m)"
             )
-        if self.noise_sigma < 0:
-            raise UserError(f"--noise must be >= 0 m (0 turns noise off), got {self.noise_sigma:g}")
+        if not 0 <= self.noise_sigma <= MAX_NOISE_SIGMA:
+            raise UserError(
+                f"--noise must be from 0 (off) to {MAX_NOISE_SIGMA:g} m, got {self.noise_sigma:g}"
+            )
         if not (0 <= int(self.noise_seed) < 2**63):
             raise UserError(f"--noise-seed must be an integer in [0, 2^63), got {self.noise_seed}")
         return self

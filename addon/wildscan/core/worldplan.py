@@ -50,6 +50,7 @@ from typing import Callable
 import numpy as np
 
 from . import shapes
+from .checks import whole_number
 from .classes import WATER, class_by_name
 from .errors import UserError
 from .heightfield import (
@@ -140,11 +141,8 @@ MAX_SEED = 2**31 - 1
 
 
 def check_seed(seed) -> int:
-    """A seed is a non-negative integer up to MAX_SEED (given as int or text)."""
-    text = str(seed).strip()
-    if isinstance(seed, bool) or not text.isdigit() or int(text) > MAX_SEED:
-        raise UserError(f"--seed must be a non-negative integer up to {MAX_SEED}, got {seed!r}")
-    return int(text)
+    """A seed is a whole number from 0 to MAX_SEED (given as int or text)."""
+    return whole_number(seed, "--seed", 0, MAX_SEED)
 
 
 def check_zone(zone: str) -> str:

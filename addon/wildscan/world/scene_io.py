@@ -10,7 +10,11 @@ BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
 
 
 def check_blend_file(path: str) -> str:
+    if not str(path).strip():
+        raise UserError("--world needs a .blend file name, got an empty one")
     path = os.path.abspath(path)
+    if os.path.isdir(path):
+        raise UserError(f"--world {path}: is a directory, not a .blend file")
     if not os.path.isfile(path):
         raise UserError(f"--world {path}: no such file")
     try:
