@@ -414,7 +414,7 @@ def box_under_front_laser(x, y):
         (dict(rh=0.7), "r_h must divide 180"),
         (dict(min_range=5.0, max_range=4.0), r"Min range \(5 m\) must be below Max range"),
         (dict(max_range=40.0), "Max range must be in"),
-        (dict(noise=-0.1), "Noise must be >= 0"),
+        (dict(noise=-0.1), "Noise must be from 0"),
     ],
 )
 def test_invalid_settings_give_a_report_naming_the_problem_and_change_nothing(scene, changes, match):

@@ -497,23 +497,3 @@ def test_max_range_is_exact_and_empty_scenes_miss():
     empty = from_triangles(np.zeros((0, 3, 3)))
     for backend in (EmbreeBackend(empty), BVHBackend(empty)):
         assert not backend.cast(np.array([0, 0, 5.0]), down, 10.0).hit.any()
-
-
-# -- the benchmark runs and leaves nothing behind ----------------------------------------------
-
-
-def test_bench_compares_every_backend_and_cleans_up(tmp_path):
-    from wildscan.bench import run_bench
-
-    empty_scene()
-    before = (len(bpy.data.scenes), len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections))
-    rows = run_bench((20,), poses=((0.0, 0.0, 0.0),), runs=1, reference_rays=500,
-                     csv_path=tmp_path / "bench.csv", ply_rh_deg=None, out=None)
-    assert [r["backend"] for r in rows] == ["blender", "bvh", "embree"]
-    assert [r["rays_timed"] for r in rows] == [500, 194_400, 194_400]
-    for row in rows:
-        assert row["label_agreement"] >= 0.999 and row["backend_wrong"] == 0
-    header = (tmp_path / "bench.csv").read_text().splitlines()[0]
-    assert header.startswith("scene,objects,triangles,pose,backend,extract_s,build_s,scan_s,us_per_ray")
-    after = (len(bpy.data.scenes), len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.collections))
-    assert after == before

@@ -26,7 +26,7 @@ def test_full_scan_at_1_degree_has_194400_beams_as_eq1():
 def test_no_beam_within_45_degrees_of_straight_down():
     dirs, _, _ = S.beam_directions(1.0)
     from_down = np.degrees(np.arccos(np.clip(-dirs[:, 2], -1, 1)))
-    assert from_down.min() >= 45.0 - 1e-9
+    assert from_down.min() >= S.BLIND_CONE_HALF_ANGLE_DEG - 1e-9
     # …and the blind cone is exactly that wide: beam n = 0 sits on its edge.
     assert from_down.min() == pytest.approx(45.0, abs=1e-9)
 

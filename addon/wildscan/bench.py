@@ -85,13 +85,6 @@ CSV_COLUMNS = (
     "e2e_max_range_diff_m", "placement_diff_m", "terrain_max_m", "terrain_rms_m", "terrain_rays",
     "terrain_mesh_max_m", "analytic_max_m", "analytic_rms_m", "analytic_rays", "analytic_wrong", "analytic_excluded",
 )
-# The legacy synthetic-scene benchmark (run_bench) keeps its own CSV layout.
-LEGACY_CSV_FIELDS = (
-    "scene", "objects", "triangles", "pose", "backend", "extract_s", "build_s", "scan_s", "us_per_ray",
-    "rays_timed", "estimated", "speedup_vs_reference", "label_agreement", "range_agreement", "max_range_diff_m",
-    "disagreements", "reference_wrong", "backend_wrong",
-)
-CSV_FIELDS = LEGACY_CSV_FIELDS
 
 
 # =============================================================================================
@@ -119,13 +112,6 @@ def timed(fn: Callable, *args, **kwargs):
         return result, time.perf_counter() - start
 
 
-def median_time(fn: Callable, runs: int, *args) -> tuple[object, float]:
-    """(last result, median seconds) over `runs` calls of fn(*args)."""
-    times, result = [], None
-    for _ in range(max(1, runs)):
-        result, seconds = timed(fn, *args)
-        times.append(seconds)
-    return result, statistics.median(times)
 
 
 def spread_subset(count: int, size: int | None) -> np.ndarray:
@@ -297,16 +283,6 @@ def median_scan(backend, pose, z_start, rh_deg: float, ply_path: Path, runs: int
                    rh_deg, len(done))
 
 
-def bench_scan_to_ply(backend, pose=(0.0, 0.0, 0.0), rh_deg: float = 0.25, runs: int = 3,
-                      out_dir: str | Path | None = None) -> dict:
-    """Median seconds for placement + full scan + PLY/JSON written, with a ready backend
-    (extraction and build excluded)."""
-    from .core.placement import Pose
-
-    with tempfile.TemporaryDirectory(dir=out_dir) as tmp:
-        run = median_scan(backend, Pose(*pose), None, rh_deg, Path(tmp) / "bench_scan.ply", runs)
-    return {"backend": backend.name, "rh_deg": rh_deg, "beams": run.beams, "points": len(run.result.cloud),
-            "seconds": run.total, "phases": run.phases}
 
 
 # =============================================================================================
@@ -361,9 +337,9 @@ def fast_backend(name: str, geometry):
 
 def crop_for(whole, pose, rh_deg: float = SCAN_RH):
     """What `wildscan scan` keeps of the world for this pose (scanning.make_scene_backend)."""
-    from .scanning import CROP_MARGIN
+    from .scanning import crop_radius
 
-    return whole.cropped((pose.x, pose.y), noise_free(rh_deg).max_range + CROP_MARGIN)
+    return whole.cropped((pose.x, pose.y), crop_radius(noise_free(rh_deg)))
 
 
 # =============================================================================================
@@ -1222,13 +1198,6 @@ def format_targets(items) -> str:
 # CSV, chart, markdown (written together, all or none)
 
 
-def _atomic_write(path: Path, write: Callable[[Path], None]) -> Path:
-    """Write one file all-or-nothing (core.files.atomic_outputs)."""
-    from .core.files import atomic_outputs
-
-    with atomic_outputs(Path(path)) as (tmp,):
-        write(tmp)
-    return Path(path)
 
 
 def write_bench_files(rows: list[dict], tables, out_dir: Path) -> tuple[Path, Path, Path]:
@@ -1386,7 +1355,7 @@ class Report:
 
 
 def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("--seed", default="0", metavar="S", help="world seed, a whole number >= 0 (default 0)")
+    p.add_argument("--seed", default="0", metavar="S", help="world seed, a whole number from 0 to 2147483647 (default 0)")
     p.add_argument("--details", default=None, metavar="LIST",
                    help="detail levels of the default world, comma-separated from low, default, high "
                         "(default: low,default,high; with --quick: low)")
@@ -1482,156 +1451,8 @@ def _print_flush(text: str) -> None:
 
 
 
-# =============================================================================================
-# the synthetic many-object benchmark (ray casting only; kept for tests and ad-hoc use)
-
-
-def scan_rays(backend, pose, rh_deg: float):
-    """(optical centre (3,), world beam directions (N,3)) of a scan from `pose`, placed by
-    the lead's placement code (the same origin for every backend)."""
-    from .core.placement import Pose, place
-    from .core.sensor import beam_directions
-
-    if not isinstance(pose, Pose):
-        pose = Pose(*pose)
-    placement = place(backend, pose)
-    dirs, _, _ = beam_directions(rh_deg)
-    return placement.optical_centre, dirs @ placement.rotation.T
-
-
-def bench_backends(
-    poses: Sequence = DEFAULT_POSES,
-    backends: Sequence[str] = ("blender", "bvh", "embree"),
-    *,
-    rh_deg: float = 1.0,
-    max_range: float = 15.0,
-    runs: int = 3,
-    reference: str = "blender",
-    reference_rays: int | None = 20_000,
-    reference_runs: int = 1,
-    depsgraph=None,
-    scene=None,
-    scene_label: str = "scene",
-    objects: int | None = None,
-    csv_path: str | Path | None = None,
-    out: Callable[[str], None] | None = print,
-) -> list[dict]:
-    """Ray casting only: benchmark `backends` on the scene behind `depsgraph` (default: the
-    active one) for each pose (x, y, yaw_deg). One row per (pose, backend)."""
-    from .raycast.extract import extract_scene
-    from .raycast.geometry import scan_radius
-    from .raycast.select import make_backend
-
-    depsgraph = _depsgraph(depsgraph, scene)
-    whole, extract_s = timed(extract_scene, depsgraph)
-    placer = make_backend("auto", geometry=whole, notify=None)
-    rows = []
-    for pose in poses:
-        origin, dirs = scan_rays(placer, pose, rh_deg)
-        geometry, crop_s = timed(extract_scene, depsgraph, center=origin, radius=scan_radius(max_range))
-        results = {}
-        for name in backends:
-            subset = spread_subset(len(dirs), reference_rays if name == reference else None)
-            backend, build_s = timed(_build, name, geometry, depsgraph, scene)
-            n_runs = reference_runs if name == reference else runs
-            rays = np.ascontiguousarray(dirs[subset])
-            hits, scan_s = median_time(backend.cast, n_runs, origin, rays, max_range)
-            results[name] = (subset, hits)
-            rows.append({
-                "scene": scene_label,
-                "objects": objects if objects is not None else len(whole.object_names),
-                "triangles": geometry.triangle_count,
-                "pose": " ".join(f"{v:g}" for v in pose),
-                "backend": name,
-                "extract_s": 0.0 if name == "blender" else crop_s,
-                "build_s": build_s,
-                "scan_s": scan_s * len(dirs) / len(subset),
-                "us_per_ray": 1e6 * scan_s / len(subset),
-                "rays_timed": len(subset),
-                "estimated": len(subset) < len(dirs),
-            })
-        _add_agreement(rows[-len(backends):], results, reference, geometry, origin, dirs, max_range)
-    for row in rows:
-        row["whole_scene_extract_s"] = extract_s
-    if out is not None:
-        out(format_table(rows, rh_deg, extract_s))
-    if csv_path is not None:
-        write_csv(rows, csv_path)
-    return rows
-
-
-def _depsgraph(depsgraph, scene):
-    import bpy
-
-    from .raycast.blender_backend import scene_depsgraph
-
-    if depsgraph is not None:
-        return depsgraph
-    return scene_depsgraph(scene if scene is not None else bpy.context.scene)
-
-
-def _build(name: str, geometry, depsgraph, scene):
-    if name == "blender":
-        from .raycast.blender_backend import BlenderRayCastBackend
-
-        return BlenderRayCastBackend(scene=scene, depsgraph=depsgraph)
-    from .raycast.select import make_backend
-
-    return make_backend(name, geometry=geometry, notify=None)
-
-
-def _add_agreement(rows: list[dict], results: dict, reference: str, geometry, origin, dirs, max_range) -> None:
-    """Fill agreement and speed-up columns, comparing on the rays the reference cast."""
-    ref_row = next((r for r in rows if r["backend"] == reference), None)
-    for row in rows:
-        if ref_row is None:
-            row.update(label_agreement=math.nan, range_agreement=math.nan, max_range_diff_m=math.nan,
-                       speedup_vs_reference=math.nan)
-            continue
-        ref_subset, ref_hits = results[reference]
-        subset, hits = results[row["backend"]]
-        mine = _take(hits, np.searchsorted(subset, ref_subset))
-        row.update(agreement(mine, ref_hits))
-        row["speedup_vs_reference"] = ref_row["scan_s"] / row["scan_s"] if row["scan_s"] > 0 else math.inf
-        differ = agreement_counts(mine, ref_hits)["disagree"]
-        row["disagreements"] = len(differ)
-        rays = dirs[ref_subset]
-        row["reference_wrong"] = wrong_answers(geometry, origin, rays, max_range, ref_hits, differ)
-        row["backend_wrong"] = wrong_answers(geometry, origin, rays, max_range, mine, differ)
-
-
-def format_table(rows: list[dict], rh_deg: float, extract_s: float | None = None) -> str:
-    head = (f"{'scene':<14}{'objects':>8}{'tris':>9}  {'pose':<12}{'backend':<9}{'us/ray':>9}"
-            f"{'scan s':>9}{'build s':>9}{'x ref':>9}{'labels':>10}{'ranges':>10}{'max dr m':>10}"
-            f"{'diff':>6}{'refX':>6}{'ownX':>6}")
-    lines = [f"full scan at r_h = {rh_deg:g} deg; scan s = ray casting only (median); "
-             "'~' = extrapolated from a subset of rays; diff = rays disagreeing with the reference, "
-             "refX / ownX = of those, where the reference / this backend is wrong by exact float64 brute force",
-             head, "-" * len(head)]
-    for r in rows:
-        approx = "~" if r["estimated"] else " "
-        lines.append(
-            f"{r['scene']:<14}{r['objects']:>8}{r['triangles']:>9}  {r['pose']:<12}{r['backend']:<9}"
-            f"{r['us_per_ray']:>9.3f}{approx}{r['scan_s']:>8.3f}{r['build_s']:>9.3f}"
-            f"{r['speedup_vs_reference']:>9.1f}{100 * r['label_agreement']:>9.3f}%"
-            f"{100 * r['range_agreement']:>9.3f}%{r['max_range_diff_m']:>10.1e}"
-            f"{r.get('disagreements', 0):>6}{r.get('reference_wrong', 0):>6}{r.get('backend_wrong', 0):>6}"
-        )
-    if extract_s is not None:
-        lines.append(f"extraction of the whole scene: {extract_s:.3f} s; "
-                     "per-pose cropped extraction is in the CSV (extract_s)")
-    return "\n".join(lines)
-
-
-def write_csv(rows: list[dict], path: str | Path) -> Path:
-    path = Path(path)
-    fields = list(LEGACY_CSV_FIELDS) + sorted({k for r in rows for k in r} - set(LEGACY_CSV_FIELDS))
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=fields)
-    writer.writeheader()
-    for row in rows:
-        writer.writerow({k: row.get(k, "") for k in fields})
-    return _atomic_write(path, lambda p: p.write_text(buf.getvalue()))
+# ---------------------------------------------------------------------------------------------
+# synthetic scenes with many objects (the scaling-with-objects table)
 
 
 def build_many_objects_scene(n_objects: int, seed: int = 0, half_size: float = 50.0, scene=None,
@@ -1668,33 +1489,3 @@ def build_many_objects_scene(n_objects: int, seed: int = 0, half_size: float = 5
             top = merge([cone(1.0, 2.0, 12, base=(x, y, z + h))])
             mesh_object(f"bench top {i}", *top, coll, "treetop", i + 2)
     return coll
-
-
-def run_bench(object_counts: Sequence[int] = (200, 3000), poses: Sequence = DEFAULT_POSES, *, seed: int = 0,
-              rh_deg: float = 1.0, runs: int = 3, reference_rays: int | None = 20_000,
-              csv_path: str | Path | None = None, ply_rh_deg: float | None = 0.25,
-              out: Callable[[str], None] | None = print) -> list[dict]:
-    """Ray casting only, every available backend on synthetic scenes with each object count,
-    each in a scene of its own (the user's scenes are not touched; the bench scene is removed)."""
-    from .raycast.extract import extract_scene
-    from .raycast.select import available_backends, make_backend
-
-    names = [n for n in ("blender", "bvh", "embree") if n in available_backends()]
-    rows = []
-    for count in object_counts:
-        with bench_scene(f"WildScanBench {count}") as scene:
-            build_many_objects_scene(count, seed=seed, scene=scene)
-            depsgraph = _depsgraph(None, scene)
-            rows += bench_backends(poses, names, rh_deg=rh_deg, runs=runs, reference_rays=reference_rays,
-                                   depsgraph=depsgraph, scene=scene, scene_label=f"{count} objects",
-                                   objects=count, out=out)
-            if ply_rh_deg and out is not None:
-                fast = make_backend("auto", geometry=extract_scene(depsgraph), notify=out)
-                timing = bench_scan_to_ply(fast, poses[0], rh_deg=ply_rh_deg, runs=runs)
-                out(f"{count} objects: placement + r_h={ply_rh_deg:g} scan ({timing['beams']} beams, "
-                    f"{timing['points']} points) + PLY written with '{timing['backend']}': "
-                    f"{timing['seconds']:.3f} s (median of {runs})")
-    if csv_path is not None:
-        write_csv(rows, csv_path)
-    return rows
-

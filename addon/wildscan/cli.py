@@ -14,6 +14,8 @@ import traceback
 from . import __version__
 from .core import sensor as S
 from .core.errors import UserError
+from .core.scan import FRAMES
+from .raycast.select import BACKEND_NAMES
 
 EXIT_USER_ERROR = 2
 
@@ -127,14 +129,14 @@ def add_scan_arguments(p: argparse.ArgumentParser, in_blender: bool) -> None:
     )
     p.add_argument(
         "--frame",
-        choices=("leveled", "sensor", "world"),
+        choices=FRAMES,
         default="leveled",
         help="coordinate frame of the points: leveled (origin at the optical centre, Z vertical, X along the "
         "heading; as the paper), sensor (tilted with the structure) or world (default leveled)",
     )
     p.add_argument(
         "--backend",
-        choices=("auto", "blender", "bvh", "embree"),
+        choices=BACKEND_NAMES,
         default="auto",
         help="ray caster: blender (scene.ray_cast, the reference), bvh (mathutils BVH tree), embree (embreex), "
         "or auto, the fastest available (default auto)",
@@ -257,6 +259,7 @@ def run_scan_command(args, in_blender: bool) -> int:
     from .core.ply import check_output_path, sidecar_path, write_scan_files
     from .core.sensor import SensorConfig
     from .scanning import scan_current_scene
+    from .world.scene_io import scene_provenance
 
     sensor = SensorConfig(
         rh_deg=args.rh,
@@ -275,7 +278,8 @@ def run_scan_command(args, in_blender: bool) -> int:
         progress=Progress("scanning", args.quiet),
         notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
     )
-    metadata = dict(result.metadata, seed=args.seed, world=args.world)
+    seed, blend = scene_provenance()
+    metadata = dict(result.metadata, seed=seed if args.seed is None else args.seed, world=blend)
     ply, sidecar = write_scan_files(out, result.cloud, metadata, ascii=args.ascii)
     assert sidecar == sidecar_path(out)
 

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from .core.files import output_directory
+from .raycast.select import BACKEND_NAMES
 
 # Point counts of the paper's r_h = 1 deg scans (Figs. 8-12), for comparison.
 PAPER_POINTS = {"hills": 83_056, "lake": 63_998, "park": 60_669, "cave": 80_307, "forest": 85_479}
@@ -22,13 +23,15 @@ EXPECTED_CLASSES = {
 
 
 def add_demo_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("--seed", default="1", metavar="S", help="world seed, a whole number >= 0 (default 1)")
+    from .cli import finite_float
+
+    p.add_argument("--seed", default="1", metavar="S", help="world seed, a whole number from 0 to 2147483647 (default 1)")
     p.add_argument("--out", default="out/demo", metavar="DIR",
                    help="directory for the world, its map, and a PLY + preview PNG per zone (default out/demo; "
                         "created if missing)")
-    p.add_argument("--rh", type=float, default=1.0, metavar="DEG",
+    p.add_argument("--rh", type=finite_float, default=1.0, metavar="DEG",
                    help="horizontal resolution r_h in degrees, 180/r_h whole (default 1, as the paper)")
-    p.add_argument("--backend", choices=("auto", "embree", "bvh", "blender"), default="auto",
+    p.add_argument("--backend", choices=BACKEND_NAMES, default="auto",
                    help="ray caster (default auto, the fastest available)")
 
 
@@ -50,7 +53,7 @@ def run_demo(args, in_blender: bool = False) -> int:
     from .world_cli import run_world
 
     seed = check_seed(args.seed)
-    sensor = SensorConfig(rh_deg=args.rh, noise_seed=seed).validate()
+    sensor = SensorConfig(rh_deg=args.rh).validate()  # wildscan scan's defaults: same poses, same bytes
     out = output_directory(args.out)
 
     world_args = argparse.Namespace(seed=str(seed), detail="default", out=str(out / "world.blend"),

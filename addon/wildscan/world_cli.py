@@ -1,15 +1,14 @@
-"""`wildscan world`, `wildscan poses` and the world benchmark (wired into cli.py by the lead).
+"""`wildscan world`, `wildscan poses` and `wildscan bench-world` (registered in cli.py).
 
-world   build the world of a seed in Blender, save it (.blend), its JSON sidecar
-        (zones, extents, features, valid scan poses) and optionally an aerial map.
-poses   print scan poses the placement accepts, per zone (no Blender needed: the
-        plan's own triangles are ray cast, the same geometry Blender gets).
-bench   build the world at each detail level and print the time of every stage,
-        the object / triangle counts and the terrain's measured height error.
+world        build the world of a seed in Blender, save it (.blend), its JSON sidecar
+             (zones, extents, features, valid scan poses) and optionally an aerial map.
+poses        print scan poses the placement accepts, per zone (no Blender needed: the
+             plan's own triangles are ray cast, the same geometry Blender gets).
+bench-world  build the world at each detail level and print the time of every stage,
+             the object / triangle counts and the terrain's measured height error.
 
 Every user mistake raises UserError before anything is written; files are
 written to hidden temporary names beside their targets and renamed at the end.
-Can also be run alone: `python -m wildscan.world_cli world --seed 3 --out w.blend`.
 """
 from __future__ import annotations
 
@@ -24,6 +23,7 @@ from pathlib import Path
 from .core.checks import whole_number
 from .core.errors import PoseRejected, UserError
 from .core.files import atomic_outputs, check_output_path
+from .core.ply import sidecar_path
 from .core.worldplan import (
     DETAILS,
     ZONES,
@@ -36,7 +36,6 @@ from .core.worldplan import (
     plan_world,
 )
 
-EXIT_USER_ERROR = 2
 DEFAULT_POSES_PER_ZONE = 5
 MAX_POSE_COUNT = 1000
 
@@ -47,20 +46,21 @@ MAX_POSE_COUNT = 1000
 
 def add_world_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument("--seed", required=True, metavar="S",
-                   help="world seed, a whole number >= 0; every seed gives another world with all six zones")
+                   help="world seed, a whole number from 0 to 2147483647; every seed gives another world with all six zones")
     p.add_argument("--detail", default="default", metavar="LEVEL",
-                   help="low | default | high: how finely shapes are modelled (terrain max height error "
+                   help="low | default | high: how finely shapes are modelled (terrain height tolerance "
                         "0.15 / 0.05 / 0.02 m); the layout is the same at every level (default: default)")
     p.add_argument("--out", required=True, metavar="WORLD.blend",
                    help="the Blender file to write; zones and scan poses go beside it as WORLD.json")
-    p.add_argument("--map", metavar="MAP.png", help="also write an aerial map (classes in colour, zones, poses)")
+    p.add_argument("--map", metavar="MAP.png", help="also write an aerial map (classes in colour, zones, poses); "
+                   "needs matplotlib, which the bpy wheel's venv has and Debian's Blender does not")
     p.add_argument("--poses", type=str, default=str(DEFAULT_POSES_PER_ZONE), metavar="N",
                    help=f"valid scan poses listed per zone in the sidecar (default {DEFAULT_POSES_PER_ZONE})")
     p.add_argument("--quiet", action="store_true", help="print only the files written")
 
 
 def add_poses_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("--seed", required=True, metavar="S", help="world seed, a whole number >= 0")
+    p.add_argument("--seed", required=True, metavar="S", help="world seed, a whole number from 0 to 2147483647")
     p.add_argument("--zone", metavar="NAME", help=f"only this zone: {', '.join(ZONES)} (default: all)")
     p.add_argument("--count", default=str(DEFAULT_POSES_PER_ZONE), metavar="N",
                    help=f"poses per zone, 1..{MAX_POSE_COUNT} (default {DEFAULT_POSES_PER_ZONE})")
@@ -80,10 +80,6 @@ def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
 
 def positive_count(text, option: str) -> int:
     return whole_number(text, option, 1, MAX_POSE_COUNT)
-
-
-def sidecar_path(blend: Path) -> Path:
-    return blend.with_suffix(".json")
 
 
 @contextmanager

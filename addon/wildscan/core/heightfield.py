@@ -470,12 +470,3 @@ def fit_grid(field_fn: Field, extent: Sequence[float], tol: float, rng: np.rando
     error = GridError(float(err.max()), float(np.sqrt(np.mean(err**2))), float(np.quantile(err, 0.99)), len(err))
     steps = np.concatenate([np.diff(xs), np.diff(ys)])
     return GridFit(grid, error, tol, iteration, float(steps.min()), float(steps.max()))
-
-
-def slope_deg(field_fn: Field, x, y, d: float = 0.25):
-    """Terrain slope in degrees from central differences of the field."""
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    gx = (field_fn(x + d, y) - field_fn(x - d, y)) / (2 * d)
-    gy = (field_fn(x, y + d) - field_fn(x, y - d)) / (2 * d)
-    return np.degrees(np.arctan(np.hypot(gx, gy)))

@@ -76,6 +76,9 @@ def _scalar_text(value: object) -> str:
     if isinstance(value, np.ndarray):
         value = value.ravel().tolist()
     if isinstance(value, (list, tuple)):
+        if any(isinstance(v, (dict, list, tuple)) for v in value):
+            # records (the four lasers): one compact JSON value keeps `key=value` pairs unambiguous
+            return json.dumps(value, sort_keys=True, separators=(",", ":"), default=_json_default)
         return ",".join(_scalar_text(v) for v in value)
     if isinstance(value, dict):
         return " ".join(_flatten_dict(value))

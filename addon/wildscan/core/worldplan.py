@@ -346,12 +346,6 @@ class WorldPlan:
     def trail_distance(self, x, y):
         return polyline_distance(self.layout.trail, np.column_stack([np.ravel(x), np.ravel(y)])).reshape(np.shape(x))
 
-    def zone_of(self, x, y) -> np.ndarray:
-        x, y = np.ravel(x), np.ravel(y)
-        out = np.full(len(x), "", dtype=object)
-        for name, (x0, x1, y0, y1) in self.layout.cells.items():
-            out[(x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)] = name
-        return out
 
     def blocked(self, x, y, radius: float, water_margin: float = 0.15, allow_park_interior: bool = False):
         """True where an element of this radius must not stand: water, trail, the cave's pit,

@@ -43,15 +43,6 @@ import numpy as np
 
 from .base import RayHits
 
-# Metres added to the max range when cropping around a pose: covers the
-# structure's arms and placement lasers (all within a metre of the pose) with room to spare.
-CROP_MARGIN = 5.0
-
-
-def scan_radius(max_range: float, margin: float = CROP_MARGIN) -> float:
-    """The crop radius for a scan with this max range (metres)."""
-    return float(max_range) + float(margin)
-
 
 @dataclass
 class SceneGeometry:
@@ -386,7 +377,7 @@ def reference_hits(
     or may not report those. Returns a dict of (N,) arrays:
       distance, triangle        the first clear hit (inf, -1 when none)
       ambiguous_before          an ambiguous hit lies before (or at) the first clear one
-    and `candidates(i)` is not computed here; use `check_hits` to judge a backend.
+    Use `check_hits` to judge a backend against it.
     """
     local, dirs = prepare_rays(origins, directions, geometry.offset)
     count = len(dirs)

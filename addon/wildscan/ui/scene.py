@@ -360,12 +360,6 @@ def _set_aside(root) -> list:
     return renamed
 
 
-def _parents_of(coll) -> list:
-    parents = [c for c in bpy.data.collections if coll.name in c.children]
-    parents += [s.collection for s in bpy.data.scenes if coll.name in s.collection.children]
-    return parents
-
-
 def _adopt_user_content(old, new) -> None:
     """Give `new` the place and the user content `old` had."""
     for obj in [o for o in old.objects if not o.get(GENERATED)]:

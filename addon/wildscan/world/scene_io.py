@@ -43,3 +43,13 @@ def empty_scene() -> None:
     import bpy
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def scene_provenance() -> tuple[int | None, str | None]:
+    """(seed, .blend path) of the world in the current file, for scan metadata: the
+    seed WildScan recorded on its world collection, the file Blender has open."""
+    import bpy
+
+    root = bpy.data.collections.get("WildScan")
+    seed = root.get("wildscan_seed") if root is not None else None
+    return (int(seed) if seed is not None else None), (bpy.data.filepath or None)
