@@ -102,3 +102,13 @@ def test_bench_reports_every_stage(capsys):
         assert stage in rows[0]["stages_s"] and stage in text
     assert rows[0]["objects"] > 1000 and rows[0]["triangles"] > rows[0]["terrain_triangles"]
     assert "uniform 1 m" in text and "adaptive" in text
+
+
+def test_a_scan_and_a_world_of_the_same_name_do_not_replace_each_others_sidecar(tmp_path, capsys):
+    code, _, _ = run(capsys, "world", "--seed", "3", "--detail", "low", "--quiet", "--out", str(tmp_path / "w.blend"))
+    assert code == 0
+    before = (tmp_path / "w.json").read_bytes()
+    code, _, err = run(capsys, "scan", "--world", str(tmp_path / "w.blend"), "--pose", "0", "0", "0",
+                       "--out", str(tmp_path / "w.ply"))
+    assert code == 2 and "describes another kind of output" in err
+    assert (tmp_path / "w.json").read_bytes() == before and not (tmp_path / "w.ply").exists()

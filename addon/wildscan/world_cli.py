@@ -199,7 +199,8 @@ def run_world(args, in_blender: bool = False) -> int:
     seed = check_seed(args.seed)
     detail_level(args.detail)
     count = positive_count(args.poses, "--poses")
-    out = check_output_path(args.out, ".blend", "--out", companions=(".json",))
+    # A scan's sidecar names its PLY file; a world beside it must not replace it.
+    out = check_output_path(args.out, ".blend", "--out", companions=(".json",), foreign_sidecar_key="ply_file")
     sidecar = sidecar_path(out)
     map_path = check_output_path(args.map, ".png", "--map") if args.map is not None else None
     if map_path is not None:

@@ -6,6 +6,7 @@ a failed or interrupted command never leaves a partial cloud, map or world.
 """
 from __future__ import annotations
 
+import json
 import os
 from contextlib import contextmanager
 from pathlib import Path
@@ -13,11 +14,14 @@ from pathlib import Path
 from .errors import UserError
 
 
-def check_output_path(path, suffix: str, option: str = "--out", companions: tuple[str, ...] = ()) -> Path:
+def check_output_path(path, suffix: str, option: str = "--out", companions: tuple[str, ...] = (),
+                      foreign_sidecar_key: str | None = None) -> Path:
     """The resolved output path, or UserError saying why it cannot be written.
 
     Called before any work so a typo in an output option costs nothing.
-    `companions` are suffixes of files written beside it (a sidecar .json).
+    `companions` are suffixes of files written beside it (a sidecar .json);
+    an existing .json companion holding `foreign_sidecar_key` belongs to another
+    kind of output (a world's, beside a scan named after it) and is not replaced.
     """
     if not str(path).strip():
         raise UserError(f"{option} needs a file name ending in {suffix}, got an empty one")
@@ -33,6 +37,9 @@ def check_output_path(path, suffix: str, option: str = "--out", companions: tupl
     for companion in companions:
         if out.with_suffix(companion).is_dir():
             raise fail(f"its sidecar {out.with_suffix(companion)} is a directory")
+        if foreign_sidecar_key and _json_has_key(out.with_suffix(companion), foreign_sidecar_key):
+            raise fail(f"{out.with_suffix(companion)} beside it describes another kind of output; "
+                       "choose another name so it is not replaced")
     parent = out.parent
     if not parent.exists():
         raise fail(f"directory {parent} does not exist")
@@ -71,6 +78,13 @@ def fsync_dir(directory: Path) -> None:
         pass
     finally:
         os.close(fd)
+
+
+def _json_has_key(path: Path, key: str) -> bool:
+    try:
+        return key in json.loads(path.read_text())
+    except (OSError, ValueError, TypeError):
+        return False
 
 
 def output_directory(text, option: str = "--out") -> Path:
