@@ -307,16 +307,13 @@ def load_world_for_scan(args, in_blender: bool) -> None:
         open_world(args.world)
     elif args.seed is not None:
         from .world.generate import generate_world
+        from .world_cli import StageProgress
 
         empty_scene()
         say(args, f"building the world of seed {args.seed}")
-        generate_world(args.seed, progress=None if args.quiet else world_stage_progress)
+        generate_world(args.seed, progress=StageProgress(args.quiet))
     elif not in_blender:
         raise UserError("give --world FILE.blend or --seed S")
-
-
-def world_stage_progress(stage: str, seconds: float) -> None:
-    sys.stderr.write(f"world: {stage:<16} {seconds:7.3f} s\n")
 
 
 COMMANDS = {"scan": run_scan_command}

@@ -18,6 +18,10 @@ class ElementClass:
     color: tuple[int, int, int]
 
 
+# The custom properties that tag an object (DESIGN.md: all a user adds to scan a scene).
+CLASS_PROP = "wildscan_class"
+INSTANCE_PROP = "wildscan_instance"
+
 UNLABELED = ElementClass(0, "unlabeled", 0.0, (255, 255, 255))
 
 CLASSES: tuple[ElementClass, ...] = (

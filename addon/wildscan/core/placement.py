@@ -130,6 +130,11 @@ class Placement:
         return math.degrees(self.pitch_rad)
 
     @property
+    def tilt_deg(self) -> float:
+        """Angle between the column and the vertical."""
+        return tilt_deg(self.roll_rad, self.pitch_rad)
+
+    @property
     def rotation(self) -> np.ndarray:
         """Sensor frame -> world frame."""
         return sensor_to_world_matrix(self.roll_rad, self.pitch_rad, self.yaw_rad)
@@ -141,7 +146,7 @@ class Placement:
             "ground_centre": [float(v) for v in self.ground_centre],
             "roll_deg": self.roll_deg,
             "pitch_deg": self.pitch_deg,
-            "tilt_deg": tilt_deg(self.roll_rad, self.pitch_rad),
+            "tilt_deg": self.tilt_deg,
             "column_height": COLUMN_HEIGHT,
             "arm_half_lengths": [ARM_X, ARM_Y],
             "lasers": [laser.to_dict() for laser in self.lasers],

@@ -52,16 +52,12 @@ def broadcast_origins(origins: np.ndarray, n: int) -> np.ndarray:
     return origins
 
 
-CLASS_PROP = "wildscan_class"
-INSTANCE_PROP = "wildscan_instance"
-
-
 def tags_from(sources) -> tuple[int, int]:
     """(class id, instance id) from the WildScan custom properties of `sources`, each
     property taken from the first source that has it: an instanced object, then its
     instancer, so a tagged template instanced by empties that carry their own
     `wildscan_instance` gives every copy its own id. Untagged: (0, 0)."""
-    from ..core.classes import class_id_for_tag
+    from ..core.classes import CLASS_PROP, INSTANCE_PROP, class_id_for_tag
 
     class_id = class_id_for_tag(_first_prop(sources, CLASS_PROP))
     try:

@@ -9,7 +9,6 @@ never re-checked.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 LIVE_BACKEND = "blender"
@@ -78,7 +77,7 @@ def check_pose(pose, z_start) -> PoseStatus:
     except Exception as e:  # drawn on every redraw: a bug must show as a line, not a traceback per frame
         return PoseStatus(False, f"Cannot check the pose ({type(e).__name__}: {e})")
     c = placement.optical_centre
-    tilt = math.degrees(math.acos(max(-1.0, min(1.0, float(placement.rotation[2, 2])))))
+    tilt = placement.tilt_deg
     return PoseStatus(
         True,
         f"Valid pose: tilt {tilt:.1f}° (roll {placement.roll_deg:.1f}°, pitch {placement.pitch_deg:.1f}°), "

@@ -10,11 +10,9 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
-from ..core.classes import COLOR_BY_ID, WATER_ID, class_id_for_tag
+from ..core.classes import CLASS_PROP, COLOR_BY_ID, INSTANCE_PROP, WATER_ID, class_id_for_tag
 
 GENERATED = "wildscan_generated"
-CLASS_PROP = "wildscan_class"
-INSTANCE_PROP = "wildscan_instance"
 
 # Since 4.0 a polygon's size is derived from the next polygon's loop_start.
 _LOOP_TOTAL_WRITABLE = not bpy.types.MeshPolygon.bl_rna.properties["loop_total"].is_readonly
