@@ -19,7 +19,7 @@ import bpy
 import numpy as np
 
 from ..core.pointcloud import PointCloud
-from ..world.mesh import GENERATED, remove_generated, wildscan_collection
+from ..world.mesh import GENERATED, remove_generated, remove_objects_and_their_meshes, wildscan_collection
 from . import frames
 
 WORLD_COLLECTION = "WildScan"  # where world.generate builds
@@ -82,10 +82,12 @@ def pose_marker(scene):
 
 def world_objects(scene) -> list:
     """The objects of the world WildScan built in this scene."""
+    from ..world.builder import generated_objects
+
     root = bpy.data.collections.get(WORLD_COLLECTION)
     if root is None or not in_scene_collection(scene, root):
         return []
-    return [o for o in root.all_objects if o.get(GENERATED)]
+    return generated_objects(WORLD_COLLECTION)
 
 
 def in_scene_collection(scene, coll) -> bool:
@@ -273,12 +275,7 @@ def add_cloud(scene, cloud: PointCloud, metadata: dict, keep_previous: bool = Fa
 
 
 def remove_clouds(objects) -> None:
-    meshes = [o.data for o in objects if o.data is not None and o.data.get(GENERATED)]
-    if objects:
-        bpy.data.batch_remove(list(objects))
-    orphans = [m for m in meshes if m.users == 0]
-    if orphans:
-        bpy.data.batch_remove(orphans)
+    remove_objects_and_their_meshes(objects)
 
 
 def cloud_metadata(obj) -> dict:

@@ -95,6 +95,18 @@ def _tree(coll: bpy.types.Collection) -> list[bpy.types.Collection]:
     return out
 
 
+def remove_objects_and_their_meshes(objects) -> None:
+    """Delete these objects, then the meshes WildScan made for them that nothing uses now
+    (a user's mesh is never deleted, even when one of our objects borrowed it)."""
+    objects = list(objects)
+    meshes = {o.data for o in objects if isinstance(o.data, bpy.types.Mesh) and o.data.get(GENERATED)}
+    if objects:
+        bpy.data.batch_remove(objects)
+    orphans = [m for m in meshes if m.users == 0]
+    if orphans:
+        bpy.data.batch_remove(orphans)
+
+
 def remove_generated(collection_name: str = "WildScan") -> int:
     """Delete the generated objects in that collection (and its children), the generated
     meshes they leave unused, and the generated collections left empty. User objects,
@@ -104,12 +116,7 @@ def remove_generated(collection_name: str = "WildScan") -> int:
         return 0
     collections = _tree(root)
     objects = {o for c in collections for o in c.objects if o.get(GENERATED)}
-    meshes = {o.data for o in objects if isinstance(o.data, bpy.types.Mesh) and o.data.get(GENERATED)}
-    if objects:
-        bpy.data.batch_remove(list(objects))
-    orphans = [m for m in meshes if m.users == 0]
-    if orphans:
-        bpy.data.batch_remove(orphans)
+    remove_objects_and_their_meshes(objects)
     # children first, so a parent becomes empty once its generated children are gone
     for coll in reversed(collections):
         if coll.get(GENERATED) and not coll.objects and not coll.children:
