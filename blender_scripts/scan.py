@@ -3,6 +3,7 @@
 ARGS are those of `wildscan scan`. Without --world or --seed it scans the file
 Blender was opened with, which is how a user scans a scene of their own.
 """
+
 import os
 import sys
 

@@ -3,6 +3,7 @@
 ARGS are those of `wildscan world`. Files saved by Blender 3.4 this way open in
 every Blender from 3.4 to 5.0 (files saved by 5.0 do not open in 3.4).
 """
+
 import os
 import sys
 

@@ -1,4 +1,5 @@
 """An exact ray backend over planar patches, for testing the core without Blender."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -37,7 +37,9 @@ def sha256(data: bytes) -> str:
 def world_hashes() -> dict[str, str]:
     from wildscan.core.worldplan import plan_hash, plan_world
 
-    return {f"{seed}/{detail}": plan_hash(plan_world(seed, detail)) for seed in WORLD_SEEDS for detail in DETAILS}
+    return {
+        f"{seed}/{detail}": plan_hash(plan_world(seed, detail)) for seed in WORLD_SEEDS for detail in DETAILS
+    }
 
 
 def scan_checksums(result, seed, directory: Path, name: str) -> dict:
@@ -46,7 +48,11 @@ def scan_checksums(result, seed, directory: Path, name: str) -> dict:
 
     ply, _ = write_scan_files(directory / f"{name}.ply", result.cloud, dict(result.metadata, seed=seed))
     records, _ = read_ply(ply)
-    return {"points": len(result.cloud), "ply_sha256": sha256(ply.read_bytes()), "points_sha256": sha256(records.tobytes())}
+    return {
+        "points": len(result.cloud),
+        "ply_sha256": sha256(ply.read_bytes()),
+        "points_sha256": sha256(records.tobytes()),
+    }
 
 
 def zone_scans(directory: Path) -> dict[str, dict]:
@@ -66,7 +72,9 @@ def zone_scans(directory: Path) -> dict[str, dict]:
     out = {}
     for zone, (p,) in poses.items():
         pose = Pose(p["x"], p["y"], p["yaw"])
-        result = scan_current_scene(pose, SensorConfig(), "leveled", p.get("z_start"), "embree", geometry=geometry)
+        result = scan_current_scene(
+            pose, SensorConfig(), "leveled", p.get("z_start"), "embree", geometry=geometry
+        )
         entry = {"pose": [p["x"], p["y"], p["yaw"], p.get("z_start")]}
         entry.update(scan_checksums(result, SCAN_SEED, directory, f"seed{SCAN_SEED}_{zone}"))
         out[f"seed{SCAN_SEED}/{zone}"] = entry
@@ -85,7 +93,9 @@ def test_world_scans(directory: Path) -> dict[str, dict]:
     build_test_world(TEST_WORLD_SEED)
     out = {}
     for backend in BACKENDS:
-        result = scan_current_scene(Pose(*TEST_WORLD_POSE), SensorConfig(rh_deg=TEST_WORLD_RH), backend=backend)
+        result = scan_current_scene(
+            Pose(*TEST_WORLD_POSE), SensorConfig(rh_deg=TEST_WORLD_RH), backend=backend
+        )
         entry = {"pose": list(TEST_WORLD_POSE), "rh": TEST_WORLD_RH}
         entry.update(scan_checksums(result, None, directory, f"testworld_{backend}"))
         out[f"testworld/{backend}"] = entry

@@ -1,4 +1,5 @@
 """Helpers for tests that build or inspect Blender scenes (bpy wheel)."""
+
 from __future__ import annotations
 
 import os
@@ -41,7 +42,9 @@ def world_triangles_by_class() -> dict[int, tuple[np.ndarray, np.ndarray]]:
         m = np.array(ev.matrix_world)
         verts = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
         ev.to_mesh_clear()
-        groups.setdefault(class_id_for_tag(obj.get("wildscan_class")), []).append((verts, tris.reshape(-1, 3)))
+        groups.setdefault(class_id_for_tag(obj.get("wildscan_class")), []).append(
+            (verts, tris.reshape(-1, 3))
+        )
     out = {}
     for cid, parts in groups.items():
         offset, vs, fs = 0, [], []
@@ -107,8 +110,14 @@ def run(cmd: list[str], timeout: float = 300, **kw) -> subprocess.CompletedProce
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=REPO, **kw)
 
 
-def blender_scan(args: list[str], blend: str | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
-    cmd = [BLENDER, "-b"] + ([blend] if blend else []) + ["--factory-startup", "-P", "blender_scripts/scan.py", "--", *args]
+def blender_scan(
+    args: list[str], blend: str | None = None, timeout: float = 300
+) -> subprocess.CompletedProcess:
+    cmd = (
+        [BLENDER, "-b"]
+        + ([blend] if blend else [])
+        + ["--factory-startup", "-P", "blender_scripts/scan.py", "--", *args]
+    )
     return run(cmd, timeout)
 
 

@@ -2,6 +2,7 @@
 
 The real-GUI test (Blender 3.4.1 under Xvfb, with a screenshot) is tests/test_gui.py.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -28,7 +29,16 @@ from scene_helpers import REPO, WILDSCAN, fresh_scene
 SEED = 5
 RH = 4.0  # 45 2D scans: quick
 SETTINGS = dict(rh=RH, min_range=0.2, max_range=14.0, noise=0.02, noise_seed=11)
-CANDIDATE_XY = [(0.0, 0.0), (2.0, 1.0), (-3.0, 2.0), (4.0, -4.0), (-5.0, -5.0), (6.0, 3.0), (1.0, 7.0), (-8.0, 6.0)]
+CANDIDATE_XY = [
+    (0.0, 0.0),
+    (2.0, 1.0),
+    (-3.0, 2.0),
+    (4.0, -4.0),
+    (-5.0, -5.0),
+    (6.0, 3.0),
+    (1.0, 7.0),
+    (-8.0, 6.0),
+]
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -78,8 +88,13 @@ def configure(frame="leveled", **overrides):
 
 def sensor_config(**overrides) -> SensorConfig:
     v = {**SETTINGS, **overrides}
-    return SensorConfig(rh_deg=v["rh"], min_range=v["min_range"], max_range=v["max_range"],
-                        noise_sigma=v["noise"], noise_seed=v["noise_seed"])
+    return SensorConfig(
+        rh_deg=v["rh"],
+        min_range=v["min_range"],
+        max_range=v["max_range"],
+        noise_sigma=v["noise"],
+        noise_seed=v["noise_seed"],
+    )
 
 
 def the_cloud():
@@ -100,11 +115,19 @@ def snapshot(exclude_generated=True) -> dict:
         entry = {
             "matrix": [round(v, 9) for row in obj.matrix_world for v in row],
             "data": obj.data.name if obj.data is not None else None,
-            "modifiers": [(m.name, m.type) + tuple(sorted(
-                (p.identifier, repr(getattr(m, p.identifier))) for p in m.bl_rna.properties
-                if not p.is_readonly and p.type in {"INT", "FLOAT", "BOOLEAN", "ENUM", "STRING"}
-            and not getattr(p, "is_array", False)
-            )) for m in obj.modifiers],
+            "modifiers": [
+                (m.name, m.type)
+                + tuple(
+                    sorted(
+                        (p.identifier, repr(getattr(m, p.identifier)))
+                        for p in m.bl_rna.properties
+                        if not p.is_readonly
+                        and p.type in {"INT", "FLOAT", "BOOLEAN", "ENUM", "STRING"}
+                        and not getattr(p, "is_array", False)
+                    )
+                )
+                for m in obj.modifiers
+            ],
             "props": sorted((k, repr(obj[k])) for k in obj.keys()),
             "collections": sorted(c.name for c in obj.users_collection),
             "parent": obj.parent.name if obj.parent else None,
@@ -246,9 +269,27 @@ def test_panel_export_equals_the_wildscan_scan_command(scene, tmp_path):
     assert bpy.ops.wildscan.export_ply(filepath=str(panel_ply)) == {"FINISHED"}
     cli_ply = tmp_path / "cli.ply"
     s = SETTINGS
-    cmd = [WILDSCAN, "scan", "--seed", str(SEED), "--pose", *map(str, pose), "--rh", str(s["rh"]),
-           "--min-range", str(s["min_range"]), "--max-range", str(s["max_range"]), "--noise", str(s["noise"]),
-           "--noise-seed", str(s["noise_seed"]), "--quiet", "--out", str(cli_ply)]
+    cmd = [
+        WILDSCAN,
+        "scan",
+        "--seed",
+        str(SEED),
+        "--pose",
+        *map(str, pose),
+        "--rh",
+        str(s["rh"]),
+        "--min-range",
+        str(s["min_range"]),
+        "--max-range",
+        str(s["max_range"]),
+        "--noise",
+        str(s["noise"]),
+        "--noise-seed",
+        str(s["noise_seed"]),
+        "--quiet",
+        "--out",
+        str(cli_ply),
+    ]
     run = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     panel_records, _ = read_ply(panel_ply)
@@ -307,8 +348,9 @@ def test_the_cloud_is_one_object_in_class_colours_that_the_next_scan_replaces(sc
     pos, rgba = draw.cloud_arrays(first)
     labels = np.array([int(k) for k, v in counts.items() for _ in range(v)])
     assert len(pos) == sum(counts.values()) and len(counts) >= 3
-    assert sorted(map(tuple, np.unique((rgba[:, :3] * 255).round().astype(int), axis=0))) == \
-        sorted(map(tuple, COLOR_BY_ID[np.unique(labels)].astype(int)))
+    assert sorted(map(tuple, np.unique((rgba[:, :3] * 255).round().astype(int), axis=0))) == sorted(
+        map(tuple, COLOR_BY_ID[np.unique(labels)].astype(int))
+    )
     first_name = first.name
     settings().noise_seed += 1
     assert bpy.ops.wildscan.scan() == {"FINISHED"}
@@ -327,8 +369,9 @@ def test_scan_progress_reaches_the_end(scene, monkeypatch):
 
     seen = []
     original = feedback.Progress.fraction
-    monkeypatch.setattr(feedback.Progress, "fraction", lambda self, v, text=None: (seen.append(v),
-                                                                                    original(self, v, text)))
+    monkeypatch.setattr(
+        feedback.Progress, "fraction", lambda self, v, text=None: (seen.append(v), original(self, v, text))
+    )
     generate()
     assert len(seen) >= 2 and seen == sorted(seen) and seen[-1] < 1.0  # world stages
     seen.clear()
@@ -475,7 +518,12 @@ def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatc
 def test_frame_conversions_round_trip_and_match_the_placement():
     from wildscan.ui import frames
 
-    placement = {"pose": {"yaw_deg": 37.0}, "roll_deg": 4.0, "pitch_deg": -6.0, "optical_centre": [3.0, -2.0, 1.7]}
+    placement = {
+        "pose": {"yaw_deg": 37.0},
+        "roll_deg": 4.0,
+        "pitch_deg": -6.0,
+        "optical_centre": [3.0, -2.0, 1.7],
+    }
     pts = np.random.default_rng(0).normal(size=(50, 3)) * 5
     for frame in ("leveled", "sensor", "world"):
         back = frames.from_world(frames.to_world(pts, frame, placement), frame, placement)
@@ -503,7 +551,10 @@ def zips(tmp_path_factory):
 def test_the_zips_have_the_layouts_blender_installs(zips):
     legacy, extension = zips
     version = wildscan.__version__
-    assert legacy.name == f"wildscan-{version}-legacy.zip" and extension.name == f"wildscan-{version}-extension.zip"
+    assert (
+        legacy.name == f"wildscan-{version}-legacy.zip"
+        and extension.name == f"wildscan-{version}-extension.zip"
+    )
     with zipfile.ZipFile(legacy) as z:
         names = z.namelist()
         assert "wildscan/__init__.py" in names and "wildscan/ui/operators.py" in names
@@ -552,6 +603,12 @@ def test_each_zip_installs_and_runs_in_blender_5(zips, tmp_path, kind):
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"))
     script = f"CANDIDATES = {CANDIDATE_XY!r}\n" + INSTALL_SCRIPT
     zip_path = extension if kind == "extension" else legacy
-    run = subprocess.run([sys.executable, "-c", script, kind, str(zip_path), str(user), str(REPO / "addon")],
-                         capture_output=True, text=True, env=env, timeout=300, cwd=tmp_path)
+    run = subprocess.run(
+        [sys.executable, "-c", script, kind, str(zip_path), str(user), str(REPO / "addon")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        cwd=tmp_path,
+    )
     assert "INSTALLED-OK 1" in run.stdout, run.stdout[-2000:] + run.stderr[-2000:]

@@ -8,6 +8,7 @@ float64 (`world_geometry`), then every triangle tested by brute force
 is the faceted MESH; the hit points are also checked against the analytic shape,
 between the inscribed and circumscribed surfaces of the facets.
 """
+
 from __future__ import annotations
 
 import math
@@ -46,8 +47,18 @@ def empty_scene():
     return bpy.context.scene
 
 
-def add_mesh(name, vertices, faces, wildscan_class=None, instance=None, location=(0, 0, 0),
-             rotation=(0, 0, 0), scale=(1, 1, 1), collection=None, mesh=None):
+def add_mesh(
+    name,
+    vertices,
+    faces,
+    wildscan_class=None,
+    instance=None,
+    location=(0, 0, 0),
+    rotation=(0, 0, 0),
+    scale=(1, 1, 1),
+    collection=None,
+    mesh=None,
+):
     if mesh is None:
         mesh = bpy.data.meshes.new(name)
         mesh.from_pydata(np.asarray(vertices, dtype=float).tolist(), [], np.asarray(faces).tolist())
@@ -82,8 +93,14 @@ def world_geometry(objects) -> SceneGeometry:
         cls.append(np.full(len(f), class_id_for_tag(obj.get("wildscan_class"))))
         inst.append(np.full(len(f), int(obj.get("wildscan_instance", 0))))
         idx.append(np.full(len(f), k))
-    g = SceneGeometry(np.concatenate(verts), np.concatenate(faces), np.concatenate(cls),
-                      np.concatenate(inst), np.concatenate(idx), tuple(o.name for o in objects))
+    g = SceneGeometry(
+        np.concatenate(verts),
+        np.concatenate(faces),
+        np.concatenate(cls),
+        np.concatenate(inst),
+        np.concatenate(idx),
+        tuple(o.name for o in objects),
+    )
     g.offset = np.round(g.vertices.mean(axis=0))
     return g
 
@@ -137,18 +154,27 @@ def uv_sphere(radius, rings, segments):
 def cylinder_mesh(radius, height, sides):
     phi = np.linspace(0, 2 * math.pi, sides, endpoint=False)
     ring = np.stack([radius * np.cos(phi), radius * np.sin(phi)], 1)
-    verts = np.concatenate([np.c_[ring, np.zeros(sides)], np.c_[ring, np.full(sides, height)],
-                            [[0, 0, 0], [0, 0, height]]])
+    verts = np.concatenate(
+        [np.c_[ring, np.zeros(sides)], np.c_[ring, np.full(sides, height)], [[0, 0, 0], [0, 0, height]]]
+    )
     faces = []
     for s in range(sides):
         n = (s + 1) % sides
-        faces += [(s, n, sides + n), (s, sides + n, sides + s), (2 * sides, n, s),
-                  (2 * sides + 1, sides + s, sides + n)]
+        faces += [
+            (s, n, sides + n),
+            (s, sides + n, sides + s),
+            (2 * sides, n, s),
+            (2 * sides + 1, sides + s, sides + n),
+        ]
     return verts, np.array(faces)
 
 
 def box_mesh(sx, sy, sz):
-    v = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float) * [sx / 2, sy / 2, sz / 2]
+    v = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float) * [
+        sx / 2,
+        sy / 2,
+        sz / 2,
+    ]
     quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
     return v, np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
 
@@ -165,13 +191,32 @@ CYLINDER = dict(radius=0.6, height=3.0, sides=48, base=(-3.0, 2.0, -0.5))
 
 def build_primitives():
     empty_scene()
-    plane = add_mesh("plane", [(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)], [(0, 1, 2), (0, 2, 3)],
-                     "terrain", 1, location=(1, 2, -1.3), rotation=(0.35, 0.0, 0.17))
-    box = add_mesh("box", *box_mesh(2.0, 1.0, 1.5), "rock", 2, location=(0.5, -3.0, 0.2), rotation=(0.1, 0.2, 0.7))
-    sphere = add_mesh("sphere", *uv_sphere(SPHERE["radius"], SPHERE["rings"], SPHERE["segments"]), "bush", 3,
-                      location=SPHERE["center"])
-    cyl = add_mesh("cylinder", *cylinder_mesh(CYLINDER["radius"], CYLINDER["height"], CYLINDER["sides"]),
-                   "trunk", 4, location=CYLINDER["base"])
+    plane = add_mesh(
+        "plane",
+        [(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)],
+        [(0, 1, 2), (0, 2, 3)],
+        "terrain",
+        1,
+        location=(1, 2, -1.3),
+        rotation=(0.35, 0.0, 0.17),
+    )
+    box = add_mesh(
+        "box", *box_mesh(2.0, 1.0, 1.5), "rock", 2, location=(0.5, -3.0, 0.2), rotation=(0.1, 0.2, 0.7)
+    )
+    sphere = add_mesh(
+        "sphere",
+        *uv_sphere(SPHERE["radius"], SPHERE["rings"], SPHERE["segments"]),
+        "bush",
+        3,
+        location=SPHERE["center"],
+    )
+    cyl = add_mesh(
+        "cylinder",
+        *cylinder_mesh(CYLINDER["radius"], CYLINDER["height"], CYLINDER["sides"]),
+        "trunk",
+        4,
+        location=CYLINDER["base"],
+    )
     return [plane, box, sphere, cyl]
 
 
@@ -185,8 +230,10 @@ def primitives():
     backends = make_all()
     casts = {}
     for name, backend in backends.items():
-        casts[name] = [backend.cast(np.array(o), random_dirs(2000, f"prim {k}"), 25.0)
-                       for k, o in enumerate(PRIMITIVE_ORIGINS)]
+        casts[name] = [
+            backend.cast(np.array(o), random_dirs(2000, f"prim {k}"), 25.0)
+            for k, o in enumerate(PRIMITIVE_ORIGINS)
+        ]
     return truth, casts
 
 
@@ -250,7 +297,8 @@ def _on_cylinder(points):
     r, h, sides = CYLINDER["radius"], CYLINDER["height"], CYLINDER["sides"]
     rho = np.hypot(p[:, 0], p[:, 1])
     side = np.maximum(np.maximum(r * math.cos(math.pi / sides) - rho, rho - r), 0.0) + np.maximum(
-        np.maximum(-p[:, 2], p[:, 2] - h), 0.0)
+        np.maximum(-p[:, 2], p[:, 2] - h), 0.0
+    )
     cap = np.minimum(np.abs(p[:, 2]), np.abs(p[:, 2] - h)) + np.maximum(rho - r, 0.0)
     return np.minimum(side, cap)
 
@@ -289,12 +337,20 @@ def _snapshot():
     """Everything extraction could conceivably disturb."""
     objects = []
     for o in bpy.data.objects:
-        objects.append((
-            o.name, o.type, tuple(round(v, 9) for row in o.matrix_world for v in row),
-            tuple(sorted((k, str(o[k])) for k in o.keys())),
-            tuple((m.name, m.type) for m in o.modifiers), o.data.name if o.data else None,
-            o.select_get(), o.hide_get(), o.hide_viewport, tuple(o.location),
-        ))
+        objects.append(
+            (
+                o.name,
+                o.type,
+                tuple(round(v, 9) for row in o.matrix_world for v in row),
+                tuple(sorted((k, str(o[k])) for k in o.keys())),
+                tuple((m.name, m.type) for m in o.modifiers),
+                o.data.name if o.data else None,
+                o.select_get(),
+                o.hide_get(),
+                o.hide_viewport,
+                tuple(o.location),
+            )
+        )
     meshes = []
     for m in bpy.data.meshes:
         co = np.empty(len(m.vertices) * 3, dtype=np.float32)
@@ -327,9 +383,13 @@ def build_instancing_scene():
 
 # (x, y) above each copy, with the label it must get
 INSTANCE_TARGETS = (
-    ((5.0, 0.0), ("rock", 21)), ((10.0, 0.0), ("rock", 22)),
-    ((0.0, 5.0), ("fence", 30)), ((1.5, 5.0), ("fence", 30)), ((3.0, 5.0), ("fence", 30)),
-    ((0.0, -5.0), ("pole", 41)), ((3.0, -5.0), ("pole", 42)),
+    ((5.0, 0.0), ("rock", 21)),
+    ((10.0, 0.0), ("rock", 22)),
+    ((0.0, 5.0), ("fence", 30)),
+    ((1.5, 5.0), ("fence", 30)),
+    ((3.0, 5.0), ("fence", 30)),
+    ((0.0, -5.0), ("pole", 41)),
+    ((3.0, -5.0), ("pole", 42)),
     ((-6.0, 0.0), ("unlabeled", 0)),
 )
 
@@ -368,8 +428,15 @@ def test_extraction_expands_instances_and_modifiers_without_changing_the_scene()
 
 def test_extraction_applies_world_matrices_in_float64():
     empty_scene()
-    obj = add_mesh("tilted", *box_mesh(2, 1, 0.5), "rock", 5, location=(10003.25, -7000.5, 12.0),
-                   rotation=(0.3, -0.2, 1.1), scale=(1.5, 0.5, 2.0))
+    obj = add_mesh(
+        "tilted",
+        *box_mesh(2, 1, 0.5),
+        "rock",
+        5,
+        location=(10003.25, -7000.5, 12.0),
+        rotation=(0.3, -0.2, 1.1),
+        scale=(1.5, 0.5, 2.0),
+    )
     truth = world_geometry([obj])
     geometry = extract_scene()
     assert np.allclose(geometry.triangles(), truth.triangles(), rtol=0, atol=1e-9)
@@ -453,8 +520,10 @@ def test_fallback_reaches_blender_and_then_fails_clearly(monkeypatch):
 
 
 def test_select_imports_without_bpy_or_embreex():
-    code = ("import sys, wildscan.raycast.select as s, wildscan.raycast.geometry; "
-            "assert not {'bpy', 'mathutils', 'embreex'} & set(sys.modules), sorted(sys.modules)")
+    code = (
+        "import sys, wildscan.raycast.select as s, wildscan.raycast.geometry; "
+        "assert not {'bpy', 'mathutils', 'embreex'} & set(sys.modules), sorted(sys.modules)"
+    )
     subprocess.run([sys.executable, "-c", code], check=True)
 
 

@@ -3,6 +3,7 @@
 No timing is asserted here (speed goals are reported by the benchmark itself); what is
 asserted are the accuracy figures and the shape of the CSV and the chart.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -44,8 +45,15 @@ def quick(tmp_path_factory):
     with (out / "bench.csv").open() as f:
         reader = csv.DictReader(f)
         header, rows = reader.fieldnames, list(reader)
-    return {"code": code, "out": out, "header": header, "rows": rows, "text": printed.getvalue(),
-            "before": before, "after": _bench_state()}
+    return {
+        "code": code,
+        "out": out,
+        "header": header,
+        "rows": rows,
+        "text": printed.getvalue(),
+        "before": before,
+        "after": _bench_state(),
+    }
 
 
 def rows_of(quick, section):
@@ -72,8 +80,9 @@ def test_quick_bench_writes_the_csv_chart_and_tables_and_nothing_else(quick):
     test_world = {r["backend"]: r for r in rows_of(quick, "phases")}
     assert test_world["blender"]["estimated"] == "0" and int(test_world["blender"]["beams"]) == 194_400
     assert {r["estimated"] for r in rows_of(quick, "detail") if r["backend"] == "blender"} == {"1"}
-    assert [float(r["rh_deg"]) for r in rows_of(quick, "beams") if r["backend"] == "embree"] == \
-        list(bench.QUICK_BEAM_STEPS)
+    assert [float(r["rh_deg"]) for r in rows_of(quick, "beams") if r["backend"] == "embree"] == list(
+        bench.QUICK_BEAM_STEPS
+    )
 
     png = (quick["out"] / "bench.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
@@ -172,14 +181,17 @@ def test_closed_form_truth_of_the_primitives():
 # -- user mistakes -----------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--details", "low,ultra"], "--details must list levels from low, default, high"),
-    (["--backends", "optix"], "--backends must list names from auto, embree, bvh, blender"),
-    (["--backends", "blender"], "at least one fast backend"),
-    (["--runs", "0"], "--runs must be a whole number from 1 to 50"),
-    (["--reference-rays", "ten"], "--reference-rays must be a whole number"),
-    (["--seed", "-3"], "--seed must be a whole number from 0 to 2147483647"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--details", "low,ultra"], "--details must list levels from low, default, high"),
+        (["--backends", "optix"], "--backends must list names from auto, embree, bvh, blender"),
+        (["--backends", "blender"], "at least one fast backend"),
+        (["--runs", "0"], "--runs must be a whole number from 1 to 50"),
+        (["--reference-rays", "ten"], "--reference-rays must be a whole number"),
+        (["--seed", "-3"], "--seed must be a whole number from 0 to 2147483647"),
+    ],
+)
 def test_bad_options_are_refused_in_one_line(argv, message, tmp_path, capsys):
     assert run_bench(argv + ["--out", str(tmp_path / "b")]) == 2
     captured = capsys.readouterr()

@@ -1,4 +1,5 @@
 """The reference ray backend (Scene.ray_cast), on the bpy wheel and on Debian's Blender 3.4."""
+
 from __future__ import annotations
 
 import json
@@ -35,7 +36,9 @@ def _box(name, center, size, cls=None, instance=None):
 
 
 def _cast(origins, directions, max_range=100.0, **kw):
-    return BlenderRayCastBackend().cast(np.asarray(origins, float), np.asarray(directions, float), max_range, **kw)
+    return BlenderRayCastBackend().cast(
+        np.asarray(origins, float), np.asarray(directions, float), max_range, **kw
+    )
 
 
 def test_hit_on_a_box_gives_the_exact_distance_class_and_instance():
@@ -144,7 +147,9 @@ def test_a_scene_outside_any_window_is_cast_in_its_own_depsgraph():
     obj["wildscan_class"], obj["wildscan_instance"] = "rock", 8
     other.collection.objects.link(obj)
     assert other.view_layers[0].depsgraph is None  # what broke the backend before
-    hits = BlenderRayCastBackend(scene=other).cast(np.array([-10.0, 0.0, 0.0]), np.array([[1.0, 0.0, 0.0]]), 20.0)
+    hits = BlenderRayCastBackend(scene=other).cast(
+        np.array([-10.0, 0.0, 0.0]), np.array([[1.0, 0.0, 0.0]]), 20.0
+    )
     assert hits.distance[0] == pytest.approx(9.0, abs=1e-6) and hits.instance[0] == 8
     # the active scene is empty: the backend did not look there
     assert not _cast([-10.0, 0.0, 0.0], [[1.0, 0.0, 0.0]]).hit[0]
@@ -246,8 +251,19 @@ def test_blender_34_gives_the_same_hits_as_the_wheel(tmp_path):
     seed = 4
 
     runpy.run_path(str(script), run_name="probe")["main"](str(ADDON_DIR), str(wheel_out), seed)
-    cmd = [_blender34(), "-b", "--factory-startup", "--python-exit-code", "1", "-P", str(script),
-           "--", str(ADDON_DIR), str(old_out), str(seed)]
+    cmd = [
+        _blender34(),
+        "-b",
+        "--factory-startup",
+        "--python-exit-code",
+        "1",
+        "-P",
+        str(script),
+        "--",
+        str(ADDON_DIR),
+        str(old_out),
+        str(seed),
+    ]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
 
@@ -261,6 +277,8 @@ def test_blender_34_gives_the_same_hits_as_the_wheel(tmp_path):
     np.testing.assert_allclose(d_old[hit], d_wheel[hit], rtol=0, atol=1e-6)
     assert wheel["class_id"] == old["class_id"] and wheel["instance"] == old["instance"]
     assert len(set(wheel["class_id"])) >= 12  # the fan from the origin sees most classes
-    print(f"\nwheel {wheel['version']}: build {wheel['build_s'] * 1e3:.0f} ms, {wheel['us_per_ray']:.2f} us/ray; "
-          f"blender {old['version']}: build {old['build_s'] * 1e3:.0f} ms, {old['us_per_ray']:.2f} us/ray",
-          file=sys.stderr)
+    print(
+        f"\nwheel {wheel['version']}: build {wheel['build_s'] * 1e3:.0f} ms, {wheel['us_per_ray']:.2f} us/ray; "
+        f"blender {old['version']}: build {old['build_s'] * 1e3:.0f} ms, {old['us_per_ray']:.2f} us/ray",
+        file=sys.stderr,
+    )

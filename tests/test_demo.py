@@ -1,4 +1,5 @@
 """`wildscan demo` (what `make demo` runs) and `wildscan scan --seed` on the procedural world."""
+
 import json
 
 import numpy as np
@@ -35,8 +36,22 @@ def test_scan_by_seed_builds_the_procedural_world_and_scans_a_listed_pose(tmp_pa
     assert poses.returncode == 0, poses.stderr
     p = json.loads(poses.stdout)["poses"]["park"][0]
     out = tmp_path / "park.ply"
-    proc = run([WILDSCAN, "scan", "--seed", "4", "--pose", str(p["x"]), str(p["y"]), str(p["yaw"]), "--rh", "2",
-                "--out", str(out)])
+    proc = run(
+        [
+            WILDSCAN,
+            "scan",
+            "--seed",
+            "4",
+            "--pose",
+            str(p["x"]),
+            str(p["y"]),
+            str(p["yaw"]),
+            "--rh",
+            "2",
+            "--out",
+            str(out),
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     labels = set(np.unique(PlyData.read(str(out))["vertex"]["label"]).tolist())
     assert {4, 6, 7} <= labels  # table, fence, bench

@@ -5,6 +5,7 @@ generate, aerial view, pose, scan, sidebar tab, screenshot, undo/redo, disable/e
 and writes what it saw to a JSON file; this test asserts on it. The screenshot is kept
 in the test's directory and copied to docs/screenshot.png for the README.
 """
+
 from __future__ import annotations
 
 import json
@@ -36,20 +37,45 @@ def gui_run(tmp_path_factory):
     for sub in ("scripts", "config", "tmp"):
         (tmp / sub).mkdir()
     # Blender installs and enables the add-on in a throw-away user directory, never the user's own.
-    env = dict(os.environ, BLENDER_USER_SCRIPTS=str(tmp / "scripts"), BLENDER_USER_CONFIG=str(tmp / "config"),
-               TMPDIR=str(tmp / "tmp"))
+    env = dict(
+        os.environ,
+        BLENDER_USER_SCRIPTS=str(tmp / "scripts"),
+        BLENDER_USER_CONFIG=str(tmp / "config"),
+        TMPDIR=str(tmp / "tmp"),
+    )
     env.pop("PYTHONPATH", None)
     result_path, shot = tmp / "result.json", tmp / "screenshot.png"
     width, height = SCREEN.split("x")[:2]
     cmd = [
-        "xvfb-run", "-a", "-s", f"-screen 0 {SCREEN}",
-        BLENDER, "--factory-startup", "--enable-event-simulate", "-p", "0", "0", width, height,
-        "--python", str(GUI_SCRIPT), "--",
-        "--zip", str(legacy), "--result", str(result_path), "--screenshot", str(shot), "--rh", str(RH),
+        "xvfb-run",
+        "-a",
+        "-s",
+        f"-screen 0 {SCREEN}",
+        BLENDER,
+        "--factory-startup",
+        "--enable-event-simulate",
+        "-p",
+        "0",
+        "0",
+        width,
+        height,
+        "--python",
+        str(GUI_SCRIPT),
+        "--",
+        "--zip",
+        str(legacy),
+        "--result",
+        str(result_path),
+        "--screenshot",
+        str(shot),
+        "--rh",
+        str(RH),
     ]
     run = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=TIMEOUT_S, cwd=tmp)
     (tmp / "blender.log").write_text(run.stdout + "\n--- stderr ---\n" + run.stderr)
-    assert result_path.exists(), f"Blender wrote no result (exit {run.returncode}):\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}"
+    assert result_path.exists(), (
+        f"Blender wrote no result (exit {run.returncode}):\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}"
+    )
     result = json.loads(result_path.read_text())
     if shot.exists():
         DOCS_SCREENSHOT.parent.mkdir(exist_ok=True)
@@ -118,5 +144,8 @@ def test_undo_after_a_scan_removes_only_the_cloud_and_redo_brings_it_back(gui_ru
 
 
 def test_disable_and_enable_again_in_the_gui(gui_run):
-    assert gui_run["result"]["disable_enable"] == {"unregistered": True, "registered_again": True,
-                                                   "settings_kept": True}
+    assert gui_run["result"]["disable_enable"] == {
+        "unregistered": True,
+        "registered_again": True,
+        "settings_kept": True,
+    }

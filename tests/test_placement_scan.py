@@ -1,4 +1,5 @@
 """Placement, leveling and the scan pipeline on exact analytic scenes (no Blender)."""
+
 import math
 
 import numpy as np
@@ -23,7 +24,11 @@ def flat_world(*extra):
 
 def plane_with_attitude(roll_deg, pitch_deg, yaw_deg, z0=2.0):
     """The plane a structure with this attitude would rest on (normal = its column)."""
-    n = sensor_to_world_matrix(math.radians(roll_deg), math.radians(pitch_deg), math.radians(yaw_deg)) @ [0, 0, 1]
+    n = sensor_to_world_matrix(math.radians(roll_deg), math.radians(pitch_deg), math.radians(yaw_deg)) @ [
+        0,
+        0,
+        1,
+    ]
     return Patch((0.0, 0.0, z0), tuple(n), TERRAIN)
 
 

@@ -4,6 +4,7 @@ the readers users already have (plyfile, PCL's pcl_ply2pcd, CloudCompare).
 The PCL and CloudCompare tests run the real Debian binaries (apt packages
 `pcl-tools` and `cloudcompare`); a missing binary is a failure, not a skip.
 """
+
 from __future__ import annotations
 
 import json
@@ -25,10 +26,18 @@ from wildscan.core.pointcloud import PLY_FIELDS, PointCloud
 
 FIELD_NAMES = [name for name, _ in PLY_FIELDS]
 EXPECTED_PROPERTY_LINES = [
-    "property float x", "property float y", "property float z", "property float intensity",
-    "property uint label", "property uint instance",
-    "property uchar red", "property uchar green", "property uchar blue",
-    "property ushort ring", "property ushort sweep", "property float range",
+    "property float x",
+    "property float y",
+    "property float z",
+    "property float intensity",
+    "property uint label",
+    "property uint instance",
+    "property uchar red",
+    "property uchar green",
+    "property uchar blue",
+    "property ushort ring",
+    "property ushort sweep",
+    "property float range",
     "property float scalar_label",
 ]
 METADATA = {
@@ -179,7 +188,7 @@ def test_awkward_metadata_stays_one_ascii_line_per_key(tmp_path):
     assert "seed 9" in comments
     assert "pose 0.5,2,-30" in comments
     (world,) = [c for c in comments if c.startswith("world ")]
-    assert json.loads(world[len("world "):]) == meta["world"]  # quoted text decodes back exactly
+    assert json.loads(world[len("world ") :]) == meta["world"]  # quoted text decodes back exactly
     assert 'odd_key_ a_b=true c=null d="/tmp/x y" e=0,1,2' in comments
     # One comment per metadata key (plus `frame`, from the cloud), the version line and the class table.
     assert len(comments) == 1 + len(meta) + 1 + len(class_table_lines())
@@ -408,7 +417,7 @@ def parse_ascii_pcd(path: Path) -> tuple[dict[str, list[str]], dict[str, np.ndar
         key, *values = line.split()
         header[key] = values
         if key == "DATA":
-            body = lines[i + 1:]
+            body = lines[i + 1 :]
             break
     assert header["DATA"] == ["ascii"], header
     table = np.array([row.split() for row in body], dtype=np.float64).reshape(-1, len(header["FIELDS"]))
@@ -425,8 +434,19 @@ def test_pcl_ply2pcd_loads_labels(tmp_path, ascii):
     header, columns = parse_ascii_pcd(tmp_path / "scan.pcd")
     fields = header["FIELDS"]
     # PCL keeps every property; red/green/blue are packed into one `rgb` field.
-    assert fields == ["x", "y", "z", "intensity", "label", "instance", "rgb", "ring", "sweep", "range",
-                      "scalar_label"]
+    assert fields == [
+        "x",
+        "y",
+        "z",
+        "intensity",
+        "label",
+        "instance",
+        "rgb",
+        "ring",
+        "sweep",
+        "range",
+        "scalar_label",
+    ]
     kinds = dict(zip(fields, zip(header["TYPE"], header["SIZE"], strict=True), strict=True))
     assert kinds["label"] == ("U", "4")
     assert header["POINTS"] == ["150"]
@@ -469,8 +489,25 @@ def test_cloudcompare_cli_sees_labels_and_colours(tmp_path, ascii):
     cloud = make_cloud(120, seed=21)
     ply_path, _ = write_scan_files(tmp_path / "scan.ply", cloud, METADATA, ascii=ascii)
     out = tmp_path / "export.asc"
-    run_tool([exe, "-SILENT", "-O", str(ply_path), "-C_EXPORT_FMT", "ASC", "-ADD_HEADER", "-SEP", "SPACE",
-              "-NO_TIMESTAMP", "-SAVE_CLOUDS", "FILE", str(out)], cwd=tmp_path, env=cloudcompare_env(tmp_path))
+    run_tool(
+        [
+            exe,
+            "-SILENT",
+            "-O",
+            str(ply_path),
+            "-C_EXPORT_FMT",
+            "ASC",
+            "-ADD_HEADER",
+            "-SEP",
+            "SPACE",
+            "-NO_TIMESTAMP",
+            "-SAVE_CLOUDS",
+            "FILE",
+            str(out),
+        ],
+        cwd=tmp_path,
+        env=cloudcompare_env(tmp_path),
+    )
     assert out.exists(), "CloudCompare reported success but wrote no file"
 
     columns = parse_cloudcompare_asc(out)

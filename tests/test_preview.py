@@ -1,6 +1,7 @@
 """Scan preview PNG: a real image of the right size, class colours where the
 points are, near points covering far ones, the bulk of the cloud in view,
 deterministic bytes, atomic writes and clear errors for bad paths."""
+
 from __future__ import annotations
 
 import matplotlib.image as mpimg
@@ -34,7 +35,9 @@ def cloud_of(xyz, labels) -> PointCloud:
 
 def cylinder(rng, centre, radius, height, n):
     theta = rng.uniform(0, 2 * np.pi, n)
-    return np.c_[centre[0] + radius * np.cos(theta), centre[1] + radius * np.sin(theta), rng.uniform(0, height, n)]
+    return np.c_[
+        centre[0] + radius * np.cos(theta), centre[1] + radius * np.sin(theta), rng.uniform(0, height, n)
+    ]
 
 
 def scene(seed: int = 0) -> PointCloud:
@@ -45,8 +48,12 @@ def scene(seed: int = 0) -> PointCloud:
     ground = np.c_[r * np.cos(theta), r * np.sin(theta), np.zeros(len(r))]
     t = rng.uniform(0, 1, 800)
     fence = np.c_[-6 + 8 * t, np.full(800, -5.0), rng.uniform(0, 1.0, 800)]
-    parts = [(ground, TERRAIN), (cylinder(rng, (3, 2), 0.3, 4, 800), TRUNK),
-             (cylinder(rng, (-3, 3), 0.15, 3, 600), POLE), (fence, FENCE)]
+    parts = [
+        (ground, TERRAIN),
+        (cylinder(rng, (3, 2), 0.3, 4, 800), TRUNK),
+        (cylinder(rng, (-3, 3), 0.15, 3, 600), POLE),
+        (fence, FENCE),
+    ]
     xyz = np.concatenate([p for p, _ in parts])
     labels = np.concatenate([np.full(len(p), lab, np.uint16) for p, lab in parts])
     return cloud_of(xyz, labels)
@@ -59,7 +66,7 @@ def plot_region(png_path) -> np.ndarray:
     """
     rgb = np.round(mpimg.imread(png_path)[:, :, :3] * 255).astype(np.uint8)
     height, width = rgb.shape[:2]
-    quarter = rgb[: height // 2, width // 2:]
+    quarter = rgb[: height // 2, width // 2 :]
     white_cols = np.nonzero(np.all(quarter == 255, axis=-1).any(axis=0))[0]
     legend_left = width // 2 + int(white_cols[0]) if len(white_cols) else width
     return rgb[:, :legend_left]
@@ -244,7 +251,9 @@ def test_rasterize_square_splats_and_background():
 
 def test_rasterize_drops_points_outside_the_box():
     axes = view_axes(90.0, -90.0)
-    image = rasterize(np.array([[50.0, 50.0, 0.0]]), COLOR_BY_ID[[TRUNK]], axes, (0.0, 10.0, 0.0, 10.0), 10, 10, 2)
+    image = rasterize(
+        np.array([[50.0, 50.0, 0.0]]), COLOR_BY_ID[[TRUNK]], axes, (0.0, 10.0, 0.0, 10.0), 10, 10, 2
+    )
     assert np.all(image == preview._BACKGROUND_U8)
 
 

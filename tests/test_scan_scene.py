@@ -1,5 +1,6 @@
 """The foundation end to end on a real Blender scene: the test world, the
 reference ray caster, the commands on the bpy wheel and on Debian's Blender 3.4."""
+
 import json
 
 import numpy as np
@@ -70,11 +71,18 @@ def test_untagged_meshes_block_beams_and_are_counted(test_world):
 
 def save_test_world_with_blender_34(seed: int, blend) -> None:
     """The test world saved by Debian's Blender 3.4, whose files both Blenders read."""
-    build = run([BLENDER, "-b", "--factory-startup", "--python-expr",
-                 "import sys, bpy; sys.path.insert(0, 'addon');"
-                 "from wildscan.world.testworld import build_test_world;"
-                 f"bpy.ops.wm.read_factory_settings(use_empty=True); build_test_world({seed});"
-                 f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"])
+    build = run(
+        [
+            BLENDER,
+            "-b",
+            "--factory-startup",
+            "--python-expr",
+            "import sys, bpy; sys.path.insert(0, 'addon');"
+            "from wildscan.world.testworld import build_test_world;"
+            f"bpy.ops.wm.read_factory_settings(use_empty=True); build_test_world({seed});"
+            f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})",
+        ]
+    )
     assert blend.exists(), build.stdout[-2000:] + build.stderr
 
 
@@ -88,8 +96,28 @@ def world_blend(tmp_path_factory):
 @pytest.fixture(scope="module")
 def cli_scan(tmp_path_factory, world_blend):
     out = tmp_path_factory.mktemp("cli") / "scan.ply"
-    proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
-                "--backend", "blender", "--frame", "world", "--out", str(out)])
+    proc = run(
+        [
+            WILDSCAN,
+            "scan",
+            "--world",
+            str(world_blend),
+            "--pose",
+            "0",
+            "0",
+            "0",
+            "--rh",
+            "2",
+            "--noise",
+            "0",
+            "--backend",
+            "blender",
+            "--frame",
+            "world",
+            "--out",
+            str(out),
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     return out, proc
 
@@ -99,7 +127,11 @@ def test_wildscan_scan_writes_a_labeled_ply_and_sidecar(cli_scan):
     ply = PlyData.read(str(out))
     v = ply["vertex"]
     assert v.count > 25_000
-    assert {c.id for c in CLASSES} - set(np.unique(v["label"]).tolist()) <= {4, 6, 7}  # all but maybe furniture
+    assert {c.id for c in CLASSES} - set(np.unique(v["label"]).tolist()) <= {
+        4,
+        6,
+        7,
+    }  # all but maybe furniture
     meta = json.loads(out.with_suffix(".json").read_text())
     assert meta["point_count"] == v.count and meta["world"].endswith("testworld1.blend")
     assert meta["placement"]["lasers"][0]["class"] == "terrain"
@@ -112,8 +144,26 @@ def test_wildscan_scan_writes_a_labeled_ply_and_sidecar(cli_scan):
 def test_blender_34_and_bpy_50_give_the_same_scan(cli_scan, world_blend, tmp_path):
     out, _ = cli_scan
     other = tmp_path / "b34.ply"
-    proc = blender_scan(["--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "2", "--noise", "0",
-                         "--backend", "blender", "--frame", "world", "--out", str(other)])
+    proc = blender_scan(
+        [
+            "--world",
+            str(world_blend),
+            "--pose",
+            "0",
+            "0",
+            "0",
+            "--rh",
+            "2",
+            "--noise",
+            "0",
+            "--backend",
+            "blender",
+            "--frame",
+            "world",
+            "--out",
+            str(other),
+        ]
+    )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
     a, b = PlyData.read(str(out))["vertex"], PlyData.read(str(other))["vertex"]
     assert a.count == b.count
@@ -132,7 +182,9 @@ def test_blender_scans_the_blend_it_was_opened_with(tmp_path):
     assert PlyData.read(str(out))["vertex"].count > 10_000
     # The bpy wheel reads a .blend saved by Blender 3.4 too.
     out2 = tmp_path / "wheel.ply"
-    proc = run([WILDSCAN, "scan", "--world", str(blend), "--pose", "0", "0", "90", "--rh", "4", "--out", str(out2)])
+    proc = run(
+        [WILDSCAN, "scan", "--world", str(blend), "--pose", "0", "0", "90", "--rh", "4", "--out", str(out2)]
+    )
     assert proc.returncode == 0, proc.stderr
     assert PlyData.read(str(out2))["vertex"].count == PlyData.read(str(out))["vertex"].count
 
@@ -142,9 +194,24 @@ def test_same_noise_seed_gives_byte_identical_files_and_another_seed_does_not(wo
     for name, seed in (("a", 5), ("b", 5), ("c", 6)):
         (tmp_path / name).mkdir()
         outs[name] = tmp_path / name / "scan.ply"
-        proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "4",
-                    "--noise-seed", str(seed),
-                    "--out", str(outs[name])])
+        proc = run(
+            [
+                WILDSCAN,
+                "scan",
+                "--world",
+                str(world_blend),
+                "--pose",
+                "0",
+                "0",
+                "0",
+                "--rh",
+                "4",
+                "--noise-seed",
+                str(seed),
+                "--out",
+                str(outs[name]),
+            ]
+        )
         assert proc.returncode == 0, proc.stderr
     assert outs["a"].read_bytes() == outs["b"].read_bytes()
     assert outs["a"].with_suffix(".json").read_bytes() == outs["b"].with_suffix(".json").read_bytes()
@@ -191,8 +258,22 @@ BAD_INPUTS = [
 
 
 def test_negative_numbers_in_exponent_form_are_values_not_options(world_blend, tmp_path):
-    proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "-2e0", "-1.5e0", "-9e1", "--rh", "4",
-                "--out", str(tmp_path / "s.ply")])
+    proc = run(
+        [
+            WILDSCAN,
+            "scan",
+            "--world",
+            str(world_blend),
+            "--pose",
+            "-2e0",
+            "-1.5e0",
+            "-9e1",
+            "--rh",
+            "4",
+            "--out",
+            str(tmp_path / "s.ply"),
+        ]
+    )
     assert proc.returncode == 0, proc.stderr
     assert json.loads((tmp_path / "s.json").read_text())["pose"] == {"x": -2.0, "y": -1.5, "yaw_deg": -90.0}
 
@@ -209,8 +290,24 @@ def test_a_bug_inside_blender_exits_1_not_0(tmp_path):
         "cli.COMMANDS['scan'] = boom\n"
         "sys.exit(cli.blender_main('scan'))\n"
     )
-    proc = run([BLENDER, "-b", "--factory-startup", "-P", str(script), "--", "--seed", "1", "--pose", "0", "0", "0",
-                "--out", str(tmp_path / "x.ply")])
+    proc = run(
+        [
+            BLENDER,
+            "-b",
+            "--factory-startup",
+            "-P",
+            str(script),
+            "--",
+            "--seed",
+            "1",
+            "--pose",
+            "0",
+            "0",
+            "0",
+            "--out",
+            str(tmp_path / "x.ply"),
+        ]
+    )
     assert proc.returncode == 1 and "RuntimeError: a bug" in proc.stderr
 
 
@@ -229,7 +326,10 @@ def tokens(value) -> list[str]:
 
 
 def ids(cases):
-    return [" ".join(f"{k} {'' if v is True else v}" for k, v in replace.items() if v is not None) for replace, _ in cases]
+    return [
+        " ".join(f"{k} {'' if v is True else v}" for k, v in replace.items() if v is not None)
+        for replace, _ in cases
+    ]
 
 
 @pytest.mark.parametrize("replace, expected", BAD_INPUTS, ids=ids(BAD_INPUTS))
@@ -241,7 +341,9 @@ def test_bad_input_exits_2_with_one_clear_line_and_no_file(replace, expected, wo
     assert list(tmp_path.iterdir()) == []
 
 
-BLENDER_BAD_INPUTS = [case for case in BAD_INPUTS if case[1] in ("--rh", "water", "hit rock", "does not exist", "no such file")]
+BLENDER_BAD_INPUTS = [
+    case for case in BAD_INPUTS if case[1] in ("--rh", "water", "hit rock", "does not exist", "no such file")
+]
 
 
 @pytest.mark.parametrize("replace, expected", BLENDER_BAD_INPUTS, ids=ids(BLENDER_BAD_INPUTS))
@@ -256,10 +358,31 @@ def test_bad_input_in_blender_34_exits_2_with_one_clear_line(replace, expected, 
 def test_help_explains_every_option_with_unit_and_default():
     proc = run([WILDSCAN, "scan", "--help"])
     assert proc.returncode == 0
-    for option in ("--world", "--seed", "--pose", "--z-start", "--rh", "--min-range", "--max-range", "--noise",
-                   "--noise-seed", "--frame", "--backend", "--ascii", "--out"):
+    for option in (
+        "--world",
+        "--seed",
+        "--pose",
+        "--z-start",
+        "--rh",
+        "--min-range",
+        "--max-range",
+        "--noise",
+        "--noise-seed",
+        "--frame",
+        "--backend",
+        "--ascii",
+        "--out",
+    ):
         assert option in proc.stdout
-    for words in ("metres", "degrees", "default 1", "default 0.1", "default 15", "default 0.015", "default leveled"):
+    for words in (
+        "metres",
+        "degrees",
+        "default 1",
+        "default 0.1",
+        "default 15",
+        "default 0.015",
+        "default leveled",
+    ):
         assert words in " ".join(proc.stdout.split())
     proc = blender_scan(["--help"])
     assert proc.returncode == 0 and "--max-range" in proc.stdout
@@ -267,16 +390,31 @@ def test_help_explains_every_option_with_unit_and_default():
 
 def test_a_missing_fast_backend_falls_back_and_says_so_once(world_blend, tmp_path):
     # Debian's Blender 3.4 has no embreex: the default backend falls back to bvh.
-    proc = blender_scan(["--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "4",
-                         "--out", str(tmp_path / "b.ply")])
+    proc = blender_scan(
+        ["--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "4", "--out", str(tmp_path / "b.ply")]
+    )
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
     notices = [ln for ln in proc.stdout.splitlines() if "is not available" in ln]
     assert len(notices) == 1 and "using 'bvh' instead" in notices[0], proc.stdout
     meta = json.loads((tmp_path / "b.json").read_text())
     assert meta["backend"] == "bvh"
     # The wheel has embreex: no notice, embree used.
-    proc = run([WILDSCAN, "scan", "--world", str(world_blend), "--pose", "0", "0", "0", "--rh", "4",
-                "--out", str(tmp_path / "w.ply")])
+    proc = run(
+        [
+            WILDSCAN,
+            "scan",
+            "--world",
+            str(world_blend),
+            "--pose",
+            "0",
+            "0",
+            "0",
+            "--rh",
+            "4",
+            "--out",
+            str(tmp_path / "w.ply"),
+        ]
+    )
     assert proc.returncode == 0 and "is not available" not in proc.stdout + proc.stderr
     assert json.loads((tmp_path / "w.json").read_text())["backend"] == "embree"
     # …and both give the same points.

@@ -31,7 +31,9 @@ def test_no_beam_within_45_degrees_of_straight_down():
     assert from_down.min() == pytest.approx(45.0, abs=1e-9)
 
 
-@pytest.mark.parametrize("rh, sweeps", [(0.25, 720), (0.5, 360), (1, 180), (2, 90), (4, 45), (0.3, 600), (180, 1)])
+@pytest.mark.parametrize(
+    "rh, sweeps", [(0.25, 720), (0.5, 360), (1, 180), (2, 90), (4, 45), (0.3, 600), (180, 1)]
+)
 def test_rh_that_divides_180(rh, sweeps):
     assert S.sweep_count(rh) == sweeps
     assert S.SensorConfig(rh_deg=rh).beam_count == 1080 * sweeps

@@ -10,6 +10,7 @@ sealed edges (geometry.pad_triangles): they show why sealing is on.
 Ground truth is the float64 geometry as Blender stores it (test_backends.world_geometry)
 judged by brute force (geometry.check_hits).
 """
+
 from __future__ import annotations
 
 import math
@@ -154,15 +155,21 @@ def test_check_hits_catches_leaks():
 
 def test_grazing_rays_on_a_plane_and_a_terrain_grid():
     empty_scene()
-    plane = add_mesh("plane", [(-60, -60, 0), (60, -60, 0), (60, 60, 0), (-60, 60, 0)], [(0, 1, 2), (0, 2, 3)],
-                     "terrain", 1)
+    plane = add_mesh(
+        "plane",
+        [(-60, -60, 0), (60, -60, 0), (60, 60, 0), (-60, 60, 0)],
+        [(0, 1, 2), (0, 2, 3)],
+        "terrain",
+        1,
+    )
     truth = world_geometry([plane])
     height = 0.25
     rng = np.random.default_rng(11)
     elevation = np.radians(rng.uniform(0.5, 3.0, 4000))  # hits 4.8 m to 28.6 m away
     azimuth = rng.uniform(0, 2 * math.pi, 4000)
-    dirs = np.stack([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth),
-                     -np.sin(elevation)], 1)
+    dirs = np.stack(
+        [np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), -np.sin(elevation)], 1
+    )
     origin = np.array([0.37, -0.21, height])
     exact = height / np.sin(elevation)  # the analytic plane: it is exactly these two triangles
     errors = {}
@@ -179,7 +186,9 @@ def test_grazing_rays_on_a_plane_and_a_terrain_grid():
 
 def test_grazing_rays_along_a_triangulated_slope():
     empty_scene()
-    terrain = add_mesh("terrain", *grid_mesh(20, 20, 40.0, 40.0, lambda x, y: 0.03 * x - 0.02 * y), "terrain", 1)
+    terrain = add_mesh(
+        "terrain", *grid_mesh(20, 20, 40.0, 40.0, lambda x, y: 0.03 * x - 0.02 * y), "terrain", 1
+    )
     truth = world_geometry([terrain])
     rng = np.random.default_rng(12)
     # rays that skim the slope at 0.3 to 2 degrees above its surface
@@ -257,12 +266,16 @@ def test_scan_from_a_steep_slope():
     slope = math.radians(35.0)
     heights = lambda x, y: math.tan(slope) * x + 0.15 * np.sin(0.9 * x) * np.sin(1.3 * y)  # noqa: E731
     terrain = add_mesh("slope", *grid_mesh(16, 16, 30.0, 30.0, heights), "terrain", 1)
-    rock = add_mesh("rock", *box_mesh(1.0, 1.0, 1.0), "rock", 2, location=(3.0, 2.0, math.tan(slope) * 3.0 + 0.3))
+    rock = add_mesh(
+        "rock", *box_mesh(1.0, 1.0, 1.0), "rock", 2, location=(3.0, 2.0, math.tan(slope) * 3.0 + 0.3)
+    )
     truth = world_geometry([terrain, rock])
     # the sensor stands on the slope, tilted with it
     origin = np.array([0.0, 0.0, 1.2])
     dirs = beam_directions(10.0)[0]
-    tilt = np.array([[math.cos(slope), 0, -math.sin(slope)], [0, 1, 0], [math.sin(slope), 0, math.cos(slope)]])
+    tilt = np.array(
+        [[math.cos(slope), 0, -math.sin(slope)], [0, 1, 0], [math.sin(slope), 0, math.cos(slope)]]
+    )
     dirs = dirs @ tilt.T
     failures, labels = {}, {}
     for name, backend in make_all().items():
@@ -289,12 +302,30 @@ BLENDER_WRONG_AT = {"here": 0, "10 km": 1}
 def _small_world(shift):
     empty_scene()
     objects = [
-        add_mesh("ground", *grid_mesh(20, 20, 40.0, 40.0, lambda x, y: 0.1 * np.sin(x / 3) * np.cos(y / 4)),
-                 "terrain", 1, location=shift),
-        add_mesh("box", *box_mesh(1.0, 2.0, 1.5), "rock", 2, location=shift + [4.0, 1.0, 0.75], rotation=(0, 0, 0.4)),
+        add_mesh(
+            "ground",
+            *grid_mesh(20, 20, 40.0, 40.0, lambda x, y: 0.1 * np.sin(x / 3) * np.cos(y / 4)),
+            "terrain",
+            1,
+            location=shift,
+        ),
+        add_mesh(
+            "box",
+            *box_mesh(1.0, 2.0, 1.5),
+            "rock",
+            2,
+            location=shift + [4.0, 1.0, 0.75],
+            rotation=(0, 0, 0.4),
+        ),
         add_mesh("ball", *uv_sphere(0.8, 12, 24), "bush", 3, location=shift + [-3.0, 4.0, 0.8]),
-        add_mesh("wire", *cylinder_mesh(0.006, 10.0, 8), "wire", 4, location=shift + [-5.0, -1.0, 2.2],
-                 rotation=(0, math.pi / 2, 0)),
+        add_mesh(
+            "wire",
+            *cylinder_mesh(0.006, 10.0, 8),
+            "wire",
+            4,
+            location=shift + [-5.0, -1.0, 2.2],
+            rotation=(0, math.pi / 2, 0),
+        ),
     ]
     return world_geometry(objects)
 
@@ -313,8 +344,10 @@ def test_a_world_moved_10_km_scans_like_the_original():
             sure = np.isfinite(ref["distance"]) & ~ref["ambiguous_before"] & hits.hit
             err = float(np.abs(hits.distance[sure] - ref["distance"][sure]).max())
             results[label][name] = (int((~ok).sum()), err, hits)
-    print("\n(wrong rays, max range error m):",
-          {k: {n: v[:2] for n, v in r.items()} for k, r in results.items()})
+    print(
+        "\n(wrong rays, max range error m):",
+        {k: {n: v[:2] for n, v in r.items()} for k, r in results.items()},
+    )
     for name in ("bvh", "embree"):
         for label in ("here", "10 km"):
             wrong, err, _ = results[label][name]

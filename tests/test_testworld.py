@@ -1,4 +1,5 @@
 """The test world: numpy plan (primitives, layout, terrain) and its Blender build."""
+
 from __future__ import annotations
 
 import bpy
@@ -12,8 +13,19 @@ from wildscan.world.mesh import mesh_object, remove_generated, wildscan_collecti
 from wildscan.world.testworld import build_test_world
 
 REQUIRED = {
-    "terrain", "water", "trunk", "treetop", "rock", "table", "bench", "fence",
-    "bush", "low grass", "high grass", "pole", "wire",
+    "terrain",
+    "water",
+    "trunk",
+    "treetop",
+    "rock",
+    "table",
+    "bench",
+    "fence",
+    "bush",
+    "low grass",
+    "high grass",
+    "pole",
+    "wire",
 }
 SEEDS = (0, 1, 7, 12345)
 

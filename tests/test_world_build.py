@@ -1,5 +1,6 @@
 """The world built in Blender (bpy wheel): tags, collections, shared meshes, scans per zone,
 no cracks, rebuilding, determinism read back from the scene."""
+
 from __future__ import annotations
 
 import bpy
@@ -41,9 +42,18 @@ def world():
     scans = {}
     for zone in ZONES:
         p = poses[zone][0]
-        scans[zone] = (p, run_scan(backend, Pose(p["x"], p["y"], p["yaw"]), SensorConfig(), z_start=p.get("z_start")))
-    return {"plan": plan, "geometry": geometry, "backend": backend, "poses": poses, "scans": scans,
-            "hashes": scene_hashes()}
+        scans[zone] = (
+            p,
+            run_scan(backend, Pose(p["x"], p["y"], p["yaw"]), SensorConfig(), z_start=p.get("z_start")),
+        )
+    return {
+        "plan": plan,
+        "geometry": geometry,
+        "backend": backend,
+        "poses": poses,
+        "scans": scans,
+        "hashes": scene_hashes(),
+    }
 
 
 def world_points(pose: dict, result) -> np.ndarray:

@@ -1,5 +1,6 @@
 """`wildscan world` / `wildscan poses` / world benchmark, through world_cli.main (the same
 functions cli.py wires in): files written, sidecar contents, bad input -> exit 2."""
+
 from __future__ import annotations
 
 import io
@@ -23,8 +24,9 @@ def run(capsys, *argv):
 
 def test_world_writes_blend_sidecar_and_map(tmp_path, capsys):
     out = tmp_path / "w.blend"
-    code, stdout, err = run(capsys, "world", "--seed", "3", "--out", str(out), "--map", str(tmp_path / "m.png"),
-                            "--detail", "low")
+    code, stdout, err = run(
+        capsys, "world", "--seed", "3", "--out", str(out), "--map", str(tmp_path / "m.png"), "--detail", "low"
+    )
     assert code == 0, err
     assert out.read_bytes().startswith(BLEND_MAGICS)
     assert (tmp_path / "m.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -67,7 +69,10 @@ def test_poses_prints_valid_poses_per_zone(capsys):
         (["world", "--seed", "1", "--out", "{tmp}/w.txt"], "must end in .blend"),
         (["world", "--seed", "1", "--map", "{tmp}/nowhere/m.png"], "does not exist"),
         (["world", "--seed", "2147483648"], "from 0 to 2147483647"),
-        (["world", "--seed", "1", "--detail", "low", "--quiet", "--out", "/proc/wildscan-world.blend"], "cannot write"),
+        (
+            ["world", "--seed", "1", "--detail", "low", "--quiet", "--out", "/proc/wildscan-world.blend"],
+            "cannot write",
+        ),
         (["poses", "--seed", "1", "--zone", "desert"], "--zone must be one of"),
         (["poses", "--seed", "1", "--count", "0"], "--count must be a whole number from 1"),
         (["poses", "--seed", "-4"], "--seed must be a whole number from 0 to 2147483647"),
@@ -87,8 +92,12 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, capsys, ar
 def test_unwritable_output_in_a_subprocess(tmp_path):
     """The real process: exit code 2, one line on stderr, nothing written."""
     target = tmp_path / "sub" / "w.blend"
-    proc = subprocess.run([sys.executable, "-m", "wildscan.cli", "world", "--seed", "2", "--out", str(target)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "wildscan.cli", "world", "--seed", "2", "--out", str(target)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and "does not exist" in proc.stderr
     assert not target.parent.exists()
@@ -105,10 +114,22 @@ def test_bench_reports_every_stage(capsys):
 
 
 def test_a_scan_and_a_world_of_the_same_name_do_not_replace_each_others_sidecar(tmp_path, capsys):
-    code, _, _ = run(capsys, "world", "--seed", "3", "--detail", "low", "--quiet", "--out", str(tmp_path / "w.blend"))
+    code, _, _ = run(
+        capsys, "world", "--seed", "3", "--detail", "low", "--quiet", "--out", str(tmp_path / "w.blend")
+    )
     assert code == 0
     before = (tmp_path / "w.json").read_bytes()
-    code, _, err = run(capsys, "scan", "--world", str(tmp_path / "w.blend"), "--pose", "0", "0", "0",
-                       "--out", str(tmp_path / "w.ply"))
+    code, _, err = run(
+        capsys,
+        "scan",
+        "--world",
+        str(tmp_path / "w.blend"),
+        "--pose",
+        "0",
+        "0",
+        "0",
+        "--out",
+        str(tmp_path / "w.ply"),
+    )
     assert code == 2 and "describes another kind of output" in err
     assert (tmp_path / "w.json").read_bytes() == before and not (tmp_path / "w.ply").exists()

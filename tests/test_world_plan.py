@@ -1,4 +1,5 @@
 """The world planner without Blender: heightfield, grid error, layout, stages, shapes, map."""
+
 from __future__ import annotations
 
 import math
@@ -28,8 +29,21 @@ from wildscan.core.worldplan import (
     plan_world,
 )
 
-ALL_TAGS = {"terrain", "trunk", "treetop", "table", "bush", "fence", "bench", "low grass", "rock", "high grass",
-            "wire", "pole", "water"}
+ALL_TAGS = {
+    "terrain",
+    "trunk",
+    "treetop",
+    "table",
+    "bush",
+    "fence",
+    "bench",
+    "low grass",
+    "rock",
+    "high grass",
+    "wire",
+    "pole",
+    "water",
+}
 
 
 @pytest.fixture(scope="module")
@@ -163,8 +177,10 @@ def test_same_seed_same_world_other_seed_other_world(plan):
     assert plan_hash(plan_world(2)) != plan_hash(plan)
 
 
-@pytest.mark.parametrize("stage,changes", [("rocks", {"size": (0.5, 3.0)}), ("grass", {"min_spacing": 1.1}),
-                                            ("trees", {"variants": 3})])
+@pytest.mark.parametrize(
+    "stage,changes",
+    [("rocks", {"size": (0.5, 3.0)}), ("grass", {"min_spacing": 1.1}), ("trees", {"variants": 3})],
+)
 def test_one_stage_changed_leaves_the_others(plan, stage, changes):
     changed = plan_world(1, params=WorldParams().with_stage(stage, **changes))
     assert plan_hash(changed, stage) != plan_hash(plan, stage)
@@ -203,7 +219,13 @@ def test_water_fills_the_basin(plan):
     # every cell of water has terrain below the surface somewhere in it: no water on dry land
     quads = v.reshape(-1, 4, 3)
     mid = quads[:, :, :2].mean(axis=1)
-    low = np.min([plan.ground(*(mid + d).T) for d in np.array([[0, 0], [0.9, 0.9], [-0.9, 0.9], [0.9, -0.9], [-0.9, -0.9]])], axis=0)
+    low = np.min(
+        [
+            plan.ground(*(mid + d).T)
+            for d in np.array([[0, 0], [0.9, 0.9], [-0.9, 0.9], [0.9, -0.9], [-0.9, -0.9]])
+        ],
+        axis=0,
+    )
     assert (low < plan.water_z + 0.05).all()
 
 
@@ -268,7 +290,11 @@ def test_trees_hide_nothing_inside_their_crowns():
         crown_v = t.crown[0]
         assert _closed(t.crown[1])
         # the trunk stops less than a metre into the crown, not up at its top
-        assert crown_v[:, 2].min() < trunk_top < crown_v[:, 2].min() + 1.0 + 0.5 * (crown_v[:, 2].max() - crown_v[:, 2].min())
+        assert (
+            crown_v[:, 2].min()
+            < trunk_top
+            < crown_v[:, 2].min() + 1.0 + 0.5 * (crown_v[:, 2].max() - crown_v[:, 2].min())
+        )
         assert trunk_top < crown_v[:, 2].max() - 1.0
 
 

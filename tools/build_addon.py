@@ -13,6 +13,7 @@ the legacy add-on it is. Zips are reproducible: sorted entries, fixed timestamps
 
 Usage: python tools/build_addon.py [--out DIR]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -58,8 +59,17 @@ def check_manifest(package: Path, version: str) -> dict:
             manifest = tomllib.loads(text)
         except tomllib.TOMLDecodeError as e:
             raise BuildError(f"{path} is not valid TOML: {e}") from None
-    required = ("schema_version", "id", "version", "name", "tagline", "maintainer", "type",
-                "blender_version_min", "license")
+    required = (
+        "schema_version",
+        "id",
+        "version",
+        "name",
+        "tagline",
+        "maintainer",
+        "type",
+        "blender_version_min",
+        "license",
+    )
     missing = [key for key in required if key not in manifest]
     if missing:
         raise BuildError(f"{path} lacks {', '.join(missing)}")
@@ -117,7 +127,9 @@ def build(out_dir: Path = ROOT / "dist", package: Path = PACKAGE) -> tuple[Path,
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Build the WildScan add-on zips (legacy and 4.2+ extension).")
+    parser = argparse.ArgumentParser(
+        description="Build the WildScan add-on zips (legacy and 4.2+ extension)."
+    )
     parser.add_argument("--out", type=Path, default=ROOT / "dist", help="output directory (default dist/)")
     args = parser.parse_args(argv)
     try:

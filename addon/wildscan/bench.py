@@ -28,6 +28,7 @@ touched. Results: bench.csv, bench.png and scaling.md in --out (written together
 
     wildscan bench [--quick] [--details low,default,high] [--backends embree,bvh] [--out DIR]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -72,18 +73,62 @@ DEFAULT_OUT = "out/bench"
 BENCH_COLLECTION = "WildScanBench"
 REFERENCE = "blender"
 PHASES = ("placement", "beam_directions", "ray_casting", "labels_leveling", "ply_write")
-PHASE_TITLES = {"placement": "placement", "beam_directions": "beam directions", "ray_casting": "ray casting",
-                "labels_leveling": "labels + leveling", "ply_write": "PLY write"}
+PHASE_TITLES = {
+    "placement": "placement",
+    "beam_directions": "beam directions",
+    "ray_casting": "ray casting",
+    "labels_leveling": "labels + leveling",
+    "ply_write": "PLY write",
+}
 DEFAULT_POSES = ((0.0, 0.0, 0.0), (8.0, -6.0, 30.0), (-12.0, 10.0, 90.0))  # synthetic scenes
 
 CSV_COLUMNS = (
-    "section", "world", "detail", "seed", "zone", "pose", "backend", "objects", "triangles", "crop_triangles",
-    "rh_deg", "beams", "runs", "estimated", "scan_s", "placement_s", "beam_directions_s", "ray_casting_s",
-    "labels_leveling_s", "ply_write_s", "us_per_ray", "build_world_s", "extract_s", "crop_s", "build_s",
-    "speedup_vs_ray_cast", "rays_compared", "label_agreement", "range_agreement", "max_range_diff_m",
-    "disagreements", "reference_wrong", "backend_wrong", "e2e_label_agreement", "e2e_range_agreement",
-    "e2e_max_range_diff_m", "placement_diff_m", "terrain_max_m", "terrain_rms_m", "terrain_rays",
-    "terrain_mesh_max_m", "analytic_max_m", "analytic_rms_m", "analytic_rays", "analytic_wrong", "analytic_excluded",
+    "section",
+    "world",
+    "detail",
+    "seed",
+    "zone",
+    "pose",
+    "backend",
+    "objects",
+    "triangles",
+    "crop_triangles",
+    "rh_deg",
+    "beams",
+    "runs",
+    "estimated",
+    "scan_s",
+    "placement_s",
+    "beam_directions_s",
+    "ray_casting_s",
+    "labels_leveling_s",
+    "ply_write_s",
+    "us_per_ray",
+    "build_world_s",
+    "extract_s",
+    "crop_s",
+    "build_s",
+    "speedup_vs_ray_cast",
+    "rays_compared",
+    "label_agreement",
+    "range_agreement",
+    "max_range_diff_m",
+    "disagreements",
+    "reference_wrong",
+    "backend_wrong",
+    "e2e_label_agreement",
+    "e2e_range_agreement",
+    "e2e_max_range_diff_m",
+    "placement_diff_m",
+    "terrain_max_m",
+    "terrain_rms_m",
+    "terrain_rays",
+    "terrain_mesh_max_m",
+    "analytic_max_m",
+    "analytic_rms_m",
+    "analytic_rays",
+    "analytic_wrong",
+    "analytic_excluded",
 )
 
 
@@ -112,8 +157,6 @@ def timed(fn: Callable, *args, **kwargs):
         return result, time.perf_counter() - start
 
 
-
-
 def spread_subset(count: int, size: int | None) -> np.ndarray:
     """Indices of `size` rays spread evenly over `count` (all of them when size is None)."""
     if size is None or size >= count:
@@ -129,9 +172,11 @@ def agreement(hits, reference) -> dict:
     """Per-ray agreement of two RayHits over the same rays (fractions)."""
     c = agreement_counts(hits, reference)
     n = max(c["rays"], 1)
-    return {"label_agreement": c["labels_same"] / n if c["rays"] else 1.0,
-            "range_agreement": c["ranges_ok"] / n if c["rays"] else 1.0,
-            "max_range_diff_m": c["max_range_diff_m"]}
+    return {
+        "label_agreement": c["labels_same"] / n if c["rays"] else 1.0,
+        "range_agreement": c["ranges_ok"] / n if c["rays"] else 1.0,
+        "max_range_diff_m": c["max_range_diff_m"],
+    }
 
 
 def agreement_counts(hits, reference) -> dict:
@@ -142,8 +187,13 @@ def agreement_counts(hits, reference) -> dict:
     diff = np.abs(hits.distance[both] - reference.distance[both])
     within = same.copy()
     within[both] = diff <= RANGE_TOLERANCE
-    return {"rays": len(same), "labels_same": int(same.sum()), "ranges_ok": int(within.sum()),
-            "max_range_diff_m": float(diff.max()) if len(diff) else 0.0, "disagree": np.flatnonzero(~within)}
+    return {
+        "rays": len(same),
+        "labels_same": int(same.sum()),
+        "ranges_ok": int(within.sum()),
+        "max_range_diff_m": float(diff.max()) if len(diff) else 0.0,
+        "disagree": np.flatnonzero(~within),
+    }
 
 
 def _take(hits, index: np.ndarray):
@@ -158,7 +208,9 @@ def wrong_answers(geometry, origin, directions, max_range: float, hits, index: n
 
     if not len(index):
         return 0
-    ok = check_hits(geometry, origin, directions[index], max_range, _take(hits, index), range_tol=RANGE_TOLERANCE)
+    ok = check_hits(
+        geometry, origin, directions[index], max_range, _take(hits, index), range_tol=RANGE_TOLERANCE
+    )
     return int(np.count_nonzero(~ok))
 
 
@@ -187,10 +239,15 @@ class Agreement:
     def row(self) -> dict:
         if not self.rays:
             return {}
-        return {"rays_compared": self.rays, "label_agreement": self.labels_same / self.rays,
-                "range_agreement": self.ranges_ok / self.rays, "max_range_diff_m": self.max_range_diff_m,
-                "disagreements": self.disagreements, "reference_wrong": self.reference_wrong,
-                "backend_wrong": self.backend_wrong}
+        return {
+            "rays_compared": self.rays,
+            "label_agreement": self.labels_same / self.rays,
+            "range_agreement": self.ranges_ok / self.rays,
+            "max_range_diff_m": self.max_range_diff_m,
+            "disagreements": self.disagreements,
+            "reference_wrong": self.reference_wrong,
+            "backend_wrong": self.backend_wrong,
+        }
 
 
 # =============================================================================================
@@ -240,8 +297,13 @@ class ScanRun:
 
     def row(self) -> dict:
         row = {f"{k}_s": v for k, v in self.phases.items()}
-        row.update(scan_s=self.total, runs=self.runs, rh_deg=self.rh_deg, beams=self.beams,
-                   us_per_ray=1e6 * self.phases["ray_casting"] / max(self.beams, 1))
+        row.update(
+            scan_s=self.total,
+            runs=self.runs,
+            rh_deg=self.rh_deg,
+            beams=self.beams,
+            us_per_ray=1e6 * self.phases["ray_casting"] / max(self.beams, 1),
+        )
         return row
 
 
@@ -267,10 +329,17 @@ def timed_scan(backend, pose, z_start, rh_deg: float, ply_path: Path) -> ScanRun
         t2 = time.perf_counter()
     *lasers, sweep = log.calls
     if sweep[2] != result.beams:
-        raise RuntimeError(f"expected the sweep ({result.beams} rays) to be the last cast, got {sweep[2]} rays")
+        raise RuntimeError(
+            f"expected the sweep ({result.beams} rays) to be the last cast, got {sweep[2]} rays"
+        )
     placed = lasers[-1][1] if lasers else t0
-    phases = {"placement": placed - t0, "beam_directions": sweep[0] - placed, "ray_casting": sweep[1] - sweep[0],
-              "labels_leveling": t1 - sweep[1], "ply_write": t2 - t1}
+    phases = {
+        "placement": placed - t0,
+        "beam_directions": sweep[0] - placed,
+        "ray_casting": sweep[1] - sweep[0],
+        "labels_leveling": t1 - sweep[1],
+        "ply_write": t2 - t1,
+    }
     return ScanRun(backend.name, phases, t2 - t0, sweep[3], result, rh_deg)
 
 
@@ -279,10 +348,15 @@ def median_scan(backend, pose, z_start, rh_deg: float, ply_path: Path, runs: int
     done = [timed_scan(backend, pose, z_start, rh_deg, ply_path) for _ in range(max(1, runs))]
     phases = {k: statistics.median(r.phases[k] for r in done) for k in PHASES}
     last = done[-1]
-    return ScanRun(last.backend, phases, statistics.median(r.total for r in done), last.hits, last.result,
-                   rh_deg, len(done))
-
-
+    return ScanRun(
+        last.backend,
+        phases,
+        statistics.median(r.total for r in done),
+        last.hits,
+        last.result,
+        rh_deg,
+        len(done),
+    )
 
 
 # =============================================================================================
@@ -384,7 +458,9 @@ class Solid:
         self.radius = float(np.linalg.norm(v - self.center, axis=1).max())
 
     def triangles(self) -> np.ndarray:
-        return np.array([(poly[0], poly[k], poly[k + 1]) for poly in self.polygons for k in range(1, len(poly) - 1)])
+        return np.array(
+            [(poly[0], poly[k], poly[k + 1]) for poly in self.polygons for k in range(1, len(poly) - 1)]
+        )
 
     def first_hit(self, origins: np.ndarray, dirs: np.ndarray, grow: float = 0.0) -> np.ndarray:
         """Distance to the solid along each ray (inf: miss), with every face moved out by
@@ -433,7 +509,14 @@ class Solid:
 
 
 def _rotation(yaw: float, pitch: float = 0.0, roll: float = 0.0) -> np.ndarray:
-    cz, sz, cy, sy, cx, sx = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch), math.cos(roll), math.sin(roll)
+    cz, sz, cy, sy, cx, sx = (
+        math.cos(yaw),
+        math.sin(yaw),
+        math.cos(pitch),
+        math.sin(pitch),
+        math.cos(roll),
+        math.sin(roll),
+    )
     rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1.0]])
     ry = np.array([[cy, 0, sy], [0, 1.0, 0], [-sy, 0, cy]])
     rx = np.array([[1.0, 0, 0], [0, cx, -sx], [0, sx, cx]])
@@ -450,15 +533,25 @@ def primitive_solids() -> list[Solid]:
     c = np.array([0.0, 0.0, -0.2])
     plane = c + 30.0 * np.array([a * u + b * v for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
 
-    corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float) * [1.0, 0.5, 0.75]
+    corners = np.array([[x, y, z] for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)], float) * [
+        1.0,
+        0.5,
+        0.75,
+    ]
     box = corners @ _rotation(0.7, 0.25, 0.1).T + [4.0, -3.0, 1.6]
     box_faces = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
 
     rings, segs, r = 16, 32, 1.5
     polar = np.pi * np.arange(1, rings) / rings
     az = 2 * np.pi * np.arange(segs) / segs
-    ring_pts = np.stack([np.outer(np.sin(polar), np.cos(az)), np.outer(np.sin(polar), np.sin(az)),
-                         np.outer(np.cos(polar), np.ones(segs))], -1).reshape(-1, 3)
+    ring_pts = np.stack(
+        [
+            np.outer(np.sin(polar), np.cos(az)),
+            np.outer(np.sin(polar), np.sin(az)),
+            np.outer(np.cos(polar), np.ones(segs)),
+        ],
+        -1,
+    ).reshape(-1, 3)
     sphere = r * np.concatenate([[[0, 0, 1.0]], ring_pts, [[0, 0, -1.0]]]) + [-4.0, 3.5, 2.2]
     bottom = len(sphere) - 1
     sphere_faces = [(0, 1 + s, 1 + (s + 1) % segs) for s in range(segs)]
@@ -472,7 +565,9 @@ def primitive_solids() -> list[Solid]:
     sides, rc, h = 48, 0.6, 3.0
     ang = 2 * np.pi * np.arange(sides) / sides
     circle = np.column_stack([rc * np.cos(ang), rc * np.sin(ang)])
-    prism = np.concatenate([np.column_stack([circle, np.zeros(sides)]), np.column_stack([circle, np.full(sides, h)])])
+    prism = np.concatenate(
+        [np.column_stack([circle, np.zeros(sides)]), np.column_stack([circle, np.full(sides, h)])]
+    )
     prism += [3.5, 4.0, 0.8]
     prism_faces = [(s, (s + 1) % sides, sides + (s + 1) % sides, sides + s) for s in range(sides)]
     prism_faces += [tuple(range(sides - 1, -1, -1)), tuple(range(sides, 2 * sides))]
@@ -502,7 +597,9 @@ def analytic_rays(rh_deg: float) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(origins), np.concatenate(rays)
 
 
-def analytic_truth(solids: list[Solid], origins, dirs, max_range: float, tol: float = RANGE_TOLERANCE) -> dict:
+def analytic_truth(
+    solids: list[Solid], origins, dirs, max_range: float, tol: float = RANGE_TOLERANCE
+) -> dict:
     """Exact first hits: distance (inf: none) and instance (-1) per ray, and `clear`: the
     same solid is hit first with every face moved out or in by `tol` (a ray grazing a
     silhouette may be seen or not by any correct caster: those rays are left out)."""
@@ -511,7 +608,9 @@ def analytic_truth(solids: list[Solid], origins, dirs, max_range: float, tol: fl
         t = np.stack([s.first_hit(origins, dirs, grow) for s in solids])
         k = np.argmin(t, axis=0)
         best = t[k, np.arange(len(dirs))]
-        inst = np.where(np.isfinite(best) & (best <= max_range), np.array([s.instance for s in solids])[k], -1)
+        inst = np.where(
+            np.isfinite(best) & (best <= max_range), np.array([s.instance for s in solids])[k], -1
+        )
         return np.where(inst >= 0, best, np.inf), inst
 
     distance, instance = first(0.0)
@@ -531,12 +630,18 @@ def analytic_errors(hits, truth: dict, solids: list[Solid]) -> dict:
     right = clear & (hits.instance == truth["instance"]) & (hits.class_id == want_class)
     on = right & np.isfinite(truth["distance"])
     err = np.abs(hits.distance[on] - truth["distance"][on])
-    per = {s.name.replace("bench ", ""): float(err[truth["instance"][on] == s.instance].max(initial=0.0))
-           for s in solids}
-    return {"analytic_rays": int(on.sum()), "analytic_max_m": float(err.max(initial=0.0)),
-            "analytic_rms_m": float(np.sqrt(np.mean(err**2))) if len(err) else 0.0,
-            "analytic_wrong": int(np.count_nonzero(clear & ~right)),
-            "analytic_excluded": int(np.count_nonzero(~clear)), "per_primitive": per}
+    per = {
+        s.name.replace("bench ", ""): float(err[truth["instance"][on] == s.instance].max(initial=0.0))
+        for s in solids
+    }
+    return {
+        "analytic_rays": int(on.sum()),
+        "analytic_max_m": float(err.max(initial=0.0)),
+        "analytic_rms_m": float(np.sqrt(np.mean(err**2))) if len(err) else 0.0,
+        "analytic_wrong": int(np.count_nonzero(clear & ~right)),
+        "analytic_excluded": int(np.count_nonzero(~clear)),
+        "per_primitive": per,
+    }
 
 
 def bench_analytic(cfg: "BenchConfig", report: "Report") -> None:
@@ -556,9 +661,17 @@ def bench_analytic(cfg: "BenchConfig", report: "Report") -> None:
         for name in cfg.all_backends:
             backend = reference_backend(scene) if name == REFERENCE else fast_backend(name, geometry)
             hits, cast_s = timed(backend.cast, origins, dirs, ANALYTIC_RANGE)
-            row = {"section": "analytic", "world": "primitives", "backend": name, "objects": len(solids),
-                   "triangles": geometry.triangle_count, "rh_deg": cfg.analytic_rh, "beams": len(dirs),
-                   "ray_casting_s": cast_s, "us_per_ray": 1e6 * cast_s / len(dirs)}
+            row = {
+                "section": "analytic",
+                "world": "primitives",
+                "backend": name,
+                "objects": len(solids),
+                "triangles": geometry.triangle_count,
+                "rh_deg": cfg.analytic_rh,
+                "beams": len(dirs),
+                "ray_casting_s": cast_s,
+                "us_per_ray": 1e6 * cast_s / len(dirs),
+            }
             row.update(analytic_errors(hits, truth, solids))
             rows.append(row)
     report.add_rows(rows)
@@ -582,11 +695,20 @@ def bench_test_world(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
             build_test_world(cfg.seed, collection_name=BENCH_COLLECTION)
         objects = len([o for o in scene.objects if o.type == "MESH"])
         whole, extract_s = timed(extract_scene, scene_depsgraph(scene))
-        report.say(f"\n== Test world (world.testworld, seed {cfg.seed}: {objects} objects, {whole.triangle_count:,} "
-                   f"triangles), pose (0, 0, 0): one full r_h = {SCAN_RH:g} deg scan with scene.ray_cast ...")
+        report.say(
+            f"\n== Test world (world.testworld, seed {cfg.seed}: {objects} objects, {whole.triangle_count:,} "
+            f"triangles), pose (0, 0, 0): one full r_h = {SCAN_RH:g} deg scan with scene.ray_cast ..."
+        )
         runs = measure_phases(cfg, whole, scene, pose, None, tmp)
-    rows = phase_rows(runs, world="test world", objects=objects, triangles=whole.triangle_count, extract_s=extract_s,
-                      seed=cfg.seed, pose=pose)
+    rows = phase_rows(
+        runs,
+        world="test world",
+        objects=objects,
+        triangles=whole.triangle_count,
+        extract_s=extract_s,
+        seed=cfg.seed,
+        pose=pose,
+    )
     report.add_rows(rows)
     report.test_world = rows
     report.say(format_phases(rows, f"test world, seed {cfg.seed}", extract_s))
@@ -599,7 +721,10 @@ def measure_phases(cfg, whole, scene, pose, z_start, tmp: Path, full_reference: 
     runs: dict[str, tuple] = {}
     backends = {}
     if full_reference:
-        runs[REFERENCE] = (median_scan(reference_backend(scene), pose, z_start, SCAN_RH, tmp / "ref.ply", 1), 0.0)
+        runs[REFERENCE] = (
+            median_scan(reference_backend(scene), pose, z_start, SCAN_RH, tmp / "ref.ply", 1),
+            0.0,
+        )
     for name in cfg.fast_backends:
         backend, build_s = timed(fast_backend, name, geometry)
         backends[name] = backend
@@ -622,28 +747,54 @@ def compare_runs(geometry, backend, run: ScanRun, ref: ScanRun) -> tuple[Agreeme
     again = backend.cast(ref.origin, dirs, max_range)
     counts = agreement_counts(again, ref.hits)
     idx = counts["disagree"]
-    same = Agreement().add(counts, wrong_answers(geometry, ref.origin, dirs, max_range, ref.hits, idx),
-                           wrong_answers(geometry, ref.origin, dirs, max_range, again, idx))
+    same = Agreement().add(
+        counts,
+        wrong_answers(geometry, ref.origin, dirs, max_range, ref.hits, idx),
+        wrong_answers(geometry, ref.origin, dirs, max_range, again, idx),
+    )
     e2e = agreement_counts(run.hits, ref.hits)
     n = max(e2e["rays"], 1)
-    return same, {"e2e_label_agreement": e2e["labels_same"] / n, "e2e_range_agreement": e2e["ranges_ok"] / n,
-                  "e2e_max_range_diff_m": e2e["max_range_diff_m"],
-                  "placement_diff_m": float(np.linalg.norm(run.origin - ref.origin))}
+    return same, {
+        "e2e_label_agreement": e2e["labels_same"] / n,
+        "e2e_range_agreement": e2e["ranges_ok"] / n,
+        "e2e_max_range_diff_m": e2e["max_range_diff_m"],
+        "placement_diff_m": float(np.linalg.norm(run.origin - ref.origin)),
+    }
 
 
-def phase_rows(measured: dict, world: str, objects: int, triangles: int, extract_s: float, seed: int, pose,
-               detail: str = "", zone: str = "") -> list[dict]:
+def phase_rows(
+    measured: dict,
+    world: str,
+    objects: int,
+    triangles: int,
+    extract_s: float,
+    seed: int,
+    pose,
+    detail: str = "",
+    zone: str = "",
+) -> list[dict]:
     runs = measured["runs"]
     ref_total = runs[REFERENCE][0].total if REFERENCE in runs else math.nan
     rows = []
     for name, entry in runs.items():
         run, build_s = entry[0], entry[1]
-        row = {"section": "phases", "world": world, "detail": detail, "seed": seed, "zone": zone,
-               "pose": pose_text(pose), "backend": name, "objects": objects, "triangles": triangles,
-               "crop_triangles": measured["geometry"].triangle_count, "estimated": False,
-               "extract_s": 0.0 if name == REFERENCE else extract_s, "build_s": build_s,
-               "crop_s": 0.0 if name == REFERENCE else measured["crop_s"],
-               "speedup_vs_ray_cast": ref_total / run.total}
+        row = {
+            "section": "phases",
+            "world": world,
+            "detail": detail,
+            "seed": seed,
+            "zone": zone,
+            "pose": pose_text(pose),
+            "backend": name,
+            "objects": objects,
+            "triangles": triangles,
+            "crop_triangles": measured["geometry"].triangle_count,
+            "estimated": False,
+            "extract_s": 0.0 if name == REFERENCE else extract_s,
+            "build_s": build_s,
+            "crop_s": 0.0 if name == REFERENCE else measured["crop_s"],
+            "speedup_vs_ray_cast": ref_total / run.total,
+        }
         row.update(run.row())
         if len(entry) > 2:
             row.update(entry[2].row(), **entry[3])
@@ -669,7 +820,9 @@ def fixed_poses(seed: int, zones: int | None = None) -> list[tuple[str, object, 
     plan = plan_world(seed, "default")
     chosen = ZONES[:zones] if zones else ZONES
     found = valid_poses(plan, plan_backend(plan), 1, chosen)
-    return [(zone, Pose(p["x"], p["y"], p["yaw"]), p.get("z_start")) for zone in chosen for p in found[zone][:1]]
+    return [
+        (zone, Pose(p["x"], p["y"], p["yaw"]), p.get("z_start")) for zone in chosen for p in found[zone][:1]
+    ]
 
 
 def bench_world_levels(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
@@ -677,8 +830,10 @@ def bench_world_levels(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
     if not poses:
         raise UserError(f"--seed {cfg.seed}: the world has no valid scan pose to benchmark")
     report.poses = poses
-    report.say(f"\n== Default world, seed {cfg.seed}: {len(poses)} poses (first valid pose per zone): "
-               + "; ".join(f"{z} ({pose_text(p)}{'' if zs is None else f', z-start {zs:g}'})" for z, p, zs in poses))
+    report.say(
+        f"\n== Default world, seed {cfg.seed}: {len(poses)} poses (first valid pose per zone): "
+        + "; ".join(f"{z} ({pose_text(p)}{'' if zs is None else f', z-start {zs:g}'})" for z, p, zs in poses)
+    )
     for detail in cfg.details:
         bench_level(cfg, report, detail, poses, tmp)
     report.say(format_levels(report.level_rows, cfg))
@@ -694,10 +849,19 @@ def bench_level(cfg, report: "Report", detail: str, poses, tmp: Path) -> None:
             plan, build_world_s = timed(build_world, cfg.seed, detail, collection_name=BENCH_COLLECTION)
         whole, extract_s = timed(extract_scene, scene_depsgraph(scene))
         objects = plan.counts()["objects"]
-        report.say(f"-- {detail}: {objects:,} objects, {whole.triangle_count:,} triangles; world built in "
-                   f"{build_world_s:.2f} s, extracted in {extract_s:.3f} s")
-        base = {"world": "default world", "detail": detail, "seed": cfg.seed, "objects": objects,
-                "triangles": whole.triangle_count, "build_world_s": build_world_s, "extract_s": extract_s}
+        report.say(
+            f"-- {detail}: {objects:,} objects, {whole.triangle_count:,} triangles; world built in "
+            f"{build_world_s:.2f} s, extracted in {extract_s:.3f} s"
+        )
+        base = {
+            "world": "default world",
+            "detail": detail,
+            "seed": cfg.seed,
+            "objects": objects,
+            "triangles": whole.triangle_count,
+            "build_world_s": build_world_s,
+            "extract_s": extract_s,
+        }
         reference = reference_backend(scene)
         per_pose: list[dict] = []
         for zone, pose, z_start in poses:
@@ -705,8 +869,19 @@ def bench_level(cfg, report: "Report", detail: str, poses, tmp: Path) -> None:
             # the placement accepts at the headline detail
             first = detail == cfg.headline_detail and not report.beam_rows
             try:
-                rows = bench_pose(cfg, report, base, whole, scene, reference, zone, pose, z_start,
-                                  first and cfg.full_reference, tmp)
+                rows = bench_pose(
+                    cfg,
+                    report,
+                    base,
+                    whole,
+                    scene,
+                    reference,
+                    zone,
+                    pose,
+                    z_start,
+                    first and cfg.full_reference,
+                    tmp,
+                )
             except PoseRejected as e:
                 report.say(f"   {zone}: skipped at {detail} detail ({e})")
                 continue
@@ -720,12 +895,16 @@ def bench_level(cfg, report: "Report", detail: str, poses, tmp: Path) -> None:
     report.level_rows += summary
 
 
-def bench_pose(cfg, report, base, whole, scene, reference, zone, pose, z_start, full: bool, tmp: Path) -> list[dict]:
+def bench_pose(
+    cfg, report, base, whole, scene, reference, zone, pose, z_start, full: bool, tmp: Path
+) -> list[dict]:
     """Every backend from one pose: fast ones in full (median of runs); scene.ray_cast in
     full when `full`, else on --reference-rays rays of the first fast backend's scan."""
     if full:
-        report.say(f"   {zone}: full r_h = {SCAN_RH:g} deg scan with scene.ray_cast, the measured reference (slow: "
-                   f"one Python call a ray, each costing more the more objects the scene has) ...")
+        report.say(
+            f"   {zone}: full r_h = {SCAN_RH:g} deg scan with scene.ray_cast, the measured reference (slow: "
+            f"one Python call a ray, each costing more the more objects the scene has) ..."
+        )
     measured = measure_phases(cfg, whole, scene, pose, z_start, tmp, full_reference=full)
     runs, geometry = measured["runs"], measured["geometry"]
     first = runs[cfg.fast_backends[0]][0]
@@ -736,24 +915,57 @@ def bench_pose(cfg, report, base, whole, scene, reference, zone, pose, z_start, 
         ref = subset_reference(cfg, reference, first, geometry, runs, measured["backends"])
     rows = []
     for name in cfg.all_backends:
-        row = dict(base, section="pose", zone=zone, pose=pose_text(pose), backend=name,
-                   crop_triangles=geometry.triangle_count)
+        row = dict(
+            base,
+            section="pose",
+            zone=zone,
+            pose=pose_text(pose),
+            backend=name,
+            crop_triangles=geometry.triangle_count,
+        )
         if name == REFERENCE:
             row.update(ref)
             row.update(extract_s=0.0, crop_s=0.0, build_s=0.0)
         else:
             run, build_s, agree, extra = runs[name]
-            row.update(run.row(), estimated=False, build_s=build_s, crop_s=measured["crop_s"], agreement=agree,
-                       **extra)
+            row.update(
+                run.row(),
+                estimated=False,
+                build_s=build_s,
+                crop_s=measured["crop_s"],
+                agreement=agree,
+                **extra,
+            )
             row.update(agree.row())
         row["speedup_vs_ray_cast"] = ref["scan_s"] / row["scan_s"]
         rows.append(row)
     if full:
-        report.headline = {"pose": pose, "zone": zone, "detail": base["detail"], "objects": base["objects"],
-                           "runs": runs, "extract_s": base["extract_s"], "triangles": base["triangles"]}
-        report.say(format_phases(phase_rows(measured, "default world", base["objects"], base["triangles"],
-                                            base["extract_s"], cfg.seed, pose, base["detail"], zone),
-                                 f"default world, {base['detail']} detail, {zone} pose", base["extract_s"]))
+        report.headline = {
+            "pose": pose,
+            "zone": zone,
+            "detail": base["detail"],
+            "objects": base["objects"],
+            "runs": runs,
+            "extract_s": base["extract_s"],
+            "triangles": base["triangles"],
+        }
+        report.say(
+            format_phases(
+                phase_rows(
+                    measured,
+                    "default world",
+                    base["objects"],
+                    base["triangles"],
+                    base["extract_s"],
+                    cfg.seed,
+                    pose,
+                    base["detail"],
+                    zone,
+                ),
+                f"default world, {base['detail']} detail, {zone} pose",
+                base["extract_s"],
+            )
+        )
     return rows
 
 
@@ -769,8 +981,15 @@ def subset_reference(cfg, reference, first: ScanRun, geometry, runs: dict, backe
     per_ray = seconds / len(subset)
     other = {k: v for k, v in first.phases.items() if k != "ray_casting"}
     estimate = dict({f"{k}_s": v for k, v in other.items()}, ray_casting_s=per_ray * len(dirs))
-    ref = dict(estimate, scan_s=sum(other.values()) + per_ray * len(dirs), us_per_ray=1e6 * per_ray,
-               estimated=True, runs=1, rh_deg=SCAN_RH, beams=len(dirs))
+    ref = dict(
+        estimate,
+        scan_s=sum(other.values()) + per_ray * len(dirs),
+        us_per_ray=1e6 * per_ray,
+        estimated=True,
+        runs=1,
+        rh_deg=SCAN_RH,
+        beams=len(dirs),
+    )
     for name in cfg.fast_backends:
         run, build_s = runs[name][:2]
         mine = backends[name].cast(first.origin, rays, max_range)
@@ -792,7 +1011,9 @@ def bench_terrain(cfg, plan, whole, reference) -> dict:
 
     terrain = plan.elements_of("terrain", stage="terrain")[0].instance
     x0, x1, y0, y1 = EXTENT
-    xy = stage_rng(cfg.seed, "bench.terrain").uniform([x0 + 1, y0 + 1], [x1 - 1, y1 - 1], size=(cfg.terrain_rays, 2))
+    xy = stage_rng(cfg.seed, "bench.terrain").uniform(
+        [x0 + 1, y0 + 1], [x1 - 1, y1 - 1], size=(cfg.terrain_rays, 2)
+    )
     top = float(whole.vertices[:, 2].max()) + 1.0
     reach = top - float(whole.vertices[:, 2].min()) + 1.0
     origins = np.column_stack([xy, np.full(len(xy), top)])
@@ -808,10 +1029,12 @@ def bench_terrain(cfg, plan, whole, reference) -> dict:
         on = (hits.instance == terrain) & (hits.class_id == terrain_id)
         z = top - hits.distance[on]
         err = np.abs(z - truth[:count][on])
-        out[name] = {"terrain_max_m": float(err.max(initial=0.0)),
-                     "terrain_rms_m": float(np.sqrt(np.mean(err**2))) if len(err) else math.nan,
-                     "terrain_rays": int(on.sum()),
-                     "terrain_mesh_max_m": float(np.abs(z - mesh[:count][on]).max(initial=0.0))}
+        out[name] = {
+            "terrain_max_m": float(err.max(initial=0.0)),
+            "terrain_rms_m": float(np.sqrt(np.mean(err**2))) if len(err) else math.nan,
+            "terrain_rays": int(on.sum()),
+            "terrain_mesh_max_m": float(np.abs(z - mesh[:count][on]).max(initial=0.0)),
+        }
     return out
 
 
@@ -823,10 +1046,25 @@ def level_summary(cfg, base: dict, per_pose: list[dict], terrain: dict, plan) ->
         mine = [r for r in per_pose if r["backend"] == name]
         if not mine:
             continue
-        row = dict(base, section="detail", backend=name, zone="all", pose=f"{len(mine)} poses",
-                   rh_deg=SCAN_RH, beams=mine[0]["beams"], runs=mine[0]["runs"],
-                   estimated=any(r["estimated"] for r in mine))
-        for key in ("scan_s", *(f"{p}_s" for p in PHASES), "us_per_ray", "crop_triangles", "crop_s", "build_s"):
+        row = dict(
+            base,
+            section="detail",
+            backend=name,
+            zone="all",
+            pose=f"{len(mine)} poses",
+            rh_deg=SCAN_RH,
+            beams=mine[0]["beams"],
+            runs=mine[0]["runs"],
+            estimated=any(r["estimated"] for r in mine),
+        )
+        for key in (
+            "scan_s",
+            *(f"{p}_s" for p in PHASES),
+            "us_per_ray",
+            "crop_triangles",
+            "crop_s",
+            "build_s",
+        ):
             row[key] = _median(r.get(key, math.nan) for r in mine)
         row["speedup_vs_ray_cast"] = ref_scan / row["scan_s"]
         if name != REFERENCE:
@@ -871,8 +1109,17 @@ def bench_beams(cfg, report, base, whole, reference, pose, z_start, per_pose, tm
         backend, build_s = timed(fast_backend, name, geometry)
         for rh in cfg.beam_steps:
             run = median_scan(backend, pose, z_start, rh, tmp / f"{name}-rh.ply", cfg.runs)
-            row = dict(base, section="beams", zone=ref_row["zone"], pose=pose_text(pose), backend=name,
-                       crop_triangles=geometry.triangle_count, crop_s=crop_s, build_s=build_s, estimated=False)
+            row = dict(
+                base,
+                section="beams",
+                zone=ref_row["zone"],
+                pose=pose_text(pose),
+                backend=name,
+                crop_triangles=geometry.triangle_count,
+                crop_s=crop_s,
+                build_s=build_s,
+                estimated=False,
+            )
             row.update(run.row())
             rows.append(row)
     for rh in cfg.beam_steps:
@@ -880,9 +1127,22 @@ def bench_beams(cfg, report, base, whole, reference, pose, z_start, per_pose, tm
         fast = next(r for r in rows if r["rh_deg"] == rh)
         other = fast["scan_s"] - fast["ray_casting_s"]
         cast = ref_row["us_per_ray"] * 1e-6 * beams
-        rows.append(dict(base, section="beams", zone=ref_row["zone"], pose=pose_text(pose), backend=REFERENCE,
-                         rh_deg=rh, beams=beams, estimated=True, ray_casting_s=cast, scan_s=cast + other,
-                         us_per_ray=ref_row["us_per_ray"], runs=1))
+        rows.append(
+            dict(
+                base,
+                section="beams",
+                zone=ref_row["zone"],
+                pose=pose_text(pose),
+                backend=REFERENCE,
+                rh_deg=rh,
+                beams=beams,
+                estimated=True,
+                ray_casting_s=cast,
+                scan_s=cast + other,
+                us_per_ray=ref_row["us_per_ray"],
+                runs=1,
+            )
+        )
     for row in rows:
         ref = next(r for r in rows if r["backend"] == REFERENCE and r["rh_deg"] == row["rh_deg"])
         row["speedup_vs_ray_cast"] = ref["scan_s"] / row["scan_s"]
@@ -905,16 +1165,27 @@ def bench_objects(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
             objects = len([o for o in scene.objects if o.type == "MESH"])
             whole, extract_s = timed(extract_scene, scene_depsgraph(scene))
             geometry, crop_s = timed(crop_for, whole, pose)
-            base = {"section": "objects", "world": f"{count} rocks/trees", "seed": cfg.seed, "pose": pose_text(pose),
-                    "objects": objects, "triangles": whole.triangle_count, "crop_triangles": geometry.triangle_count,
-                    "extract_s": extract_s, "crop_s": crop_s}
+            base = {
+                "section": "objects",
+                "world": f"{count} rocks/trees",
+                "seed": cfg.seed,
+                "pose": pose_text(pose),
+                "objects": objects,
+                "triangles": whole.triangle_count,
+                "crop_triangles": geometry.triangle_count,
+                "extract_s": extract_s,
+                "crop_s": crop_s,
+            }
             runs, backends = {}, {}
             for name in cfg.fast_backends:
                 backends[name], build_s = timed(fast_backend, name, geometry)
-                runs[name] = (median_scan(backends[name], pose, None, SCAN_RH, tmp / f"{name}-obj.ply", cfg.runs),
-                              build_s)
-            ref = subset_reference(cfg, reference_backend(scene), runs[cfg.fast_backends[0]][0], geometry, runs,
-                                   backends)
+                runs[name] = (
+                    median_scan(backends[name], pose, None, SCAN_RH, tmp / f"{name}-obj.ply", cfg.runs),
+                    build_s,
+                )
+            ref = subset_reference(
+                cfg, reference_backend(scene), runs[cfg.fast_backends[0]][0], geometry, runs, backends
+            )
         rows.append(dict(base, backend=REFERENCE, **ref, speedup_vs_ray_cast=1.0))
         for name in cfg.fast_backends:
             run, build_s, agree, _ = runs[name]
@@ -929,19 +1200,29 @@ def bench_objects(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
 # formatting
 
 
-def text_table(headers: Sequence[str], rows: Sequence[Sequence[str]], right: Sequence[bool] | None = None) -> str:
+def text_table(
+    headers: Sequence[str], rows: Sequence[Sequence[str]], right: Sequence[bool] | None = None
+) -> str:
     """A plain aligned table."""
     right = right or [i > 0 for i in range(len(headers))]
-    widths = [max(len(str(h)), *(len(str(r[i])) for r in rows)) if rows else len(str(h)) for i, h in enumerate(headers)]
+    widths = [
+        max(len(str(h)), *(len(str(r[i])) for r in rows)) if rows else len(str(h))
+        for i, h in enumerate(headers)
+    ]
 
     def line(cells):
-        return "  ".join(str(c).rjust(w) if r else str(c).ljust(w) for c, w, r in zip(cells, widths, right)).rstrip()
+        return "  ".join(
+            str(c).rjust(w) if r else str(c).ljust(w) for c, w, r in zip(cells, widths, right)
+        ).rstrip()
 
     return "\n".join([line(headers), line(["-" * w for w in widths])] + [line(r) for r in rows])
 
 
 def markdown_table(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    out = ["| " + " | ".join(headers) + " |", "|" + "|".join("---:" if i else "---" for i in range(len(headers))) + "|"]
+    out = [
+        "| " + " | ".join(headers) + " |",
+        "|" + "|".join("---:" if i else "---" for i in range(len(headers))) + "|",
+    ]
     out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
     return "\n".join(out)
 
@@ -982,12 +1263,20 @@ def format_phases(rows: list[dict], title: str, extract_s: float) -> str:
     headers = ["phase"] + [backend_title(n) for n in names]
     body = []
     for p in PHASES:
-        body.append([PHASE_TITLES[p]] + [f"{fmt_s(r[f'{p}_s'])} ({100 * r[f'{p}_s'] / r['scan_s']:.0f}%)" for r in rows])
+        body.append(
+            [PHASE_TITLES[p]]
+            + [f"{fmt_s(r[f'{p}_s'])} ({100 * r[f'{p}_s'] / r['scan_s']:.0f}%)" for r in rows]
+        )
     body.append(["total: placement to PLY"] + [fmt_s(r["scan_s"]) for r in rows])
     body.append(["x vs scene.ray_cast"] + [ratio(r["speedup_vs_ray_cast"]) for r in rows])
     body.append(["runs (median)"] + [str(r["runs"]) for r in rows])
-    body.append(["scene prep (apart)"] + ["none" if r["backend"] == REFERENCE else
-                                          f"{fmt_s(r['crop_s'] + r['build_s'])} crop+build" for r in rows])
+    body.append(
+        ["scene prep (apart)"]
+        + [
+            "none" if r["backend"] == REFERENCE else f"{fmt_s(r['crop_s'] + r['build_s'])} crop+build"
+            for r in rows
+        ]
+    )
 
     def fast(fn):
         return ["reference" if r["backend"] == REFERENCE else fn(r) for r in rows]
@@ -995,71 +1284,135 @@ def format_phases(rows: list[dict], title: str, extract_s: float) -> str:
     body.append(["same rays: labels identical"] + fast(lambda r: percent(r.get("label_agreement"))))
     body.append(["same rays: ranges within 1e-4 m"] + fast(lambda r: percent(r.get("range_agreement"))))
     body.append(["same rays: max |dr|"] + fast(lambda r: f"{metres(r.get('max_range_diff_m'))} m"))
-    body.append(["  wrong by brute force (ref/own)"] + fast(
-        lambda r: f"{r['reference_wrong']}/{r['backend_wrong']} of {r['disagreements']}"))
+    body.append(
+        ["  wrong by brute force (ref/own)"]
+        + fast(lambda r: f"{r['reference_wrong']}/{r['backend_wrong']} of {r['disagreements']}")
+    )
     body.append(["own placement: labels identical"] + fast(lambda r: percent(r.get("e2e_label_agreement"))))
     body.append(["own placement: ranges within 1e-4"] + fast(lambda r: percent(r.get("e2e_range_agreement"))))
     body.append(["optical centre vs ray_cast's"] + fast(lambda r: f"{metres(r.get('placement_diff_m'))} m"))
-    lines = [f"\nfull r_h = {SCAN_RH:g} deg scan ({rows[0]['beams']:,} beams, noise off), {title}, by phase "
-             "(same rays = the backend re-casts scene.ray_cast's beams; own placement = the two scans as written, "
-             "each placed by its own lasers):", text_table(headers, body)]
+    lines = [
+        f"\nfull r_h = {SCAN_RH:g} deg scan ({rows[0]['beams']:,} beams, noise off), {title}, by phase "
+        "(same rays = the backend re-casts scene.ray_cast's beams; own placement = the two scans as written, "
+        "each placed by its own lasers):",
+        text_table(headers, body),
+    ]
     ref = next((r for r in rows if r["backend"] == REFERENCE), None)
     if ref is not None:
         top = max(PHASES, key=lambda p: ref[f"{p}_s"])
-        lines.append(f"scene.ray_cast scan: {fmt_s(ref['scan_s'])}, dominated by {PHASE_TITLES[top]} "
-                     f"({100 * ref[f'{top}_s'] / ref['scan_s']:.1f}%, {ref['us_per_ray']:.1f} us a ray over "
-                     f"{ref['objects']:,} objects); whole-scene extraction for the fast backends "
-                     f"{fmt_s(extract_s)}, reported apart")
+        lines.append(
+            f"scene.ray_cast scan: {fmt_s(ref['scan_s'])}, dominated by {PHASE_TITLES[top]} "
+            f"({100 * ref[f'{top}_s'] / ref['scan_s']:.1f}%, {ref['us_per_ray']:.1f} us a ray over "
+            f"{ref['objects']:,} objects); whole-scene extraction for the fast backends "
+            f"{fmt_s(extract_s)}, reported apart"
+        )
     return "\n".join(lines)
 
 
 def format_analytic(rows: list[dict], rays: int, rh_deg: float) -> str:
-    headers = ["backend", "hits compared", "max error m", "RMS m", "wrong", "excluded", "plane", "box", "sphere",
-               "prism", "cast", "us/ray"]
-    body = [[backend_title(r["backend"]), f"{r['analytic_rays']:,}", metres(r["analytic_max_m"]),
-             metres(r["analytic_rms_m"]), str(r["analytic_wrong"]), str(r["analytic_excluded"]),
-             *(metres(r["per_primitive"][k]) for k in ("plane", "box", "sphere", "prism")),
-             fmt_s(r["ray_casting_s"]), f"{r['us_per_ray']:.2f}"] for r in rows]
-    return "\n".join([
-        f"\n== Analytic primitives: {rays:,} rays (the r_h = {rh_deg:g} deg pattern from {len(ANALYTIC_ORIGINS)} "
-        "origins) on a tilted plane, a box, a 16 x 32 UV-sphere polyhedron and a 48-sided prism; truth in "
-        "closed form from the facet planes (float64)",
-        text_table(headers, body),
-        "range error |backend - truth| over hits labelled right; 'wrong' = rays with a clear truth labelled wrong "
-        f"or missed; 'excluded' = rays within {RANGE_TOLERANCE:g} m of a silhouette (either answer is right)",
-    ])
+    headers = [
+        "backend",
+        "hits compared",
+        "max error m",
+        "RMS m",
+        "wrong",
+        "excluded",
+        "plane",
+        "box",
+        "sphere",
+        "prism",
+        "cast",
+        "us/ray",
+    ]
+    body = [
+        [
+            backend_title(r["backend"]),
+            f"{r['analytic_rays']:,}",
+            metres(r["analytic_max_m"]),
+            metres(r["analytic_rms_m"]),
+            str(r["analytic_wrong"]),
+            str(r["analytic_excluded"]),
+            *(metres(r["per_primitive"][k]) for k in ("plane", "box", "sphere", "prism")),
+            fmt_s(r["ray_casting_s"]),
+            f"{r['us_per_ray']:.2f}",
+        ]
+        for r in rows
+    ]
+    return "\n".join(
+        [
+            f"\n== Analytic primitives: {rays:,} rays (the r_h = {rh_deg:g} deg pattern from {len(ANALYTIC_ORIGINS)} "
+            "origins) on a tilted plane, a box, a 16 x 32 UV-sphere polyhedron and a 48-sided prism; truth in "
+            "closed form from the facet planes (float64)",
+            text_table(headers, body),
+            "range error |backend - truth| over hits labelled right; 'wrong' = rays with a clear truth labelled wrong "
+            f"or missed; 'excluded' = rays within {RANGE_TOLERANCE:g} m of a silhouette (either answer is right)",
+        ]
+    )
 
 
 def format_levels(rows: list[dict], cfg) -> str:
-    headers = ["detail", "objects", "triangles", "crop tris", "backend", "scan", "cast", "us/ray", "x ray_cast",
-               "rays cmp", "labels same", "ranges ok", "max |dr| m", "ref/own wrong", "terrain max m",
-               "terrain RMS m"]
+    headers = [
+        "detail",
+        "objects",
+        "triangles",
+        "crop tris",
+        "backend",
+        "scan",
+        "cast",
+        "us/ray",
+        "x ray_cast",
+        "rays cmp",
+        "labels same",
+        "ranges ok",
+        "max |dr| m",
+        "ref/own wrong",
+        "terrain max m",
+        "terrain RMS m",
+    ]
     body = []
     for r in rows:
         ref = r["backend"] == REFERENCE
         est = bool(r["estimated"])
-        body.append([r["detail"], f"{r['objects']:,}", f"{r['triangles']:,}", f"{r['crop_triangles']:,.0f}",
-                     backend_title(r["backend"]), fmt_s(r["scan_s"], est), fmt_s(r["ray_casting_s"], est),
-                     f"{r['us_per_ray']:.2f}", "1 (ref)" if ref else ratio(r["speedup_vs_ray_cast"], _est_ref(rows, r)),
-                     "-" if ref else f"{r['rays_compared']:,}", "-" if ref else percent(r["label_agreement"]),
-                     "-" if ref else percent(r["range_agreement"]), "-" if ref else metres(r["max_range_diff_m"]),
-                     "-" if ref else f"{r['reference_wrong']}/{r['backend_wrong']} of {r['disagreements']}",
-                     f"{r['terrain_max_m']:.4f}", f"{r['terrain_rms_m']:.4f}"])
+        body.append(
+            [
+                r["detail"],
+                f"{r['objects']:,}",
+                f"{r['triangles']:,}",
+                f"{r['crop_triangles']:,.0f}",
+                backend_title(r["backend"]),
+                fmt_s(r["scan_s"], est),
+                fmt_s(r["ray_casting_s"], est),
+                f"{r['us_per_ray']:.2f}",
+                "1 (ref)" if ref else ratio(r["speedup_vs_ray_cast"], _est_ref(rows, r)),
+                "-" if ref else f"{r['rays_compared']:,}",
+                "-" if ref else percent(r["label_agreement"]),
+                "-" if ref else percent(r["range_agreement"]),
+                "-" if ref else metres(r["max_range_diff_m"]),
+                "-" if ref else f"{r['reference_wrong']}/{r['backend_wrong']} of {r['disagreements']}",
+                f"{r['terrain_max_m']:.4f}",
+                f"{r['terrain_rms_m']:.4f}",
+            ]
+        )
     fits = {r["detail"]: (r["terrain_fit_max_m"], r["terrain_fit_rms_m"]) for r in rows}
-    return "\n".join([
-        f"\nfull r_h = {SCAN_RH:g} deg scans, placement to PLY written, medians over the poses (each the median of "
-        f"{cfg.runs} runs); '~' = scene.ray_cast extrapolated from {cfg.reference_rays:,} rays a pose, other phases "
-        "as the first fast backend measured them; 'rays cmp' = rays compared with scene.ray_cast (subsets, and every "
-        "beam of the one full reference scan); ref/own wrong = of the disagreeing rays, where scene.ray_cast / this "
-        "backend is wrong by exact float64 brute force",
-        text_table(headers, body, [False, True, True, True, False] + [True] * 11),
-        "terrain error = |hit height - analytic heightfield| straight down at "
-        f"{cfg.terrain_rays:,} random points ({min(cfg.reference_rays, cfg.terrain_rays):,} for scene.ray_cast); "
-        "the mesh alone (fit_grid, 100k points): "
-        + ", ".join(f"{d} max {m:.4f} / RMS {s:.4f} m" for d, (m, s) in fits.items()),
-        "hit height vs the triangulated terrain mesh itself (the backends' own error): max "
-        + ", ".join(f"{backend_title(r['backend'])} {r['detail']} {r['terrain_mesh_max_m']:.1e} m" for r in rows),
-    ] + terrain_tolerance_notes(rows))
+    return "\n".join(
+        [
+            f"\nfull r_h = {SCAN_RH:g} deg scans, placement to PLY written, medians over the poses (each the median of "
+            f"{cfg.runs} runs); '~' = scene.ray_cast extrapolated from {cfg.reference_rays:,} rays a pose, other phases "
+            "as the first fast backend measured them; 'rays cmp' = rays compared with scene.ray_cast (subsets, and every "
+            "beam of the one full reference scan); ref/own wrong = of the disagreeing rays, where scene.ray_cast / this "
+            "backend is wrong by exact float64 brute force",
+            text_table(headers, body, [False, True, True, True, False] + [True] * 11),
+            "terrain error = |hit height - analytic heightfield| straight down at "
+            f"{cfg.terrain_rays:,} random points ({min(cfg.reference_rays, cfg.terrain_rays):,} for scene.ray_cast); "
+            "the mesh alone (fit_grid, 100k points): "
+            + ", ".join(f"{d} max {m:.4f} / RMS {s:.4f} m" for d, (m, s) in fits.items()),
+            "hit height vs the triangulated terrain mesh itself (the backends' own error): max "
+            + ", ".join(
+                f"{backend_title(r['backend'])} {r['detail']} {r['terrain_mesh_max_m']:.1e} m" for r in rows
+            ),
+        ]
+        + terrain_tolerance_notes(rows)
+    )
 
 
 def terrain_tolerance_notes(rows: list[dict]) -> list[str]:
@@ -1071,9 +1424,11 @@ def terrain_tolerance_notes(rows: list[dict]) -> list[str]:
         worst = max(r["terrain_max_m"] for r in rows if r["detail"] == detail)
         tol = DETAILS[detail].terrain_tolerance
         if worst > tol:
-            notes.append(f"note: at {detail} detail the terrain mesh is {worst:.4f} m off the analytic field somewhere "
-                         f"(tolerance {tol:g} m): fit_grid checks its tolerance on a sample of points, and the rays "
-                         "found a place it missed (the backends agree with the mesh itself, see above)")
+            notes.append(
+                f"note: at {detail} detail the terrain mesh is {worst:.4f} m off the analytic field somewhere "
+                f"(tolerance {tol:g} m): fit_grid checks its tolerance on a sample of points, and the rays "
+                "found a place it missed (the backends agree with the mesh itself, see above)"
+            )
     return notes
 
 
@@ -1086,42 +1441,83 @@ def scaling_tables(report: "Report", cfg) -> list[tuple[str, list[str], list[lis
     tables = []
     fast = cfg.fast_backends
     if report.beam_rows:
-        headers = ["r_h (deg)", "beams"] + [f"{n} scan" for n in fast] + [f"{n} cast" for n in fast] + \
-                  ["scene.ray_cast scan", f"{fast[0]} x ray_cast"]
+        headers = (
+            ["r_h (deg)", "beams"]
+            + [f"{n} scan" for n in fast]
+            + [f"{n} cast" for n in fast]
+            + ["scene.ray_cast scan", f"{fast[0]} x ray_cast"]
+        )
         body = []
         for rh in cfg.beam_steps:
             at = {r["backend"]: r for r in report.beam_rows if r["rh_deg"] == rh}
-            body.append([f"{rh:g}", f"{at[fast[0]]['beams']:,}"] + [fmt_s(at[n]["scan_s"]) for n in fast]
-                        + [fmt_s(at[n]["ray_casting_s"]) for n in fast]
-                        + [fmt_s(at[REFERENCE]["scan_s"], True), ratio(at[fast[0]]["speedup_vs_ray_cast"], True)])
+            body.append(
+                [f"{rh:g}", f"{at[fast[0]]['beams']:,}"]
+                + [fmt_s(at[n]["scan_s"]) for n in fast]
+                + [fmt_s(at[n]["ray_casting_s"]) for n in fast]
+                + [fmt_s(at[REFERENCE]["scan_s"], True), ratio(at[fast[0]]["speedup_vs_ray_cast"], True)]
+            )
         h = report.beam_rows[0]
-        tables.append((f"Scan time against beams (default world, {h['detail']} detail, {h['zone']} pose; placement to "
-                       "PLY written; scene.ray_cast ~ from its per-ray time)", headers, body))
+        tables.append(
+            (
+                f"Scan time against beams (default world, {h['detail']} detail, {h['zone']} pose; placement to "
+                "PLY written; scene.ray_cast ~ from its per-ray time)",
+                headers,
+                body,
+            )
+        )
     if report.level_rows:
-        headers = ["detail", "triangles (world)", "triangles (crop)"] + [f"{n} scan" for n in fast] + \
-                  [f"{n} cast" for n in fast] + ["scene.ray_cast us/ray"]
+        headers = (
+            ["detail", "triangles (world)", "triangles (crop)"]
+            + [f"{n} scan" for n in fast]
+            + [f"{n} cast" for n in fast]
+            + ["scene.ray_cast us/ray"]
+        )
         body = []
         for detail in cfg.details:
             at = {r["backend"]: r for r in report.level_rows if r["detail"] == detail}
             if not at:
                 continue
-            body.append([detail, f"{at[fast[0]]['triangles']:,}", f"{at[fast[0]]['crop_triangles']:,.0f}"]
-                        + [fmt_s(at[n]["scan_s"]) for n in fast] + [fmt_s(at[n]["ray_casting_s"]) for n in fast]
-                        + [f"{at[REFERENCE]['us_per_ray']:.0f}"])
-        tables.append(("Scan time against triangles (default world detail levels, medians over the poses)",
-                       headers, body))
+            body.append(
+                [detail, f"{at[fast[0]]['triangles']:,}", f"{at[fast[0]]['crop_triangles']:,.0f}"]
+                + [fmt_s(at[n]["scan_s"]) for n in fast]
+                + [fmt_s(at[n]["ray_casting_s"]) for n in fast]
+                + [f"{at[REFERENCE]['us_per_ray']:.0f}"]
+            )
+        tables.append(
+            (
+                "Scan time against triangles (default world detail levels, medians over the poses)",
+                headers,
+                body,
+            )
+        )
     if report.object_rows:
-        headers = ["objects", "triangles"] + [f"{n} scan" for n in fast] + [f"{n} cast" for n in fast] + \
-                  ["scene.ray_cast us/ray", "scene.ray_cast scan", f"{fast[0]} x ray_cast"]
+        headers = (
+            ["objects", "triangles"]
+            + [f"{n} scan" for n in fast]
+            + [f"{n} cast" for n in fast]
+            + ["scene.ray_cast us/ray", "scene.ray_cast scan", f"{fast[0]} x ray_cast"]
+        )
         body = []
         for count in cfg.object_counts:
             at = {r["backend"]: r for r in report.object_rows if r["world"] == f"{count} rocks/trees"}
-            body.append([f"{at[fast[0]]['objects']:,}", f"{at[fast[0]]['triangles']:,}"]
-                        + [fmt_s(at[n]["scan_s"]) for n in fast] + [fmt_s(at[n]["ray_casting_s"]) for n in fast]
-                        + [f"{at[REFERENCE]['us_per_ray']:.0f}", fmt_s(at[REFERENCE]["scan_s"], True),
-                           ratio(at[fast[0]]["speedup_vs_ray_cast"], True)])
-        tables.append(("Scan time against objects (terrain + N rocks and trees, each its own mesh object; one pose, "
-                       "full r_h = 1 deg scan, placement to PLY written)", headers, body))
+            body.append(
+                [f"{at[fast[0]]['objects']:,}", f"{at[fast[0]]['triangles']:,}"]
+                + [fmt_s(at[n]["scan_s"]) for n in fast]
+                + [fmt_s(at[n]["ray_casting_s"]) for n in fast]
+                + [
+                    f"{at[REFERENCE]['us_per_ray']:.0f}",
+                    fmt_s(at[REFERENCE]["scan_s"], True),
+                    ratio(at[fast[0]]["speedup_vs_ray_cast"], True),
+                ]
+            )
+        tables.append(
+            (
+                "Scan time against objects (terrain + N rocks and trees, each its own mesh object; one pose, "
+                "full r_h = 1 deg scan, placement to PLY written)",
+                headers,
+                body,
+            )
+        )
     return tables
 
 
@@ -1139,65 +1535,99 @@ def targets(report: "Report", cfg) -> list[tuple[str, bool | None, str]]:
         ref, mine = runs[REFERENCE][0], runs[default][0]
         agree, e2e = runs[default][2], runs[default][3]
         speed = ref.total / mine.total
-        out.append((f"full r_h = 1 deg scan with '{default}', placement to PLY, >= {SPEEDUP_TARGET:g}x faster than "
-                    "scene.ray_cast (same world and pose)", speed >= SPEEDUP_TARGET,
-                    f"{mine.total:.3f} s vs {ref.total:.1f} s = {speed:,.0f}x (default world, {head['detail']} "
-                    f"detail, {head['zone']} pose, measured)"))
+        out.append(
+            (
+                f"full r_h = 1 deg scan with '{default}', placement to PLY, >= {SPEEDUP_TARGET:g}x faster than "
+                "scene.ray_cast (same world and pose)",
+                speed >= SPEEDUP_TARGET,
+                f"{mine.total:.3f} s vs {ref.total:.1f} s = {speed:,.0f}x (default world, {head['detail']} "
+                f"detail, {head['zone']} pose, measured)",
+            )
+        )
         labels, ranges = agree.labels_same / agree.rays, agree.ranges_ok / agree.rays
         worst = min(labels, ranges, e2e["e2e_label_agreement"], e2e["e2e_range_agreement"])
-        out.append((f">= {100 * AGREEMENT_TARGET:g}% identical labels, ranges within 1e-4 m (noise off), that scan",
-                    worst >= AGREEMENT_TARGET,
-                    f"same rays: labels {100 * labels:.4f}%, ranges {100 * ranges:.4f}% of {agree.rays:,} beams, "
-                    f"max |dr| {agree.max_range_diff_m:.1e} m, {agree.disagreements} disagreements of which "
-                    f"{agree.reference_wrong} scene.ray_cast's errors and {agree.backend_wrong} {default}'s by "
-                    f"exact brute force; as written (own placements, {e2e['placement_diff_m']:.1e} m apart): labels "
-                    f"{100 * e2e['e2e_label_agreement']:.4f}%, ranges {100 * e2e['e2e_range_agreement']:.4f}%"))
+        out.append(
+            (
+                f">= {100 * AGREEMENT_TARGET:g}% identical labels, ranges within 1e-4 m (noise off), that scan",
+                worst >= AGREEMENT_TARGET,
+                f"same rays: labels {100 * labels:.4f}%, ranges {100 * ranges:.4f}% of {agree.rays:,} beams, "
+                f"max |dr| {agree.max_range_diff_m:.1e} m, {agree.disagreements} disagreements of which "
+                f"{agree.reference_wrong} scene.ray_cast's errors and {agree.backend_wrong} {default}'s by "
+                f"exact brute force; as written (own placements, {e2e['placement_diff_m']:.1e} m apart): labels "
+                f"{100 * e2e['e2e_label_agreement']:.4f}%, ranges {100 * e2e['e2e_range_agreement']:.4f}%",
+            )
+        )
     else:
-        out.append((f"full r_h = 1 deg scan >= {SPEEDUP_TARGET:g}x faster than scene.ray_cast", None,
-                    "not measured in --quick (needs one full scene.ray_cast scan of the default world)"))
+        out.append(
+            (
+                f"full r_h = 1 deg scan >= {SPEEDUP_TARGET:g}x faster than scene.ray_cast",
+                None,
+                "not measured in --quick (needs one full scene.ray_cast scan of the default world)",
+            )
+        )
     if report.test_world:
         rows = {r["backend"]: r for r in report.test_world}
         t = rows[default]
-        out.append(("(test world, for the record) same scan and comparison", None,
-                    f"{t['scan_s']:.3f} s vs {rows[REFERENCE]['scan_s']:.2f} s = {t['speedup_vs_ray_cast']:,.0f}x; "
-                    f"labels {percent(t['label_agreement'])}, ranges {percent(t['range_agreement'])}"))
+        out.append(
+            (
+                "(test world, for the record) same scan and comparison",
+                None,
+                f"{t['scan_s']:.3f} s vs {rows[REFERENCE]['scan_s']:.2f} s = {t['speedup_vs_ray_cast']:,.0f}x; "
+                f"labels {percent(t['label_agreement'])}, ranges {percent(t['range_agreement'])}",
+            )
+        )
     fine = [r for r in report.beam_rows if r["backend"] == default and r["rh_deg"] == FINE_RH]
     if fine:
         f = fine[0]
         prep = f["extract_s"] + f["crop_s"] + f["build_s"]
-        out.append((f"r_h = {FINE_RH:g} deg scan ({f['beams']:,} beams), placement to PLY written, "
-                    f"< {FINE_SCAN_TARGET_S:g} s once the scene is extracted", f["scan_s"] < FINE_SCAN_TARGET_S,
-                    f"{f['scan_s']:.3f} s (median of {f['runs']}); apart: whole-world extraction {f['extract_s']:.3f} s"
-                    f" + crop {f['crop_s']:.3f} s + {default} build {f['build_s']:.3f} s = {prep:.3f} s"))
+        out.append(
+            (
+                f"r_h = {FINE_RH:g} deg scan ({f['beams']:,} beams), placement to PLY written, "
+                f"< {FINE_SCAN_TARGET_S:g} s once the scene is extracted",
+                f["scan_s"] < FINE_SCAN_TARGET_S,
+                f"{f['scan_s']:.3f} s (median of {f['runs']}); apart: whole-world extraction {f['extract_s']:.3f} s"
+                f" + crop {f['crop_s']:.3f} s + {default} build {f['build_s']:.3f} s = {prep:.3f} s",
+            )
+        )
     if len(report.object_rows) >= 2:
         mine = [r for r in report.object_rows if r["backend"] == default]
         refs = [r for r in report.object_rows if r["backend"] == REFERENCE]
         growth = mine[-1]["scan_s"] / mine[0]["scan_s"]
         ref_growth = refs[-1]["us_per_ray"] / refs[0]["us_per_ray"]
-        out.append((f"scan time flat in the number of objects (here: at most {FLAT_TARGET:g}x for "
-                    f"{mine[-1]['objects'] / mine[0]['objects']:.0f}x the objects)", growth <= FLAT_TARGET,
-                    f"'{default}' {mine[0]['scan_s']:.3f} -> {mine[-1]['scan_s']:.3f} s ({growth:.2f}x) from "
-                    f"{mine[0]['objects']:,} to {mine[-1]['objects']:,} objects (and {mine[0]['triangles']:,} -> "
-                    f"{mine[-1]['triangles']:,} triangles); scene.ray_cast's time a ray {ref_growth:.1f}x"))
+        out.append(
+            (
+                f"scan time flat in the number of objects (here: at most {FLAT_TARGET:g}x for "
+                f"{mine[-1]['objects'] / mine[0]['objects']:.0f}x the objects)",
+                growth <= FLAT_TARGET,
+                f"'{default}' {mine[0]['scan_s']:.3f} -> {mine[-1]['scan_s']:.3f} s ({growth:.2f}x) from "
+                f"{mine[0]['objects']:,} to {mine[-1]['objects']:,} objects (and {mine[0]['triangles']:,} -> "
+                f"{mine[-1]['triangles']:,} triangles); scene.ray_cast's time a ray {ref_growth:.1f}x",
+            )
+        )
     if report.analytic:
         worst = max(r["analytic_max_m"] for r in report.analytic)
         wrong = sum(r["analytic_wrong"] for r in report.analytic)
-        out.append((f"range error against the analytic primitives <= {ANALYTIC_TARGET_M:g} m for every backend",
-                    worst <= ANALYTIC_TARGET_M and wrong == 0,
-                    ", ".join(f"{r['backend']} {r['analytic_max_m']:.1e} m" for r in report.analytic)
-                    + f"; {wrong} rays labelled wrong"))
+        out.append(
+            (
+                f"range error against the analytic primitives <= {ANALYTIC_TARGET_M:g} m for every backend",
+                worst <= ANALYTIC_TARGET_M and wrong == 0,
+                ", ".join(f"{r['backend']} {r['analytic_max_m']:.1e} m" for r in report.analytic)
+                + f"; {wrong} rays labelled wrong",
+            )
+        )
     return out
 
 
 def format_targets(items) -> str:
-    body = [[("met" if ok else "NOT MET") if ok is not None else "-", goal, figures] for goal, ok, figures in items]
+    body = [
+        [("met" if ok else "NOT MET") if ok is not None else "-", goal, figures]
+        for goal, ok, figures in items
+    ]
     return "\n== Targets (issue 5)\n" + "\n".join(f"[{m:>7}] {g}\n          {f}" for m, g, f in body)
 
 
 # =============================================================================================
 # CSV, chart, markdown (written together, all or none)
-
-
 
 
 def write_bench_files(rows: list[dict], tables, out_dir: Path) -> tuple[Path, Path, Path]:
@@ -1248,7 +1678,9 @@ def draw_chart(rows: list[dict], path: Path) -> Path:
     for r in summary:
         name = "ray_cast" if r["backend"] == REFERENCE else r["backend"]
         label = f"{name} {r['detail']}" + (" ~" if r["estimated"] else "")
-        style = dict(marker=markers.get(r["backend"], "D"), color=colours.get(r["detail"], "k"), s=55, zorder=3)
+        style = dict(
+            marker=markers.get(r["backend"], "D"), color=colours.get(r["detail"], "k"), s=55, zorder=3
+        )
         x = r["scan_s"]
         y_left = floor if r["backend"] == REFERENCE else max(1.0 - r["range_agreement"], floor)
         # the first fast backend is labelled on its left, the others on their right
@@ -1256,32 +1688,64 @@ def draw_chart(rows: list[dict], path: Path) -> Path:
         offset = (-7 if before else 7, -12 + 8 * details.index(r["detail"]))
         for ax, y in ((left, y_left), (right, r["terrain_rms_m"])):
             ax.scatter([x], [y], **style)
-            ax.annotate(label, (x, y), textcoords="offset points", xytext=offset, fontsize=7,
-                        ha="right" if before else "left")
+            ax.annotate(
+                label,
+                (x, y),
+                textcoords="offset points",
+                xytext=offset,
+                fontsize=7,
+                ha="right" if before else "left",
+            )
     worst = max([1.0 - r["range_agreement"] for r in summary if r["backend"] != REFERENCE] + [floor])
     left.set_ylim(floor / 3, max(worst * 5, 1e-3))
     left.axhline(floor, color="0.6", lw=0.8, ls="--")
     left.axhline(1.0 - AGREEMENT_TARGET, color="tab:red", lw=0.8, ls=":")
-    left.text(0.02, 1.0 - AGREEMENT_TARGET, " target: at most 1e-4 (99.99% agreement)", fontsize=7, color="tab:red",
-              va="bottom", transform=left.get_yaxis_transform())
-    left.text(0.98, 0.02, "no disagreement: plotted at 1e-6 (dashed); scene.ray_cast is the reference", fontsize=7,
-              color="0.35", ha="right", va="bottom", transform=left.transAxes)
+    left.text(
+        0.02,
+        1.0 - AGREEMENT_TARGET,
+        " target: at most 1e-4 (99.99% agreement)",
+        fontsize=7,
+        color="tab:red",
+        va="bottom",
+        transform=left.get_yaxis_transform(),
+    )
+    left.text(
+        0.98,
+        0.02,
+        "no disagreement: plotted at 1e-6 (dashed); scene.ray_cast is the reference",
+        fontsize=7,
+        color="0.35",
+        ha="right",
+        va="bottom",
+        transform=left.transAxes,
+    )
     left.set_ylabel("share of rays whose label or range (> 1e-4 m) differs from scene.ray_cast")
     right.set_ylabel("terrain RMS height error vs analytic heightfield (m)")
     times = [r["scan_s"] for r in summary] or [1.0]
-    for ax, title in ((left, "agreement with scene.ray_cast"), (right, "terrain height error by detail level")):
+    for ax, title in (
+        (left, "agreement with scene.ray_cast"),
+        (right, "terrain height error by detail level"),
+    ):
         ax.set_xscale("log")
         ax.set_xlim(min(times) / 8, max(times) * 8)  # room for the labels either side
         ax.set_yscale("log")
         ax.set_xlabel("time per full r_h = 1 deg scan, placement to PLY written (s)")
         ax.set_title(title, fontsize=10)
         ax.grid(True, which="both", alpha=0.25)
-    handles = [Line2D([], [], ls="", marker=m, color="0.3", label=backend_title(b)) for b, m in markers.items()
-               if any(r["backend"] == b for r in summary)]
+    handles = [
+        Line2D([], [], ls="", marker=m, color="0.3", label=backend_title(b))
+        for b, m in markers.items()
+        if any(r["backend"] == b for r in summary)
+    ]
     handles += [Line2D([], [], ls="", marker="o", color=colours[d], label=f"{d} detail") for d in details]
-    right.legend(handles=handles, fontsize=7, loc="center", bbox_to_anchor=(0.55, 0.68))  # clear of the points
-    fig.suptitle("wildscan bench: time against error per backend and detail level "
-                 "(default world, medians over the poses; ~ = scene.ray_cast extrapolated)", fontsize=11)
+    right.legend(
+        handles=handles, fontsize=7, loc="center", bbox_to_anchor=(0.55, 0.68)
+    )  # clear of the points
+    fig.suptitle(
+        "wildscan bench: time against error per backend and detail level "
+        "(default world, medians over the poses; ~ = scene.ray_cast extrapolated)",
+        fontsize=11,
+    )
     fig.tight_layout()
     fig.savefig(str(path), format="png")
     return path
@@ -1355,25 +1819,49 @@ class Report:
 
 
 def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("--seed", default="0", metavar="S", help="world seed, a whole number from 0 to 2147483647 (default 0)")
-    p.add_argument("--details", default=None, metavar="LIST",
-                   help="detail levels of the default world, comma-separated from low, default, high "
-                        "(default: low,default,high; with --quick: low)")
-    p.add_argument("--backends", default=None, metavar="LIST",
-                   help="fast backends to compare, comma-separated from auto, embree, bvh (default: every one "
-                        "available here); scene.ray_cast (blender) is always measured: ratios are against it")
-    p.add_argument("--runs", default=None, metavar="N",
-                   help=f"runs per timing, the median is reported, 1..50 (default {DEFAULT_RUNS}; --quick {QUICK_RUNS})")
-    p.add_argument("--reference-rays", default=None, metavar="N",
-                   help="rays per pose cast with scene.ray_cast where its full-scan time is extrapolated, 100..194400 "
-                        f"(default {DEFAULT_REFERENCE_RAYS}; --quick {QUICK_REFERENCE_RAYS}); one full scene.ray_cast "
-                        "scan of the test world and one of the default world are always timed whole (not in --quick)")
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                   help=f"directory for bench.csv, bench.png and scaling.md (default {DEFAULT_OUT})")
-    p.add_argument("--quick", action="store_true",
-                   help="a smoke run in well under a minute: low detail, 2 poses, 1 run, small subsets, no full "
-                        "scene.ray_cast scan of the default world")
-
+    p.add_argument(
+        "--seed", default="0", metavar="S", help="world seed, a whole number from 0 to 2147483647 (default 0)"
+    )
+    p.add_argument(
+        "--details",
+        default=None,
+        metavar="LIST",
+        help="detail levels of the default world, comma-separated from low, default, high "
+        "(default: low,default,high; with --quick: low)",
+    )
+    p.add_argument(
+        "--backends",
+        default=None,
+        metavar="LIST",
+        help="fast backends to compare, comma-separated from auto, embree, bvh (default: every one "
+        "available here); scene.ray_cast (blender) is always measured: ratios are against it",
+    )
+    p.add_argument(
+        "--runs",
+        default=None,
+        metavar="N",
+        help=f"runs per timing, the median is reported, 1..50 (default {DEFAULT_RUNS}; --quick {QUICK_RUNS})",
+    )
+    p.add_argument(
+        "--reference-rays",
+        default=None,
+        metavar="N",
+        help="rays per pose cast with scene.ray_cast where its full-scan time is extrapolated, 100..194400 "
+        f"(default {DEFAULT_REFERENCE_RAYS}; --quick {QUICK_REFERENCE_RAYS}); one full scene.ray_cast "
+        "scan of the test world and one of the default world are always timed whole (not in --quick)",
+    )
+    p.add_argument(
+        "--out",
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help=f"directory for bench.csv, bench.png and scaling.md (default {DEFAULT_OUT})",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a smoke run in well under a minute: low detail, 2 poses, 1 run, small subsets, no full "
+        "scene.ray_cast scan of the default world",
+    )
 
 
 def _names(text: str, option: str) -> list[str]:
@@ -1405,12 +1893,22 @@ def config_from_args(args) -> BenchConfig:
         if name != REFERENCE and name not in fast and missing_reason(name) is None:
             fast.append(name)
     if not fast:
-        raise UserError("--backends must name at least one fast backend (embree or bvh) to compare with scene.ray_cast")
-    runs = whole_number(args.runs, "--runs", 1, 50) if args.runs is not None else (QUICK_RUNS if quick else DEFAULT_RUNS)
-    ref_rays = (whole_number(args.reference_rays, "--reference-rays", 100, 194_400) if args.reference_rays is not None
-                else (QUICK_REFERENCE_RAYS if quick else DEFAULT_REFERENCE_RAYS))
-    return BenchConfig(seed, tuple(dict.fromkeys(details)), tuple(fast), runs, ref_rays, output_directory(args.out), quick)
-
+        raise UserError(
+            "--backends must name at least one fast backend (embree or bvh) to compare with scene.ray_cast"
+        )
+    runs = (
+        whole_number(args.runs, "--runs", 1, 50)
+        if args.runs is not None
+        else (QUICK_RUNS if quick else DEFAULT_RUNS)
+    )
+    ref_rays = (
+        whole_number(args.reference_rays, "--reference-rays", 100, 194_400)
+        if args.reference_rays is not None
+        else (QUICK_REFERENCE_RAYS if quick else DEFAULT_REFERENCE_RAYS)
+    )
+    return BenchConfig(
+        seed, tuple(dict.fromkeys(details)), tuple(fast), runs, ref_rays, output_directory(args.out), quick
+    )
 
 
 def run_bench_command(args, in_blender: bool = False, out: Callable[[str], None] | None = None) -> int:
@@ -1421,14 +1919,18 @@ def run_bench_command(args, in_blender: bool = False, out: Callable[[str], None]
     try:
         require_matplotlib()
     except UserError:
-        raise UserError("wildscan bench draws its chart with matplotlib (pip install matplotlib); "
-                        "it is not installed here") from None
+        raise UserError(
+            "wildscan bench draws its chart with matplotlib (pip install matplotlib); "
+            "it is not installed here"
+        ) from None
     cfg = config_from_args(args)  # creates --out last, once every option is known good
     report = Report(out or _print_flush)
     start = time.perf_counter()
-    report.say(f"wildscan bench{' --quick' if cfg.quick else ''}: seed {cfg.seed}, details {','.join(cfg.details)}, "
-               f"backends {', '.join(backend_title(n) for n in cfg.all_backends)}, median of {cfg.runs} run(s); "
-               f"noise off")
+    report.say(
+        f"wildscan bench{' --quick' if cfg.quick else ''}: seed {cfg.seed}, details {','.join(cfg.details)}, "
+        f"backends {', '.join(backend_title(n) for n in cfg.all_backends)}, median of {cfg.runs} run(s); "
+        f"noise off"
+    )
     with tempfile.TemporaryDirectory(dir=cfg.out, prefix=".bench-scans-") as tmp:
         tmp = Path(tmp)
         bench_test_world(cfg, report, tmp)
@@ -1440,8 +1942,10 @@ def run_bench_command(args, in_blender: bool = False, out: Callable[[str], None]
         report.say(f"\n== {title}\n{text_table(headers, body)}")
     report.say(format_targets(targets(report, cfg)))
     csv_path, png_path, md_path = write_bench_files(report.rows, tables, cfg.out)
-    report.say(f"\nwrote {csv_path}\nwrote {png_path}\nwrote {md_path} (the scaling tables in markdown)\n"
-               f"bench finished in {time.perf_counter() - start:.0f} s")
+    report.say(
+        f"\nwrote {csv_path}\nwrote {png_path}\nwrote {md_path} (the scaling tables in markdown)\n"
+        f"bench finished in {time.perf_counter() - start:.0f} s"
+    )
     return 0
 
 
@@ -1449,14 +1953,17 @@ def _print_flush(text: str) -> None:
     print(text, flush=True)
 
 
-
-
 # ---------------------------------------------------------------------------------------------
 # synthetic scenes with many objects (the scaling-with-objects table)
 
 
-def build_many_objects_scene(n_objects: int, seed: int = 0, half_size: float = 50.0, scene=None,
-                             collection_name: str = BENCH_COLLECTION):
+def build_many_objects_scene(
+    n_objects: int,
+    seed: int = 0,
+    half_size: float = 50.0,
+    scene=None,
+    collection_name: str = BENCH_COLLECTION,
+):
     """Terrain plus `n_objects` rocks and trees (each its own tagged mesh object) in a
     generated collection of `scene` (default: the active scene). Returns the collection."""
     import bpy
@@ -1481,7 +1988,9 @@ def build_many_objects_scene(n_objects: int, seed: int = 0, half_size: float = 5
         z = 0.3 * math.sin(x / 7.0) * math.cos(y / 9.0)
         if i % 2:
             r = float(rng.uniform(0.2, 0.6))
-            mesh_object(f"bench rock {i}", *uv_sphere(r, 8, 12, center=(x, y, z + 0.5 * r)), coll, "rock", i + 2)
+            mesh_object(
+                f"bench rock {i}", *uv_sphere(r, 8, 12, center=(x, y, z + 0.5 * r)), coll, "rock", i + 2
+            )
         else:
             h = float(rng.uniform(2.0, 4.0))
             trunk = cylinder(0.15, h, 12, base=(x, y, z))

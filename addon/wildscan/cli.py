@@ -3,6 +3,7 @@
 
 A user mistake ends with one line on stderr and exit code 2; nothing is written.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -64,10 +65,11 @@ def world_seed(text: str) -> int:
         raise argparse.ArgumentTypeError(str(e).removeprefix("--seed ")) from None
 
 
-
 def add_scan_arguments(p: argparse.ArgumentParser, in_blender: bool) -> None:
     source = p.add_mutually_exclusive_group(required=not in_blender)
-    source.add_argument("--world", metavar="FILE.blend", help="scan this saved world (or any .blend with tagged objects)")
+    source.add_argument(
+        "--world", metavar="FILE.blend", help="scan this saved world (or any .blend with tagged objects)"
+    )
     source.add_argument(
         "--seed",
         type=world_seed,
@@ -274,7 +276,11 @@ def run_scan_command(args, in_blender: bool) -> int:
 
     load_world_for_scan(args, in_blender)
     result = scan_current_scene(
-        pose, sensor, args.frame, args.z_start, args.backend,
+        pose,
+        sensor,
+        args.frame,
+        args.z_start,
+        args.backend,
         progress=Progress("scanning", args.quiet),
         notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
     )
@@ -284,8 +290,11 @@ def run_scan_command(args, in_blender: bool) -> int:
     assert sidecar == sidecar_path(out)
 
     p = result.placement
-    say(args, f"placed at ({p.optical_centre[0]:.3f}, {p.optical_centre[1]:.3f}, {p.optical_centre[2]:.3f}) "
-        f"roll {p.roll_deg:.2f} deg, pitch {p.pitch_deg:.2f} deg")
+    say(
+        args,
+        f"placed at ({p.optical_centre[0]:.3f}, {p.optical_centre[1]:.3f}, {p.optical_centre[2]:.3f}) "
+        f"roll {p.roll_deg:.2f} deg, pitch {p.pitch_deg:.2f} deg",
+    )
     print(f"wrote {ply} ({len(result.cloud):,} points of {result.beams:,} beams, frame {args.frame})")
     print(f"wrote {sidecar}")
     if not args.quiet:
@@ -293,8 +302,10 @@ def run_scan_command(args, in_blender: bool) -> int:
     untagged = len(result.untagged_objects)
     if untagged:
         names = ", ".join(sorted(result.untagged_objects)[:5])
-        print(f"untagged objects hit: {untagged} ({names}{', …' if untagged > 5 else ''}); their points are "
-              "labeled 0 (unlabeled): add the wildscan_class property to tag them")
+        print(
+            f"untagged objects hit: {untagged} ({names}{', …' if untagged > 5 else ''}); their points are "
+            "labeled 0 (unlabeled): add the wildscan_class property to tag them"
+        )
     else:
         say(args, "untagged objects hit: 0")
     return 0

@@ -1,5 +1,6 @@
 """`wildscan demo`: the default world, its aerial map, and one labeled scan per
 zone with a preview image each — the paper's section V in one command."""
+
 from __future__ import annotations
 
 import argparse
@@ -25,15 +26,29 @@ EXPECTED_CLASSES = {
 def add_demo_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
     from .cli import finite_float
 
-    p.add_argument("--seed", default="1", metavar="S", help="world seed, a whole number from 0 to 2147483647 (default 1)")
-    p.add_argument("--out", default="out/demo", metavar="DIR",
-                   help="directory for the world, its map, and a PLY + preview PNG per zone (default out/demo; "
-                        "created if missing)")
-    p.add_argument("--rh", type=finite_float, default=1.0, metavar="DEG",
-                   help="horizontal resolution r_h in degrees, 180/r_h whole (default 1, as the paper)")
-    p.add_argument("--backend", choices=BACKEND_NAMES, default="auto",
-                   help="ray caster (default auto, the fastest available)")
-
+    p.add_argument(
+        "--seed", default="1", metavar="S", help="world seed, a whole number from 0 to 2147483647 (default 1)"
+    )
+    p.add_argument(
+        "--out",
+        default="out/demo",
+        metavar="DIR",
+        help="directory for the world, its map, and a PLY + preview PNG per zone (default out/demo; "
+        "created if missing)",
+    )
+    p.add_argument(
+        "--rh",
+        type=finite_float,
+        default=1.0,
+        metavar="DEG",
+        help="horizontal resolution r_h in degrees, 180/r_h whole (default 1, as the paper)",
+    )
+    p.add_argument(
+        "--backend",
+        choices=BACKEND_NAMES,
+        default="auto",
+        help="ray caster (default auto, the fastest available)",
+    )
 
 
 def first_pose_per_zone(world_json: Path) -> dict[str, dict]:
@@ -56,8 +71,14 @@ def run_demo(args, in_blender: bool = False) -> int:
     sensor = SensorConfig(rh_deg=args.rh).validate()  # wildscan scan's defaults: same poses, same bytes
     out = output_directory(args.out)
 
-    world_args = argparse.Namespace(seed=str(seed), detail="default", out=str(out / "world.blend"),
-                                    map=str(out / "map.png"), poses="3", quiet=False)
+    world_args = argparse.Namespace(
+        seed=str(seed),
+        detail="default",
+        out=str(out / "world.blend"),
+        map=str(out / "map.png"),
+        poses="3",
+        quiet=False,
+    )
     run_world(world_args, in_blender)
     poses = first_pose_per_zone(out / "world.json")
     geometry = extract_scene()  # once for all six scans
@@ -68,8 +89,9 @@ def run_demo(args, in_blender: bool = False) -> int:
     missing = []
     for zone, p in poses.items():
         pose = Pose(p["x"], p["y"], p["yaw"])
-        result = scan_current_scene(pose, sensor, "leveled", p.get("z_start"), args.backend,
-                                    notify=print, geometry=geometry)
+        result = scan_current_scene(
+            pose, sensor, "leveled", p.get("z_start"), args.backend, notify=print, geometry=geometry
+        )
         cloud = result.cloud
         ply = out / f"scan_{zone}.ply"
         metadata = dict(result.metadata, seed=seed, world=str(out / "world.blend"), zone=zone)
@@ -83,7 +105,11 @@ def run_demo(args, in_blender: bool = False) -> int:
         where = f"({pose.x:.1f}, {pose.y:.1f}, {pose.yaw_deg:.0f})" + (" z_start" if "z_start" in p else "")
         print(f"  {zone:<7} {where:<28} {len(cloud):>8,} {paper:>8}  {', '.join(sorted(present))}")
     absent = [c.name for c in CLASSES if c.id not in seen]
-    print(f"\nall {len(CLASSES)} classes across the scans" if not absent else f"\nclasses in no scan: {', '.join(absent)}")
+    print(
+        f"\nall {len(CLASSES)} classes across the scans"
+        if not absent
+        else f"\nclasses in no scan: {', '.join(absent)}"
+    )
     if missing:
         print("expected but not seen: " + "; ".join(missing))
     print(f"files in {out}: world.blend, world.json, map.png, scan_<zone>.ply/.json/.png")

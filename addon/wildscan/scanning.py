@@ -1,5 +1,6 @@
 """Scan the current Blender scene: the one function the CLI, the Blender scripts
 and the add-on's Scan operator all call, so they give the same points."""
+
 from __future__ import annotations
 
 from typing import Callable
@@ -23,7 +24,9 @@ def make_scene_backend(
     """
     from .raycast.select import make_backend
 
-    return make_backend(name, center=(pose.x, pose.y), radius=crop_radius(sensor), notify=notify, geometry=geometry)
+    return make_backend(
+        name, center=(pose.x, pose.y), radius=crop_radius(sensor), notify=notify, geometry=geometry
+    )
 
 
 def crop_radius(sensor: SensorConfig) -> float:

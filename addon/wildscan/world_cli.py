@@ -10,6 +10,7 @@ bench-world  build the world at each detail level and print the time of every st
 Every user mistake raises UserError before anything is written; files are
 written to hidden temporary names beside their targets and renamed at the end.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -45,33 +46,66 @@ MAX_POSE_COUNT = 1000
 
 
 def add_world_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("--seed", required=True, metavar="S",
-                   help="world seed, a whole number from 0 to 2147483647; every seed gives another world with all six zones")
-    p.add_argument("--detail", default="default", metavar="LEVEL",
-                   help="low | default | high: how finely shapes are modelled (terrain height tolerance "
-                        "0.15 / 0.05 / 0.02 m); the layout is the same at every level (default: default)")
-    p.add_argument("--out", required=True, metavar="WORLD.blend",
-                   help="the Blender file to write; zones and scan poses go beside it as WORLD.json")
-    p.add_argument("--map", metavar="MAP.png", help="also write an aerial map (classes in colour, zones, poses); "
-                   "needs matplotlib, which the bpy wheel's venv has and Debian's Blender does not")
-    p.add_argument("--poses", type=str, default=str(DEFAULT_POSES_PER_ZONE), metavar="N",
-                   help=f"valid scan poses listed per zone in the sidecar (default {DEFAULT_POSES_PER_ZONE})")
+    p.add_argument(
+        "--seed",
+        required=True,
+        metavar="S",
+        help="world seed, a whole number from 0 to 2147483647; every seed gives another world with all six zones",
+    )
+    p.add_argument(
+        "--detail",
+        default="default",
+        metavar="LEVEL",
+        help="low | default | high: how finely shapes are modelled (terrain height tolerance "
+        "0.15 / 0.05 / 0.02 m); the layout is the same at every level (default: default)",
+    )
+    p.add_argument(
+        "--out",
+        required=True,
+        metavar="WORLD.blend",
+        help="the Blender file to write; zones and scan poses go beside it as WORLD.json",
+    )
+    p.add_argument(
+        "--map",
+        metavar="MAP.png",
+        help="also write an aerial map (classes in colour, zones, poses); "
+        "needs matplotlib, which the bpy wheel's venv has and Debian's Blender does not",
+    )
+    p.add_argument(
+        "--poses",
+        type=str,
+        default=str(DEFAULT_POSES_PER_ZONE),
+        metavar="N",
+        help=f"valid scan poses listed per zone in the sidecar (default {DEFAULT_POSES_PER_ZONE})",
+    )
     p.add_argument("--quiet", action="store_true", help="print only the files written")
 
 
 def add_poses_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("--seed", required=True, metavar="S", help="world seed, a whole number from 0 to 2147483647")
+    p.add_argument(
+        "--seed", required=True, metavar="S", help="world seed, a whole number from 0 to 2147483647"
+    )
     p.add_argument("--zone", metavar="NAME", help=f"only this zone: {', '.join(ZONES)} (default: all)")
-    p.add_argument("--count", default=str(DEFAULT_POSES_PER_ZONE), metavar="N",
-                   help=f"poses per zone, 1..{MAX_POSE_COUNT} (default {DEFAULT_POSES_PER_ZONE})")
-    p.add_argument("--detail", default="default", metavar="LEVEL", help="low | default | high (default: default)")
+    p.add_argument(
+        "--count",
+        default=str(DEFAULT_POSES_PER_ZONE),
+        metavar="N",
+        help=f"poses per zone, 1..{MAX_POSE_COUNT} (default {DEFAULT_POSES_PER_ZONE})",
+    )
+    p.add_argument(
+        "--detail", default="default", metavar="LEVEL", help="low | default | high (default: default)"
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
 
 def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument("--seed", default="0", metavar="S", help="world seed (default 0)")
-    p.add_argument("--detail", action="append", metavar="LEVEL",
-                   help="detail level to measure; repeat for several (default: low, default, high)")
+    p.add_argument(
+        "--detail",
+        action="append",
+        metavar="LEVEL",
+        help="detail level to measure; repeat for several (default: low, default, high)",
+    )
 
 
 # ---------------------------------------------------------------------------------------
@@ -117,7 +151,9 @@ def plan_backend(plan: WorldPlan, notify=None):
     return make_backend("auto", geometry=plan_geometry(plan), notify=notify)
 
 
-def valid_poses(plan: WorldPlan, backend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES) -> dict[str, list[dict]]:
+def valid_poses(
+    plan: WorldPlan, backend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
+) -> dict[str, list[dict]]:
     """Up to `count` poses per zone that `placement.place` accepts: the zone's reserved
     sites first (chosen where its classes are in view), then random candidates."""
     from .core.placement import place
@@ -200,14 +236,15 @@ def run_world(args, in_blender: bool = False) -> int:
     detail_level(args.detail)
     count = positive_count(args.poses, "--poses")
     # A scan's sidecar names its PLY file; a world beside it must not replace it.
-    out = check_output_path(args.out, ".blend", "--out", companions=(".json",), foreign_sidecar_key="ply_file")
+    out = check_output_path(
+        args.out, ".blend", "--out", companions=(".json",), foreign_sidecar_key="ply_file"
+    )
     sidecar = sidecar_path(out)
     map_path = check_output_path(args.map, ".png", "--map") if args.map is not None else None
     if map_path is not None:
         from .core.aerial_map import require_matplotlib
 
         require_matplotlib()
-
 
     from .world.builder import build_world
     from .world.scene_io import empty_scene
@@ -246,9 +283,11 @@ def run_world(args, in_blender: bool = False) -> int:
 
     counts = plan.counts()
     if not quiet:
-        print(f"world of seed {seed} ({args.detail} detail): {counts['objects']:,} objects sharing "
-              f"{counts['meshes']} meshes, {counts['triangles']:,} triangles, built and saved in "
-              f"{time.perf_counter() - t_start:.1f} s")
+        print(
+            f"world of seed {seed} ({args.detail} detail): {counts['objects']:,} objects sharing "
+            f"{counts['meshes']} meshes, {counts['triangles']:,} triangles, built and saved in "
+            f"{time.perf_counter() - t_start:.1f} s"
+        )
     print(f"wrote {out}")
     print(f"wrote {sidecar}")
     if map_path is not None:
@@ -272,11 +311,19 @@ def terrain_error_table(plan: WorldPlan, spacings=(0.25, 0.5, 1.0, 2.0, 4.0)) ->
     for s in spacings:
         grid = uniform_grid(plan.heightfield, EXTENT, s)
         e = grid_error(plan.heightfield, grid, points)
-        rows.append({"grid": f"uniform {s:g} m", "triangles": grid.triangle_count, "max": e.max, "rms": e.rms})
+        rows.append(
+            {"grid": f"uniform {s:g} m", "triangles": grid.triangle_count, "max": e.max, "rms": e.rms}
+        )
     fit = plan.grid_fit
     e = grid_error(plan.heightfield, fit.grid, points)
-    rows.append({"grid": f"adaptive {fit.spacing_min:.2f}-{fit.spacing_max:.2f} m (tol {fit.tolerance:g})",
-                 "triangles": fit.grid.triangle_count, "max": e.max, "rms": e.rms})
+    rows.append(
+        {
+            "grid": f"adaptive {fit.spacing_min:.2f}-{fit.spacing_max:.2f} m (tol {fit.tolerance:g})",
+            "triangles": fit.grid.triangle_count,
+            "max": e.max,
+            "rms": e.rms,
+        }
+    )
     return rows
 
 
@@ -300,28 +347,49 @@ def bench_world(seed: int = 0, details=tuple(DETAILS), stream=None) -> list[dict
         t_poses = time.perf_counter() - t1
         counts = plan.counts()
         fit = plan.grid_fit
-        row = {"seed": seed, "detail": detail, "stages_s": dict(plan.timings), "build_s": total, "poses_s": t_poses,
-               "objects": counts["objects"], "meshes": counts["meshes"], "triangles": counts["triangles"],
-               "terrain_grid": [len(fit.grid.xs), len(fit.grid.ys)], "terrain_triangles": fit.grid.triangle_count,
-               "terrain_error_max": fit.error.max, "terrain_error_rms": fit.error.rms,
-               "valid_poses": {z: len(v) for z, v in poses.items()}}
+        row = {
+            "seed": seed,
+            "detail": detail,
+            "stages_s": dict(plan.timings),
+            "build_s": total,
+            "poses_s": t_poses,
+            "objects": counts["objects"],
+            "meshes": counts["meshes"],
+            "triangles": counts["triangles"],
+            "terrain_grid": [len(fit.grid.xs), len(fit.grid.ys)],
+            "terrain_triangles": fit.grid.triangle_count,
+            "terrain_error_max": fit.error.max,
+            "terrain_error_rms": fit.error.rms,
+            "valid_poses": {z: len(v) for z, v in poses.items()},
+        }
         results.append(row)
-        stream.write(f"\n== seed {seed}, detail {detail}: built in {total:.2f} s "
-                     f"(+{t_poses:.2f} s checking {sum(row['valid_poses'].values())} poses)\n")
+        stream.write(
+            f"\n== seed {seed}, detail {detail}: built in {total:.2f} s "
+            f"(+{t_poses:.2f} s checking {sum(row['valid_poses'].values())} poses)\n"
+        )
         for stage, seconds in plan.timings.items():
             stream.write(f"  {stage:<16} {seconds:7.3f} s\n")
-        stream.write(f"  objects {counts['objects']:,}, shared meshes {counts['meshes']}, triangles {counts['triangles']:,} "
-                     f"(terrain {fit.grid.triangle_count:,}: {len(fit.grid.xs)} x {len(fit.grid.ys)} lines)\n")
-        stream.write(f"  terrain height error vs the analytic field: max {fit.error.max * 100:.1f} cm, "
-                     f"rms {fit.error.rms * 100:.2f} cm (tolerance {fit.tolerance * 100:g} cm)\n")
+        stream.write(
+            f"  objects {counts['objects']:,}, shared meshes {counts['meshes']}, triangles {counts['triangles']:,} "
+            f"(terrain {fit.grid.triangle_count:,}: {len(fit.grid.xs)} x {len(fit.grid.ys)} lines)\n"
+        )
+        stream.write(
+            f"  terrain height error vs the analytic field: max {fit.error.max * 100:.1f} cm, "
+            f"rms {fit.error.rms * 100:.2f} cm (tolerance {fit.tolerance * 100:g} cm)\n"
+        )
         errors = model_errors(DETAILS[detail])
         row["model_errors"] = errors
-        stream.write("  shape errors: " + ", ".join(f"{k} {v * 100:.2f} cm" for k, v in errors.items()
-                                                  if k != "terrain_tolerance") + "\n")
+        stream.write(
+            "  shape errors: "
+            + ", ".join(f"{k} {v * 100:.2f} cm" for k, v in errors.items() if k != "terrain_tolerance")
+            + "\n"
+        )
     stream.write("\nterrain grid spacing vs height error (last level's field):\n")
     for r in terrain_error_table(plan):
-        stream.write(f"  {r['grid']:<40} {r['triangles']:>9,} triangles  max {r['max'] * 100:6.2f} cm  "
-                     f"rms {r['rms'] * 100:5.2f} cm\n")
+        stream.write(
+            f"  {r['grid']:<40} {r['triangles']:>9,} triangles  max {r['max'] * 100:6.2f} cm  "
+            f"rms {r['rms'] * 100:5.2f} cm\n"
+        )
     stream.flush()
     return results
 
@@ -345,9 +413,9 @@ COMMANDS = {
 }
 DESCRIPTIONS = {
     "world": "Build the natural world of a seed (hills, forest, park with power line, trail, lake, cave), tagged "
-             "for the scanner, save it as a .blend with a JSON sidecar listing zones and valid scan poses, and "
-             "optionally an aerial map.",
+    "for the scanner, save it as a .blend with a JSON sidecar listing zones and valid scan poses, and "
+    "optionally an aerial map.",
     "poses": "Print scan poses that the placement accepts, per zone (no Blender scene needed).",
     "bench-world": "Build the world at each detail level and print the time of every stage, object and triangle "
-                   "counts, and the terrain's height error against the analytic heightfield.",
+    "counts, and the terrain's height error against the analytic heightfield.",
 }

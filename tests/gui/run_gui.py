@@ -10,6 +10,7 @@ wildscan.scan, opens the sidebar on the WildScan tab, takes a screenshot, checks
 undo/redo and disable/enable, and writes everything it saw to the result JSON.
 It never raises out of a step: failures go to the JSON, then Blender quits.
 """
+
 import argparse
 import json
 import math
@@ -67,7 +68,9 @@ def view3d():
 
 def override(**extra):
     area, region, _ui = view3d()
-    return bpy.context.temp_override(window=window(), screen=window().screen, area=area, region=region, **extra)
+    return bpy.context.temp_override(
+        window=window(), screen=window().screen, area=area, region=region, **extra
+    )
 
 
 def run_op(name, op, **kwargs):
@@ -121,8 +124,11 @@ def step_aerial():
     RESULT["view_perspective"] = r3d.view_perspective
     RESULT["view_rotation"] = list(r3d.view_rotation)
     marker = bpy.context.scene.wildscan.marker
-    RESULT["marker"] = None if marker is None else {
-        "name": marker.name, "display": marker.empty_display_type, "size": marker.empty_display_size}
+    RESULT["marker"] = (
+        None
+        if marker is None
+        else {"name": marker.name, "display": marker.empty_display_type, "size": marker.empty_display_size}
+    )
     return "pose"
 
 
@@ -142,8 +148,11 @@ def step_pose():
     RESULT["pose_checks"] = checked
     RESULT["pose"] = [s.pose_x, s.pose_y, s.pose_yaw]
     marker = s.marker
-    RESULT["marker_follows_pose"] = marker is not None and math.isclose(marker.location[0], s.pose_x) and \
-        math.isclose(marker.location[1], s.pose_y)
+    RESULT["marker_follows_pose"] = (
+        marker is not None
+        and math.isclose(marker.location[0], s.pose_x)
+        and math.isclose(marker.location[1], s.pose_y)
+    )
     return "scan"
 
 

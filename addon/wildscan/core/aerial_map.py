@@ -5,6 +5,7 @@ numpy + matplotlib (object API on an Agg canvas: no pyplot, no global state).
 Drawn from the plan, so it needs no Blender and no ray casting. Small elements
 (poles, trunks, grass) are drawn at least MIN_RADIUS wide so they stay visible.
 """
+
 from __future__ import annotations
 
 import math
@@ -19,7 +20,19 @@ MIN_RADIUS = 0.35  # m, smallest drawn footprint
 WATER_COLOUR = (0.62, 0.78, 0.92)  # water has no colour tag (it returns no point)
 
 # bottom to top
-DRAW_ORDER = ("low grass", "high grass", "rock", "bush", "fence", "table", "bench", "treetop", "trunk", "wire", "pole")
+DRAW_ORDER = (
+    "low grass",
+    "high grass",
+    "rock",
+    "bush",
+    "fence",
+    "table",
+    "bench",
+    "treetop",
+    "trunk",
+    "wire",
+    "pole",
+)
 
 
 def _rgb(name: str) -> tuple[float, float, float]:
@@ -100,11 +113,16 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
             continue
         v = plan.element_vertices(el)
         f = plan.prototypes[el.proto].faces
-        ax.add_collection(PolyCollection(v[f][:, :, :2], facecolors=[_rgb("terrain")], edgecolors="none", zorder=2))
+        ax.add_collection(
+            PolyCollection(v[f][:, :, :2], facecolors=[_rgb("terrain")], edgecolors="none", zorder=2)
+        )
         if el.stage == "cave":
             poly = _footprint_polygon(plan, el)
-            ax.add_patch(Polygon(
-                poly, closed=True, fill=False, edgecolor=(0.25, 0.15, 0.05), lw=1.2, hatch="///", zorder=2))
+            ax.add_patch(
+                Polygon(
+                    poly, closed=True, fill=False, edgecolor=(0.25, 0.15, 0.05), lw=1.2, hatch="///", zorder=2
+                )
+            )
     if plan.layout is not None:
         ax.plot(*plan.layout.trail.T, color=(0.3, 0.18, 0.06), lw=0.6, ls=":", zorder=2)
 
@@ -115,9 +133,13 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
         colour = _rgb(cls)
         if cls in ("fence", "table", "bench"):
             polys = [_footprint_polygon(plan, e) for e in els]
-            ax.add_collection(PolyCollection(polys, facecolors=[colour], edgecolors=[(0.2, 0.2, 0.2)], lw=0.3, zorder=z))
+            ax.add_collection(
+                PolyCollection(polys, facecolors=[colour], edgecolors=[(0.2, 0.2, 0.2)], lw=0.3, zorder=z)
+            )
         elif cls == "wire":
-            ax.add_collection(LineCollection([_wire_line(plan, e) for e in els], colors=[colour], lw=1.0, zorder=z))
+            ax.add_collection(
+                LineCollection([_wire_line(plan, e) for e in els], colors=[colour], lw=1.0, zorder=z)
+            )
         else:
             xy = np.array([e.location[:2] for e in els])
             if cls == "rock":
@@ -129,16 +151,40 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
                 w = h = np.array([2 * max(least, e.radius) for e in els])
                 ang = np.zeros(len(els))
             alpha = 0.85 if cls == "treetop" else 1.0
-            ax.add_collection(EllipseCollection(w, h, ang, units="xy", offsets=xy, offset_transform=ax.transData,
-                                                facecolors=[colour], edgecolors=[(0, 0, 0, 0.35)], linewidths=0.2,
-                                                alpha=alpha, zorder=z))
+            ax.add_collection(
+                EllipseCollection(
+                    w,
+                    h,
+                    ang,
+                    units="xy",
+                    offsets=xy,
+                    offset_transform=ax.transData,
+                    facecolors=[colour],
+                    edgecolors=[(0, 0, 0, 0.35)],
+                    linewidths=0.2,
+                    alpha=alpha,
+                    zorder=z,
+                )
+            )
 
     # zones
     halo = [pe.withStroke(linewidth=3, foreground="white")]
     for name in ZONES:
         x0, x1, y0, y1 = plan.layout.cells[name]
-        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=1.0, ec=(0.1, 0.1, 0.1), zorder=20))
-        ax.text(x0 + 2, y1 - 2, name, ha="left", va="top", fontsize=13, weight="bold", zorder=21, path_effects=halo)
+        ax.add_patch(
+            Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=1.0, ec=(0.1, 0.1, 0.1), zorder=20)
+        )
+        ax.text(
+            x0 + 2,
+            y1 - 2,
+            name,
+            ha="left",
+            va="top",
+            fontsize=13,
+            weight="bold",
+            zorder=21,
+            path_effects=halo,
+        )
 
     # scan poses
     if poses:
@@ -160,12 +206,25 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
     ax.set_title(title or f"WildScan world, seed {plan.seed} ({plan.detail.name} detail)")
 
     handles = [Patch(facecolor=_rgb("terrain"), edgecolor="k", lw=0.3, label="terrain & flooring")]
-    handles += [Patch(facecolor=_rgb(c), edgecolor="k", lw=0.3, label=c) for c in
-                ("trunk", "treetop", "table", "bush", "fence", "bench", "low grass", "rock", "high grass", "wire", "pole")]
+    handles += [
+        Patch(facecolor=_rgb(c), edgecolor="k", lw=0.3, label=c)
+        for c in (
+            "trunk",
+            "treetop",
+            "table",
+            "bush",
+            "fence",
+            "bench",
+            "low grass",
+            "rock",
+            "high grass",
+            "wire",
+            "pole",
+        )
+    ]
     handles.append(Patch(facecolor=WATER_COLOUR, edgecolor="k", lw=0.3, label="water (no return)"))
     if poses:
-        handles.append(Line2D(
-            [], [], marker="+", color="black", ls="none", markersize=10, label="scan pose"))
+        handles.append(Line2D([], [], marker="+", color="black", ls="none", markersize=10, label="scan pose"))
     fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(0.79, 0.93), fontsize=9, frameon=False)
 
     fig.savefig(path, dpi=dpi, format="png")

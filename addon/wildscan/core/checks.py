@@ -1,4 +1,5 @@
 """Parsing what users type (numpy-free): one message style for every command."""
+
 from __future__ import annotations
 
 import re

@@ -3,6 +3,7 @@ names, reflectivities and colour tags.
 
 Ids are a contract with users (they are the PLY `label` field): never renumber.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

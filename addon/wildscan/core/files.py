@@ -4,6 +4,7 @@ Every file WildScan writes goes to a hidden temporary name beside its target
 and is renamed into place only when everything it belongs with is written, so
 a failed or interrupted command never leaves a partial cloud, map or world.
 """
+
 from __future__ import annotations
 
 import json
@@ -14,8 +15,13 @@ from pathlib import Path
 from .errors import UserError
 
 
-def check_output_path(path, suffix: str, option: str = "--out", companions: tuple[str, ...] = (),
-                      foreign_sidecar_key: str | None = None) -> Path:
+def check_output_path(
+    path,
+    suffix: str,
+    option: str = "--out",
+    companions: tuple[str, ...] = (),
+    foreign_sidecar_key: str | None = None,
+) -> Path:
     """The resolved output path, or UserError saying why it cannot be written.
 
     Called before any work so a typo in an output option costs nothing.
@@ -38,8 +44,10 @@ def check_output_path(path, suffix: str, option: str = "--out", companions: tupl
         if out.with_suffix(companion).is_dir():
             raise fail(f"its sidecar {out.with_suffix(companion)} is a directory")
         if foreign_sidecar_key and _json_has_key(out.with_suffix(companion), foreign_sidecar_key):
-            raise fail(f"{out.with_suffix(companion)} beside it describes another kind of output; "
-                       "choose another name so it is not replaced")
+            raise fail(
+                f"{out.with_suffix(companion)} beside it describes another kind of output; "
+                "choose another name so it is not replaced"
+            )
     parent = out.parent
     if not parent.exists():
         raise fail(f"directory {parent} does not exist")

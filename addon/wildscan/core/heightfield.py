@@ -11,6 +11,7 @@ the analytic field (`fit_grid`): where the field curves more (hill tops, the
 cave's walls) lines are closer, elsewhere they spread out, so no triangle is
 spent on detail the sensor could not see.
 """
+
 from __future__ import annotations
 
 import math
@@ -134,7 +135,9 @@ class Ellipse:
 
     def to_world(self, u, v):
         c, s = math.cos(self.angle), math.sin(self.angle)
-        return self.cx + c * np.asarray(u) - s * np.asarray(v), self.cy + s * np.asarray(u) + c * np.asarray(v)
+        return self.cx + c * np.asarray(u) - s * np.asarray(v), self.cy + s * np.asarray(u) + c * np.asarray(
+            v
+        )
 
     def radius(self, x, y):
         u, v = self.local(x, y)
@@ -222,7 +225,9 @@ class Pit:
 
     def ramp(self, x, y):
         u, v = self.ellipse.local(x, y)
-        along = 1.0 - smootherstep((u - self.ellipse.a * self.r_floor) / (self.ellipse.a * (1 - self.r_floor) + self.ramp_length))
+        along = 1.0 - smootherstep(
+            (u - self.ellipse.a * self.r_floor) / (self.ellipse.a * (1 - self.r_floor) + self.ramp_length)
+        )
         inside = smootherstep(4.0 * u / self.ellipse.a)  # the ramp only on the +axis half
         across = 1.0 - smootherstep((np.abs(v) - self.ramp_half_width) / self.ramp_blend)
         return along * inside * across
@@ -406,8 +411,16 @@ def curvature_profiles(field_fn: Field, extent: Sequence[float], probe: float = 
     return xs, cx, ys, cy
 
 
-def adaptive_axis(start: float, stop: float, probe_pos: np.ndarray, curvature: np.ndarray, tol: float,
-                  factor: float, s_min: float, s_max: float) -> np.ndarray:
+def adaptive_axis(
+    start: float,
+    stop: float,
+    probe_pos: np.ndarray,
+    curvature: np.ndarray,
+    tol: float,
+    factor: float,
+    s_min: float,
+    s_max: float,
+) -> np.ndarray:
     """Grid line positions from start to stop whose local spacing keeps s^2/8 * curvature
     under tol (times `factor`, the correction `fit_grid` measures)."""
     spacing = np.clip(factor * np.sqrt(8.0 * tol / np.maximum(curvature, 1e-12)), s_min, s_max)
@@ -443,8 +456,16 @@ class GridFit:
 FIT_MARGIN = 0.75
 
 
-def fit_grid(field_fn: Field, extent: Sequence[float], tol: float, rng: np.random.Generator,
-             s_min: float = 0.1, s_max: float = 8.0, samples: int = 100_000, probe: float = 0.5) -> GridFit:
+def fit_grid(
+    field_fn: Field,
+    extent: Sequence[float],
+    tol: float,
+    rng: np.random.Generator,
+    s_min: float = 0.1,
+    s_max: float = 8.0,
+    samples: int = 100_000,
+    probe: float = 0.5,
+) -> GridFit:
     """The coarsest adaptive rectilinear grid whose measured max error is within `tol`.
 
     Spacing comes from the curvature estimate; the error is then measured at
@@ -467,6 +488,8 @@ def fit_grid(field_fn: Field, extent: Sequence[float], tol: float, rng: np.rando
         if worst <= FIT_MARGIN * tol or min(np.diff(xs).min(), np.diff(ys).min()) <= s_min * 1.001:
             break
         factor *= 0.9 * math.sqrt(FIT_MARGIN * tol / worst)
-    error = GridError(float(err.max()), float(np.sqrt(np.mean(err**2))), float(np.quantile(err, 0.99)), len(err))
+    error = GridError(
+        float(err.max()), float(np.sqrt(np.mean(err**2))), float(np.quantile(err, 0.99)), len(err)
+    )
     steps = np.concatenate([np.diff(xs), np.diff(ys)])
     return GridFit(grid, error, tol, iteration, float(steps.min()), float(steps.max()))

@@ -12,6 +12,7 @@ tip is lower than the rear one (nose down), roll α > 0 when the left (+Y) arm
 tip is lower than the right one. The property that decides it (DESIGN.md):
 without noise, every leveled point equals Rz(−yaw) · (p_world − optical_centre).
 """
+
 from __future__ import annotations
 
 import math

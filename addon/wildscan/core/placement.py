@@ -20,6 +20,7 @@ mistaken for the ground while a rock, bench or table under the footprint still
 is. The first terrain surface from above a cave is its roof; to stand inside
 the cave, give --z-start under the roof.
 """
+
 from __future__ import annotations
 
 import math
@@ -214,9 +215,13 @@ def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
     bad = [laser for laser in lasers if laser.class_id != TERRAIN_ID]
     if bad:
         if all(laser.class_id < 0 for laser in lasers):
-            raise PoseRejected(f"{where} rejected: all four lasers hit nothing from z={z_start:g} (off the world?)")
+            raise PoseRejected(
+                f"{where} rejected: all four lasers hit nothing from z={z_start:g} (off the world?)"
+            )
         raise PoseRejected(
-            f"{where} rejected: " + "; ".join(laser.describe() for laser in bad) + " (all four must hit terrain or flooring)"
+            f"{where} rejected: "
+            + "; ".join(laser.describe() for laser in bad)
+            + " (all four must hit terrain or flooring)"
         )
 
     z_front, z_rear, z_left, z_right = (laser.hit_z for laser in lasers)
@@ -234,7 +239,9 @@ def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
             f"{math.degrees(pitch):.1f}); at most {MAX_TILT_DEG:g} deg"
         )
     ground_centre = np.array([pose.x, pose.y, (z_front + z_rear + z_left + z_right) / 4])
-    column = sensor_to_world_matrix(roll, pitch, math.radians(pose.yaw_deg)) @ np.array([0.0, 0.0, COLUMN_HEIGHT])
+    column = sensor_to_world_matrix(roll, pitch, math.radians(pose.yaw_deg)) @ np.array(
+        [0.0, 0.0, COLUMN_HEIGHT]
+    )
     return Placement(
         pose=pose,
         optical_centre=ground_centre + column,

@@ -1,4 +1,5 @@
 """The labeled point cloud a scan produces, as plain numpy arrays."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -9,6 +9,7 @@ plot of 800k points would take many seconds; the raster takes a fraction of one.
 matplotlib is imported lazily so that importing this module never requires it
 (Blender's own Python, for one, does not ship it).
 """
+
 from __future__ import annotations
 
 import math
@@ -81,7 +82,9 @@ def _check_size(size: tuple[int, int]) -> tuple[int, int]:
     except (TypeError, ValueError):
         raise UserError(f"preview size must be (width, height) in pixels, got {size!r}") from None
     if width < _MIN_SIZE[0] or height < _MIN_SIZE[1]:
-        raise UserError(f"preview size must be at least {_MIN_SIZE[0]}x{_MIN_SIZE[1]} pixels, got {width}x{height}")
+        raise UserError(
+            f"preview size must be at least {_MIN_SIZE[0]}x{_MIN_SIZE[1]} pixels, got {width}x{height}"
+        )
     return width, height
 
 
@@ -119,8 +122,12 @@ def _view_box(screen: np.ndarray) -> tuple[float, float, float, float]:
     hi = np.percentile(screen, _CROP_PERCENTILES[1], axis=0)
     centre = (lo + hi) / 2.0
     span = np.maximum(hi - lo, _MIN_SPAN_M) * (1.0 + 2.0 * _CROP_MARGIN)
-    return (float(centre[0] - span[0] / 2), float(centre[0] + span[0] / 2),
-            float(centre[1] - span[1] / 2), float(centre[1] + span[1] / 2))
+    return (
+        float(centre[0] - span[0] / 2),
+        float(centre[0] + span[0] / 2),
+        float(centre[1] - span[1] / 2),
+        float(centre[1] + span[1] / 2),
+    )
 
 
 def _raster_shape(box: tuple[float, float, float, float], max_w: int, max_h: int) -> tuple[int, int]:
@@ -143,8 +150,15 @@ def splat_size(n_points: int, n_pixels: int) -> int:
 # --------------------------------------------------------------------------- raster
 
 
-def rasterize(xyz: np.ndarray, colors: np.ndarray, axes: np.ndarray,
-              box: tuple[float, float, float, float], rows: int, cols: int, splat: int) -> np.ndarray:
+def rasterize(
+    xyz: np.ndarray,
+    colors: np.ndarray,
+    axes: np.ndarray,
+    box: tuple[float, float, float, float],
+    rows: int,
+    cols: int,
+    splat: int,
+) -> np.ndarray:
     """(rows, cols, 3) uint8 image, row 0 at the top: each point a splat x splat
     square in its colour, nearer points covering farther ones.
 
@@ -247,13 +261,27 @@ def _build_figure(cloud: PointCloud, title: str, elev: float, azim: float, width
     return fig
 
 
-def _draw_header(fig, cloud: PointCloud, title: str, n_points: int, elev: float, azim: float, height: int) -> None:
+def _draw_header(
+    fig, cloud: PointCloud, title: str, n_points: int, elev: float, azim: float, height: int
+) -> None:
     top = 1.0 - 10 / height
-    fig.text(_PAD_PX / fig.bbox.width, top, title or "WildScan labeled scan",
-             ha="left", va="top", fontsize=15, fontweight="bold", color="0.1")
-    subtitle = (f"{n_points:,} points · frame {cloud.frame} · "
-                f"orthographic view, elevation {elev:g}°, azimuth {azim:g}°")
-    fig.text(_PAD_PX / fig.bbox.width, top - 30 / height, subtitle, ha="left", va="top", fontsize=10, color="0.3")
+    fig.text(
+        _PAD_PX / fig.bbox.width,
+        top,
+        title or "WildScan labeled scan",
+        ha="left",
+        va="top",
+        fontsize=15,
+        fontweight="bold",
+        color="0.1",
+    )
+    subtitle = (
+        f"{n_points:,} points · frame {cloud.frame} · "
+        f"orthographic view, elevation {elev:g}°, azimuth {azim:g}°"
+    )
+    fig.text(
+        _PAD_PX / fig.bbox.width, top - 30 / height, subtitle, ha="left", va="top", fontsize=10, color="0.3"
+    )
 
 
 def nice_length(span_m: float) -> float:
@@ -280,13 +308,37 @@ def _draw_scale_bar(ax, box: tuple[float, float, float, float], m_per_px: float)
     x0, x1, y0, _ = box
     length = nice_length(x1 - x0)
     bar_y = y0 - 0.5 * _FOOTER_PX * m_per_px
-    ax.add_patch(Rectangle((x0, bar_y - 2 * m_per_px), length, 4 * m_per_px, facecolor="0.15",
-                           edgecolor="none", clip_on=False))
+    ax.add_patch(
+        Rectangle(
+            (x0, bar_y - 2 * m_per_px),
+            length,
+            4 * m_per_px,
+            facecolor="0.15",
+            edgecolor="none",
+            clip_on=False,
+        )
+    )
     for end in (x0, x0 + length):  # end ticks make the bar read as a measure, not a line
-        ax.add_patch(Rectangle((end - m_per_px, bar_y - 6 * m_per_px), 2 * m_per_px, 12 * m_per_px,
-                               facecolor="0.15", edgecolor="none", clip_on=False))
-    ax.text(x0 + length + 8 * m_per_px, bar_y, _format_length(length), ha="left", va="center",
-            fontsize=10, color="0.15", clip_on=False)
+        ax.add_patch(
+            Rectangle(
+                (end - m_per_px, bar_y - 6 * m_per_px),
+                2 * m_per_px,
+                12 * m_per_px,
+                facecolor="0.15",
+                edgecolor="none",
+                clip_on=False,
+            )
+        )
+    ax.text(
+        x0 + length + 8 * m_per_px,
+        bar_y,
+        _format_length(length),
+        ha="left",
+        va="center",
+        fontsize=10,
+        color="0.15",
+        clip_on=False,
+    )
 
 
 def _draw_axis_triad(ax, box: tuple[float, float, float, float], axes: np.ndarray, m_per_px: float) -> None:
@@ -294,15 +346,39 @@ def _draw_axis_triad(ax, box: tuple[float, float, float, float], axes: np.ndarra
     x0, x1, y0, _ = box
     arm = 22 * m_per_px
     ox, oy = x1 - 40 * m_per_px, y0 - 0.5 * _FOOTER_PX * m_per_px
-    for name, world, color in (("X", (1, 0, 0), "#c0392b"), ("Y", (0, 1, 0), "#27ae60"), ("Z", (0, 0, 1), "#2e5cb8")):
+    for name, world, color in (
+        ("X", (1, 0, 0), "#c0392b"),
+        ("Y", (0, 1, 0), "#27ae60"),
+        ("Z", (0, 0, 1), "#2e5cb8"),
+    ):
         dx, dy = axes[0] @ world, axes[1] @ world
         if math.hypot(dx, dy) < 0.15:  # pointing at the viewer: an arrow would be a dot
             continue
-        ax.annotate("", xy=(ox + arm * dx, oy + arm * dy), xytext=(ox, oy), annotation_clip=False,
-                    arrowprops={"arrowstyle": "-|>", "color": color, "lw": 1.5, "mutation_scale": 10,
-                                "shrinkA": 0, "shrinkB": 0})
-        ax.text(ox + 1.35 * arm * dx, oy + 1.35 * arm * dy, name, ha="center", va="center",
-                fontsize=8, color=color, fontweight="bold", clip_on=False)
+        ax.annotate(
+            "",
+            xy=(ox + arm * dx, oy + arm * dy),
+            xytext=(ox, oy),
+            annotation_clip=False,
+            arrowprops={
+                "arrowstyle": "-|>",
+                "color": color,
+                "lw": 1.5,
+                "mutation_scale": 10,
+                "shrinkA": 0,
+                "shrinkB": 0,
+            },
+        )
+        ax.text(
+            ox + 1.35 * arm * dx,
+            oy + 1.35 * arm * dy,
+            name,
+            ha="center",
+            va="center",
+            fontsize=8,
+            color=color,
+            fontweight="bold",
+            clip_on=False,
+        )
 
 
 def legend_entries(labels: np.ndarray) -> list[tuple[str, tuple[int, int, int]]]:
@@ -320,14 +396,36 @@ def legend_entries(labels: np.ndarray) -> list[tuple[str, tuple[int, int, int]]]
 def _draw_legend(fig, labels: np.ndarray, width: int, height: int):
     from matplotlib.lines import Line2D
 
-    handles = [Line2D([], [], linestyle="none", marker="s", markersize=11,
-                      markerfacecolor=tuple(c / 255 for c in rgb), markeredgecolor="0.35",
-                      markeredgewidth=0.6, label=text)
-               for text, rgb in legend_entries(labels)]
+    handles = [
+        Line2D(
+            [],
+            [],
+            linestyle="none",
+            marker="s",
+            markersize=11,
+            markerfacecolor=tuple(c / 255 for c in rgb),
+            markeredgecolor="0.35",
+            markeredgewidth=0.6,
+            label=text,
+        )
+        for text, rgb in legend_entries(labels)
+    ]
     anchor = (1.0 - _PAD_PX / width, 1.0 - (_HEADER_PX + _PAD_PX) / height)
-    legend = fig.legend(handles=handles, loc="upper right", bbox_to_anchor=anchor, title="class: points",
-                        fontsize=9, title_fontsize=10, frameon=True, framealpha=1.0, facecolor="white",
-                        edgecolor="0.7", handletextpad=0.4, borderpad=0.7, labelspacing=0.5)
+    legend = fig.legend(
+        handles=handles,
+        loc="upper right",
+        bbox_to_anchor=anchor,
+        title="class: points",
+        fontsize=9,
+        title_fontsize=10,
+        frameon=True,
+        framealpha=1.0,
+        facecolor="white",
+        edgecolor="0.7",
+        handletextpad=0.4,
+        borderpad=0.7,
+        labelspacing=0.5,
+    )
     legend.set_alignment("left")
     return legend
 

@@ -4,6 +4,7 @@ Every stage draws from its own generator derived from (seed, stage name), so
 adding or changing one stage never shifts the numbers another stage sees.
 Never use the global `random` or `np.random` state anywhere in WildScan.
 """
+
 from __future__ import annotations
 
 import hashlib

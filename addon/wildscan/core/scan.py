@@ -3,6 +3,7 @@
 The scene enters only through `backend.cast` (raycast/base.py), so this module
 runs the same with Blender's scene.ray_cast or a fast backend.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -42,7 +43,9 @@ def check_frame(frame: str) -> str:
     return frame
 
 
-def cast_in_chunks(backend, origin: np.ndarray, dirs: np.ndarray, max_range: float, progress: Progress | None):
+def cast_in_chunks(
+    backend, origin: np.ndarray, dirs: np.ndarray, max_range: float, progress: Progress | None
+):
     """Cast all rays, reporting progress between chunks when asked."""
     if progress is None:
         return backend.cast(origin, dirs, max_range)

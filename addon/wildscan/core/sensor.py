@@ -9,6 +9,7 @@ the structure's X arm (the heading). Beam n of 2D scan m points along
 so n = 0 looks 45° away from straight down behind, n = 540 straight up, and the
 90° wedge around −Z is never scanned (the blind cone).
 """
+
 from __future__ import annotations
 
 import functools
@@ -94,9 +95,13 @@ def _check_finite(option: str, value: float, unit: str) -> None:
 def sweep_count(rh_deg: float) -> int:
     """M = 180 / r_h, which must come out whole."""
     if not isinstance(rh_deg, (int, float)) or not math.isfinite(rh_deg) or rh_deg <= 0:
-        raise UserError(f"--rh must be a positive number of degrees dividing 180 (e.g. 0.25, 0.5, 1, 2), got {rh_deg}")
+        raise UserError(
+            f"--rh must be a positive number of degrees dividing 180 (e.g. 0.25, 0.5, 1, 2), got {rh_deg}"
+        )
     if rh_deg < MIN_RH_DEG:
-        raise UserError(f"--rh must be at least {MIN_RH_DEG:g} deg (finer scans need gigabytes), got {rh_deg:g}")
+        raise UserError(
+            f"--rh must be at least {MIN_RH_DEG:g} deg (finer scans need gigabytes), got {rh_deg:g}"
+        )
     m = SWEEP_DEG / rh_deg
     whole = round(m)
     if whole < 1 or abs(m - whole) > 1e-9 * max(1.0, m):

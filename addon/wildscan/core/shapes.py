@@ -10,6 +10,7 @@ Modelling rule: no more detail than the sensor can resolve (15 m range,
 else: a trunk or branch stops just inside its crown, a rock or bush loses the
 faces that lie wholly below the ground.
 """
+
 from __future__ import annotations
 
 import math
@@ -22,10 +23,33 @@ from .testworld_plan import box, merge, tube
 Mesh = tuple[np.ndarray, np.ndarray]
 
 __all__ = [
-    "Mesh", "box", "merge", "tube", "lathe", "tapered_tube", "icosphere", "lumpy", "drop_buried",
-    "tuft", "TreeShape", "conifer", "broadleaf", "birch", "TREE_KINDS", "bush", "rock", "table",
-    "bench", "fence_section", "fence_post", "pole", "POLE_ATTACHMENTS", "catenary", "wire",
-    "transform", "triangle_count",
+    "Mesh",
+    "box",
+    "merge",
+    "tube",
+    "lathe",
+    "tapered_tube",
+    "icosphere",
+    "lumpy",
+    "drop_buried",
+    "tuft",
+    "TreeShape",
+    "conifer",
+    "broadleaf",
+    "birch",
+    "TREE_KINDS",
+    "bush",
+    "rock",
+    "table",
+    "bench",
+    "fence_section",
+    "fence_post",
+    "pole",
+    "POLE_ATTACHMENTS",
+    "catenary",
+    "wire",
+    "transform",
+    "triangle_count",
 ]
 
 
@@ -48,7 +72,9 @@ def triangle_count(mesh: Mesh) -> int:
 # surfaces of revolution and tubes
 
 
-def lathe(radii, heights, segments: int, cap_bottom: bool = False, cap_top: bool = False, phase: float = 0.0) -> Mesh:
+def lathe(
+    radii, heights, segments: int, cap_bottom: bool = False, cap_top: bool = False, phase: float = 0.0
+) -> Mesh:
     """Revolve a profile (bottom to top) about Z. A zero radius at either end becomes a
     single apex vertex, so cones and closed crowns need no cap."""
     radii = np.asarray(radii, dtype=np.float64)
@@ -110,12 +136,47 @@ def icosphere(subdivisions: int) -> Mesh:
     """Unit icosphere: 20 * 4^subdivisions triangles, all vertices on the sphere."""
     t = (1.0 + math.sqrt(5.0)) / 2.0
     v = np.array(
-        [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
-         [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=np.float64)
+        [
+            [-1, t, 0],
+            [1, t, 0],
+            [-1, -t, 0],
+            [1, -t, 0],
+            [0, -1, t],
+            [0, 1, t],
+            [0, -1, -t],
+            [0, 1, -t],
+            [t, 0, -1],
+            [t, 0, 1],
+            [-t, 0, -1],
+            [-t, 0, 1],
+        ],
+        dtype=np.float64,
+    )
     f = np.array(
-        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
-         [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5],
-         [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]], dtype=np.int64)
+        [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ],
+        dtype=np.int64,
+    )
     v /= np.linalg.norm(v, axis=1, keepdims=True)
     for _ in range(subdivisions):
         edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
@@ -125,10 +186,14 @@ def icosphere(subdivisions: int) -> Mesh:
         mid /= np.linalg.norm(mid, axis=1, keepdims=True)
         m = len(v) + inverse.reshape(3, -1)  # midpoints of edges 01, 12, 20 per face
         a, b, c = f[:, 0], f[:, 1], f[:, 2]
-        f = np.concatenate([
-            np.stack([a, m[0], m[2]], -1), np.stack([b, m[1], m[0]], -1),
-            np.stack([c, m[2], m[1]], -1), np.stack([m[0], m[1], m[2]], -1),
-        ])
+        f = np.concatenate(
+            [
+                np.stack([a, m[0], m[2]], -1),
+                np.stack([b, m[1], m[0]], -1),
+                np.stack([c, m[2], m[1]], -1),
+                np.stack([m[0], m[1], m[2]], -1),
+            ]
+        )
         v = np.concatenate([v, mid])
     return v, f.astype(np.int32)
 
@@ -222,7 +287,12 @@ def conifer(rng: np.random.Generator, d) -> TreeShape:
     crown_base = rng.uniform(2.0, 3.0)
     radius = rng.uniform(2.0, 2.8)
     trunk_r = rng.uniform(0.18, 0.26)
-    trunk = lathe([trunk_r * 1.15, trunk_r, trunk_r * 0.8], [-0.5, crown_base * 0.5, crown_base + 0.3], d.trunk_sides, cap_top=True)
+    trunk = lathe(
+        [trunk_r * 1.15, trunk_r, trunk_r * 0.8],
+        [-0.5, crown_base * 0.5, crown_base + 0.3],
+        d.trunk_sides,
+        cap_top=True,
+    )
     tiers = 3
     tier_h = (height - crown_base) / tiers
     r, z = [0.0], [crown_base]
@@ -246,7 +316,14 @@ def broadleaf(rng: np.random.Generator, d) -> TreeShape:
     trunk_r = rng.uniform(0.25, 0.35)
     axes = np.array([rx, rx, rz])
     trunk_top = centre[2] - rz * 0.8
-    parts = [lathe([trunk_r * 1.2, trunk_r, trunk_r * 0.75, trunk_r * 0.5], [-0.5, 0.0, fork, trunk_top], d.trunk_sides, cap_top=True)]
+    parts = [
+        lathe(
+            [trunk_r * 1.2, trunk_r, trunk_r * 0.75, trunk_r * 0.5],
+            [-0.5, 0.0, fork, trunk_top],
+            d.trunk_sides,
+            cap_top=True,
+        )
+    ]
     n_branches = int(rng.integers(3, 5))
     for k in range(n_branches):
         a = 2 * math.pi * k / n_branches + rng.uniform(-0.4, 0.4)
@@ -255,7 +332,9 @@ def broadleaf(rng: np.random.Generator, d) -> TreeShape:
         t = _ellipsoid_entry(start, target, centre, axes * 0.98)
         end = start + (target - start) * min(1.0, t + 0.3 / np.linalg.norm(target - start))
         mid = 0.5 * (start + end) + [0.0, 0.0, 0.15]
-        parts.append(tapered_tube([start, mid, end], [trunk_r * 0.45, trunk_r * 0.33, trunk_r * 0.22], d.branch_sides))
+        parts.append(
+            tapered_tube([start, mid, end], [trunk_r * 0.45, trunk_r * 0.33, trunk_r * 0.22], d.branch_sides)
+        )
     crown = lumpy(icosphere(d.sphere_subdivisions), rng, 0.12)
     crown = (crown[0] * axes + centre, crown[1])
     return TreeShape("broadleaf", merge(parts), crown, height, rx, trunk_r)
@@ -267,7 +346,14 @@ def birch(rng: np.random.Generator, d) -> TreeShape:
     crown_base = height * rng.uniform(0.35, 0.45)
     radius = rng.uniform(1.5, 2.1)
     trunk_r = rng.uniform(0.12, 0.16)
-    parts = [lathe([trunk_r * 1.1, trunk_r, trunk_r * 0.7], [-0.5, 0.0, crown_base + 0.4], d.trunk_sides, cap_top=True)]
+    parts = [
+        lathe(
+            [trunk_r * 1.1, trunk_r, trunk_r * 0.7],
+            [-0.5, 0.0, crown_base + 0.4],
+            d.trunk_sides,
+            cap_top=True,
+        )
+    ]
     for _ in range(int(rng.integers(2, 4))):
         a = rng.uniform(0, 2 * math.pi)
         z0 = rng.uniform(1.8, crown_base - 0.5)
@@ -335,17 +421,21 @@ def fence_post() -> Mesh:
 
 def fence_section(length: float) -> Mesh:
     """A post at x=0 and two rails reaching the next section's post at x=length."""
-    return merge([
-        fence_post(),
-        box((length / 2, 0, 0.45), (length - 0.1, 0.04, 0.1)),
-        box((length / 2, 0, 0.9), (length - 0.1, 0.04, 0.1)),
-    ])
+    return merge(
+        [
+            fence_post(),
+            box((length / 2, 0, 0.45), (length - 0.1, 0.04, 0.1)),
+            box((length / 2, 0, 0.9), (length - 0.1, 0.04, 0.1)),
+        ]
+    )
 
 
 POLE_HEIGHT = 9.0
 CROSSARM_Z = 8.6
 # Where the three wires hang, in the pole's frame (the line runs along local X).
-POLE_ATTACHMENTS = np.array([[0.0, -0.9, CROSSARM_Z + 0.06], [0.0, 0.9, CROSSARM_Z + 0.06], [0.0, 0.0, POLE_HEIGHT]])
+POLE_ATTACHMENTS = np.array(
+    [[0.0, -0.9, CROSSARM_Z + 0.06], [0.0, 0.9, CROSSARM_Z + 0.06], [0.0, 0.0, POLE_HEIGHT]]
+)
 
 
 def pole(d) -> Mesh:

@@ -9,6 +9,7 @@ Also holds the small mesh primitives (box, cylinder, cone, uv-sphere, tube,
 heightfield grid) as (vertices (V,3) float64, faces (F,3) int32) pairs, all
 triangles wound counter-clockwise seen from outside.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -73,7 +74,10 @@ def tube(path, radius: float, sides: int = 8, caps: bool = True, angle0: float =
     k = len(path)
     _, normal, binormal = _ring_frames(path)
     theta = angle0 + 2.0 * np.pi * np.arange(sides) / sides
-    ring = np.cos(theta)[None, :, None] * normal[:, None, :] + np.sin(theta)[None, :, None] * binormal[:, None, :]
+    ring = (
+        np.cos(theta)[None, :, None] * normal[:, None, :]
+        + np.sin(theta)[None, :, None] * binormal[:, None, :]
+    )
     verts = (path[:, None, :] + radius * ring).reshape(-1, 3)
     s = np.arange(sides)
     a = np.arange(k - 1)[:, None] * sides + s[None, :]
@@ -157,7 +161,9 @@ def grid_heightfield(xs, ys, heights) -> Mesh:
 def disc(radius: float, z: float, center=(0.0, 0.0), sides: int = 48) -> Mesh:
     """Flat horizontal disc facing up."""
     theta = 2.0 * np.pi * np.arange(sides) / sides
-    ring = np.stack([center[0] + radius * np.cos(theta), center[1] + radius * np.sin(theta), np.full(sides, z)], -1)
+    ring = np.stack(
+        [center[0] + radius * np.cos(theta), center[1] + radius * np.sin(theta), np.full(sides, z)], -1
+    )
     verts = np.concatenate([ring, [[center[0], center[1], z]]])
     s = np.arange(sides)
     return verts, np.stack([np.full(sides, sides), s, (s + 1) % sides], -1).astype(np.int32)
@@ -333,7 +339,9 @@ class _Builder:
 
     def add(self, name: str, wildscan_class: str, mesh: Mesh) -> Element:
         v, f = mesh
-        el = Element(name, wildscan_class, len(self.elements) + 1, np.asarray(v, np.float64), np.asarray(f, np.int32))
+        el = Element(
+            name, wildscan_class, len(self.elements) + 1, np.asarray(v, np.float64), np.asarray(f, np.int32)
+        )
         self.elements.append(el)
         return el
 
@@ -414,7 +422,9 @@ def _add_furniture(b: _Builder) -> None:
     b.add("table", "table", merge(top + legs))
 
     seat = furniture([((0.0, -0.85), (1.5, 0.4, 0.05), 0.45), ((0.0, -1.03), (1.5, 0.05, 0.35), 0.72)])
-    bench_legs = [b.post(*local(sx * 0.65, -0.85 + sy * 0.15), 0.05, 0.45) for sx in (-1, 1) for sy in (-1, 1)]
+    bench_legs = [
+        b.post(*local(sx * 0.65, -0.85 + sy * 0.15), 0.05, 0.45) for sx in (-1, 1) for sy in (-1, 1)
+    ]
     back_posts = [b.post(*local(sx * 0.65, -1.03), 0.05, 0.9) for sx in (-1, 1)]
     b.add("bench", "bench", merge(seat + bench_legs + back_posts))
 
@@ -465,7 +475,10 @@ def _tuft(rng, b: _Builder, x: float, y: float, height: float, width: float, bla
 
 def _add_grass(b: _Builder) -> None:
     rng = b.rng("grass")
-    kinds = (("low_grass", "low grass", _LOW_GRASS, 0.25, 0.03, 1.2), ("high_grass", "high grass", _HIGH_GRASS, 0.9, 0.04, 1.5))
+    kinds = (
+        ("low_grass", "low grass", _LOW_GRASS, 0.25, 0.03, 1.2),
+        ("high_grass", "high grass", _HIGH_GRASS, 0.9, 0.04, 1.5),
+    )
     for prefix, cls, anchors, height, width, radius in kinds:
         for k, anchor in enumerate(anchors, start=1):
             cx, cy = b.jittered(rng, anchor)
@@ -473,7 +486,8 @@ def _add_grass(b: _Builder) -> None:
             rr = radius * np.sqrt(rng.uniform(0, 1, n_tufts))
             aa = rng.uniform(0, 2 * np.pi, n_tufts)
             tufts = [
-                _tuft(rng, b, cx + r * np.cos(a), cy + r * np.sin(a), height, width, 7) for r, a in zip(rr, aa)
+                _tuft(rng, b, cx + r * np.cos(a), cy + r * np.sin(a), height, width, 7)
+                for r, a in zip(rr, aa)
             ]
             b.add(f"{prefix}_{k}", cls, merge(tufts))
 
@@ -511,7 +525,9 @@ def _add_water(b: _Builder) -> tuple[float, float]:
     edge is hidden under the terrain."""
     water_radius = 0.95 * POND_RADIUS
     theta = np.linspace(0, 2 * np.pi, 96, endpoint=False)
-    rim = b.ground(POND_CENTER[0] + water_radius * np.cos(theta), POND_CENTER[1] + water_radius * np.sin(theta))
+    rim = b.ground(
+        POND_CENTER[0] + water_radius * np.cos(theta), POND_CENTER[1] + water_radius * np.sin(theta)
+    )
     water_z = float(rim.min()) - 0.05
     b.add("water", "water", disc(water_radius, water_z, POND_CENTER))
     return water_radius, water_z

@@ -38,6 +38,7 @@ high's 2.2 cm (seed 3) is where the 0.1 m minimum grid spacing stops the fit
 around the steepest basin walls. Build time is under a second at every level on
 this machine (2 cores, bpy 5.0.1), ~1,870 objects sharing 46 meshes.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -75,8 +76,32 @@ MAX_RELIEF = 20.0
 ZONES = ("hills", "forest", "park", "lake", "cave", "trail")
 WORLD_ZONE = "world"  # what belongs to no single zone (the terrain)
 
-STAGES = ("layout", "terrain", "poses", "trail", "lake", "cave", "trees", "bushes", "rocks", "grass", "park", "powerline")
-ELEMENT_STAGES = ("terrain", "trail", "lake", "cave", "trees", "bushes", "rocks", "grass", "park", "powerline")
+STAGES = (
+    "layout",
+    "terrain",
+    "poses",
+    "trail",
+    "lake",
+    "cave",
+    "trees",
+    "bushes",
+    "rocks",
+    "grass",
+    "park",
+    "powerline",
+)
+ELEMENT_STAGES = (
+    "terrain",
+    "trail",
+    "lake",
+    "cave",
+    "trees",
+    "bushes",
+    "rocks",
+    "grass",
+    "park",
+    "powerline",
+)
 STAGE_INSTANCE_BASE = {name: 10_000 * k for k, name in enumerate(ELEMENT_STAGES)}
 STAGE_INSTANCE_BLOCK = 10_000
 
@@ -178,21 +203,42 @@ class TrailParams:
 
 @dataclass(frozen=True)
 class TreeParams:
-    density: Density = (("forest", 18.0), ("trail", 3.0), ("lake", 2.0), ("hills", 1.2), ("cave", 1.0), ("park", 1.5))
+    density: Density = (
+        ("forest", 18.0),
+        ("trail", 3.0),
+        ("lake", 2.0),
+        ("hills", 1.2),
+        ("cave", 1.0),
+        ("park", 1.5),
+    )
     min_spacing: float = 4.0
     variants: int = 2
 
 
 @dataclass(frozen=True)
 class BushParams:
-    density: Density = (("forest", 10.0), ("trail", 8.0), ("lake", 6.0), ("hills", 4.0), ("cave", 6.0), ("park", 3.0))
+    density: Density = (
+        ("forest", 10.0),
+        ("trail", 8.0),
+        ("lake", 6.0),
+        ("hills", 4.0),
+        ("cave", 6.0),
+        ("park", 3.0),
+    )
     min_spacing: float = 1.6
     variants: int = 3
 
 
 @dataclass(frozen=True)
 class RockParams:
-    density: Density = (("hills", 8.0), ("cave", 9.0), ("lake", 5.0), ("trail", 4.0), ("forest", 3.0), ("park", 0.4))
+    density: Density = (
+        ("hills", 8.0),
+        ("cave", 9.0),
+        ("lake", 5.0),
+        ("trail", 4.0),
+        ("forest", 3.0),
+        ("park", 0.4),
+    )
     min_spacing: float = 1.8
     size: tuple[float, float] = (0.25, 2.0)  # m, log-uniform
     variants: int = 4
@@ -200,8 +246,21 @@ class RockParams:
 
 @dataclass(frozen=True)
 class GrassParams:
-    low_density: Density = (("forest", 45.0), ("park", 45.0), ("hills", 45.0), ("lake", 40.0), ("trail", 45.0), ("cave", 35.0))
-    high_density: Density = (("hills", 16.0), ("lake", 30.0), ("trail", 20.0), ("forest", 10.0), ("cave", 8.0))
+    low_density: Density = (
+        ("forest", 45.0),
+        ("park", 45.0),
+        ("hills", 45.0),
+        ("lake", 40.0),
+        ("trail", 45.0),
+        ("cave", 35.0),
+    )
+    high_density: Density = (
+        ("hills", 16.0),
+        ("lake", 30.0),
+        ("trail", 20.0),
+        ("forest", 10.0),
+        ("cave", 8.0),
+    )
     min_spacing: float = 0.8
     variants: int = 3
 
@@ -335,7 +394,8 @@ class WorldPlan:
         """Lowest terrain height under a disc, so nothing floats on a slope."""
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         zs = [self.ground(x, y)] + [
-            self.ground(x + radius * math.cos(a), y + radius * math.sin(a)) for a in np.linspace(0, 2 * np.pi, 6, endpoint=False)
+            self.ground(x + radius * math.cos(a), y + radius * math.sin(a))
+            for a in np.linspace(0, 2 * np.pi, 6, endpoint=False)
         ]
         return np.min(zs, axis=0)
 
@@ -344,8 +404,9 @@ class WorldPlan:
         return (lake.radius(x, y) < 1.3) & (self.ground(x, y) < self.water_z + margin)
 
     def trail_distance(self, x, y):
-        return polyline_distance(self.layout.trail, np.column_stack([np.ravel(x), np.ravel(y)])).reshape(np.shape(x))
-
+        return polyline_distance(self.layout.trail, np.column_stack([np.ravel(x), np.ravel(y)])).reshape(
+            np.shape(x)
+        )
 
     def blocked(self, x, y, radius: float, water_margin: float = 0.15, allow_park_interior: bool = False):
         """True where an element of this radius must not stand: water, trail, the cave's pit,
@@ -359,7 +420,12 @@ class WorldPlan:
         a, b = lay.cave.a + radius + 0.8, lay.cave.b + radius + 0.8
         bad |= (u / a) ** 2 + (v / b) ** 2 < 1.0
         bad |= (u > 0) & (u < lay.cave.a + lay.ramp_length + radius) & (np.abs(v) < 3.5 + radius)
-        bad |= (u > lay.roof_u[0] - radius) & (u < lay.roof_u[1] + radius) & (v > lay.roof_v[0] - radius) & (v < lay.roof_v[1] + radius)
+        bad |= (
+            (u > lay.roof_u[0] - radius)
+            & (u < lay.roof_u[1] + radius)
+            & (v > lay.roof_v[0] - radius)
+            & (v < lay.roof_v[1] + radius)
+        )
         x0, x1, y0, y1 = lay.park_rect
         inside = (x > x0) & (x < x1) & (y > y0) & (y < y1)
         edge = np.where(
@@ -379,10 +445,14 @@ class WorldPlan:
     # -- elements -----------------------------------------------------------------------
 
     def add_prototype(self, key: str, mesh: shapes.Mesh) -> str:
-        self.prototypes[key] = Prototype(key, np.asarray(mesh[0], dtype=np.float64), np.asarray(mesh[1], dtype=np.int32))
+        self.prototypes[key] = Prototype(
+            key, np.asarray(mesh[0], dtype=np.float64), np.asarray(mesh[1], dtype=np.int32)
+        )
         return key
 
-    def add_element(self, stage: str, zone: str, wildscan_class: str, proto: str, counter: dict, **kw) -> Element:
+    def add_element(
+        self, stage: str, zone: str, wildscan_class: str, proto: str, counter: dict, **kw
+    ) -> Element:
         k = counter.get("n", 0) + 1
         counter["n"] = k
         if k >= STAGE_INSTANCE_BLOCK:
@@ -394,9 +464,12 @@ class WorldPlan:
         self.elements.append(el)
         return el
 
-    def elements_of(self, wildscan_class: str | None = None, zone: str | None = None, stage: str | None = None):
+    def elements_of(
+        self, wildscan_class: str | None = None, zone: str | None = None, stage: str | None = None
+    ):
         return [
-            e for e in self.elements
+            e
+            for e in self.elements
             if (wildscan_class is None or e.wildscan_class == wildscan_class)
             and (zone is None or e.zone == zone)
             and (stage is None or e.stage == stage)
@@ -422,8 +495,14 @@ class WorldPlan:
             cls.append(np.full(len(f), class_by_name(el.wildscan_class).id, dtype=np.int16))
             inst.append(np.full(len(f), el.instance, dtype=np.int32))
             obj.append(np.full(len(f), i, dtype=np.int32))
-        return (np.concatenate(verts), np.concatenate(faces).astype(np.int32), np.concatenate(cls),
-                np.concatenate(inst), np.concatenate(obj), tuple(e.name for e in elements))
+        return (
+            np.concatenate(verts),
+            np.concatenate(faces).astype(np.int32),
+            np.concatenate(cls),
+            np.concatenate(inst),
+            np.concatenate(obj),
+            tuple(e.name for e in elements),
+        )
 
     def triangle_count(self) -> int:
         return int(sum(len(self.prototypes[e.proto].faces) for e in self.elements))
@@ -453,9 +532,13 @@ class WorldPlan:
             return {"centre": [r(e.cx), r(e.cy)], "semi_axes": [r(e.a), r(e.b)], "water_z": r(self.water_z)}
         if zone == "cave":
             e = lay.cave
-            return {"pit_centre": [r(e.cx), r(e.cy)], "pit_semi_axes": [r(e.a), r(e.b)],
-                    "axis_deg": r(math.degrees(e.angle)), "floor_z": r(self.cave_level - self.cave_depth_scaled),
-                    "roof_z": r(self.cave_level)}
+            return {
+                "pit_centre": [r(e.cx), r(e.cy)],
+                "pit_semi_axes": [r(e.a), r(e.b)],
+                "axis_deg": r(math.degrees(e.angle)),
+                "floor_z": r(self.cave_level - self.cave_depth_scaled),
+                "roof_z": r(self.cave_level),
+            }
         if zone == "trail":
             return {"width": r(lay.trail_width), "length": r(polyline_length(lay.trail))}
         return {}
@@ -470,8 +553,11 @@ class WorldPlan:
         zones = []
         for name in ZONES:
             x0, x1, y0, y1 = self.layout.cells[name]
-            entry = {"name": name, "extent": {"xmin": x0, "xmax": x1, "ymin": y0, "ymax": y1},
-                     "features": self.zone_features(name)}
+            entry = {
+                "name": name,
+                "extent": {"xmin": x0, "xmax": x1, "ymin": y0, "ymax": y1},
+                "features": self.zone_features(name),
+            }
             if poses is not None:
                 entry["poses"] = poses.get(name, [])
             zones.append(entry)
@@ -485,7 +571,9 @@ class WorldPlan:
                 "spacing_min": round(fit.spacing_min, 3),
                 "spacing_max": round(fit.spacing_max, 3),
                 "tolerance": fit.tolerance,
-                "error": {k: round(v, 4) if isinstance(v, float) else v for k, v in fit.error.to_dict().items()},
+                "error": {
+                    k: round(v, 4) if isinstance(v, float) else v for k, v in fit.error.to_dict().items()
+                },
             },
             "zones": zones,
             "counts": self.counts(),
@@ -509,7 +597,7 @@ def polyline_distance(path: np.ndarray, pts: np.ndarray) -> np.ndarray:
     L2 = np.maximum((ab**2).sum(1), 1e-12)
     best = np.full(len(pts), np.inf)
     for start in range(0, len(a), 256):  # chunks keep memory small
-        aa, dd, ll = a[start:start + 256], ab[start:start + 256], L2[start:start + 256]
+        aa, dd, ll = a[start : start + 256], ab[start : start + 256], L2[start : start + 256]
         t = np.clip(((pts[:, None, :] - aa[None]) * dd[None]).sum(-1) / ll[None], 0, 1)
         proj = aa[None] + t[..., None] * dd[None]
         best = np.minimum(best, np.sqrt(((pts[:, None, :] - proj) ** 2).sum(-1)).min(1))
@@ -523,7 +611,15 @@ def catmull_rom(ctrl: np.ndarray, step: float) -> np.ndarray:
     for i in range(1, len(p) - 2):
         t = np.linspace(0, 1, 40, endpoint=False)[:, None]
         p0, p1, p2, p3 = p[i - 1], p[i], p[i + 1], p[i + 2]
-        pts.append(0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t**2 + (-p0 + 3 * p1 - 3 * p2 + p3) * t**3))
+        pts.append(
+            0.5
+            * (
+                (2 * p1)
+                + (-p0 + p2) * t
+                + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t**2
+                + (-p0 + 3 * p1 - 3 * p2 + p3) * t**3
+            )
+        )
     pts.append(ctrl[-1:])
     dense = np.vstack(pts)
     return resample(dense, step)
@@ -550,7 +646,9 @@ def long_axis(rect) -> int:
     return 0 if rect[1] - rect[0] >= rect[3] - rect[2] else 1
 
 
-def darts(rng: np.random.Generator, rect, count: int, min_dist: float, ok: Callable, tries: int = 6) -> np.ndarray:
+def darts(
+    rng: np.random.Generator, rect, count: int, min_dist: float, ok: Callable, tries: int = 6
+) -> np.ndarray:
     """Up to `count` points in `rect`, at least `min_dist` apart, where ok(x, y) holds
     (rejection sampling in batches; deterministic for a given generator)."""
     x0, x1, y0, y1 = rect
@@ -598,19 +696,46 @@ def stage_layout(plan: WorldPlan, rng: np.random.Generator) -> None:
     for _ in range(int(rng.integers(3, 6))):
         sigma = rng.uniform(6.0, 10.0)
         hx0, hx1, hy0, hy1 = inset(hills, 1.6 * sigma)  # whole hills, not cut by the zone's edge
-        bumps.append((rng.uniform(hx0, hx1), rng.uniform(hy0, hy1), rng.uniform(*plan.params.terrain.hill_height), sigma))
+        bumps.append(
+            (
+                rng.uniform(hx0, hx1),
+                rng.uniform(hy0, hy1),
+                rng.uniform(*plan.params.terrain.hill_height),
+                sigma,
+            )
+        )
     poles = _line_route(rng, hills, p.pole_spacing)
 
     park = cell_of["park"]
-    park_rect = (park[0] + rng.uniform(4, 7), park[1] - rng.uniform(4, 7), park[2] + rng.uniform(4, 7), park[3] - rng.uniform(4, 7))
+    park_rect = (
+        park[0] + rng.uniform(4, 7),
+        park[1] - rng.uniform(4, 7),
+        park[2] + rng.uniform(4, 7),
+        park[3] - rng.uniform(4, 7),
+    )
 
     lake, lake_depth = _lake_shape(rng, cell_of["lake"])
     cave, cave_depth, ramp, plateau = _cave_shape(rng, cell_of["cave"])
     roof_u = (-cave.a - 1.5, -cave.a * rng.uniform(0.0, 0.2))
     roof_v = (-cave.b - 1.5, cave.b + 1.5)
     trail, width = _trail_path(rng, cell_of["trail"])
-    plan.layout = Layout(cell_of, (cols, rows), bumps, poles, park_rect, lake, lake_depth, cave, cave_depth, ramp,
-                         plateau, roof_u, roof_v, trail, width)
+    plan.layout = Layout(
+        cell_of,
+        (cols, rows),
+        bumps,
+        poles,
+        park_rect,
+        lake,
+        lake_depth,
+        cave,
+        cave_depth,
+        ramp,
+        plateau,
+        roof_u,
+        roof_v,
+        trail,
+        width,
+    )
 
 
 def _line_route(rng, cell, spacing) -> np.ndarray:
@@ -673,8 +798,14 @@ def stage_terrain(plan: WorldPlan, rng: np.random.Generator) -> None:
     lay = plan.layout
     hf = Heightfield(FractalNoise(rng, p.wavelength, p.octaves), p.amplitude)
     x0, x1, y0, y1 = lay.cells["hills"]
-    hf.features.append(Bumps(tuple((b[0], b[1]) for b in lay.bumps), tuple(b[2] for b in lay.bumps),
-                             tuple(b[3] for b in lay.bumps), RectWindow(x0, x1, y0, y1, 10.0)))
+    hf.features.append(
+        Bumps(
+            tuple((b[0], b[1]) for b in lay.bumps),
+            tuple(b[2] for b in lay.bumps),
+            tuple(b[3] for b in lay.bumps),
+            RectWindow(x0, x1, y0, y1, 10.0),
+        )
+    )
 
     px0, px1, py0, py1 = lay.park_rect
     park_window = RectWindow(px0 - 3, px1 + 3, py0 - 3, py1 + 3, 6.0)
@@ -698,11 +829,15 @@ def stage_terrain(plan: WorldPlan, rng: np.random.Generator) -> None:
     hf.normalise(EXTENT, MAX_RELIEF)
     plan.heightfield = hf
     plan.cave_level = hf.scale * (cave_level_raw - hf.offset)
-    plan.grid_fit = fit_grid(hf, EXTENT, plan.detail.terrain_tolerance, stage_rng(plan.seed, "world.terrain.error"))
+    plan.grid_fit = fit_grid(
+        hf, EXTENT, plan.detail.terrain_tolerance, stage_rng(plan.seed, "world.terrain.error")
+    )
     # water fills the basin up to just below the lowest point of its rim
     angles = np.linspace(0, 2 * np.pi, 180, endpoint=False)
-    rim = [plan.ground(*lay.lake.to_world(r * lay.lake.a * np.cos(angles), r * lay.lake.b * np.sin(angles)))
-           for r in (1.15, 1.25, 1.35)]
+    rim = [
+        plan.ground(*lay.lake.to_world(r * lay.lake.a * np.cos(angles), r * lay.lake.b * np.sin(angles)))
+        for r in (1.15, 1.25, 1.35)
+    ]
     plan.water_z = float(np.min(rim)) - 0.15
     mesh = plan.grid.mesh()
     plan.add_prototype("terrain", mesh)
@@ -712,8 +847,9 @@ def stage_terrain(plan: WorldPlan, rng: np.random.Generator) -> None:
 # -- poses ------------------------------------------------------------------------------
 
 
-def footprint_ok(plan: WorldPlan, x: float, y: float, yaw_deg: float, tilt_margin: float = 5.0,
-                 allow_pit: bool = False) -> bool:
+def footprint_ok(
+    plan: WorldPlan, x: float, y: float, yaw_deg: float, tilt_margin: float = 5.0, allow_pit: bool = False
+) -> bool:
     """Numpy pre-check of a pose against the plan: the four laser tips on dry terrain,
     gentle and even enough (with margin) for `placement.place` to accept it."""
     tips = laser_xy(Pose(x, y, yaw_deg))
@@ -762,7 +898,18 @@ def stage_poses(plan: WorldPlan, rng: np.random.Generator) -> None:
 
     # forest: anywhere inside, clear of the border
     fx0, fx1, fy0, fy1 = inset(lay.cells["forest"], 8.0)
-    tries("forest", 6, lambda: add("forest", rng.uniform(fx0, fx1), rng.uniform(fy0, fy1), rng.uniform(0, 360), "forest", min_gap=10.0))
+    tries(
+        "forest",
+        6,
+        lambda: add(
+            "forest",
+            rng.uniform(fx0, fx1),
+            rng.uniform(fy0, fy1),
+            rng.uniform(0, 360),
+            "forest",
+            min_gap=10.0,
+        ),
+    )
 
     # park: 4-8 m inside the fence, where tables, benches and the fence are all in range
     px0, px1, py0, py1 = lay.park_rect
@@ -776,7 +923,9 @@ def stage_poses(plan: WorldPlan, rng: np.random.Generator) -> None:
         else:
             y = py0 + d if side == 2 else py1 - d
             x = rng.uniform(px0 + 6, px1 - 6)
-        return add("park", x, y, _yaw_towards(x, y, (px0 + px1) / 2, (py0 + py1) / 2), "near fence", min_gap=10.0)
+        return add(
+            "park", x, y, _yaw_towards(x, y, (px0 + px1) / 2, (py0 + py1) / 2), "near fence", min_gap=10.0
+        )
 
     tries("park", 6, park_site)
 
@@ -788,7 +937,9 @@ def stage_poses(plan: WorldPlan, rng: np.random.Generator) -> None:
         t = rng.uniform(0.2, 0.8)
         normal = np.array([-d[1], d[0]]) / np.linalg.norm(d)
         pt = a + t * d + normal * rng.choice([-1, 1]) * rng.uniform(2.5, 5.5)
-        return add("hills", pt[0], pt[1], math.degrees(math.atan2(d[1], d[0])) % 360, "near power line", min_gap=8.0)
+        return add(
+            "hills", pt[0], pt[1], math.degrees(math.atan2(d[1], d[0])) % 360, "near power line", min_gap=8.0
+        )
 
     tries("hills", 6, hills_site)
 
@@ -809,7 +960,16 @@ def stage_poses(plan: WorldPlan, rng: np.random.Generator) -> None:
     head = math.degrees(c.angle) % 360
     for v in (0.0, 1.0, -1.0):
         x, y = c.to_world(u_in, v)
-        add("cave", float(x), float(y), (head + 180) % 360, "inside cave", z_start=round(floor + 1.5, 3), allow_pit=True, min_gap=0.9)
+        add(
+            "cave",
+            float(x),
+            float(y),
+            (head + 180) % 360,
+            "inside cave",
+            z_start=round(floor + 1.5, 3),
+            allow_pit=True,
+            min_gap=0.9,
+        )
     for v in (0.0, 1.2):
         x, y = c.to_world(lay.roof_u[1] + 1.5, v)
         add("cave", float(x), float(y), (head + 180) % 360, "cave entrance", allow_pit=True, min_gap=0.9)
@@ -822,7 +982,14 @@ def stage_poses(plan: WorldPlan, rng: np.random.Generator) -> None:
     for s in np.linspace(0.1, 0.9, 6):
         i = int(s * (len(path) - 2))
         d = path[i + 1] - path[i]
-        add("trail", path[i, 0], path[i, 1], math.degrees(math.atan2(d[1], d[0])) % 360, "on trail", min_gap=8.0)
+        add(
+            "trail",
+            path[i, 0],
+            path[i, 1],
+            math.degrees(math.atan2(d[1], d[0])) % 360,
+            "on trail",
+            min_gap=8.0,
+        )
 
     plan.sites = sites
 
@@ -851,7 +1018,9 @@ def stage_trail(plan: WorldPlan, rng: np.random.Generator) -> None:
     k, a = rows.shape[:2]
     idx = np.arange(k * a).reshape(k, a)
     v00, v01, v10, v11 = idx[:-1, :-1], idx[:-1, 1:], idx[1:, :-1], idx[1:, 1:]
-    faces = np.concatenate([np.stack([v00, v10, v11], -1).reshape(-1, 3), np.stack([v00, v11, v01], -1).reshape(-1, 3)])
+    faces = np.concatenate(
+        [np.stack([v00, v10, v11], -1).reshape(-1, 3), np.stack([v00, v11, v01], -1).reshape(-1, 3)]
+    )
     plan.add_prototype("trail", (rows.reshape(-1, 3), faces.astype(np.int32)))
     plan.add_element("trail", "trail", "terrain", "trail", {}, radius=lay.trail_width / 2)
 
@@ -873,8 +1042,15 @@ def stage_lake(plan: WorldPlan, rng: np.random.Generator) -> None:
     low &= e.radius(gx + cell / 2, gy + cell / 2) < 1.25
     j, i = np.nonzero(low)
     x0, y0 = xs[i], ys[j]
-    corners = np.stack([np.stack([x0, y0], -1), np.stack([x0 + cell, y0], -1),
-                        np.stack([x0 + cell, y0 + cell], -1), np.stack([x0, y0 + cell], -1)], 1)  # (n,4,2)
+    corners = np.stack(
+        [
+            np.stack([x0, y0], -1),
+            np.stack([x0 + cell, y0], -1),
+            np.stack([x0 + cell, y0 + cell], -1),
+            np.stack([x0, y0 + cell], -1),
+        ],
+        1,
+    )  # (n,4,2)
     verts = np.concatenate([corners.reshape(-1, 2), np.full((4 * len(x0), 1), plan.water_z)], axis=1)
     base = 4 * np.arange(len(x0))[:, None]
     faces = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]])
@@ -889,8 +1065,16 @@ def stage_cave(plan: WorldPlan, rng: np.random.Generator) -> None:
     m = shapes.box(((u0 + u1) / 2, (v0 + v1) / 2, 0.05), (u1 - u0, v1 - v0, 0.4))
     c = lay.cave
     plan.add_prototype("cave_roof", m)
-    plan.add_element("cave", "cave", "terrain", "cave_roof", {}, location=(c.cx, c.cy, plan.cave_level),
-                     yaw=c.angle, radius=max(u1 - u0, v1 - v0) / 2)
+    plan.add_element(
+        "cave",
+        "cave",
+        "terrain",
+        "cave_roof",
+        {},
+        location=(c.cx, c.cy, plan.cave_level),
+        yaw=c.angle,
+        radius=max(u1 - u0, v1 - v0) / 2,
+    )
 
 
 # -- vegetation, rocks ------------------------------------------------------------------
@@ -914,7 +1098,9 @@ def _zone_points(plan, rng, zone, density, min_dist, radius, extra_ok=None, allo
 
     def ok(x, y):
         good = ~plan.blocked(x, y, radius, allow_park_interior=allow_park_interior)
-        good &= (x > rect[0] + radius) & (x < rect[1] - radius) & (y > rect[2] + radius) & (y < rect[3] - radius)
+        good &= (
+            (x > rect[0] + radius) & (x < rect[1] - radius) & (y > rect[2] + radius) & (y < rect[3] - radius)
+        )
         if extra_ok is not None:
             good &= extra_ok(x, y)
         return good
@@ -963,10 +1149,28 @@ def stage_trees(plan: WorldPlan, rng: np.random.Generator) -> None:
             yaw = rng.uniform(0, 2 * math.pi)
             z = float(plan.ground_under(x, y, t.trunk_radius * s))
             loc = (float(x), float(y), z)
-            plan.add_element("trees", zone, "trunk", f"tree_{key}_trunk", counter, location=loc, yaw=yaw,
-                             scale=(s, s, s), radius=t.trunk_radius * s)
-            plan.add_element("trees", zone, "treetop", f"tree_{key}_crown", counter, location=loc, yaw=yaw,
-                             scale=(s, s, s), radius=t.crown_radius * s)
+            plan.add_element(
+                "trees",
+                zone,
+                "trunk",
+                f"tree_{key}_trunk",
+                counter,
+                location=loc,
+                yaw=yaw,
+                scale=(s, s, s),
+                radius=t.trunk_radius * s,
+            )
+            plan.add_element(
+                "trees",
+                zone,
+                "treetop",
+                f"tree_{key}_crown",
+                counter,
+                location=loc,
+                yaw=yaw,
+                scale=(s, s, s),
+                radius=t.crown_radius * s,
+            )
 
 
 def stage_bushes(plan: WorldPlan, rng: np.random.Generator) -> None:
@@ -982,8 +1186,17 @@ def stage_bushes(plan: WorldPlan, rng: np.random.Generator) -> None:
             key, radius = protos[int(rng.integers(len(protos)))]
             s = rng.uniform(0.7, 1.4)
             z = float(plan.ground(x, y)) - 0.05
-            plan.add_element("bushes", zone, "bush", key, counter, location=(float(x), float(y), z),
-                             yaw=rng.uniform(0, 2 * math.pi), scale=(s, s, s * rng.uniform(0.8, 1.1)), radius=radius * s)
+            plan.add_element(
+                "bushes",
+                zone,
+                "bush",
+                key,
+                counter,
+                location=(float(x), float(y), z),
+                yaw=rng.uniform(0, 2 * math.pi),
+                scale=(s, s, s * rng.uniform(0.8, 1.1)),
+                radius=radius * s,
+            )
 
 
 def stage_rocks(plan: WorldPlan, rng: np.random.Generator) -> None:
@@ -1001,27 +1214,61 @@ def stage_rocks(plan: WorldPlan, rng: np.random.Generator) -> None:
             size = float(np.exp(rng.uniform(lo, hi)))
             sc = (size * rng.uniform(0.8, 1.2), size * rng.uniform(0.8, 1.2), size * rng.uniform(0.7, 1.1))
             z = float(plan.ground_under(x, y, 0.3 * size))
-            plan.add_element("rocks", zone, "rock", key, counter, location=(float(x), float(y), z),
-                             yaw=rng.uniform(0, 2 * math.pi), scale=sc, radius=radius * max(sc[:2]))
+            plan.add_element(
+                "rocks",
+                zone,
+                "rock",
+                key,
+                counter,
+                location=(float(x), float(y), z),
+                yaw=rng.uniform(0, 2 * math.pi),
+                scale=sc,
+                radius=radius * max(sc[:2]),
+            )
 
 
 def stage_grass(plan: WorldPlan, rng: np.random.Generator) -> None:
     p, d = plan.params.grass, plan.detail
-    low = [plan.add_prototype(f"low_grass{v}", shapes.tuft(rng, 0.28, 0.32, d.tuft_planes, d.tuft_blades)) for v in range(p.variants)]
-    high = [plan.add_prototype(f"high_grass{v}", shapes.tuft(rng, 0.95, 0.45, d.tuft_planes, d.tuft_blades)) for v in range(p.variants)]
+    low = [
+        plan.add_prototype(f"low_grass{v}", shapes.tuft(rng, 0.28, 0.32, d.tuft_planes, d.tuft_blades))
+        for v in range(p.variants)
+    ]
+    high = [
+        plan.add_prototype(f"high_grass{v}", shapes.tuft(rng, 0.95, 0.45, d.tuft_planes, d.tuft_blades))
+        for v in range(p.variants)
+    ]
     counter: dict = {}
     for zone in ZONES:
-        for cls, protos, density, radius in (("low grass", low, p.low_density, 0.2), ("high grass", high, p.high_density, 0.3)):
+        for cls, protos, density, radius in (
+            ("low grass", low, p.low_density, 0.2),
+            ("high grass", high, p.high_density, 0.3),
+        ):
             extra = None
             if zone == "lake" and cls == "high grass":  # reeds: along the shore
                 extra = lambda x, y: plan.ground(x, y) < plan.water_z + 1.2  # noqa: E731
-            pts = _zone_points(plan, rng, zone, density_of(density, zone), p.min_spacing, radius, extra,
-                               allow_park_interior=True)
+            pts = _zone_points(
+                plan,
+                rng,
+                zone,
+                density_of(density, zone),
+                p.min_spacing,
+                radius,
+                extra,
+                allow_park_interior=True,
+            )
             for x, y in pts:
                 s = rng.uniform(0.7, 1.4)
-                plan.add_element("grass", zone, cls, protos[int(rng.integers(len(protos)))], counter,
-                                 location=(float(x), float(y), float(plan.ground(x, y))),
-                                 yaw=rng.uniform(0, 2 * math.pi), scale=(s, s, s), radius=radius * s)
+                plan.add_element(
+                    "grass",
+                    zone,
+                    cls,
+                    protos[int(rng.integers(len(protos)))],
+                    counter,
+                    location=(float(x), float(y), float(plan.ground(x, y))),
+                    yaw=rng.uniform(0, 2 * math.pi),
+                    scale=(s, s, s),
+                    radius=radius * s,
+                )
 
 
 # -- park and power line ----------------------------------------------------------------
@@ -1050,12 +1297,28 @@ def stage_park(plan: WorldPlan, rng: np.random.Generator) -> None:
             pt = start + (b - a) / length * p.fence_section * k
             if k in gate:
                 continue
-            plan.add_element("park", "park", "fence", "fence_section", counter,
-                             location=(float(pt[0]), float(pt[1]), float(plan.ground(*pt))), yaw=yaw, radius=p.fence_section / 2)
+            plan.add_element(
+                "park",
+                "park",
+                "fence",
+                "fence_section",
+                counter,
+                location=(float(pt[0]), float(pt[1]), float(plan.ground(*pt))),
+                yaw=yaw,
+                radius=p.fence_section / 2,
+            )
             if k + 1 in gate or k == n - 1:  # close the run with a post
                 end = pt + (b - a) / length * p.fence_section
-                plan.add_element("park", "park", "fence", "fence_post", counter,
-                                 location=(float(end[0]), float(end[1]), float(plan.ground(*end))), yaw=yaw, radius=0.1)
+                plan.add_element(
+                    "park",
+                    "park",
+                    "fence",
+                    "fence_post",
+                    counter,
+                    location=(float(end[0]), float(end[1]), float(plan.ground(*end))),
+                    yaw=yaw,
+                    radius=0.1,
+                )
 
     inner = (x0 + 5.0, x1 - 5.0, y0 + 5.0, y1 - 5.0)
     groups: list[np.ndarray] = []
@@ -1082,12 +1345,28 @@ def stage_park(plan: WorldPlan, rng: np.random.Generator) -> None:
     for g in groups:
         yaw = rng.uniform(0, math.pi)
         c, s = math.cos(yaw), math.sin(yaw)
-        plan.add_element("park", "park", "table", "table", counter,
-                         location=(float(g[0]), float(g[1]), float(plan.ground(*g))), yaw=yaw, radius=1.0)
+        plan.add_element(
+            "park",
+            "park",
+            "table",
+            "table",
+            counter,
+            location=(float(g[0]), float(g[1]), float(plan.ground(*g))),
+            yaw=yaw,
+            radius=1.0,
+        )
         for side, turn in ((1, math.pi), (-1, 0.0)):
             b = g + side * 0.95 * np.array([-s, c])
-            plan.add_element("park", "park", "bench", "bench", counter,
-                             location=(float(b[0]), float(b[1]), float(plan.ground(*b))), yaw=yaw + turn, radius=0.8)
+            plan.add_element(
+                "park",
+                "park",
+                "bench",
+                "bench",
+                counter,
+                location=(float(b[0]), float(b[1]), float(plan.ground(*b))),
+                yaw=yaw + turn,
+                radius=0.8,
+            )
     for _ in range(p.lone_benches):
         for _ in range(60):
             side = int(rng.integers(4))
@@ -1098,8 +1377,16 @@ def stage_park(plan: WorldPlan, rng: np.random.Generator) -> None:
             if free(pt, 1.0):
                 groups.append(pt)
                 yaw = math.atan2(b[1] - a[1], b[0] - a[0])
-                plan.add_element("park", "park", "bench", "bench", counter,
-                                 location=(float(pt[0]), float(pt[1]), float(plan.ground(*pt))), yaw=yaw, radius=0.8)
+                plan.add_element(
+                    "park",
+                    "park",
+                    "bench",
+                    "bench",
+                    counter,
+                    location=(float(pt[0]), float(pt[1]), float(plan.ground(*pt))),
+                    yaw=yaw,
+                    radius=0.8,
+                )
                 break
 
 
@@ -1127,14 +1414,27 @@ def stage_powerline(plan: WorldPlan, rng: np.random.Generator) -> None:
 
 
 STAGE_FUNCS = {
-    "layout": stage_layout, "terrain": stage_terrain, "poses": stage_poses, "trail": stage_trail,
-    "lake": stage_lake, "cave": stage_cave, "trees": stage_trees, "bushes": stage_bushes,
-    "rocks": stage_rocks, "grass": stage_grass, "park": stage_park, "powerline": stage_powerline,
+    "layout": stage_layout,
+    "terrain": stage_terrain,
+    "poses": stage_poses,
+    "trail": stage_trail,
+    "lake": stage_lake,
+    "cave": stage_cave,
+    "trees": stage_trees,
+    "bushes": stage_bushes,
+    "rocks": stage_rocks,
+    "grass": stage_grass,
+    "park": stage_park,
+    "powerline": stage_powerline,
 }
 
 
-def plan_world(seed, detail: str = "default", params: WorldParams | None = None,
-               progress: Callable[[str, float], None] | None = None) -> WorldPlan:
+def plan_world(
+    seed,
+    detail: str = "default",
+    params: WorldParams | None = None,
+    progress: Callable[[str, float], None] | None = None,
+) -> WorldPlan:
     """Plan the whole world for a seed. `progress(stage, seconds)` is called after each stage."""
     plan = WorldPlan(check_seed(seed), detail_level(detail), params or WorldParams())
     for stage in STAGES:

@@ -3,6 +3,7 @@
 A backend answers one question: for each ray (origin, unit direction), what is
 the first surface within `max_range`, and which class and instance is it?
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

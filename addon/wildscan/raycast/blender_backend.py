@@ -9,6 +9,7 @@ hit points are off by up to ~1e-6 of their distance from the world origin.
 `Scene.ray_cast(depsgraph, origin, direction, distance)` has the same signature
 from 2.91 up to 5.0.
 """
+
 from __future__ import annotations
 
 import gc
@@ -75,7 +76,9 @@ class InstanceCopies:
             for obj in direct:
                 orig = _original(obj) if obj is not None else None
                 if orig in self.objects:
-                    self._candidates[orig].append((np.array(obj.matrix_world, dtype=np.float64).ravel(), None))
+                    self._candidates[orig].append(
+                        (np.array(obj.matrix_world, dtype=np.float64).ravel(), None)
+                    )
 
     def instancer(self, obj, matrix):
         """The instancer of the copy of `obj` at world `matrix` (None: the object itself,
@@ -114,8 +117,15 @@ def exact_distances(depsgraph, origins, directions, rough, objects, faces, matri
         face = np.asarray([faces[k] for k in ks], dtype=np.intp)
         if face.max(initial=-1) >= len(loop_start):
             continue  # the mesh changed under us: keep scene.ray_cast's distances
-        dist[rows] = _fan_plane_distances(world, loop_start[face], loop_total[face], loop_verts,
-                                          origins[rows], directions[rows], rough[rows])
+        dist[rows] = _fan_plane_distances(
+            world,
+            loop_start[face],
+            loop_total[face],
+            loop_verts,
+            origins[rows],
+            directions[rows],
+            rough[rows],
+        )
     return dist
 
 
@@ -239,7 +249,9 @@ class BlenderRayCastBackend:
             stop = min(start + PROGRESS_EVERY, n)
             if single_origin:
                 for k in range(start, stop):
-                    ok, loc, _normal, face, obj, matrix = ray_cast(depsgraph, origin, d_list[k], distance=max_range)
+                    ok, loc, _normal, face, obj, matrix = ray_cast(
+                        depsgraph, origin, d_list[k], distance=max_range
+                    )
                     if ok:
                         add_index(k)
                         add_loc(loc)
@@ -248,7 +260,9 @@ class BlenderRayCastBackend:
                         add_matrix(matrix)
             else:
                 for k in range(start, stop):
-                    ok, loc, _normal, face, obj, matrix = ray_cast(depsgraph, o_list[k], d_list[k], distance=max_range)
+                    ok, loc, _normal, face, obj, matrix = ray_cast(
+                        depsgraph, o_list[k], d_list[k], distance=max_range
+                    )
                     if ok:
                         add_index(k)
                         add_loc(loc)
@@ -260,12 +274,30 @@ class BlenderRayCastBackend:
         return hit_index, hit_loc, hit_obj, hit_face, hit_matrix
 
     @staticmethod
-    def _fill(hits: RayHits, depsgraph, origins, directions, max_range, copies, hit_index, hit_loc, hit_obj,
-              hit_face, hit_matrix) -> None:
+    def _fill(
+        hits: RayHits,
+        depsgraph,
+        origins,
+        directions,
+        max_range,
+        copies,
+        hit_index,
+        hit_loc,
+        hit_obj,
+        hit_face,
+        hit_matrix,
+    ) -> None:
         idx = np.asarray(hit_index, dtype=np.intp)
         loc = np.array([v[:] for v in hit_loc], dtype=np.float64).reshape(-1, 3)
-        dist = exact_distances(depsgraph, origins[idx], directions[idx], np.linalg.norm(loc - origins[idx], axis=1),
-                               hit_obj, hit_face, hit_matrix)
+        dist = exact_distances(
+            depsgraph,
+            origins[idx],
+            directions[idx],
+            np.linalg.norm(loc - origins[idx], axis=1),
+            hit_obj,
+            hit_face,
+            hit_matrix,
+        )
         # float32 round-off can put a hit a hair past the limit ray_cast was given
         keep = np.flatnonzero(dist <= max_range)
         # Per call only: evaluated objects are rebuilt (and their memory reused) whenever

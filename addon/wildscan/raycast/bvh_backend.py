@@ -8,6 +8,7 @@ the triangle index and distance out, everything else done in numpy.
 BVHTree stores float32, so it gets offset-local coordinates (see geometry.py)
 and hit distances are recomputed in float64 against the hit triangle's plane.
 """
+
 from __future__ import annotations
 
 import gc

@@ -19,6 +19,7 @@ or (V,3) + (T,3)), and `scene.run(origins f32 (N,3), dirs f32 (N,3), dists=f32 (
 tfar, output=1)` -> dict with primID/geomID (-1 on a miss), tfar, u, v, Ng. `run`
 is single-threaded and holds the GIL (threads do not help).
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -25,6 +25,7 @@ even built.
 
 Works on Blender 3.4 and 5.0 (only APIs present in both are used).
 """
+
 from __future__ import annotations
 
 import numpy as np

@@ -35,6 +35,7 @@ is only known after placement, which itself casts rays down through this
 geometry. The box test is conservative: a triangle that a ray can reach within
 the radius is never dropped; a few farther ones may be kept.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -235,7 +236,9 @@ def empty_geometry(object_names=()) -> SceneGeometry:
     )
 
 
-def from_triangles(triangles, class_id=0, instance=0, object_index=0, object_names=("mesh",)) -> SceneGeometry:
+def from_triangles(
+    triangles, class_id=0, instance=0, object_index=0, object_names=("mesh",)
+) -> SceneGeometry:
     """A SceneGeometry from a (T, 3, 3) triangle soup (tests and benchmarks)."""
     tris = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
     faces = np.arange(3 * len(tris)).reshape(-1, 3)
@@ -420,8 +423,13 @@ def _plane_hits(frames, local: np.ndarray, dirs: np.ndarray, max_range: float):
 
 
 def check_hits(
-    geometry: SceneGeometry, origins, directions, max_range: float, hits: RayHits,
-    edge_tol: float = 1e-4, range_tol: float = 1e-4,
+    geometry: SceneGeometry,
+    origins,
+    directions,
+    max_range: float,
+    hits: RayHits,
+    edge_tol: float = 1e-4,
+    range_tol: float = 1e-4,
 ) -> np.ndarray:
     """Per ray, whether a backend's answer is correct within tolerances (bool (N,)).
 
@@ -443,8 +451,17 @@ def check_hits(
     for start in range(0, count, _REFERENCE_CHUNK):
         sl = slice(start, start + _REFERENCE_CHUNK)
         with np.errstate(invalid="ignore"):  # inf - inf where neither side hit: compares False
-            ok[sl] = _check_block(frames, labels, local[sl], dirs[sl], max_range, hits.distance[sl],
-                                  hit_label[sl], edge_tol, range_tol)
+            ok[sl] = _check_block(
+                frames,
+                labels,
+                local[sl],
+                dirs[sl],
+                max_range,
+                hits.distance[sl],
+                hit_label[sl],
+                edge_tol,
+                range_tol,
+            )
     return ok
 
 

@@ -19,6 +19,7 @@ A missing module is not an error: the next backend in FALLBACK_ORDER is used and
 `notify` gets one line saying which and why. Imports of bpy, mathutils and
 embreex happen only inside functions, so this module imports anywhere.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable

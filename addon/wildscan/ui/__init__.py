@@ -4,6 +4,7 @@ register() and unregister() may alternate any number of times (enable, disable,
 enable again): every class, property, handler, draw callback and icon they add is
 removed again, and nothing is left holding a reference to an old scene.
 """
+
 from . import draw, legend, operators, panel, properties, status
 
 CLASSES: tuple = (*properties.CLASSES, *operators.CLASSES, *panel.CLASSES)

@@ -14,6 +14,7 @@ Batches are cached per cloud, keyed by the mesh's address, its vertex count and 
 object's matrix; the cache is emptied on undo, redo and file load, when datablocks
 may be re-allocated at the same address.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,7 +27,14 @@ from ..core.classes import COLOR_BY_ID
 from .scene import CLOUD_ATTRIBUTES, CLOUD_PROP
 
 _LABEL_ATTRIBUTE = CLOUD_ATTRIBUTES[1][0]
-_state = {"handle": None, "shader": None, "shader_name": None, "line_shader": None, "batches": {}, "failed": False}
+_state = {
+    "handle": None,
+    "shader": None,
+    "shader_name": None,
+    "line_shader": None,
+    "batches": {},
+    "failed": False,
+}
 MARKER_OK_RGBA = (0.2, 1.0, 0.3, 1.0)
 MARKER_BAD_RGBA = (1.0, 0.15, 0.1, 1.0)
 MARKER_UNKNOWN_RGBA = (1.0, 1.0, 1.0, 1.0)
@@ -64,12 +72,24 @@ def marker_lines(x: float, y: float, z: float, yaw_deg: float, size: float) -> n
     """(2K,3) float32 segment ends of the pose cross: a long arm with an arrowhead along the
     heading, a short one behind, and the cross arm."""
     c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
-    local = np.array([
-        [0, 0], [1.6, 0],  # heading
-        [1.6, 0], [1.25, 0.25], [1.6, 0], [1.25, -0.25],  # arrowhead
-        [0, 0], [-1.0, 0],  # behind
-        [0, -1.0], [0, 1.0],  # across
-    ], dtype=np.float64) * size
+    local = (
+        np.array(
+            [
+                [0, 0],
+                [1.6, 0],  # heading
+                [1.6, 0],
+                [1.25, 0.25],
+                [1.6, 0],
+                [1.25, -0.25],  # arrowhead
+                [0, 0],
+                [-1.0, 0],  # behind
+                [0, -1.0],
+                [0, 1.0],  # across
+            ],
+            dtype=np.float64,
+        )
+        * size
+    )
     world = local @ np.array([[c, s], [-s, c]]) + [x, y]
     return np.column_stack([world, np.full(len(world), z)]).astype(np.float32)
 
@@ -93,7 +113,9 @@ def draw_marker(context, scene) -> None:
     state = status.cached_status(scene)
     rgba = MARKER_UNKNOWN_RGBA if state is None else MARKER_OK_RGBA if state.ok else MARKER_BAD_RGBA
     x, y, yaw = marker_pose(marker)
-    lines = marker_lines(x, y, float(marker.matrix_world.translation.z), yaw, float(marker.empty_display_size))
+    lines = marker_lines(
+        x, y, float(marker.matrix_world.translation.z), yaw, float(marker.empty_display_size)
+    )
     batch = batch_for_shader(shader, "LINES", {"pos": lines})
     shader.bind()
     shader.uniform_float("viewportSize", (float(region.width), float(region.height)))
@@ -162,8 +184,10 @@ def draw_clouds() -> None:
         draw_marker(context, scene)
     except Exception as e:  # a drawing bug must not spam a traceback on every redraw
         _state["failed"] = True
-        sys.stderr.write(f"WildScan: cannot draw scan clouds ({type(e).__name__}: {e}); drawing is off until "
-                         "the add-on is enabled again\n")
+        sys.stderr.write(
+            f"WildScan: cannot draw scan clouds ({type(e).__name__}: {e}); drawing is off until "
+            "the add-on is enabled again\n"
+        )
     finally:
         try:
             import gpu

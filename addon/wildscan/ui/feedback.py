@@ -1,6 +1,7 @@
 """How operators talk to the user: progress on the window manager and messages worded
 for the panel (the shared checks name command-line options; here the fields are named
 as the panel labels them)."""
+
 from __future__ import annotations
 
 import sys

@@ -5,6 +5,7 @@ that was scanned; a file keeps the frame the user chose. Both are computed
 from the placement a scan stores in its metadata (`Placement.to_dict()`):
 world = c + R·p_sensor = c + Rz(yaw)·p_leveled (DESIGN.md "Frames").
 """
+
 from __future__ import annotations
 
 import math
@@ -21,7 +22,9 @@ def _rotation_to_world(frame: str, placement: dict) -> np.ndarray:
     if frame == "leveled":
         return rot_z(yaw)
     if frame == "sensor":
-        return sensor_to_world_matrix(math.radians(placement["roll_deg"]), math.radians(placement["pitch_deg"]), yaw)
+        return sensor_to_world_matrix(
+            math.radians(placement["roll_deg"]), math.radians(placement["pitch_deg"]), yaw
+        )
     if frame == "world":
         return np.eye(3)
     raise ValueError(f"unknown frame {frame!r}; one of {', '.join(FRAMES)}")

@@ -1,5 +1,6 @@
 """Colour swatches for the Result panel's legend: one custom preview icon per class,
 filled with the class's colour tag (DESIGN.md class table)."""
+
 from __future__ import annotations
 
 from ..core.classes import ALL_ELEMENTS

@@ -34,7 +34,9 @@ def view3d_area(context):
     """The 3D viewport to switch: the one the operator runs in, else the largest of the screen."""
     if context.area is not None and context.area.type == "VIEW_3D":
         return context.area
-    screens = [context.screen] if context.screen is not None else [w.screen for w in context.window_manager.windows]
+    screens = (
+        [context.screen] if context.screen is not None else [w.screen for w in context.window_manager.windows]
+    )
     areas = [a for s in screens if s is not None for a in s.areas if a.type == "VIEW_3D"]
     return max(areas, key=lambda a: a.width * a.height, default=None)
 
@@ -49,7 +51,9 @@ def _world_seed(scene):
 class WILDSCAN_OT_generate_world(Operator):
     bl_idname = "wildscan.generate_world"
     bl_label = "Generate"
-    bl_description = "Build the world of this seed; replaces only what WildScan built before (your objects stay)"
+    bl_description = (
+        "Build the world of this seed; replaces only what WildScan built before (your objects stay)"
+    )
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
@@ -115,8 +119,10 @@ def _select_only_marker(context, marker) -> None:
 class WILDSCAN_OT_aerial_view(Operator):
     bl_idname = "wildscan.aerial_view"
     bl_label = "Aerial view"
-    bl_description = ("Look straight down on the whole world (orthographic, objects in their class colours) with the "
-                      "pose marker drawn as a large cross: drag it (G) to choose where the robot stands")
+    bl_description = (
+        "Look straight down on the whole world (orthographic, objects in their class colours) with the "
+        "pose marker drawn as a large cross: drag it (G) to choose where the robot stands"
+    )
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
@@ -148,7 +154,11 @@ def show_from_above(context, area, centre_xy, extent: float, z_min: float, z_max
     space = area.spaces.active
     r3d = space.region_3d
     region = next((r for r in area.regions if r.type == "WINDOW"), None)
-    w, h = (region.width, region.height) if region is not None and region.width > 1 else (area.width, area.height)
+    w, h = (
+        (region.width, region.height)
+        if region is not None and region.width > 1
+        else (area.width, area.height)
+    )
     aspect = max(w, h) / max(1, min(w, h))
     set_top_view(context, area, region, r3d)
     # A non-camera orthographic viewport spans dist * 72 / lens along its longer side
@@ -187,8 +197,10 @@ def set_top_view(context, area, region, r3d) -> None:
 class WILDSCAN_OT_scan(Operator):
     bl_idname = "wildscan.scan"
     bl_label = "Scan"
-    bl_description = ("Stand the emulated Hokuyo UTM-30LX-EW at the pose and scan the scene; the labeled cloud "
-                      "appears as one object in the 'WildScan Scans' collection (nothing else changes)")
+    bl_description = (
+        "Stand the emulated Hokuyo UTM-30LX-EW at the pose and scan the scene; the labeled cloud "
+        "appears as one object in the 'WildScan Scans' collection (nothing else changes)"
+    )
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
@@ -210,8 +222,9 @@ class WILDSCAN_OT_scan(Operator):
             frame = check_frame(settings.frame)
             backend = check_backend_name(settings.backend)
             with Progress(context, "WildScan: scanning") as progress:
-                result = scan_current_scene(pose, sensor, frame, z_start, backend, progress=progress.scan,
-                                            notify=notes.append)
+                result = scan_current_scene(
+                    pose, sensor, frame, z_start, backend, progress=progress.scan, notify=notes.append
+                )
             metadata = dict(result.metadata, seed=_world_seed(scene), world=bpy.data.filepath or None)
             obj = add_cloud(scene, result.cloud, metadata, keep_previous=settings.keep_previous)
         except UserError as e:
@@ -227,10 +240,16 @@ class WILDSCAN_OT_scan(Operator):
             self.report({"INFO"}, note)
         if result.untagged_objects:
             names = ", ".join(sorted(result.untagged_objects)[:5])
-            self.report({"WARNING"}, f"{len(result.untagged_objects)} untagged object(s) hit ({names}): their "
-                        "points are labeled 0 (unlabeled); add the wildscan_class property to tag them")
-        self.report({"INFO"}, f"Scanned {len(result.cloud):,} points of {result.beams:,} beams "
-                    f"({frame} frame) into '{obj.name}'")
+            self.report(
+                {"WARNING"},
+                f"{len(result.untagged_objects)} untagged object(s) hit ({names}): their "
+                "points are labeled 0 (unlabeled); add the wildscan_class property to tag them",
+            )
+        self.report(
+            {"INFO"},
+            f"Scanned {len(result.cloud):,} points of {result.beams:,} beams "
+            f"({frame} frame) into '{obj.name}'",
+        )
         tag_view3d_redraw(context)
         return {"FINISHED"}
 
@@ -238,13 +257,16 @@ class WILDSCAN_OT_scan(Operator):
 class WILDSCAN_OT_export_ply(Operator, ExportHelper):
     bl_idname = "wildscan.export_ply"
     bl_label = "Export PLY"
-    bl_description = "Write the scan's labeled point cloud to a PLY file (plus its JSON sidecar) in the chosen frame"
+    bl_description = (
+        "Write the scan's labeled point cloud to a PLY file (plus its JSON sidecar) in the chosen frame"
+    )
     bl_options = {"REGISTER"}
 
     filename_ext = ".ply"
     filter_glob: StringProperty(default="*.ply", options={"HIDDEN"})
-    ascii: BoolProperty(name="ASCII", description="Write an ASCII PLY instead of binary little-endian",
-                        default=False)
+    ascii: BoolProperty(
+        name="ASCII", description="Write an ASCII PLY instead of binary little-endian", default=False
+    )
 
     def invoke(self, context, event):
         from .scene import current_cloud

@@ -2,6 +2,7 @@
 
 Drawing only reads: every change goes through a property or an operator.
 """
+
 from __future__ import annotations
 
 import textwrap
@@ -162,15 +163,23 @@ class VIEW3D_PT_wildscan_result(_WildScanPanel, Panel):
         layout.label(text=obj.name, icon="OUTLINER_OB_POINTCLOUD")
         placement = meta.get("placement") or {}
         if placement:
-            wrapped(layout, context, f"{meta.get('frame', '?')} frame; roll {placement['roll_deg']:.1f}°, "
-                    f"pitch {placement['pitch_deg']:.1f}°")
+            wrapped(
+                layout,
+                context,
+                f"{meta.get('frame', '?')} frame; roll {placement['roll_deg']:.1f}°, "
+                f"pitch {placement['pitch_deg']:.1f}°",
+            )
         draw_legend(layout, counts, columns=2 if region_width(context) >= TWO_COLUMN_LEGEND_PX else 1)
         untagged = meta.get("untagged_objects_hit") or []
         if untagged:
             box = layout.box()
             box.alert = True
-            wrapped(box, context, f"{len(untagged)} untagged object(s) hit, labeled 0: {', '.join(untagged[:3])}",
-                    icon="ERROR")
+            wrapped(
+                box,
+                context,
+                f"{len(untagged)} untagged object(s) hit, labeled 0: {', '.join(untagged[:3])}",
+                icon="ERROR",
+            )
         row = layout.row(align=True)
         row.prop(s, "show_world", toggle=True, icon="WORLD")
         row.prop(s, "points_in_front", toggle=True)
@@ -182,7 +191,9 @@ def draw_legend(layout, counts: dict[int, int], columns: int) -> None:
     from ..core.classes import BY_ID
     from . import legend
 
-    entries = [(cid, BY_ID[cid].name if cid in BY_ID else f"class {cid}", n) for cid, n in sorted(counts.items())]
+    entries = [
+        (cid, BY_ID[cid].name if cid in BY_ID else f"class {cid}", n) for cid, n in sorted(counts.items())
+    ]
     entries.append((None, "total", sum(counts.values())))
     rows = -(-len(entries) // columns)
     grid = layout.grid_flow(row_major=False, columns=columns, even_columns=True, align=True)

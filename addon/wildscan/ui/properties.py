@@ -98,7 +98,9 @@ def _set_show_world(self, value):
 
 class WildScanSettings(PropertyGroup):
     # World
-    seed: IntProperty(name="Seed", description="World seed: the same seed builds the same world", min=0, default=0)
+    seed: IntProperty(
+        name="Seed", description="World seed: the same seed builds the same world", min=0, default=0
+    )
     detail: EnumProperty(
         name="Detail",
         description="How detailed the generated world is",
@@ -108,16 +110,26 @@ class WildScanSettings(PropertyGroup):
 
     # Pose
     pose_x: FloatProperty(
-        name="X", description="Where the robot stands: world X in metres (moves the pose marker)",
-        unit="LENGTH", get=_pose_getter("pose_x"), set=_pose_setter("pose_x"),
+        name="X",
+        description="Where the robot stands: world X in metres (moves the pose marker)",
+        unit="LENGTH",
+        get=_pose_getter("pose_x"),
+        set=_pose_setter("pose_x"),
     )
     pose_y: FloatProperty(
-        name="Y", description="Where the robot stands: world Y in metres (moves the pose marker)",
-        unit="LENGTH", get=_pose_getter("pose_y"), set=_pose_setter("pose_y"),
+        name="Y",
+        description="Where the robot stands: world Y in metres (moves the pose marker)",
+        unit="LENGTH",
+        get=_pose_getter("pose_y"),
+        set=_pose_setter("pose_y"),
     )
     pose_yaw: FloatProperty(
-        name="Yaw", description="Heading of the structure's X arm, degrees counter-clockwise from +X",
-        precision=1, step=500, get=_pose_getter("pose_yaw"), set=_pose_setter("pose_yaw"),
+        name="Yaw",
+        description="Heading of the structure's X arm, degrees counter-clockwise from +X",
+        precision=1,
+        step=500,
+        get=_pose_getter("pose_yaw"),
+        set=_pose_setter("pose_yaw"),
     )
     use_z_start: BoolProperty(
         name="Start height",
@@ -126,52 +138,93 @@ class WildScanSettings(PropertyGroup):
         default=False,
     )
     z_start: FloatProperty(
-        name="Z", description="World height in metres where the placement lasers start", unit="LENGTH", default=1.0
+        name="Z",
+        description="World height in metres where the placement lasers start",
+        unit="LENGTH",
+        default=1.0,
     )
     marker: PointerProperty(type=bpy.types.Object, name="Pose marker", options={"HIDDEN"})
 
     # Sensor
     rh: FloatProperty(
-        name="r_h", description="Horizontal resolution in degrees; 180/r_h must be whole (1 deg: 180 2D scans)",
-        default=S.DEFAULT_RH_DEG, soft_min=0.25, soft_max=10.0, precision=2, step=25,
+        name="r_h",
+        description="Horizontal resolution in degrees; 180/r_h must be whole (1 deg: 180 2D scans)",
+        default=S.DEFAULT_RH_DEG,
+        soft_min=0.25,
+        soft_max=10.0,
+        precision=2,
+        step=25,
     )
     min_range: FloatProperty(
-        name="Min range", description="Shortest range kept, metres", unit="LENGTH", default=S.DEFAULT_MIN_RANGE,
-        soft_min=0.0, soft_max=S.MAX_RANGE_LIMIT,
+        name="Min range",
+        description="Shortest range kept, metres",
+        unit="LENGTH",
+        default=S.DEFAULT_MIN_RANGE,
+        soft_min=0.0,
+        soft_max=S.MAX_RANGE_LIMIT,
     )
     max_range: FloatProperty(
-        name="Max range", description=f"Longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g}",
-        unit="LENGTH", default=S.DEFAULT_MAX_RANGE, soft_min=0.1, soft_max=S.MAX_RANGE_LIMIT,
+        name="Max range",
+        description=f"Longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g}",
+        unit="LENGTH",
+        default=S.DEFAULT_MAX_RANGE,
+        soft_min=0.1,
+        soft_max=S.MAX_RANGE_LIMIT,
     )
     noise: FloatProperty(
-        name="Noise", description="Standard deviation of the Gaussian range noise, metres (0 turns it off)",
-        unit="LENGTH", default=S.DEFAULT_NOISE_SIGMA, soft_min=0.0, soft_max=0.1, precision=3, step=0.1,
+        name="Noise",
+        description="Standard deviation of the Gaussian range noise, metres (0 turns it off)",
+        unit="LENGTH",
+        default=S.DEFAULT_NOISE_SIGMA,
+        soft_min=0.0,
+        soft_max=0.1,
+        precision=3,
+        step=0.1,
     )
-    noise_seed: IntProperty(name="Noise seed", description="Seed of the range noise, independent of the world seed",
-                            min=0, default=0)
-    frame: EnumProperty(name="Frame", description="Coordinate frame of the exported points", items=_FRAME_TEXT,
-                        default="leveled")
+    noise_seed: IntProperty(
+        name="Noise seed",
+        description="Seed of the range noise, independent of the world seed",
+        min=0,
+        default=0,
+    )
+    frame: EnumProperty(
+        name="Frame",
+        description="Coordinate frame of the exported points",
+        items=_FRAME_TEXT,
+        default="leveled",
+    )
 
     # Scan
     backend: EnumProperty(
-        name="Ray caster", description="Which ray caster scans (all give the same labels)",
+        name="Ray caster",
+        description="Which ray caster scans (all give the same labels)",
         items=[(b, b.capitalize() if b != "bvh" else "BVH", _BACKEND_TEXT.get(b, b)) for b in BACKEND_NAMES],
         default="auto",
     )
     keep_previous: BoolProperty(
-        name="Keep previous scans", description="Keep the clouds of earlier scans instead of replacing them",
+        name="Keep previous scans",
+        description="Keep the clouds of earlier scans instead of replacing them",
         default=False,
     )
 
     # Result display
-    point_size: IntProperty(name="Point size", description="Size of the cloud's points in the viewport, pixels",
-                            min=1, max=12, default=3)
-    show_world: BoolProperty(
-        name="Show world", description="Show the generated world in the viewport (its collection's eye icon); "
-        "hide it to look at the cloud alone", get=_get_show_world, set=_set_show_world,
+    point_size: IntProperty(
+        name="Point size",
+        description="Size of the cloud's points in the viewport, pixels",
+        min=1,
+        max=12,
+        default=3,
     )
-    points_in_front: BoolProperty(name="In front", description="Draw the cloud's points over the world's surfaces",
-                                  default=True)
+    show_world: BoolProperty(
+        name="Show world",
+        description="Show the generated world in the viewport (its collection's eye icon); "
+        "hide it to look at the cloud alone",
+        get=_get_show_world,
+        set=_set_show_world,
+    )
+    points_in_front: BoolProperty(
+        name="In front", description="Draw the cloud's points over the world's surfaces", default=True
+    )
 
 
 CLASSES = (WildScanSettings,)

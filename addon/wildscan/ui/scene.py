@@ -10,6 +10,7 @@ needs as point attributes plus the scan metadata as JSON. It is self-contained:
 it survives save, reload and undo, and exporting it later writes the same
 records `wildscan scan` writes.
 """
+
 from __future__ import annotations
 
 import json

@@ -7,6 +7,7 @@ Results are cached by pose and by a counter that the depsgraph handler bumps whe
 anything but WildScan's own marker and clouds changes, so an unchanged scene is
 never re-checked.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -95,7 +96,9 @@ def on_depsgraph_update(scene, depsgraph) -> None:
         block = getattr(update.id, "original", None) or update.id
         if isinstance(block, (bpy.types.Scene, bpy.types.WorkSpace, bpy.types.Screen)):
             continue  # settings edits and UI changes; the pose is part of the cache key
-        if isinstance(block, bpy.types.Object) and any(block.get(p) for p in (MARKER_PROP, HEADING_PROP, CLOUD_PROP)):
+        if isinstance(block, bpy.types.Object) and any(
+            block.get(p) for p in (MARKER_PROP, HEADING_PROP, CLOUD_PROP)
+        ):
             continue
         invalidate()
         return

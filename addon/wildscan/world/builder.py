@@ -9,6 +9,7 @@ shared mesh, so the file stays small and building stays fast.
 Only objects, meshes and collections carrying `wildscan_generated` are ever
 removed when a world is rebuilt; the user's own objects stay where they are.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -36,8 +37,13 @@ def class_collection_name(zone: str, wildscan_class: str) -> str:
     return f"{zone}: {wildscan_class}"
 
 
-def build_world(seed, detail: str = "default", progress: Progress | None = None, params: WorldParams | None = None,
-                collection_name: str = ROOT) -> WorldPlan:
+def build_world(
+    seed,
+    detail: str = "default",
+    progress: Progress | None = None,
+    params: WorldParams | None = None,
+    collection_name: str = ROOT,
+) -> WorldPlan:
     """Plan the world for `seed` and realise it in the current scene, replacing what a
     previous build made (and nothing else). `progress(stage, seconds)` after each stage."""
     plan = plan_world(seed, detail, params, progress=progress)
@@ -53,7 +59,9 @@ def _timed(plan: WorldPlan, stage: str, t0: float, progress: Progress | None) ->
     return now
 
 
-def realise(plan: WorldPlan, collection_name: str = ROOT, progress: Progress | None = None) -> dict[str, bpy.types.Object]:
+def realise(
+    plan: WorldPlan, collection_name: str = ROOT, progress: Progress | None = None
+) -> dict[str, bpy.types.Object]:
     """Create one object per plan element (linked duplicates of shared meshes)."""
     t0 = time.perf_counter()
     remove_generated(collection_name)

@@ -1,5 +1,6 @@
 """Build the world for a seed in the current scene: what `wildscan scan --seed`
 and the add-on's Generate button call (`wildscan world` also saves it)."""
+
 from __future__ import annotations
 
 from typing import Callable

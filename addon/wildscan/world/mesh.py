@@ -5,6 +5,7 @@ apart from the user's (every object or collection created here carries
 Works on Blender 3.4 and 5.0: polygons are built with foreach_set on
 `loop_start` (and on `loop_total` where it is still writable, i.e. before 4.0).
 """
+
 from __future__ import annotations
 
 import bpy
@@ -71,7 +72,9 @@ def mesh_object(
     return obj
 
 
-def wildscan_collection(name: str = "WildScan", parent: bpy.types.Collection | None = None) -> bpy.types.Collection:
+def wildscan_collection(
+    name: str = "WildScan", parent: bpy.types.Collection | None = None
+) -> bpy.types.Collection:
     """Get or create the collection WildScan builds into, linked under `parent` (default:
     the scene's master collection). An existing user collection of that name is reused
     but not marked, so removing generated objects never deletes it."""

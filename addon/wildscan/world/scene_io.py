@@ -1,4 +1,5 @@
 """Opening worlds for a scan (bpy). Thin: checks what a user could get wrong first."""
+
 from __future__ import annotations
 
 import os

@@ -1,4 +1,5 @@
 """Realise the numpy test-world plan as tagged Blender objects."""
+
 from __future__ import annotations
 
 from ..core.testworld_plan import TestWorldPlan, plan_test_world
