@@ -35,7 +35,7 @@ def sha256(data: bytes) -> str:
 
 
 def world_hashes() -> dict[str, str]:
-    from wildscan.core.worldplan import plan_hash, plan_world
+    from wildscan.core.world import plan_hash, plan_world
 
     return {
         f"{seed}/{detail}": plan_hash(plan_world(seed, detail)) for seed in WORLD_SEEDS for detail in DETAILS

@@ -443,7 +443,7 @@ def box_under_front_laser(x, y):
     """A box around the ground under the front laser of a yaw-0 pose at (x, y), reaching less
     high than where the placement lasers start."""
     from wildscan.core.placement import ARM_X, LASER_CLEARANCE, place
-    from wildscan.core.testworld_plan import box
+    from wildscan.core.world.shapes.primitives import box
     from wildscan.scanning import make_scene_backend
 
     pose = Pose(x, y, 0.0)

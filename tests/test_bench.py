@@ -129,7 +129,7 @@ def test_range_error_against_the_analytic_primitives_is_within_1e_4_m(quick):
 
 
 def test_terrain_error_is_measured_against_the_field_and_the_mesh(quick):
-    from wildscan.core.worldplan import DETAILS
+    from wildscan.core.world import DETAILS
 
     for r in rows_of(quick, "detail"):
         tolerance = DETAILS[r["detail"]].terrain_tolerance

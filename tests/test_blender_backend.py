@@ -14,8 +14,8 @@ import bpy
 import numpy as np
 import pytest
 
-from wildscan.core import testworld_plan as tw
 from wildscan.core.classes import WATER_ID, class_by_name
+from wildscan.core.world.shapes import primitives
 from wildscan.raycast.base import MISS_CLASS, MISS_INSTANCE
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
 from wildscan.world.mesh import mesh_object, wildscan_collection
@@ -31,7 +31,7 @@ def empty_scene():
 
 
 def _box(name, center, size, cls=None, instance=None):
-    v, f = tw.box(center, size)
+    v, f = primitives.box(center, size)
     return mesh_object(name, v, f, wildscan_collection(), cls, instance)
 
 
@@ -74,7 +74,7 @@ def test_hits_beyond_max_range_are_misses():
 
 
 def test_water_is_reported_as_water():
-    v, f = tw.disc(3.0, -0.5)
+    v, f = primitives.disc(3.0, -0.5)
     mesh_object("pond", v, f, wildscan_collection(), "water", 2)
     hits = _cast([0.5, 0.5, 2.0], [[0.0, 0.0, -1.0]])
     assert hits.class_id[0] == WATER_ID and hits.instance[0] == 2
@@ -95,7 +95,7 @@ def test_untagged_and_unknown_tags_are_unlabeled_and_named():
 
 
 def test_many_origins_straight_down_onto_a_plane():
-    v, f = tw.grid_heightfield(np.linspace(-10, 10, 3), np.linspace(-10, 10, 3), np.zeros((3, 3)))
+    v, f = primitives.grid_heightfield(np.linspace(-10, 10, 3), np.linspace(-10, 10, 3), np.zeros((3, 3)))
     mesh_object("ground", v, f, wildscan_collection(), "terrain", 1)
     rng = np.random.default_rng(1)
     origins = np.column_stack([rng.uniform(-9, 9, (500, 2)), rng.uniform(0.5, 20, 500)])
@@ -141,7 +141,7 @@ def test_instanced_copies_take_the_instancers_tags_and_the_template_its_own():
 
 def test_a_scene_outside_any_window_is_cast_in_its_own_depsgraph():
     other = bpy.data.scenes.new("not shown")
-    v, f = tw.box((0, 0, 0), (2, 2, 2))
+    v, f = primitives.box((0, 0, 0), (2, 2, 2))
     obj = bpy.data.objects.new("far rock", bpy.data.meshes.new("far rock"))
     obj.data.from_pydata(v.tolist(), [], f.tolist())
     obj["wildscan_class"], obj["wildscan_instance"] = "rock", 8

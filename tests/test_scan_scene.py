@@ -11,7 +11,7 @@ from wildscan.core.classes import CLASSES
 from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
 from wildscan.core.sensor import SensorConfig
-from wildscan.core.testworld_plan import plan_test_world
+from wildscan.core.world.testworld import plan_test_world
 
 from scene_helpers import (
     BLENDER,

@@ -6,8 +6,9 @@ import bpy
 import numpy as np
 import pytest
 
-from wildscan.core import testworld_plan as tw
 from wildscan.core.classes import TAG_NAMES
+from wildscan.core.world import testworld as tw
+from wildscan.core.world.shapes import primitives
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
 from wildscan.world.mesh import mesh_object, remove_generated, wildscan_collection
 from wildscan.world.testworld import build_test_world
@@ -54,32 +55,32 @@ def _is_closed_and_consistent(faces: np.ndarray) -> bool:
 @pytest.mark.parametrize(
     "mesh, volume, rel",
     [
-        (tw.box((1, 2, 3), (1, 2, 3)), 6.0, 1e-12),
-        (tw.cylinder(1.0, 2.0, 64, (5, 0, 0)), 2 * np.pi, 0.01),
-        (tw.cone(1.0, 3.0, 64), np.pi, 0.01),
-        (tw.uv_sphere(1.0, 32, 64), 4 / 3 * np.pi, 0.01),
-        (tw.beam((0, 0, 0), (3, 0, 1), 0.1), 0.01 * np.sqrt(10), 1e-9),
-        (tw.tube([(0, 0, 0), (0, 0, 1), (0, 1, 2)], 0.1, 32), None, None),
+        (primitives.box((1, 2, 3), (1, 2, 3)), 6.0, 1e-12),
+        (primitives.cylinder(1.0, 2.0, 64, (5, 0, 0)), 2 * np.pi, 0.01),
+        (primitives.cone(1.0, 3.0, 64), np.pi, 0.01),
+        (primitives.uv_sphere(1.0, 32, 64), 4 / 3 * np.pi, 0.01),
+        (primitives.beam((0, 0, 0), (3, 0, 1), 0.1), 0.01 * np.sqrt(10), 1e-9),
+        (primitives.tube([(0, 0, 0), (0, 0, 1), (0, 1, 2)], 0.1, 32), None, None),
     ],
 )
 def test_primitives_are_closed_outward_and_the_right_size(mesh, volume, rel):
     v, f = mesh
     assert f.dtype == np.int32 and f.shape[1] == 3 and f.min() >= 0 and f.max() < len(v)
     assert _is_closed_and_consistent(f)
-    vol = tw.signed_volume(v, f)
+    vol = primitives.signed_volume(v, f)
     assert vol > 0
     if volume is not None:
         assert vol == pytest.approx(volume, rel=rel)
 
 
 def test_box_spans_its_size():
-    v, _ = tw.box((1, 2, 3), (2, 4, 6))
+    v, _ = primitives.box((1, 2, 3), (2, 4, 6))
     assert v.min(axis=0).tolist() == [0, 0, 0] and v.max(axis=0).tolist() == [2, 4, 6]
 
 
 def test_grid_heightfield_faces_point_up_and_cover_the_grid():
     xs, ys = np.linspace(0, 2, 3), np.linspace(0, 1, 2)
-    v, f = tw.grid_heightfield(xs, ys, np.zeros((2, 3)))
+    v, f = primitives.grid_heightfield(xs, ys, np.zeros((2, 3)))
     assert len(v) == 6 and len(f) == 4
     tri = v[f]
     normals_z = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])[:, 2]
@@ -282,7 +283,7 @@ def test_remove_generated_drops_an_emptied_generated_collection_but_not_a_user_o
 
 
 def test_mesh_object_takes_quads(empty_scene):
-    v, _ = tw.box((0, 0, 0), (2, 2, 2))
+    v, _ = primitives.box((0, 0, 0), (2, 2, 2))
     quads = np.array([(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)])
     obj = mesh_object("cube", v, quads, wildscan_collection(), "rock", 4)
     me = obj.data

@@ -13,7 +13,7 @@ from wildscan.core.placement import Pose
 from wildscan.core.rng import stage_rng
 from wildscan.core.scan import run_scan
 from wildscan.core.sensor import SensorConfig
-from wildscan.core.worldplan import ZONES, WorldParams
+from wildscan.core.world import ZONES, WorldParams
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
 from wildscan.world.builder import ROOT, build_world, generated_objects, scene_counts, scene_hashes
@@ -142,9 +142,9 @@ def test_cave_entrance_scan_sees_under_the_flooring_cover(world):
     pose, result = world["scans"]["cave"]
     assert pose["z_start"] < plan.cave_level
     pts = world_points(pose, result)
-    lay = plan.layout
-    u, v = lay.cave.local(pts[:, 0], pts[:, 1])
-    under_roof = (u > lay.roof_u[0]) & (u < lay.roof_u[1]) & (v > lay.roof_v[0]) & (v < lay.roof_v[1])
+    cave = plan.layout.cave
+    u, v = cave.pit.local(pts[:, 0], pts[:, 1])
+    under_roof = (u > cave.roof_u[0]) & (u < cave.roof_u[1]) & (v > cave.roof_v[0]) & (v < cave.roof_v[1])
     below = pts[:, 2] < plan.cave_level - 0.2
     assert (under_roof & below).sum() > 10_000
     # the roof itself is seen from below (flooring, class terrain)
@@ -160,20 +160,23 @@ def test_no_cracks_vertical_rays_hit_everywhere(world):
     xy = [rng.uniform(-74.99, 74.99, (150_000, 2))]
     # across the borders: trail edges, shoreline, pit rim, roof edges, the world edge
     along = np.linspace(0, 1, 400)
-    path = lay.trail
+    path = lay.trail.path
     seg = path[np.minimum((along * (len(path) - 1)).astype(int), len(path) - 2)]
     nxt = path[np.minimum((along * (len(path) - 1)).astype(int) + 1, len(path) - 1)]
     t = nxt - seg
     normal = np.column_stack([-t[:, 1], t[:, 0]]) / np.linalg.norm(t, axis=1, keepdims=True)
-    for off in np.linspace(-lay.trail_width / 2 - 0.1, lay.trail_width / 2 + 0.1, 61):
+    for off in np.linspace(-lay.trail.width / 2 - 0.1, lay.trail.width / 2 + 0.1, 61):
         xy.append(seg + off * normal)
     ang = np.linspace(0, 2 * np.pi, 720, endpoint=False)
-    for shape, radii in ((lay.lake, np.linspace(0.3, 1.4, 111)), (lay.cave, np.linspace(0.5, 1.5, 101))):
+    for shape, radii in (
+        (lay.lake.basin, np.linspace(0.3, 1.4, 111)),
+        (lay.cave.pit, np.linspace(0.5, 1.5, 101)),
+    ):
         for r in radii:
             xy.append(np.column_stack(shape.to_world(r * shape.a * np.cos(ang), r * shape.b * np.sin(ang))))
-    for u in np.linspace(lay.roof_u[0] - 0.2, lay.roof_u[1] + 0.2, 81):
-        v = np.linspace(lay.roof_v[0] - 0.2, lay.roof_v[1] + 0.2, 81)
-        xy.append(np.column_stack(lay.cave.to_world(np.full_like(v, u), v)))
+    for u in np.linspace(lay.cave.roof_u[0] - 0.2, lay.cave.roof_u[1] + 0.2, 81):
+        v = np.linspace(lay.cave.roof_v[0] - 0.2, lay.cave.roof_v[1] + 0.2, 81)
+        xy.append(np.column_stack(lay.cave.pit.to_world(np.full_like(v, u), v)))
     edge = np.linspace(-74.99, 74.99, 2000)
     for c in (-74.99, 74.99):
         xy += [np.column_stack([edge, np.full_like(edge, c)]), np.column_stack([np.full_like(edge, c), edge])]

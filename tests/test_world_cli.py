@@ -11,7 +11,7 @@ import sys
 import pytest
 
 from wildscan.cli import main
-from wildscan.core.worldplan import ZONES
+from wildscan.core.world import ZONES
 from wildscan.world.scene_io import BLEND_MAGICS
 from wildscan.world_cli import bench_world
 

@@ -7,11 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from wildscan.core import heightfield as hf
-from wildscan.core import shapes
 from wildscan.core.errors import UserError
 from wildscan.core.rng import stage_rng
-from wildscan.core.worldplan import (
+from wildscan.core.world import (
     DETAILS,
     ELEMENT_STAGES,
     EXTENT,
@@ -28,6 +26,8 @@ from wildscan.core.worldplan import (
     plan_hash,
     plan_world,
 )
+from wildscan.core.world import heightfield as hf
+from wildscan.core.world.shapes import plants, powerline, primitives, rocks, trees
 
 ALL_TAGS = {
     "terrain",
@@ -207,14 +207,14 @@ def test_nothing_stands_in_water_or_on_the_trail(plan):
             continue
         x, y = e.location[:2]
         assert not plan.in_water(x, y), e.name
-        assert plan.trail_distance(np.array([x]), np.array([y]))[0] > plan.layout.trail_width / 2, e.name
+        assert plan.trail_distance(np.array([x]), np.array([y]))[0] > plan.layout.trail.width / 2, e.name
 
 
 def test_water_fills_the_basin(plan):
     water = plan.elements_of("water")[0]
     v = plan.element_vertices(water)
     assert np.allclose(v[:, 2], plan.water_z)
-    centre = plan.layout.lake
+    centre = plan.layout.lake.basin
     assert plan.ground(centre.cx, centre.cy) < plan.water_z - 1.0  # deep in the middle
     # every cell of water has terrain below the surface somewhere in it: no water on dry land
     quads = v.reshape(-1, 4, 3)
@@ -241,7 +241,7 @@ def test_wires_hang_as_catenaries(plan):
     for wire in plan.elements_of("wire"):
         v = plan.element_vertices(wire)
         poles = plan.elements_of("pole")
-        tops = max(p.location[2] for p in poles) + shapes.POLE_HEIGHT
+        tops = max(p.location[2] for p in poles) + powerline.POLE_HEIGHT
         assert v[:, 2].max() <= tops + 0.1
         # lowest point well above the ground below it
         low = v[np.argmin(v[:, 2])]
@@ -250,12 +250,12 @@ def test_wires_hang_as_catenaries(plan):
 
 def test_catenary_meets_both_ends_and_sags():
     p0, p1 = np.array([0.0, 0.0, 9.0]), np.array([20.0, 0.0, 9.0])
-    path = shapes.catenary(p0, p1, 0.6, 41)
+    path = powerline.catenary(p0, p1, 0.6, 41)
     assert np.allclose(path[0], p0) and np.allclose(path[-1], p1)
     assert path[20, 2] == pytest.approx(9.0 - 0.6, abs=1e-6)
-    a = shapes.catenary_parameter(20.0, 0.6)
+    a = powerline.catenary_parameter(20.0, 0.6)
     assert np.allclose(path[:, 2], a * np.cosh((path[:, 0] - 10.0) / a) + 9.0 - a * np.cosh(10.0 / a))
-    uneven = shapes.catenary(p0, p1 + [0, 0, 2.0], 0.6, 41)
+    uneven = powerline.catenary(p0, p1 + [0, 0, 2.0], 0.6, 41)
     assert np.allclose(uneven[-1], p1 + [0, 0, 2.0])
 
 
@@ -270,21 +270,21 @@ def _closed(faces) -> bool:
 
 def test_icosphere_and_lathe_are_closed():
     for s in range(3):
-        v, f = shapes.icosphere(s)
+        v, f = primitives.icosphere(s)
         assert len(f) == 20 * 4**s and _closed(f)
         assert np.allclose(np.linalg.norm(v, axis=1), 1.0)
-    v, f = shapes.lathe([0.0, 1.0, 0.5, 0.0], [0.0, 1.0, 2.0, 3.0], 8)
+    v, f = primitives.lathe([0.0, 1.0, 0.5, 0.0], [0.0, 1.0, 2.0, 3.0], 8)
     assert _closed(f)
 
 
 def test_tuft_polygon_budget():
     for d in DETAILS.values():
-        v, f = shapes.tuft(stage_rng(0, "t"), 0.3, 0.3, d.tuft_planes, d.tuft_blades)
+        v, f = plants.tuft(stage_rng(0, "t"), 0.3, 0.3, d.tuft_planes, d.tuft_blades)
         assert len(f) == d.tuft_planes * d.tuft_blades
 
 
 def test_trees_hide_nothing_inside_their_crowns():
-    for name, make in shapes.TREE_KINDS.items():
+    for name, make in trees.TREE_KINDS.items():
         t = make(stage_rng(0, name), DETAILS["default"])
         trunk_top = t.trunk[0][:, 2].max()
         crown_v = t.crown[0]
@@ -300,7 +300,7 @@ def test_trees_hide_nothing_inside_their_crowns():
 
 def test_buried_faces_are_dropped():
     for d in DETAILS.values():
-        for make in (shapes.rock, shapes.bush):
+        for make in (rocks.rock, plants.bush):
             (v, f), _ = make(stage_rng(1, "r"), d)
             assert (v[f][:, :, 2].max(axis=1) >= -0.05).all()
 

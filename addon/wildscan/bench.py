@@ -814,7 +814,7 @@ def fixed_poses(seed: int, zones: int | None = None) -> list[tuple[str, object, 
     """(zone, Pose, z_start): the first valid pose of each zone of the default-detail world.
     The same poses are used at every detail level (the layout does not change with it)."""
     from .core.placement import Pose
-    from .core.worldplan import ZONES, plan_world
+    from .core.world import ZONES, plan_world
     from .world_cli import plan_backend, valid_poses
 
     plan = plan_world(seed, "default")
@@ -1007,7 +1007,7 @@ def bench_terrain(cfg, plan, whole, reference) -> dict:
     water, plants, the trail or the cave roof above it)."""
     from .core.classes import class_by_name
     from .core.rng import stage_rng
-    from .core.worldplan import EXTENT
+    from .core.world import EXTENT
 
     terrain = plan.elements_of("terrain", stage="terrain")[0].instance
     x0, x1, y0, y1 = EXTENT
@@ -1417,7 +1417,7 @@ def format_levels(rows: list[dict], cfg) -> str:
 
 def terrain_tolerance_notes(rows: list[dict]) -> list[str]:
     """Say so where the measured terrain error exceeds the level's tolerance."""
-    from .core.worldplan import DETAILS
+    from .core.world import DETAILS
 
     notes = []
     for detail in dict.fromkeys(r["detail"] for r in rows):
@@ -1873,7 +1873,7 @@ def _names(text: str, option: str) -> list[str]:
 
 def config_from_args(args) -> BenchConfig:
     """Check every option before anything runs (UserError names what is wrong)."""
-    from .core.worldplan import DETAILS, check_seed
+    from .core.world import DETAILS, check_seed
     from .raycast.select import missing_reason, resolve_backend
 
     seed = check_seed(args.seed)
@@ -1969,7 +1969,7 @@ def build_many_objects_scene(
     import bpy
 
     from .core.rng import stage_rng
-    from .core.testworld_plan import cone, cylinder, grid_heightfield, merge, uv_sphere
+    from .core.world.shapes.primitives import cone, cylinder, grid_heightfield, merge, uv_sphere
     from .world.mesh import mesh_object, wildscan_collection
 
     scene = scene or bpy.context.scene

@@ -57,7 +57,7 @@ def non_negative_int(text: str) -> int:
 
 
 def world_seed(text: str) -> int:
-    from .core.worldplan import check_seed
+    from .core.world import check_seed
 
     try:
         return check_seed(text)

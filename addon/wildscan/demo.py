@@ -62,7 +62,7 @@ def run_demo(args, in_blender: bool = False) -> int:
     from .core.ply import write_scan_files
     from .core.preview import render_preview
     from .core.sensor import SensorConfig
-    from .core.worldplan import check_seed
+    from .core.world import check_seed
     from .raycast.extract import extract_scene
     from .scanning import scan_current_scene
     from .world_cli import run_world

@@ -25,7 +25,7 @@ from .core.checks import whole_number
 from .core.errors import PoseRejected, UserError
 from .core.files import atomic_outputs, check_output_path
 from .core.ply import sidecar_path
-from .core.worldplan import (
+from .core.world import (
     DETAILS,
     ZONES,
     WorldPlan,
@@ -268,7 +268,7 @@ def run_world(args, in_blender: bool = False) -> int:
             progress("save .blend", time.perf_counter() - t0)
             if map_path is not None:
                 from .core.aerial_map import render_map
-                from .core.worldplan import Site
+                from .core.world import Site
 
                 t0 = time.perf_counter()
                 crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]
@@ -302,9 +302,9 @@ def run_world(args, in_blender: bool = False) -> int:
 def terrain_error_table(plan: WorldPlan, spacings=(0.25, 0.5, 1.0, 2.0, 4.0)) -> list[dict]:
     """Uniform grids of several spacings vs the adaptive grid the plan chose: max/RMS height
     error against the analytic field at the same 100,000 random points, and triangle counts."""
-    from .core.heightfield import error_sample_points, grid_error, uniform_grid
     from .core.rng import stage_rng
-    from .core.worldplan import EXTENT
+    from .core.world import EXTENT
+    from .core.world.heightfield import error_sample_points, grid_error, uniform_grid
 
     points = error_sample_points(EXTENT, 100_000, stage_rng(plan.seed, "world.bench.error"))
     rows = []

@@ -57,8 +57,8 @@ def hillshade(z: np.ndarray, spacing: float) -> np.ndarray:
 
 
 def terrain_image(plan, spacing: float = 0.5) -> tuple[np.ndarray, tuple[float, float, float, float]]:
-    from .heightfield import lattice
-    from .worldplan import EXTENT
+    from .world import EXTENT
+    from .world.heightfield import lattice
 
     xs, ys = lattice(EXTENT, spacing)
     gx, gy = np.meshgrid(xs, ys)
@@ -99,7 +99,7 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Polygon, Rectangle
 
-    from .worldplan import EXTENT, ZONES
+    from .world import EXTENT, ZONES
 
     fig = Figure(figsize=(10.5, 9.0), dpi=dpi)
     FigureCanvasAgg(fig)
@@ -124,7 +124,7 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
                 )
             )
     if plan.layout is not None:
-        ax.plot(*plan.layout.trail.T, color=(0.3, 0.18, 0.06), lw=0.6, ls=":", zorder=2)
+        ax.plot(*plan.layout.trail.path.T, color=(0.3, 0.18, 0.06), lw=0.6, ls=":", zorder=2)
 
     for z, cls in enumerate(DRAW_ORDER, start=3):
         els = plan.elements_of(cls)

@@ -19,7 +19,7 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ..core.worldplan import WorldParams, WorldPlan, plan_world
+from ..core.world import WorldParams, WorldPlan, plan_world
 from .mesh import GENERATED, mesh_data, remove_generated, tag_object, wildscan_collection
 
 ROOT = "WildScan"

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from ..core.worldplan import DETAILS as _DETAIL_LEVELS
+from ..core.world import DETAILS as _DETAIL_LEVELS
 
 DETAILS = tuple(_DETAIL_LEVELS)  # the names, low to high
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..core.testworld_plan import TestWorldPlan, plan_test_world
+from ..core.world.testworld import TestWorldPlan, plan_test_world
 from .mesh import mesh_object, remove_generated, wildscan_collection
 
 

@@ -20,6 +20,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .shapes.primitives import grid_heightfield
+
 Field = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 
@@ -303,7 +305,7 @@ def lattice(extent: Sequence[float], spacing: float) -> tuple[np.ndarray, np.nda
 @dataclass
 class TerrainGrid:
     """Heights z[j, i] at (xs[i], ys[j]); each cell split along its (i,j)-(i+1,j+1) diagonal,
-    the triangulation `testworld_plan.grid_heightfield` builds."""
+    the triangulation `shapes.primitives.grid_heightfield` builds."""
 
     xs: np.ndarray
     ys: np.ndarray
@@ -326,8 +328,6 @@ class TerrainGrid:
         return interpolate(self.xs, self.ys, self.z, x, y)
 
     def mesh(self) -> tuple[np.ndarray, np.ndarray]:
-        from .testworld_plan import grid_heightfield
-
         return grid_heightfield(self.xs, self.ys, self.z)
 
 

@@ -1,0 +1,110 @@
+"""Plane geometry the stages share: polylines, rectangles, headings, scattered points (numpy only)."""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+
+Rect = tuple[float, float, float, float]  # xmin, xmax, ymin, ymax
+
+
+# ---------------------------------------------------------------------------------------
+# polylines
+
+
+def polyline_length(path: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+
+
+def polyline_distance(path: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Distance from each point (N,2) to the polyline (K,2)."""
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    L2 = np.maximum((ab**2).sum(1), 1e-12)
+    best = np.full(len(pts), np.inf)
+    for start in range(0, len(a), 256):  # chunks keep memory small
+        aa, dd, ll = a[start : start + 256], ab[start : start + 256], L2[start : start + 256]
+        t = np.clip(((pts[:, None, :] - aa[None]) * dd[None]).sum(-1) / ll[None], 0, 1)
+        proj = aa[None] + t[..., None] * dd[None]
+        best = np.minimum(best, np.sqrt(((pts[:, None, :] - proj) ** 2).sum(-1)).min(1))
+    return best
+
+
+def catmull_rom(ctrl: np.ndarray, step: float) -> np.ndarray:
+    """A smooth curve through control points, resampled every `step` metres."""
+    p = np.vstack([2 * ctrl[0] - ctrl[1], ctrl, 2 * ctrl[-1] - ctrl[-2]])
+    pts = []
+    for i in range(1, len(p) - 2):
+        t = np.linspace(0, 1, 40, endpoint=False)[:, None]
+        p0, p1, p2, p3 = p[i - 1], p[i], p[i + 1], p[i + 2]
+        pts.append(
+            0.5
+            * (
+                (2 * p1)
+                + (-p0 + p2) * t
+                + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t**2
+                + (-p0 + 3 * p1 - 3 * p2 + p3) * t**3
+            )
+        )
+    pts.append(ctrl[-1:])
+    dense = np.vstack(pts)
+    return resample(dense, step)
+
+
+def resample(path: np.ndarray, step: float) -> np.ndarray:
+    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    s = np.concatenate([[0], np.cumsum(seg)])
+    n = max(2, int(math.ceil(s[-1] / step)) + 1)
+    t = np.linspace(0, s[-1], n)
+    return np.column_stack([np.interp(t, s, path[:, k]) for k in range(path.shape[1])])
+
+
+# ---------------------------------------------------------------------------------------
+# rectangles and headings
+
+
+def cell_area(rect: Rect) -> float:
+    return (rect[1] - rect[0]) * (rect[3] - rect[2])
+
+
+def inset(rect: Rect, d: float) -> Rect:
+    return (rect[0] + d, rect[1] - d, rect[2] + d, rect[3] - d)
+
+
+def long_axis(rect: Rect) -> int:
+    """0 when the cell is wider along X, 1 along Y."""
+    return 0 if rect[1] - rect[0] >= rect[3] - rect[2] else 1
+
+
+def yaw_towards(x, y, tx, ty) -> float:
+    """Heading in degrees (0-360, CCW from +X, 0.1 deg steps) from (x, y) to (tx, ty)."""
+    return round(math.degrees(math.atan2(ty - y, tx - x)) % 360.0, 1)
+
+
+# ---------------------------------------------------------------------------------------
+# scattering
+
+
+def darts(
+    rng: np.random.Generator, rect: Rect, count: int, min_dist: float, ok: Callable, tries: int = 6
+) -> np.ndarray:
+    """Up to `count` points in `rect`, at least `min_dist` apart, where ok(x, y) holds
+    (rejection sampling in batches; deterministic for a given generator)."""
+    x0, x1, y0, y1 = rect
+    cand = np.column_stack([rng.uniform(x0, x1, count * tries), rng.uniform(y0, y1, count * tries)])
+    cand = cand[ok(cand[:, 0], cand[:, 1])]
+    cell = max(min_dist, 1e-6)
+    taken: dict[tuple[int, int], list] = {}
+    out = []
+    for x, y in cand:
+        if len(out) >= count:
+            break
+        ix, iy = int(x // cell), int(y // cell)
+        near = [p for dx in (-1, 0, 1) for dy in (-1, 0, 1) for p in taken.get((ix + dx, iy + dy), ())]
+        if any((x - px) ** 2 + (y - py) ** 2 < min_dist**2 for px, py in near):
+            continue
+        taken.setdefault((ix, iy), []).append((x, y))
+        out.append((x, y))
+    return np.array(out, dtype=np.float64).reshape(-1, 2)
