@@ -9,6 +9,7 @@ import pytest
 from wildscan.core.classes import TAG_NAMES
 from wildscan.core.world import testworld as tw
 from wildscan.core.world.shapes import primitives
+from wildscan.core.world.shapes.powerline import catenary_points
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
 from wildscan.world.mesh import mesh_object, remove_generated, wildscan_collection
 from wildscan.world.testworld import build_test_world
@@ -88,9 +89,10 @@ def test_grid_heightfield_faces_point_up_and_cover_the_grid():
     assert normals_z.sum() / 2 == pytest.approx(2.0)  # total area
 
 
-def test_catenary_hangs_between_its_ends():
+def test_the_wires_catenary_hangs_between_its_ends():
     p0, p1 = (0.0, 0.0, 6.0), (8.0, 0.0, 5.5)
-    path = tw.catenary(p0, p1, sag=1.0, n=101)
+    # the test world's wire takes its parameter from the parabola a = L^2 / (8 sag)
+    path = catenary_points(p0, p1, 8.0**2 / (8 * 1.0), 101)
     assert np.allclose(path[0], p0) and np.allclose(path[-1], p1)
     mid_chord = (p0[2] + p1[2]) / 2
     assert mid_chord - path[50, 2] == pytest.approx(1.0, abs=0.1)
@@ -105,13 +107,14 @@ def test_plan_is_deterministic_per_seed(plans):
     first = plans[1]
     assert [e.name for e in again.elements] == [e.name for e in first.elements]
     for a, b in zip(again.elements, first.elements):
-        assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+        assert np.array_equal(again.element_vertices(a), first.element_vertices(b))
+        assert np.array_equal(again.prototypes[a.proto].faces, first.prototypes[b.proto].faces)
     assert np.array_equal(again.heights, first.heights)
     other = plans[7]
     assert not np.array_equal(other.heights, first.heights)
     rock = [e for e in first.elements if e.name == "rock_1"][0]
     other_rock = [e for e in other.elements if e.name == "rock_1"][0]
-    assert not np.allclose(rock.vertices, other_rock.vertices)
+    assert not np.allclose(first.element_vertices(rock), other.element_vertices(other_rock))
 
 
 @pytest.mark.parametrize("seed", SEEDS)
@@ -130,10 +133,11 @@ def test_layout_keeps_the_clear_zone_and_stays_near_the_origin(plans, seed):
     for el in plan.elements:
         if el.wildscan_class in ("terrain", "water"):
             continue
-        r = np.hypot(el.vertices[:, 0], el.vertices[:, 1])
+        v = plan.element_vertices(el)
+        r = np.hypot(v[:, 0], v[:, 1])
         assert r.min() >= tw.CLEAR_RADIUS, el.name
         assert r.max() <= 15.5, el.name
-        pond = np.hypot(el.vertices[:, 0] - plan.pond_center[0], el.vertices[:, 1] - plan.pond_center[1])
+        pond = np.hypot(v[:, 0] - plan.pond_center[0], v[:, 1] - plan.pond_center[1])
         assert pond.min() > plan.pond_radius, el.name
 
 
@@ -143,7 +147,8 @@ def test_elements_stand_on_the_terrain(plans, seed):
     for el in plan.elements:
         if el.wildscan_class in ("terrain", "water", "treetop", "wire"):
             continue
-        above = el.vertices[:, 2] - plan.height_at(el.vertices[:, 0], el.vertices[:, 1])
+        v = plan.element_vertices(el)
+        above = v[:, 2] - plan.height_at(v[:, 0], v[:, 1])
         assert -1.0 < above.min() <= 0.0, el.name  # touches the ground, not buried
         assert above.max() > 0.05, el.name  # and shows above it
 
@@ -151,11 +156,11 @@ def test_elements_stand_on_the_terrain(plans, seed):
 @pytest.mark.parametrize("seed", SEEDS)
 def test_wire_sags_between_the_pole_tops_well_above_ground(plans, seed):
     plan = plans[seed]
-    wire = plan.elements_of("wire")[0].vertices
+    wire = plan.element_vertices(plan.elements_of("wire")[0])
     clearance = wire[:, 2] - plan.height_at(wire[:, 0], wire[:, 1])
     assert 3.0 < clearance.min() < 5.0
     for pole in plan.elements_of("pole"):
-        x, y = pole.vertices[:, :2].mean(axis=0)
+        x, y = plan.element_vertices(pole)[:, :2].mean(axis=0)
         assert 6.0 <= np.hypot(x, y) <= 10.0
         assert np.hypot(wire[:, 0] - x, wire[:, 1] - y).min() < 0.12  # the wire reaches each pole
 
@@ -178,7 +183,7 @@ def test_pond_holds_water(plans, seed):
     plan = plans[seed]
     cx, cy = plan.pond_center
     assert plan.pond_water_z > plan.height_at(cx, cy) + 0.3  # deep enough to stand a pose in
-    water = plan.elements_of("water")[0].vertices
+    water = plan.element_vertices(plan.elements_of("water")[0])
     assert np.allclose(water[:, 2], plan.pond_water_z)
     rim = water[np.hypot(water[:, 0] - cx, water[:, 1] - cy) > 0.5 * plan.water_radius]
     assert (plan.height_at(rim[:, 0], rim[:, 1]) > plan.pond_water_z).all()  # its edge is under ground
@@ -192,7 +197,7 @@ def test_poses(plans):
     assert (x, y) == tuple(plan.rock_positions[0, :2])
     assert plan.rock_radii[0] == plan.rock_radii.max()
     assert np.isnan(plan.height_at(*plan.poses["off_world"][:2]))
-    rock = plan.elements_of("rock")[0].vertices
+    rock = plan.element_vertices(plan.elements_of("rock")[0])
     assert rock[:, 2].max() > plan.height_at(x, y) + 0.4  # standing there means standing on the rock
 
 
@@ -215,7 +220,8 @@ def test_height_at_is_vectorised_exact_at_vertices_and_nan_outside(plans):
 def test_height_at_matches_the_terrain_mesh_blender_casts(empty_scene, plans):
     plan = plans[1]
     terrain = plan.elements_of("terrain")[0]
-    mesh_object("terrain", terrain.vertices, terrain.faces, wildscan_collection(), "terrain", 1)
+    v, f = plan.element_vertices(terrain), plan.prototypes[terrain.proto].faces
+    mesh_object("terrain", v, f, wildscan_collection(), "terrain", 1)
     rng = np.random.default_rng(5)
     xy = rng.uniform(-29.9, 29.9, (3000, 2))
     top = 10.0
@@ -238,10 +244,10 @@ def test_build_test_world_creates_tagged_generated_objects(empty_scene):
         assert obj["wildscan_class"] == el.wildscan_class
         assert obj["wildscan_instance"] == el.instance
         assert obj["wildscan_generated"]
-        assert len(obj.data.polygons) == len(el.faces)
+        assert len(obj.data.polygons) == len(plan.prototypes[el.proto].faces)
         co = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
         obj.data.vertices.foreach_get("co", co)
-        np.testing.assert_allclose(co.reshape(-1, 3), el.vertices, atol=1e-5)
+        np.testing.assert_allclose(co.reshape(-1, 3), plan.element_vertices(el), atol=1e-5)
 
 
 def test_rebuild_replaces_only_generated_objects(empty_scene):

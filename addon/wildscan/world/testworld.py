@@ -13,5 +13,6 @@ def build_test_world(seed: int, collection_name: str = "WildScan") -> TestWorldP
     remove_generated(collection_name)
     coll = wildscan_collection(collection_name)
     for el in plan.elements:
-        mesh_object(el.name, el.vertices, el.faces, coll, el.wildscan_class, el.instance)
+        vertices, faces = plan.element_vertices(el), plan.prototypes[el.proto].faces
+        mesh_object(el.name, vertices, faces, coll, el.wildscan_class, el.instance)
     return plan

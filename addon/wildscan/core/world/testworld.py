@@ -14,25 +14,22 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..rng import stage_rng
-from .shapes.primitives import Mesh, beam, box, cone, disc, grid_heightfield, merge, rotate_z, tube, uv_sphere
+from .elements import Element, ElementSet, Prototype
+from .heightfield import TerrainGrid
+from .shapes.powerline import catenary_points
+from .shapes.primitives import Mesh, beam, box, cone, disc, merge, rotate_z, tube, uv_sphere
 
 # ---------------------------------------------------------------------------
 # the plan
 
-
-@dataclass
-class Element:
-    """One object of the test world."""
-
-    name: str
-    wildscan_class: str
-    instance: int
-    vertices: np.ndarray  # (V, 3) float64 world metres
-    faces: np.ndarray  # (F, 3) int32
+TEST_ZONE = "testworld"  # its elements belong to none of the procedural world's zones
 
 
 @dataclass
-class TestWorldPlan:
+class TestWorldPlan(ElementSet):
+    """The test world: each element is its own prototype, already in world metres (its
+    placement is the identity), so `element_vertices(el)` are the mesh's vertices."""
+
     __test__ = False  # not a pytest test class despite the name
 
     seed: int
@@ -46,6 +43,7 @@ class TestWorldPlan:
     rock_positions: np.ndarray  # (K, 3) rock centres (x, y, ground z there), largest first
     rock_radii: np.ndarray  # (K,) horizontal radius of each rock
     poses: dict[str, tuple[float, float, float]]
+    prototypes: dict[str, Prototype] = field(default_factory=dict)
     elements: list[Element] = field(default_factory=list)
 
     @property
@@ -53,33 +51,25 @@ class TestWorldPlan:
         return float(self.xs[1] - self.xs[0])
 
     @property
+    def grid(self) -> TerrainGrid:
+        return TerrainGrid(self.xs, self.ys, self.heights)
+
+    @property
     def classes(self) -> set[str]:
         return {e.wildscan_class for e in self.elements}
 
-    def elements_of(self, wildscan_class: str) -> list[Element]:
-        return [e for e in self.elements if e.wildscan_class == wildscan_class]
-
     def height_at(self, x, y):
         """Terrain z at (x, y), exactly as the triangulated mesh; NaN off the terrain."""
-        return height_on_grid(self.xs, self.ys, self.heights, x, y)
+        return height_on_terrain(self.grid, x, y)
 
 
-def height_on_grid(xs, ys, heights, x, y):
-    """Piecewise-linear interpolation over the triangles of `grid_heightfield`."""
+def height_on_terrain(grid: TerrainGrid, x, y):
+    """The terrain mesh's height (`TerrainGrid.height_at`) where the grid covers (x, y), NaN
+    beyond it; a float for scalar x and y."""
     scalar = np.ndim(x) == 0 and np.ndim(y) == 0
     x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
-    step_x, step_y = xs[1] - xs[0], ys[1] - ys[0]
-    u, v = (x - xs[0]) / step_x, (y - ys[0]) / step_y
-    nx, ny = len(xs), len(ys)
-    inside = (u >= 0) & (u <= nx - 1) & (v >= 0) & (v <= ny - 1)
-    i = np.clip(np.floor(np.where(inside, u, 0)), 0, nx - 2).astype(np.intp)
-    j = np.clip(np.floor(np.where(inside, v, 0)), 0, ny - 2).astype(np.intp)
-    fx, fy = u - i, v - j
-    z00, z10 = heights[j, i], heights[j, i + 1]
-    z01, z11 = heights[j + 1, i], heights[j + 1, i + 1]
-    lower = z00 + fx * (z10 - z00) + fy * (z11 - z10)  # triangle (00, 10, 11)
-    upper = z00 + fy * (z01 - z00) + fx * (z11 - z01)  # triangle (00, 11, 01)
-    z = np.where(inside, np.where(fx >= fy, lower, upper), np.nan)
+    inside = (x >= grid.xs[0]) & (x <= grid.xs[-1]) & (y >= grid.ys[0]) & (y <= grid.ys[-1])
+    z = np.where(inside, grid.height_at(x, y), np.nan)
     return float(z) if scalar else z
 
 
@@ -156,24 +146,25 @@ def _max_slope(xs, ys, z) -> float:
     return float(max(lower.max(), upper.max()))
 
 
-class _Builder:
+class _Builder(ElementSet):
     """Collects elements with consecutive instance ids; places parts on the terrain."""
 
-    def __init__(self, seed: int, xs, ys, heights):
+    def __init__(self, seed: int, grid: TerrainGrid):
         self.seed = seed
-        self.xs, self.ys, self.heights = xs, ys, heights
+        self.grid = grid
+        self.prototypes: dict[str, Prototype] = {}
         self.elements: list[Element] = []
 
     def ground(self, x, y):
-        return height_on_grid(self.xs, self.ys, self.heights, x, y)
+        return height_on_terrain(self.grid, x, y)
 
     def rng(self, stage: str) -> np.random.Generator:
         return stage_rng(self.seed, f"testworld.{stage}")
 
-    def add(self, name: str, wildscan_class: str, mesh: Mesh) -> Element:
-        v, f = mesh
+    def add(self, stage: str, name: str, wildscan_class: str, mesh: Mesh) -> Element:
+        """An element whose prototype is `mesh`, in world metres."""
         el = Element(
-            name, wildscan_class, len(self.elements) + 1, np.asarray(v, np.float64), np.asarray(f, np.int32)
+            name, wildscan_class, len(self.elements) + 1, TEST_ZONE, stage, self.add_prototype(name, mesh)
         )
         self.elements.append(el)
         return el
@@ -204,8 +195,8 @@ def _add_trees(b: _Builder) -> None:
             rc = rng.uniform(1.5, 2.0)
             crown = uv_sphere(rc, 7, 12, (x, y, g + trunk_top + 0.6 * rc))
         trunk = tube([(x, y, g - 0.3), (x, y, g + trunk_top)], r_trunk, 10)
-        b.add(f"tree_{k}_trunk", "trunk", trunk)
-        b.add(f"tree_{k}_crown", "treetop", crown)
+        b.add("trees", f"tree_{k}_trunk", "trunk", trunk)
+        b.add("trees", f"tree_{k}_crown", "treetop", crown)
 
 
 def _lumpy(rng, radii, rings: int, segments: int, roughness: float) -> Mesh:
@@ -226,7 +217,7 @@ def _add_rocks(b: _Builder) -> tuple[np.ndarray, np.ndarray]:
         v = rotate_z(v, rng.uniform(0, 2 * np.pi))
         g = b.ground(x, y)
         # sunk by a third of its height so it sits in the ground, not on a point
-        b.add(f"rock_{k}", "rock", (v + [x, y, g + 0.3 * sz], f))
+        b.add("rocks", f"rock_{k}", "rock", (v + [x, y, g + 0.3 * sz], f))
         centres.append((x, y, g))
         radii.append(max(sx, sy))
     return np.asarray(centres), np.asarray(radii)
@@ -252,14 +243,14 @@ def _add_furniture(b: _Builder) -> None:
 
     top = furniture([((0.0, 0.0), (1.6, 0.8, 0.05), 0.75)])
     legs = [b.post(*local(sx * 0.72, sy * 0.32), 0.06, 0.75) for sx in (-1, 1) for sy in (-1, 1)]
-    b.add("table", "table", merge(top + legs))
+    b.add("furniture", "table", "table", merge(top + legs))
 
     seat = furniture([((0.0, -0.85), (1.5, 0.4, 0.05), 0.45), ((0.0, -1.03), (1.5, 0.05, 0.35), 0.72)])
     bench_legs = [
         b.post(*local(sx * 0.65, -0.85 + sy * 0.15), 0.05, 0.45) for sx in (-1, 1) for sy in (-1, 1)
     ]
     back_posts = [b.post(*local(sx * 0.65, -1.03), 0.05, 0.9) for sx in (-1, 1)]
-    b.add("bench", "bench", merge(seat + bench_legs + back_posts))
+    b.add("furniture", "bench", "bench", merge(seat + bench_legs + back_posts))
 
 
 def _add_fence(b: _Builder) -> None:
@@ -275,7 +266,7 @@ def _add_fence(b: _Builder) -> None:
             a = (xy[k, 0], xy[k, 1], g[k] + h)
             c = (xy[k + 1, 0], xy[k + 1, 1], g[k + 1] + h)
             parts.append(beam(a, c, 0.07))
-    b.add("fence", "fence", merge(parts))
+    b.add("fence", "fence", "fence", merge(parts))
 
 
 def _add_bushes(b: _Builder) -> None:
@@ -284,7 +275,7 @@ def _add_bushes(b: _Builder) -> None:
         x, y = b.jittered(rng, anchor)
         r = rng.uniform(0.5, 0.9)
         v, f = _lumpy(rng, (r, r, 0.7 * r), 6, 10, 0.15)
-        b.add(f"bush_{k}", "bush", (v + [x, y, b.ground(x, y) + 0.45 * r], f))
+        b.add("bushes", f"bush_{k}", "bush", (v + [x, y, b.ground(x, y) + 0.45 * r], f))
 
 
 def _tuft(rng, b: _Builder, x: float, y: float, height: float, width: float, blades: int) -> Mesh:
@@ -322,22 +313,14 @@ def _add_grass(b: _Builder) -> None:
                 _tuft(rng, b, cx + r * np.cos(a), cy + r * np.sin(a), height, width, 7)
                 for r, a in zip(rr, aa)
             ]
-            b.add(f"{prefix}_{k}", cls, merge(tufts))
+            b.add("grass", f"{prefix}_{k}", cls, merge(tufts))
 
 
-def catenary(p0, p1, sag: float, n: int = 48) -> np.ndarray:
-    """Points of a hanging cable between two attachment points whose lowest point is about
-    `sag` below the straight chord's midpoint (closed form, no solver)."""
-    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
-    span = float(np.hypot(*(p1 - p0)[:2]))
-    a = span**2 / (8.0 * sag)  # parabola approximation of the catenary parameter
-    dz = p1[2] - p0[2]
-    u0 = span / 2 - a * np.arcsinh(dz / (2 * a * np.sinh(span / (2 * a))))
-    c = p0[2] - a * np.cosh(u0 / a)
-    u = np.linspace(0.0, span, n)
-    t = u / span
-    xy = p0[None, :2] + t[:, None] * (p1 - p0)[None, :2]
-    return np.column_stack([xy, a * np.cosh((u - u0) / a) + c])
+def _wire_path(p0, p1, sag: float) -> np.ndarray:
+    """The wire's catenary, its parameter from the parabola approximation a = L^2 / (8 sag)
+    (so its lowest point hangs about, not exactly, `sag` below the chord's midpoint)."""
+    span = float(np.hypot(*np.subtract(p1, p0)[:2]))
+    return catenary_points(p0, p1, span**2 / (8.0 * sag), 48)
 
 
 def _add_poles_and_wire(b: _Builder) -> None:
@@ -347,10 +330,10 @@ def _add_poles_and_wire(b: _Builder) -> None:
         x, y = b.jittered(rng, anchor)
         g = b.ground(x, y)
         height = rng.uniform(5.8, 6.3)
-        b.add(f"pole_{k}", "pole", tube([(x, y, g - 0.4), (x, y, g + height)], 0.1, 12))
+        b.add("wire", f"pole_{k}", "pole", tube([(x, y, g - 0.4), (x, y, g + height)], 0.1, 12))
         tops.append((x, y, g + height - 0.2))
-    path = catenary(tops[0], tops[1], sag=rng.uniform(0.9, 1.3))
-    b.add("wire", "wire", tube(path, 0.015, 6))
+    path = _wire_path(tops[0], tops[1], sag=rng.uniform(0.9, 1.3))
+    b.add("wire", "wire", "wire", tube(path, 0.015, 6))
 
 
 def _add_water(b: _Builder) -> tuple[float, float]:
@@ -362,7 +345,7 @@ def _add_water(b: _Builder) -> tuple[float, float]:
         POND_CENTER[0] + water_radius * np.cos(theta), POND_CENTER[1] + water_radius * np.sin(theta)
     )
     water_z = float(rim.min()) - 0.05
-    b.add("water", "water", disc(water_radius, water_z, POND_CENTER))
+    b.add("water", "water", "water", disc(water_radius, water_z, POND_CENTER))
     return water_radius, water_z
 
 
@@ -373,8 +356,8 @@ def plan_test_world(seed: int) -> TestWorldPlan:
     xs = np.linspace(-HALF_SIZE, HALF_SIZE, n)
     ys = xs.copy()
     heights = _terrain_heights(seed, xs, ys)
-    b = _Builder(seed, xs, ys, heights)
-    b.add("terrain", "terrain", grid_heightfield(xs, ys, heights))
+    b = _Builder(seed, TerrainGrid(xs, ys, heights))
+    b.add("terrain", "terrain", "terrain", b.grid.mesh())
     water_radius, water_z = _add_water(b)
     _add_trees(b)
     rock_centres, rock_radii = _add_rocks(b)
@@ -401,5 +384,6 @@ def plan_test_world(seed: int) -> TestWorldPlan:
         rock_positions=rock_centres,
         rock_radii=rock_radii,
         poses=poses,
+        prototypes=b.prototypes,
         elements=b.elements,
     )
