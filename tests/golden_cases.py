@@ -57,12 +57,12 @@ def scan_checksums(result, seed, directory: Path, name: str) -> dict:
 
 def zone_scans(directory: Path) -> dict[str, dict]:
     """Seed 1 built in Blender, the first valid pose of each zone scanned with embree."""
+    from wildscan.blender.builder import build_world
+    from wildscan.blender.scene_io import empty_scene
     from wildscan.core.placement import Pose
     from wildscan.core.sensor import SensorConfig
     from wildscan.raycast.extract import extract_scene
     from wildscan.scanning import scan_current_scene
-    from wildscan.world.builder import build_world
-    from wildscan.world.scene_io import empty_scene
     from wildscan.world_cli import plan_backend, valid_poses
 
     empty_scene()
@@ -83,11 +83,11 @@ def zone_scans(directory: Path) -> dict[str, dict]:
 
 def test_world_scans(directory: Path) -> dict[str, dict]:
     """The test world scanned from one pose by every backend (noise on, as a user scans)."""
+    from wildscan.blender.scene_io import empty_scene
+    from wildscan.blender.testworld import build_test_world
     from wildscan.core.placement import Pose
     from wildscan.core.sensor import SensorConfig
     from wildscan.scanning import scan_current_scene
-    from wildscan.world.scene_io import empty_scene
-    from wildscan.world.testworld import build_test_world
 
     empty_scene()
     build_test_world(TEST_WORLD_SEED)

@@ -145,7 +145,7 @@ def snapshot(exclude_generated=True) -> dict:
 def add_user_objects():
     """Objects of the user's own: a bevelled cube with a custom property, a child empty, and
     a hand-tagged rock far from the poses."""
-    from wildscan.world.mesh import mesh_data
+    from wildscan.blender.mesh import mesh_data
 
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=(9.0, -9.0, 3.0))
     cube = bpy.context.object
@@ -428,7 +428,7 @@ def test_invalid_poses_give_a_report_naming_the_problem_and_change_nothing(scene
     assert_rejected(bpy.ops.wildscan.scan, "off the world")
     # a tagged rock of the user's under the footprint: the report names the laser and the rock
     x, y, yaw = find_valid_pose(yaw=0.0)
-    from wildscan.world.mesh import mesh_data
+    from wildscan.blender.mesh import mesh_data
 
     rock = bpy.data.objects.new("Boulder", mesh_data("Boulder", *box_under_front_laser(x, y)))
     rock["wildscan_class"] = "rock"
@@ -483,9 +483,9 @@ def test_aerial_view_without_a_world_is_a_report(scene):
 
 
 def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatch):
-    import wildscan.world.generate as generate_module
+    import wildscan.blender.generate as generate_module
+    from wildscan.blender.testworld import build_test_world
     from wildscan.core.errors import UserError
-    from wildscan.world.testworld import build_test_world
 
     add_user_objects()
     generate()

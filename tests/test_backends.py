@@ -307,9 +307,9 @@ def _on_cylinder(points):
 
 
 def test_backends_agree_on_the_test_world():
+    from wildscan.blender.testworld import build_test_world
     from wildscan.core.placement import Pose, place
     from wildscan.core.sensor import beam_directions
-    from wildscan.world.testworld import build_test_world
 
     empty_scene()
     build_test_world(7)

@@ -14,11 +14,11 @@ import bpy
 import numpy as np
 import pytest
 
+from wildscan.blender.mesh import mesh_object, wildscan_collection
 from wildscan.core.classes import WATER_ID, class_by_name
 from wildscan.core.world.shapes import primitives
 from wildscan.raycast.base import MISS_CLASS, MISS_INSTANCE
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
-from wildscan.world.mesh import mesh_object, wildscan_collection
 
 ADDON_DIR = Path(__file__).resolve().parents[1] / "addon"
 ROCK = class_by_name("rock").id
@@ -204,7 +204,7 @@ PROBE = textwrap.dedent(
         import bpy
 
         from wildscan.raycast.blender_backend import BlenderRayCastBackend
-        from wildscan.world.testworld import build_test_world
+        from wildscan.blender.testworld import build_test_world
 
         bpy.ops.wm.read_factory_settings(use_empty=True)
         t0 = time.perf_counter()

@@ -29,7 +29,7 @@ QUIET_RH2 = SensorConfig(rh_deg=2.0, noise_sigma=0.0)
 
 @pytest.fixture(scope="module")
 def test_world():
-    from wildscan.world.testworld import build_test_world
+    from wildscan.blender.testworld import build_test_world
 
     fresh_scene()
     return build_test_world(1)
@@ -78,7 +78,7 @@ def save_test_world_with_blender_34(seed: int, blend) -> None:
             "--factory-startup",
             "--python-expr",
             "import sys, bpy; sys.path.insert(0, 'addon');"
-            "from wildscan.world.testworld import build_test_world;"
+            "from wildscan.blender.testworld import build_test_world;"
             f"bpy.ops.wm.read_factory_settings(use_empty=True); build_test_world({seed});"
             f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})",
         ]

@@ -6,13 +6,13 @@ import bpy
 import numpy as np
 import pytest
 
+from wildscan.blender.mesh import mesh_object, remove_generated, wildscan_collection
+from wildscan.blender.testworld import build_test_world
 from wildscan.core.classes import TAG_NAMES
 from wildscan.core.world import testworld as tw
 from wildscan.core.world.shapes import primitives
 from wildscan.core.world.shapes.powerline import catenary_points
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
-from wildscan.world.mesh import mesh_object, remove_generated, wildscan_collection
-from wildscan.world.testworld import build_test_world
 
 REQUIRED = {
     "terrain",

@@ -7,6 +7,8 @@ import bpy
 import numpy as np
 import pytest
 
+from wildscan.blender import WORLD_COLLECTION
+from wildscan.blender.builder import build_world, generated_objects, scene_counts, scene_hashes
 from wildscan.core.classes import BY_ID, WATER_ID, class_by_name
 from wildscan.core.leveling import rot_z
 from wildscan.core.placement import Pose
@@ -16,7 +18,6 @@ from wildscan.core.sensor import SensorConfig
 from wildscan.core.world import ZONES, WorldParams
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
-from wildscan.world.builder import ROOT, build_world, generated_objects, scene_counts, scene_hashes
 from wildscan.world_cli import valid_poses
 
 SEED = 1
@@ -68,7 +69,7 @@ def test_every_element_is_a_tagged_object_in_zone_and_class_collections(world):
     plan = world["plan"]
     objs = generated_objects()
     assert len(objs) == len(plan.elements)
-    root = bpy.data.collections[ROOT]
+    root = bpy.data.collections[WORLD_COLLECTION]
     instances = set()
     for obj in objs:
         cls = class_by_name(obj["wildscan_class"]).name
@@ -76,7 +77,7 @@ def test_every_element_is_a_tagged_object_in_zone_and_class_collections(world):
         coll = obj.users_collection[0]
         zone = obj["wildscan_zone"]
         assert coll.name == f"{zone}: {cls}"
-        zone_coll = bpy.data.collections[f"{ROOT} {zone}"]
+        zone_coll = bpy.data.collections[f"{WORLD_COLLECTION} {zone}"]
         assert coll.name in zone_coll.children and zone_coll.name in root.children
     assert len(instances) == len(objs) and min(instances) >= 1
 
@@ -213,9 +214,9 @@ def test_rebuilding_replaces_only_what_wildscan_created(world):
     mine = bpy.data.objects.new("user_cube", mesh)
     bpy.context.scene.collection.objects.link(mine)
     inside = bpy.data.objects.new("user_in_wildscan", mesh)
-    bpy.data.collections[ROOT].objects.link(inside)
+    bpy.data.collections[WORLD_COLLECTION].objects.link(inside)
     in_zone = bpy.data.objects.new("user_in_zone", mesh)
-    bpy.data.collections[f"{ROOT} forest"].objects.link(in_zone)
+    bpy.data.collections[f"{WORLD_COLLECTION} forest"].objects.link(in_zone)
     plan2 = build_world(SEED + 1)
     for name in ("user_cube", "user_in_wildscan", "user_in_zone"):
         assert name in bpy.data.objects

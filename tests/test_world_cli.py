@@ -10,9 +10,9 @@ import sys
 
 import pytest
 
+from wildscan.blender.scene_io import BLEND_MAGICS
 from wildscan.cli import main
 from wildscan.core.world import ZONES
-from wildscan.world.scene_io import BLEND_MAGICS
 from wildscan.world_cli import bench_world
 
 

@@ -378,7 +378,7 @@ def bench_scene(name: str):
 def _remove_bench_scene(scene) -> None:
     import bpy
 
-    from .world.mesh import remove_generated
+    from .blender.mesh import remove_generated
 
     remove_generated(BENCH_COLLECTION)
     bpy.data.scenes.remove(scene)
@@ -645,9 +645,9 @@ def analytic_errors(hits, truth: dict, solids: list[Solid]) -> dict:
 
 
 def bench_analytic(cfg: "BenchConfig", report: "Report") -> None:
+    from .blender.mesh import mesh_object, wildscan_collection
     from .raycast.blender_backend import scene_depsgraph
     from .raycast.extract import extract_scene
-    from .world.mesh import mesh_object, wildscan_collection
 
     solids = primitive_solids()
     origins, dirs = analytic_rays(cfg.analytic_rh)
@@ -684,10 +684,10 @@ def bench_analytic(cfg: "BenchConfig", report: "Report") -> None:
 
 
 def bench_test_world(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
+    from .blender.testworld import build_test_world
     from .core.placement import Pose
     from .raycast.blender_backend import scene_depsgraph
     from .raycast.extract import extract_scene
-    from .world.testworld import build_test_world
 
     pose = Pose(0.0, 0.0, 0.0)
     with bench_scene("WildScanBench test world") as scene:
@@ -840,9 +840,9 @@ def bench_world_levels(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
 
 
 def bench_level(cfg, report: "Report", detail: str, poses, tmp: Path) -> None:
+    from .blender.builder import build_world
     from .raycast.blender_backend import scene_depsgraph
     from .raycast.extract import extract_scene
-    from .world.builder import build_world
 
     with bench_scene(f"WildScanBench {detail}") as scene:
         with scene_context(scene):
@@ -1968,9 +1968,9 @@ def build_many_objects_scene(
     generated collection of `scene` (default: the active scene). Returns the collection."""
     import bpy
 
+    from .blender.mesh import mesh_object, wildscan_collection
     from .core.rng import stage_rng
     from .core.world.shapes.primitives import cone, cylinder, grid_heightfield, merge, uv_sphere
-    from .world.mesh import mesh_object, wildscan_collection
 
     scene = scene or bpy.context.scene
     coll = wildscan_collection(collection_name, parent=scene.collection)

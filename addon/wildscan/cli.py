@@ -257,11 +257,11 @@ def print_class_counts(counts: dict[int, int]) -> None:
 
 
 def run_scan_command(args, in_blender: bool) -> int:
+    from .blender.scene_io import scene_provenance
     from .core.placement import Pose, check_z_start
     from .core.ply import check_output_path, sidecar_path, write_scan_files
     from .core.sensor import SensorConfig
     from .scanning import scan_current_scene
-    from .world.scene_io import scene_provenance
 
     sensor = SensorConfig(
         rh_deg=args.rh,
@@ -312,12 +312,12 @@ def run_scan_command(args, in_blender: bool) -> int:
 
 
 def load_world_for_scan(args, in_blender: bool) -> None:
-    from .world.scene_io import empty_scene, open_world
+    from .blender.scene_io import empty_scene, open_world
 
     if args.world is not None:
         open_world(args.world)
     elif args.seed is not None:
-        from .world.generate import generate_world
+        from .blender.generate import generate_world
         from .world_cli import StageProgress
 
         empty_scene()

@@ -246,8 +246,8 @@ def run_world(args, in_blender: bool = False) -> int:
 
         require_matplotlib()
 
-    from .world.builder import build_world
-    from .world.scene_io import empty_scene
+    from .blender.builder import build_world
+    from .blender.scene_io import empty_scene
 
     quiet = getattr(args, "quiet", False)
     progress = StageProgress(quiet)
@@ -330,8 +330,8 @@ def terrain_error_table(plan: WorldPlan, spacings=(0.25, 0.5, 1.0, 2.0, 4.0)) ->
 def bench_world(seed: int = 0, details=tuple(DETAILS), stream=None) -> list[dict]:
     """Build the world of `seed` in Blender at each detail level; print and return, per level,
     each stage's time, the totals, object/mesh/triangle counts and the terrain error."""
-    from .world.builder import build_world
-    from .world.scene_io import empty_scene
+    from .blender.builder import build_world
+    from .blender.scene_io import empty_scene
 
     stream = stream or sys.stdout
     results = []

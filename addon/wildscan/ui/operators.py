@@ -57,8 +57,8 @@ class WILDSCAN_OT_generate_world(Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
+        from ..blender.generate import DETAILS, generate_world
         from ..core.errors import UserError
-        from ..world.generate import DETAILS, generate_world
         from . import status
         from .scene import (
             generate_replacing,
@@ -170,7 +170,9 @@ def show_from_above(context, area, centre_xy, extent: float, z_min: float, z_max
     if space.clip_end < depth:
         space.clip_end = depth
     if space.shading.type == "SOLID":
-        space.shading.color_type = "OBJECT"  # world objects carry their class colour (world.mesh.tag_object)
+        space.shading.color_type = (
+            "OBJECT"  # world objects carry their class colour (blender.mesh.tag_object)
+        )
 
 
 def set_top_view(context, area, region, r3d) -> None:

@@ -16,9 +16,9 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 from bpy.types import PropertyGroup
 
+from ..blender.generate import DETAILS
 from ..core import sensor as S
 from ..raycast.select import BACKEND_NAMES
-from ..world.generate import DETAILS
 from . import scene as wscene
 
 _DETAIL_TEXT = {

@@ -19,11 +19,11 @@ import math
 import bpy
 import numpy as np
 
+from ..blender import WORLD_COLLECTION
+from ..blender.mesh import GENERATED, remove_generated, remove_objects_and_their_meshes, wildscan_collection
 from ..core.pointcloud import PointCloud
-from ..world.mesh import GENERATED, remove_generated, remove_objects_and_their_meshes, wildscan_collection
 from . import frames
 
-WORLD_COLLECTION = "WildScan"  # where world.generate builds
 SCANS_COLLECTION = "WildScan Scans"
 MARKER_PROP = "wildscan_pose_marker"
 HEADING_PROP = "wildscan_pose_heading"
@@ -83,7 +83,7 @@ def pose_marker(scene):
 
 def world_objects(scene) -> list:
     """The objects of the world WildScan built in this scene."""
-    from ..world.builder import generated_objects
+    from ..blender.builder import generated_objects
 
     root = bpy.data.collections.get(WORLD_COLLECTION)
     if root is None or not in_scene_collection(scene, root):

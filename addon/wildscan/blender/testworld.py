@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 from ..core.world.testworld import TestWorldPlan, plan_test_world
+from . import WORLD_COLLECTION
 from .mesh import mesh_object, remove_generated, wildscan_collection
 
 
-def build_test_world(seed: int, collection_name: str = "WildScan") -> TestWorldPlan:
+def build_test_world(seed: int, collection_name: str = WORLD_COLLECTION) -> TestWorldPlan:
     """Replace the generated objects of `collection_name` with the test world for `seed`
     (the user's own objects are left alone) and return its plan."""
     plan = plan_test_world(seed)

@@ -20,9 +20,9 @@ import bpy
 import numpy as np
 
 from ..core.world import WorldParams, WorldPlan, plan_world
+from . import WORLD_COLLECTION
 from .mesh import GENERATED, mesh_data, remove_generated, tag_object, wildscan_collection
 
-ROOT = "WildScan"
 ZONE_PROP = "wildscan_zone"
 STAGE_PROP = "wildscan_stage"
 
@@ -42,7 +42,7 @@ def build_world(
     detail: str = "default",
     progress: Progress | None = None,
     params: WorldParams | None = None,
-    collection_name: str = ROOT,
+    collection_name: str = WORLD_COLLECTION,
 ) -> WorldPlan:
     """Plan the world for `seed` and realise it in the current scene, replacing what a
     previous build made (and nothing else). `progress(stage, seconds)` after each stage."""
@@ -60,7 +60,7 @@ def _timed(plan: WorldPlan, stage: str, t0: float, progress: Progress | None) ->
 
 
 def realise(
-    plan: WorldPlan, collection_name: str = ROOT, progress: Progress | None = None
+    plan: WorldPlan, collection_name: str = WORLD_COLLECTION, progress: Progress | None = None
 ) -> dict[str, bpy.types.Object]:
     """Create one object per plan element (linked duplicates of shared meshes)."""
     t0 = time.perf_counter()
@@ -104,14 +104,14 @@ def realise(
     return objects
 
 
-def generated_objects(collection_name: str = ROOT) -> list[bpy.types.Object]:
+def generated_objects(collection_name: str = WORLD_COLLECTION) -> list[bpy.types.Object]:
     root = bpy.data.collections.get(collection_name)
     if root is None:
         return []
     return sorted({o for o in root.all_objects if o.get(GENERATED)}, key=lambda o: o.name)
 
 
-def scene_hashes(collection_name: str = ROOT) -> dict[str, str]:
+def scene_hashes(collection_name: str = WORLD_COLLECTION) -> dict[str, str]:
     """SHA-256 per stage (and "all") over every generated object's world-space vertex
     array, faces and tags, read back from Blender."""
     mesh_cache: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -141,7 +141,7 @@ def scene_hashes(collection_name: str = ROOT) -> dict[str, str]:
     return out
 
 
-def scene_counts(collection_name: str = ROOT) -> dict:
+def scene_counts(collection_name: str = WORLD_COLLECTION) -> dict:
     objs = [o for o in generated_objects(collection_name) if o.type == "MESH"]
     meshes = {o.data.name: o.data for o in objs}
     per_mesh = {}

@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 from ..core.classes import CLASS_PROP, COLOR_BY_ID, INSTANCE_PROP, WATER_ID, class_id_for_tag
+from . import WORLD_COLLECTION
 
 GENERATED = "wildscan_generated"
 
@@ -73,7 +74,7 @@ def mesh_object(
 
 
 def wildscan_collection(
-    name: str = "WildScan", parent: bpy.types.Collection | None = None
+    name: str = WORLD_COLLECTION, parent: bpy.types.Collection | None = None
 ) -> bpy.types.Collection:
     """Get or create the collection WildScan builds into, linked under `parent` (default:
     the scene's master collection). An existing user collection of that name is reused
@@ -110,7 +111,7 @@ def remove_objects_and_their_meshes(objects) -> None:
         bpy.data.batch_remove(orphans)
 
 
-def remove_generated(collection_name: str = "WildScan") -> int:
+def remove_generated(collection_name: str = WORLD_COLLECTION) -> int:
     """Delete the generated objects in that collection (and its children), the generated
     meshes they leave unused, and the generated collections left empty. User objects,
     meshes and collections are left as they are. Returns the number of objects removed."""
