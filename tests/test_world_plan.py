@@ -16,7 +16,9 @@ from wildscan.core.world import (
     MAX_RELIEF,
     STAGE_INSTANCE_BASE,
     STAGE_INSTANCE_BLOCK,
+    STAGES,
     ZONES,
+    Clearance,
     WorldParams,
     check_seed,
     check_zone,
@@ -208,6 +210,55 @@ def test_nothing_stands_in_water_or_on_the_trail(plan):
         x, y = e.location[:2]
         assert not plan.in_water(x, y), e.name
         assert plan.trail_distance(np.array([x]), np.array([y]))[0] > plan.layout.trail.width / 2, e.name
+
+
+def test_each_stage_is_a_module_of_its_own():
+    from wildscan.core.world import pipeline
+
+    assert STAGES == (
+        "layout",
+        "terrain",
+        "poses",
+        "trail",
+        "lake",
+        "cave",
+        "trees",
+        "bushes",
+        "rocks",
+        "grass",
+        "park",
+        "powerline",
+    )
+    for module in pipeline.STAGE_MODULES:
+        assert module.__name__ == f"wildscan.core.world.stages.{module.STAGE}" and callable(module.run)
+
+
+def test_every_zone_keeps_elements_off_what_it_holds(plan):
+    lay, need = plan.layout, Clearance(0.3)
+    cave, (x0, x1, y0, y1) = lay.cave, lay.park.rect
+    roof_middle = ((cave.roof_u[0] + cave.roof_u[1]) / 2, (cave.roof_v[0] + cave.roof_v[1]) / 2)
+    held = {
+        "the trail": lay.trail.path,
+        "the lake": [[lay.lake.basin.cx, lay.lake.basin.cy]],
+        "the cave's pit and roof": np.column_stack(
+            cave.pit.to_world([0.0, roof_middle[0]], [0.0, roof_middle[1]])
+        ),
+        "the park's fence": [
+            [x0, (y0 + y1) / 2],
+            [x1, (y0 + y1) / 2],
+            [(x0 + x1) / 2, y0],
+            [(x0 + x1) / 2, y1],
+        ],
+        "the power-line poles": lay.powerline.poles,
+        "the scan sites": [[s.x, s.y] for s in plan.sites],
+    }
+    for what, pts in held.items():
+        pts = np.asarray(pts, dtype=np.float64)
+        assert plan.blocked(pts[:, 0], pts[:, 1], need).all(), what
+    # the lawn is for grass (and the picnic tables), not for trees, bushes or rocks
+    lawn = np.array([(x0 + x1) / 2]), np.array([(y0 + y1) / 2])
+    assert plan.blocked(*lawn, need).all()
+    assert not plan.blocked(*lawn, Clearance(0.3, park_interior=True)).any()
 
 
 def test_water_fills_the_basin(plan):
