@@ -16,7 +16,7 @@ import pytest
 
 from wildscan.core import testworld_plan as tw
 from wildscan.core.classes import WATER_ID, class_by_name
-from wildscan.raycast.base import MISS_CLASS, MISS_INSTANCE
+from wildscan.core.hits import MISS_CLASS, MISS_INSTANCE
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
 from wildscan.world.mesh import mesh_object, wildscan_collection
 
