@@ -244,6 +244,7 @@ def _blender34() -> str:
     return exe
 
 
+@pytest.mark.blender_binary
 def test_blender_34_gives_the_same_hits_as_the_wheel(tmp_path):
     script = tmp_path / "probe.py"
     script.write_text(PROBE)
