@@ -9,7 +9,6 @@ default sensor with its noise) give identical PLY files: the first valid pose of
 zones per world, rotating so every zone is scanned in four or five of the nine worlds,
 and one of them also scanned the way `wildscan scan --world` does, cropped while
 extracting.
-(Poses cost little; most of the time goes into cropping and building Embree scenes.)
 """
 
 from __future__ import annotations
