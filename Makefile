@@ -11,7 +11,7 @@ OUT    ?= out
 
 setup: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml addon/wildscan/__init__.py
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest plyfile ruff

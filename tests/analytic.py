@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wildscan.raycast.base import RayHits, broadcast_origins
+from wildscan.core.hits import RayHits
+from wildscan.raycast.base import broadcast_origins
 
 
 @dataclass

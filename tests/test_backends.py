@@ -4,7 +4,7 @@ Scenes are built from plain bpy mesh data (bpy.data.meshes.new + from_pydata) in
 factory-empty file. Ground truth is computed here, independently of extraction: the
 mesh's float32 vertices as Blender stores them, times the object's world matrix, in
 float64 (`world_geometry`), then every triangle tested by brute force
-(geometry.reference_hits / check_hits). For sphere and cylinder that ground truth
+(reference.reference_hits / check_hits). For sphere and cylinder that ground truth
 is the faceted MESH; the hit points are also checked against the analytic shape,
 between the inscribed and circumscribed surfaces of the facets.
 """
@@ -21,19 +21,14 @@ import pytest
 
 from wildscan.core.classes import class_id_for_tag
 from wildscan.core.errors import UserError
+from wildscan.core.hits import RayHits
 from wildscan.core.rng import stage_rng
 from wildscan.raycast import select
-from wildscan.raycast.base import RayHits
 from wildscan.raycast.bvh_backend import BVHBackend
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
-from wildscan.raycast.geometry import (
-    SceneGeometry,
-    check_hits,
-    from_triangles,
-    pad_triangles,
-    reference_hits,
-)
+from wildscan.raycast.geometry import SceneGeometry, from_triangles, pad_triangles
+from wildscan.raycast.reference import check_hits, reference_hits
 
 BACKENDS = ("blender", "bvh", "embree")
 RANGE_TOL = 1e-4

@@ -16,8 +16,8 @@ import pytest
 
 from wildscan.blender.mesh import mesh_object, wildscan_collection
 from wildscan.core.classes import WATER_ID, class_by_name
+from wildscan.core.hits import MISS_CLASS, MISS_INSTANCE
 from wildscan.core.world.shapes import primitives
-from wildscan.raycast.base import MISS_CLASS, MISS_INSTANCE
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
 
 ADDON_DIR = Path(__file__).resolve().parents[1] / "addon"
@@ -244,6 +244,7 @@ def _blender34() -> str:
     return exe
 
 
+@pytest.mark.blender_binary
 def test_blender_34_gives_the_same_hits_as_the_wheel(tmp_path):
     script = tmp_path / "probe.py"
     script.write_text(PROBE)

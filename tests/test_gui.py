@@ -18,6 +18,9 @@ import pytest
 
 from scene_helpers import BLENDER, REPO
 
+# Debian's Blender 3.4 in a real window, under Xvfb
+pytestmark = [pytest.mark.gui, pytest.mark.blender_binary]
+
 GUI_SCRIPT = REPO / "tests" / "gui" / "run_gui.py"
 SCREEN = "1600x1200x24"
 RH = 2.0

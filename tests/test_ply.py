@@ -424,6 +424,7 @@ def parse_ascii_pcd(path: Path) -> tuple[dict[str, list[str]], dict[str, np.ndar
     return header, {name: table[:, j] for j, name in enumerate(header["FIELDS"])}
 
 
+@pytest.mark.external
 @pytest.mark.parametrize("ascii", [False, True])
 def test_pcl_ply2pcd_loads_labels(tmp_path, ascii):
     exe = require_tool("pcl_ply2pcd", "pcl-tools")
@@ -483,6 +484,7 @@ def parse_cloudcompare_asc(path: Path) -> dict[str, np.ndarray]:
     return {name: table[:, j] for j, name in enumerate(names)}
 
 
+@pytest.mark.external
 @pytest.mark.parametrize("ascii", [False, True])
 def test_cloudcompare_cli_sees_labels_and_colours(tmp_path, ascii):
     exe = require_tool("CloudCompare", "cloudcompare")

@@ -122,6 +122,7 @@ def cli_scan(tmp_path_factory, world_blend):
     return out, proc
 
 
+@pytest.mark.blender_binary
 def test_wildscan_scan_writes_a_labeled_ply_and_sidecar(cli_scan):
     out, proc = cli_scan
     ply = PlyData.read(str(out))
@@ -141,6 +142,7 @@ def test_wildscan_scan_writes_a_labeled_ply_and_sidecar(cli_scan):
             assert c.name in proc.stdout
 
 
+@pytest.mark.blender_binary
 def test_blender_34_and_bpy_50_give_the_same_scan(cli_scan, world_blend, tmp_path):
     out, _ = cli_scan
     other = tmp_path / "b34.ply"
@@ -173,6 +175,7 @@ def test_blender_34_and_bpy_50_give_the_same_scan(cli_scan, world_blend, tmp_pat
         assert np.abs(a[axis] - b[axis]).max() < 1e-4
 
 
+@pytest.mark.blender_binary
 def test_blender_scans_the_blend_it_was_opened_with(tmp_path):
     blend = tmp_path / "mine.blend"
     save_test_world_with_blender_34(3, blend)
@@ -189,6 +192,7 @@ def test_blender_scans_the_blend_it_was_opened_with(tmp_path):
     assert PlyData.read(str(out2))["vertex"].count == PlyData.read(str(out))["vertex"].count
 
 
+@pytest.mark.blender_binary
 def test_same_noise_seed_gives_byte_identical_files_and_another_seed_does_not(world_blend, tmp_path):
     outs = {}
     for name, seed in (("a", 5), ("b", 5), ("c", 6)):
@@ -257,6 +261,7 @@ BAD_INPUTS = [
 ]
 
 
+@pytest.mark.blender_binary
 def test_negative_numbers_in_exponent_form_are_values_not_options(world_blend, tmp_path):
     proc = run(
         [
@@ -278,6 +283,7 @@ def test_negative_numbers_in_exponent_form_are_values_not_options(world_blend, t
     assert json.loads((tmp_path / "s.json").read_text())["pose"] == {"x": -2.0, "y": -1.5, "yaw_deg": -90.0}
 
 
+@pytest.mark.blender_binary
 def test_a_bug_inside_blender_exits_1_not_0(tmp_path):
     # Blender itself would print an escaping exception and exit 0; blender_main turns it into 1.
     script = tmp_path / "crash.py"
@@ -332,6 +338,7 @@ def ids(cases):
     ]
 
 
+@pytest.mark.blender_binary
 @pytest.mark.parametrize("replace, expected", BAD_INPUTS, ids=ids(BAD_INPUTS))
 def test_bad_input_exits_2_with_one_clear_line_and_no_file(replace, expected, world_blend, tmp_path):
     out = tmp_path / "scan.ply"
@@ -346,6 +353,7 @@ BLENDER_BAD_INPUTS = [
 ]
 
 
+@pytest.mark.blender_binary
 @pytest.mark.parametrize("replace, expected", BLENDER_BAD_INPUTS, ids=ids(BLENDER_BAD_INPUTS))
 def test_bad_input_in_blender_34_exits_2_with_one_clear_line(replace, expected, world_blend, tmp_path):
     out = tmp_path / "scan.ply"
@@ -355,6 +363,7 @@ def test_bad_input_in_blender_34_exits_2_with_one_clear_line(replace, expected, 
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.blender_binary
 def test_help_explains_every_option_with_unit_and_default():
     proc = run([WILDSCAN, "scan", "--help"])
     assert proc.returncode == 0
@@ -388,6 +397,7 @@ def test_help_explains_every_option_with_unit_and_default():
     assert proc.returncode == 0 and "--max-range" in proc.stdout
 
 
+@pytest.mark.blender_binary
 def test_a_missing_fast_backend_falls_back_and_says_so_once(world_blend, tmp_path):
     # Debian's Blender 3.4 has no embreex: the default backend falls back to bvh.
     proc = blender_scan(

@@ -8,7 +8,7 @@ measured count (so a change in it is noticed) and asserts the default backend
 sealed edges (geometry.pad_triangles): they show why sealing is on.
 
 Ground truth is the float64 geometry as Blender stores it (test_backends.world_geometry)
-judged by brute force (geometry.check_hits).
+judged by brute force (reference.check_hits).
 """
 
 from __future__ import annotations
@@ -30,12 +30,12 @@ from test_backends import (
     world_geometry,
 )
 
+from wildscan.core.hits import RayHits
 from wildscan.core.sensor import beam_directions
-from wildscan.raycast.base import RayHits
 from wildscan.raycast.bvh_backend import BVHBackend
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
-from wildscan.raycast.geometry import check_hits, reference_hits
+from wildscan.raycast.reference import check_hits, reference_hits
 from wildscan.raycast.select import resolve_backend
 
 RANGE_TOL = 1e-4

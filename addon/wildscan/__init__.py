@@ -5,8 +5,9 @@ add-on (legacy `bl_info` for Blender 3.4+, `blender_manifest.toml` for 4.2+).
 Importing it does not import bpy; `register()` does.
 """
 
-__version__ = "0.1.0"
-
+# The version lives here, in bl_info, and only here: Blender's legacy add-on loader reads
+# bl_info as a literal, so it stays one; __version__, pyproject.toml (dynamic version) and
+# the extension's blender_manifest.toml (written by tools/build_addon.py) all derive from it.
 bl_info = {
     "name": "WildScan",
     "author": "WildScan engineers",
@@ -16,6 +17,8 @@ bl_info = {
     "description": "Procedural natural worlds scanned by an emulated rotating Hokuyo UTM-30LX-EW, labeled per point",
     "category": "3D View",
 }
+
+__version__ = ".".join(str(part) for part in bl_info["version"])
 
 
 def register():

@@ -197,14 +197,14 @@ def agreement_counts(hits, reference) -> dict:
 
 
 def _take(hits, index: np.ndarray):
-    from .raycast.base import RayHits
+    from .core.hits import RayHits
 
     return RayHits(hits.distance[index], hits.class_id[index], hits.instance[index], hits.untagged_objects)
 
 
 def wrong_answers(geometry, origin, directions, max_range: float, hits, index: np.ndarray) -> int:
     """How many of the rays `index` a backend answered wrongly, by exact float64 brute force."""
-    from .raycast.geometry import check_hits
+    from .raycast.reference import check_hits
 
     if not len(index):
         return 0

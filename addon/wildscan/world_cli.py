@@ -36,6 +36,7 @@ from .core.world import (
     model_errors,
     plan_world,
 )
+from .raycast.from_plan import plan_geometry
 
 DEFAULT_POSES_PER_ZONE = 5
 MAX_POSE_COUNT = 1000
@@ -132,16 +133,6 @@ def quiet_stdout():
 
 # ---------------------------------------------------------------------------------------
 # poses
-
-
-def plan_geometry(plan: WorldPlan):
-    """The plan's triangles as a SceneGeometry (what extract_scene gives for the built world)."""
-    from .raycast.geometry import SceneGeometry, local_origin
-
-    v, f, c, i, o, names = plan.triangles()
-    geometry = SceneGeometry(v, f, c, i, o, names)
-    geometry.offset = local_origin(v, f)
-    return geometry
 
 
 def plan_backend(plan: WorldPlan, notify=None):

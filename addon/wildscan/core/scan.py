@@ -1,6 +1,6 @@
 """One labeled 3D scan from a pose: placement, sweep, ranges, labels, leveling. Numpy only.
 
-The scene enters only through `backend.cast` (raycast/base.py), so this module
+The scene enters only through `backend.cast` (raycast/base.py; it returns core.hits.RayHits), so this module
 runs the same with Blender's scene.ray_cast or a fast backend.
 """
 
@@ -14,6 +14,7 @@ import numpy as np
 from .. import __version__
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
 from .errors import UserError
+from .hits import RayHits
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
 from .sensor import SensorConfig, beam_directions, range_noise
@@ -49,19 +50,12 @@ def cast_in_chunks(
     """Cast all rays, reporting progress between chunks when asked."""
     if progress is None:
         return backend.cast(origin, dirs, max_range)
-    from ..raycast.base import RayHits
-
     parts = []
     total = len(dirs)
     for start in range(0, total, PROGRESS_CHUNK):
         parts.append(backend.cast(origin, dirs[start : start + PROGRESS_CHUNK], max_range))
         progress(min(start + PROGRESS_CHUNK, total), total)
-    return RayHits(
-        distance=np.concatenate([p.distance for p in parts]),
-        class_id=np.concatenate([p.class_id for p in parts]),
-        instance=np.concatenate([p.instance for p in parts]),
-        untagged_objects=frozenset().union(*(p.untagged_objects for p in parts)),
-    )
+    return RayHits.joined(parts)
 
 
 def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str) -> np.ndarray:

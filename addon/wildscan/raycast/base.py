@@ -1,4 +1,5 @@
-"""The interface every ray backend implements (no bpy here).
+"""The interface every ray backend implements (no bpy here); its result type, RayHits,
+is in core/hits.py.
 
 A backend answers one question: for each ray (origin, unit direction), what is
 the first surface within `max_range`, and which class and instance is it?
@@ -6,35 +7,11 @@ the first surface within `max_range`, and which class and instance is it?
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
-MISS_CLASS = -1
-MISS_INSTANCE = -1
-
-
-@dataclass
-class RayHits:
-    """Per-ray results. A miss has distance = inf, class_id = -1, instance = -1."""
-
-    distance: np.ndarray  # float64 (N,) metres along the unit direction
-    class_id: np.ndarray  # int16 (N,) internal class id (classes.BY_ID; WATER_ID for water, 0 untagged)
-    instance: np.ndarray  # int32 (N,) the hit object's `wildscan_instance` (0 when untagged)
-    untagged_objects: frozenset[str] = frozenset()  # names of untagged objects that were hit
-
-    @property
-    def hit(self) -> np.ndarray:
-        return np.isfinite(self.distance)
-
-    @staticmethod
-    def empty(n: int) -> "RayHits":
-        return RayHits(
-            distance=np.full(n, np.inf),
-            class_id=np.full(n, MISS_CLASS, dtype=np.int16),
-            instance=np.full(n, MISS_INSTANCE, dtype=np.int32),
-        )
+from ..core.hits import RayHits
 
 
 class RayBackend(Protocol):

@@ -19,7 +19,8 @@ import bpy
 import numpy as np
 
 from ..core.classes import UNLABELED
-from .base import RayHits, broadcast_origins, tags_from
+from ..core.hits import RayHits
+from .base import broadcast_origins, tags_from
 
 PROGRESS_EVERY = 10_000
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import tags_from
-from .geometry import SceneGeometry, concatenate, local_origin, triangles_near_xy
+from .geometry import SceneGeometry, concatenate, local_origin, triangles_near_xy, world_vertices
 
 # Object types whose evaluated geometry to_mesh() can turn into triangles.
 MESH_TYPES = frozenset({"MESH", "CURVE", "SURFACE", "FONT", "META"})
@@ -75,7 +75,7 @@ def _instance_part(inst, crop, names: dict[str, int], mesh_cache: dict) -> Scene
     local = _local_mesh(obj, inst.is_instance, mesh_cache)
     if local is None:
         return None
-    vertices = local[0] @ matrix[:3, :3].T + matrix[:3, 3]
+    vertices = world_vertices(local[0], matrix)
     faces = local[1]
     keep = None
     if crop is not None:

@@ -1,0 +1,47 @@
+"""What a ray backend answers for a batch of rays (numpy only).
+
+`RayHits` is the one result type every backend returns (raycast/base.py defines the
+backend protocol); it lives in the core because the scan (core/scan.py) consumes it
+and the core imports nothing from raycast/.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+MISS_CLASS = -1
+MISS_INSTANCE = -1
+
+
+@dataclass
+class RayHits:
+    """Per-ray results. A miss has distance = inf, class_id = -1, instance = -1."""
+
+    distance: np.ndarray  # float64 (N,) metres along the unit direction
+    class_id: np.ndarray  # int16 (N,) internal class id (classes.BY_ID; WATER_ID for water, 0 untagged)
+    instance: np.ndarray  # int32 (N,) the hit object's `wildscan_instance` (0 when untagged)
+    untagged_objects: frozenset[str] = frozenset()  # names of untagged objects that were hit
+
+    @property
+    def hit(self) -> np.ndarray:
+        return np.isfinite(self.distance)
+
+    @staticmethod
+    def empty(n: int) -> "RayHits":
+        return RayHits(
+            distance=np.full(n, np.inf),
+            class_id=np.full(n, MISS_CLASS, dtype=np.int16),
+            instance=np.full(n, MISS_INSTANCE, dtype=np.int32),
+        )
+
+    @staticmethod
+    def joined(parts: list["RayHits"]) -> "RayHits":
+        """The hits of several consecutive batches of rays, in order."""
+        return RayHits(
+            distance=np.concatenate([p.distance for p in parts]),
+            class_id=np.concatenate([p.class_id for p in parts]),
+            instance=np.concatenate([p.instance for p in parts]),
+            untagged_objects=frozenset().union(*(p.untagged_objects for p in parts)),
+        )

@@ -1,0 +1,172 @@
+"""Scene geometry saved to a file and loaded again without Blender (numpy only).
+
+Extract a scene once where Blender is (`extract.extract_scene()` of a user's .blend),
+save it with `save_geometry`, and scan it anywhere with `load_geometry`: no `bpy`
+needed to load it, and a scan of the loaded geometry gives the same bytes as a scan
+of the extracted one (every array is stored bit for bit, the local origin and the
+object names too).
+
+The file is an uncompressed .npz (a zip of .npy arrays, so `numpy.load` opens it
+too) with one JSON entry, `header.json`:
+
+    {"format": "wildscan-scene-geometry", "version": 1, "wildscan_version": "...",
+     "object_names": [...], "metadata": {...}}
+
+then vertices.npy (<f8, V x 3), faces.npy (<i4, T x 3), class_id.npy (<i2, T),
+instance.npy (<i4, T), object_index.npy (<i4, T), offset.npy (<f8, 3), always in
+that order. The same geometry and metadata always give the same bytes: fixed entry
+order, timestamps and attributes, little-endian arrays, sorted JSON, no compression
+(a deflate stream could differ between zlib versions). The file is written under a
+temporary name and renamed into place, so a failed save leaves nothing.
+
+`version` rises when the layout changes; a file from a newer WildScan is refused
+with a message saying so, never misread.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..core.errors import UserError
+from ..core.files import atomic_outputs, check_output_path, write_durably
+from .geometry import SceneGeometry
+
+FORMAT = "wildscan-scene-geometry"
+VERSION = 1
+SUFFIX = ".npz"
+HEADER = "header.json"
+# name, stored dtype, number of dimensions
+ARRAYS = (
+    ("vertices", "<f8", 2),
+    ("faces", "<i4", 2),
+    ("class_id", "<i2", 1),
+    ("instance", "<i4", 1),
+    ("object_index", "<i4", 1),
+    ("offset", "<f8", 1),
+)
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # the zip format's earliest date: no clock in the bytes
+
+
+def save_geometry(geometry: SceneGeometry, path, metadata: dict | None = None, option: str = "--out") -> Path:
+    """Write `geometry` (and a JSON-serialisable `metadata` dict, e.g. the .blend it came
+    from) to `path` (.npz), atomically; returns the resolved path. UserError when the
+    path cannot be written or the metadata is not JSON."""
+    out = check_output_path(path, SUFFIX, option)
+    data = geometry_file_bytes(geometry, metadata)
+    with atomic_outputs(out) as (tmp,):
+        write_durably(tmp, lambda f: f.write(data))
+    return out
+
+
+def geometry_file_bytes(geometry: SceneGeometry, metadata: dict | None = None) -> bytes:
+    """The bytes `save_geometry` writes."""
+    header = {
+        "format": FORMAT,
+        "version": VERSION,
+        "wildscan_version": __version__,
+        "object_names": list(geometry.object_names),
+        "metadata": metadata or {},
+    }
+    try:
+        header_text = json.dumps(header, sort_keys=True, indent=1, allow_nan=False) + "\n"
+    except (TypeError, ValueError) as e:
+        raise UserError(f"scene geometry metadata must be plain JSON values: {e}") from None
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_STORED) as zf:
+        _write_entry(zf, HEADER, header_text.encode("utf-8"))
+        for name, dtype, _ in ARRAYS:
+            array = np.ascontiguousarray(getattr(geometry, name), dtype=dtype)
+            npy = io.BytesIO()
+            np.lib.format.write_array(npy, array, version=(1, 0), allow_pickle=False)
+            _write_entry(zf, f"{name}.npy", npy.getvalue())
+    return buffer.getvalue()
+
+
+def _write_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
+    info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
+    info.compress_type = zipfile.ZIP_STORED
+    info.create_system = 3  # the same bytes on every platform (Windows would write 0)
+    info.external_attr = 0o644 << 16
+    zf.writestr(info, data)
+
+
+def load_geometry(path, option: str = "--geometry") -> SceneGeometry:
+    """The SceneGeometry saved at `path`; UserError naming `option` and the file when it
+    is missing, not a WildScan scene geometry file, damaged, or from a newer version."""
+    return load_geometry_file(path, option)[0]
+
+
+def load_geometry_file(path, option: str = "--geometry") -> tuple[SceneGeometry, dict]:
+    """(geometry, header) of the file at `path`; the header holds `metadata`,
+    `object_names`, `wildscan_version` (of the writer), `format` and `version`."""
+    path = Path(str(path)).expanduser().resolve()
+
+    def fail(why: str) -> UserError:
+        return UserError(f"{option} {path}: {why}")
+
+    if not path.is_file():
+        raise fail("no such file" if not path.exists() else "not a file")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            header = _read_header(zf, fail)
+            arrays = {name: _read_array(zf, name, dtype, ndim, fail) for name, dtype, ndim in ARRAYS}
+    except zipfile.BadZipFile:
+        raise fail(f"not a WildScan scene geometry file (save one with a {SUFFIX} name)") from None
+    except OSError as e:
+        raise fail(f"cannot read it ({e.strerror or e})") from None
+    names = header.get("object_names")
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise fail("its object names are damaged")
+    index = arrays["object_index"]
+    if names and len(index) and (index.min() < 0 or index.max() >= len(names)):
+        raise fail("its triangles name objects that are not listed")
+    try:
+        geometry = SceneGeometry(object_names=tuple(names), **arrays)
+    except ValueError as e:
+        raise fail(f"its arrays do not fit together ({e})") from None
+    return geometry, header
+
+
+def _read_header(zf: zipfile.ZipFile, fail) -> dict:
+    try:
+        header = json.loads(zf.read(HEADER).decode("utf-8"))
+    except KeyError:
+        raise fail("not a WildScan scene geometry file (no header.json)") from None
+    except (UnicodeDecodeError, ValueError):
+        raise fail("its header.json is damaged") from None
+    if not isinstance(header, dict) or header.get("format") != FORMAT:
+        found = header.get("format") if isinstance(header, dict) else None
+        raise fail(f"not a WildScan scene geometry file (format {found!r}, expected {FORMAT!r})")
+    version = header.get("version")
+    if not isinstance(version, int) or version < 1:
+        raise fail(f"unknown scene geometry file version {version!r}")
+    if version > VERSION:
+        raise fail(
+            f"written by a newer WildScan ({header.get('wildscan_version')}, file version {version}); "
+            f"this WildScan {__version__} reads version {VERSION}"
+        )
+    return header
+
+
+def _read_array(zf: zipfile.ZipFile, name: str, dtype: str, ndim: int, fail) -> np.ndarray:
+    try:
+        with zf.open(f"{name}.npy") as f:
+            array = np.lib.format.read_array(f, allow_pickle=False)
+    except KeyError:
+        raise fail(f"{name}.npy is missing") from None
+    except ValueError as e:
+        raise fail(f"{name}.npy is damaged ({e})") from None
+    rows_of_three = ndim == 1 or array.shape[1:] == (3,)
+    if array.dtype != np.dtype(dtype) or array.ndim != ndim or not rows_of_three:
+        raise fail(
+            f"{name}.npy holds {array.dtype} {array.shape}, not {np.dtype(dtype)} of {ndim} dimensions"
+        )
+    if name == "offset" and array.shape != (3,):
+        raise fail(f"offset.npy holds {array.shape[0]} numbers, not 3")
+    return array
