@@ -44,7 +44,7 @@ def world_hashes() -> dict[str, str]:
 
 def scan_checksums(result, seed, directory: Path, name: str) -> dict:
     """Write a scan as `wildscan scan` does and return its pose and checksums."""
-    from wildscan.core.ply import read_ply, write_scan_files
+    from wildscan.core.io.ply import read_ply, write_scan_files
 
     ply, _ = write_scan_files(directory / f"{name}.ply", result.cloud, dict(result.metadata, seed=seed))
     records, _ = read_ply(ply)

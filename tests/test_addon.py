@@ -19,8 +19,8 @@ import pytest
 
 import wildscan
 from wildscan.core.classes import COLOR_BY_ID
+from wildscan.core.io.ply import read_ply
 from wildscan.core.placement import Pose
-from wildscan.core.ply import read_ply
 from wildscan.core.sensor import SensorConfig
 from wildscan.scanning import scan_current_scene
 

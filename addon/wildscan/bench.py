@@ -48,7 +48,7 @@ import numpy as np
 
 from .core.checks import whole_number
 from .core.errors import PoseRejected, UserError
-from .core.files import output_directory
+from .core.io.files import output_directory
 
 RANGE_TOLERANCE = 1e-4  # metres: "ranges within 1e-4 m"
 AGREEMENT_TARGET = 0.9999
@@ -316,7 +316,7 @@ def noise_free(rh_deg: float):
 def timed_scan(backend, pose, z_start, rh_deg: float, ply_path: Path) -> ScanRun:
     """One full scan with run_scan (placement, sweep, labels, leveling) and its PLY + JSON
     written with write_scan_files, the way `wildscan scan` does it, timed by phase."""
-    from .core.ply import write_scan_files
+    from .core.io.ply import write_scan_files
     from .core.scan import run_scan
 
     log = _CastLog(backend)
@@ -1632,7 +1632,7 @@ def format_targets(items) -> str:
 
 def write_bench_files(rows: list[dict], tables, out_dir: Path) -> tuple[Path, Path, Path]:
     """bench.csv, bench.png and scaling.md, all three or none."""
-    from .core.files import atomic_outputs
+    from .core.io.files import atomic_outputs
 
     paths = (out_dir / "bench.csv", out_dir / "bench.png", out_dir / "scaling.md")
     with atomic_outputs(*paths) as (tmp_csv, tmp_png, tmp_md):

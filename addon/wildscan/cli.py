@@ -257,8 +257,8 @@ def print_class_counts(counts: dict[int, int]) -> None:
 
 
 def run_scan_command(args, in_blender: bool) -> int:
+    from .core.io.ply import check_output_path, sidecar_path, write_scan_files
     from .core.placement import Pose, check_z_start
-    from .core.ply import check_output_path, sidecar_path, write_scan_files
     from .core.sensor import SensorConfig
     from .scanning import scan_current_scene
     from .world.scene_io import scene_provenance

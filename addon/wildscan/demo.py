@@ -7,7 +7,7 @@ import argparse
 import json
 from pathlib import Path
 
-from .core.files import output_directory
+from .core.io.files import output_directory
 from .raycast.select import BACKEND_NAMES
 
 # Point counts of the paper's r_h = 1 deg scans (Figs. 8-12), for comparison.
@@ -58,8 +58,8 @@ def first_pose_per_zone(world_json: Path) -> dict[str, dict]:
 
 def run_demo(args, in_blender: bool = False) -> int:
     from .core.classes import BY_ID, CLASSES
+    from .core.io.ply import write_scan_files
     from .core.placement import Pose
-    from .core.ply import write_scan_files
     from .core.preview import render_preview
     from .core.sensor import SensorConfig
     from .core.worldplan import check_seed

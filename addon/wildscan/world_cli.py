@@ -23,8 +23,8 @@ from pathlib import Path
 
 from .core.checks import whole_number
 from .core.errors import PoseRejected, UserError
-from .core.files import atomic_outputs, check_output_path
-from .core.ply import sidecar_path
+from .core.io.files import atomic_outputs, check_output_path
+from .core.io.ply import sidecar_path
 from .core.worldplan import (
     DETAILS,
     ZONES,

@@ -20,7 +20,7 @@ import numpy as np
 
 from .classes import BY_ID
 from .errors import UserError
-from .files import atomic_outputs
+from .io.files import atomic_outputs
 from .pointcloud import PointCloud
 
 _DPI = 100

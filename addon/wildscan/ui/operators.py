@@ -283,7 +283,7 @@ class WILDSCAN_OT_export_ply(Operator, ExportHelper):
 
     def execute(self, context):
         from ..core.errors import UserError
-        from ..core.ply import check_output_path, write_scan_files
+        from ..core.io.ply import check_output_path, write_scan_files
         from .scene import current_cloud
 
         obj = current_cloud(context)

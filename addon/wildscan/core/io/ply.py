@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from ... import __version__
+from ..classes import BY_ID, class_table_dict, class_table_lines
+from ..errors import UserError
+from ..pointcloud import PLY_FIELDS, PointCloud
 from . import files
-from .classes import BY_ID, class_table_dict, class_table_lines
-from .errors import UserError
 from .files import atomic_outputs, write_durably
-from .pointcloud import PLY_FIELDS, PointCloud
 
 # numpy kind+size -> PLY type name (the names plyfile, PCL and CloudCompare all read).
 _PLY_TYPE_BY_CODE = {
