@@ -504,7 +504,7 @@ def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatc
     assert snapshot(exclude_generated=False) == before
 
     def user_mistake(seed, detail="default", progress=None):
-        raise UserError("--detail must be one of low, default, high")
+        raise UserError("must be one of low, default, high", setting="detail")
 
     monkeypatch.setattr(generate_module, "generate_world", user_mistake)
     with pytest.raises(RuntimeError, match="Detail must be one of"):

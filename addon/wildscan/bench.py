@@ -1897,12 +1897,12 @@ def config_from_args(args) -> BenchConfig:
             "--backends must name at least one fast backend (embree or bvh) to compare with scene.ray_cast"
         )
     runs = (
-        whole_number(args.runs, "--runs", 1, 50)
+        whole_number(args.runs, "runs", 1, 50)
         if args.runs is not None
         else (QUICK_RUNS if quick else DEFAULT_RUNS)
     )
     ref_rays = (
-        whole_number(args.reference_rays, "--reference-rays", 100, 194_400)
+        whole_number(args.reference_rays, "reference_rays", 100, 194_400)
         if args.reference_rays is not None
         else (QUICK_REFERENCE_RAYS if quick else DEFAULT_REFERENCE_RAYS)
     )

@@ -338,7 +338,9 @@ def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:
     try:
         return COMMANDS[args.command](args, in_blender)
     except UserError as e:
-        sys.stderr.write(f"{where}: error: {e}\n")
+        from .app.settings import command_line_message
+
+        sys.stderr.write(f"{where}: error: {command_line_message(e)}\n")
         return EXIT_USER_ERROR
     except KeyboardInterrupt:
         sys.stderr.write(f"{where}: interrupted; nothing written\n")

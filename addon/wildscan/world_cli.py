@@ -112,8 +112,8 @@ def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
 # checks
 
 
-def positive_count(text, option: str) -> int:
-    return whole_number(text, option, 1, MAX_POSE_COUNT)
+def positive_count(text, setting: str) -> int:
+    return whole_number(text, setting, 1, MAX_POSE_COUNT)
 
 
 @contextmanager
@@ -188,7 +188,7 @@ def run_poses(args, in_blender: bool = False) -> int:
     seed = check_seed(args.seed)
     detail_level(args.detail)
     zones = (check_zone(args.zone),) if args.zone is not None else ZONES
-    count = positive_count(args.count, "--count")
+    count = positive_count(args.count, "count")
     plan = plan_world(seed, args.detail)
     poses = valid_poses(plan, plan_backend(plan), count, zones)
     if args.json:
@@ -234,13 +234,11 @@ def save_blend(tmp: Path, final: Path) -> None:
 def run_world(args, in_blender: bool = False) -> int:
     seed = check_seed(args.seed)
     detail_level(args.detail)
-    count = positive_count(args.poses, "--poses")
+    count = positive_count(args.poses, "poses")
     # A scan's sidecar names its PLY file; a world beside it must not replace it.
-    out = check_output_path(
-        args.out, ".blend", "--out", companions=(".json",), foreign_sidecar_key="ply_file"
-    )
+    out = check_output_path(args.out, ".blend", "out", companions=(".json",), foreign_sidecar_key="ply_file")
     sidecar = sidecar_path(out)
-    map_path = check_output_path(args.map, ".png", "--map") if args.map is not None else None
+    map_path = check_output_path(args.map, ".png", "map") if args.map is not None else None
     if map_path is not None:
         from .core.aerial_map import require_matplotlib
 

@@ -43,7 +43,9 @@ def require_matplotlib():
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        raise UserError("--map needs matplotlib (pip install matplotlib); it is not installed here") from None
+        raise UserError(
+            "needs matplotlib (pip install matplotlib); it is not installed here", setting="map"
+        ) from None
 
 
 def hillshade(z: np.ndarray, spacing: float) -> np.ndarray:

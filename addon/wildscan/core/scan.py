@@ -12,8 +12,8 @@ from typing import Callable
 import numpy as np
 
 from .. import __version__
+from .checks import one_of
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
-from .errors import UserError
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
 from .sensor import SensorConfig, beam_directions, range_noise
@@ -38,9 +38,7 @@ class ScanResult:
 
 
 def check_frame(frame: str) -> str:
-    if frame not in FRAMES:
-        raise UserError(f"--frame must be one of {', '.join(FRAMES)}, got {frame!r}")
-    return frame
+    return one_of(frame, "frame", FRAMES)
 
 
 def cast_in_chunks(

@@ -14,7 +14,8 @@ from bpy.props import BoolProperty, StringProperty
 from bpy.types import Operator
 from bpy_extras.io_utils import ExportHelper
 
-from .feedback import Progress, internal_error, panel_message
+from ..app.settings import panel_message
+from .feedback import Progress, internal_error
 
 AERIAL_MARGIN = 1.15  # the aerial view shows the world with this much room around it
 MARKER_SIZE_OF_WORLD = 0.04  # the marker's cross spans this fraction of the world's extent each way

@@ -72,7 +72,7 @@ _PLAIN_TEXT = re.compile(r"[A-Za-z0-9_.,:/+\-]+")
 def check_output_path(path: str | os.PathLike) -> Path:
     """The resolved PLY path, or UserError saying why it (or its sidecar) cannot be written."""
     # A world's sidecar lists its zones; a scan beside it must not replace it.
-    return files.check_output_path(path, ".ply", "--out", companions=(".json",), foreign_sidecar_key="zones")
+    return files.check_output_path(path, ".ply", "out", companions=(".json",), foreign_sidecar_key="zones")
 
 
 def sidecar_path(ply_path: str | os.PathLike) -> Path:
