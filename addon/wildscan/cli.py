@@ -15,7 +15,7 @@ import traceback
 from . import __version__
 from .core import sensor as S
 from .core.errors import UserError
-from .core.scan import FRAMES
+from .core.frames import FRAMES
 from .raycast.select import BACKEND_NAMES
 
 EXIT_USER_ERROR = 2

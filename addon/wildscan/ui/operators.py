@@ -206,7 +206,7 @@ class WILDSCAN_OT_scan(Operator):
 
     def execute(self, context):
         from ..core.errors import UserError
-        from ..core.scan import check_frame
+        from ..core.frames import check_frame
         from ..raycast.select import check_backend_name
         from ..scanning import scan_current_scene
         from . import status
@@ -307,11 +307,10 @@ class WILDSCAN_OT_export_ply(Operator, ExportHelper):
 def cloud_for_export(obj, frame: str):
     """(PointCloud, metadata) of a cloud object in `frame`: as scanned when it is the frame of
     the scan, else moved with the scan's placement (metadata records both)."""
-    from ..core.scan import check_frame
-    from . import frames
+    from ..core import frames
     from .scene import cloud_metadata, read_cloud
 
-    check_frame(frame)
+    frames.check_frame(frame)
     cloud = read_cloud(obj)
     metadata = cloud_metadata(obj)
     if cloud.frame != frame:

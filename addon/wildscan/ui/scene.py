@@ -19,9 +19,9 @@ import math
 import bpy
 import numpy as np
 
+from ..core import frames
 from ..core.pointcloud import PointCloud
 from ..world.mesh import GENERATED, remove_generated, remove_objects_and_their_meshes, wildscan_collection
-from . import frames
 
 WORLD_COLLECTION = "WildScan"  # where world.generate builds
 SCANS_COLLECTION = "WildScan Scans"
