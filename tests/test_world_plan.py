@@ -333,7 +333,7 @@ def test_unknown_detail_and_zone():
 def test_aerial_map_shows_classes_zones_and_poses(plan, tmp_path):
     from matplotlib.image import imread
 
-    from wildscan.core.aerial_map import render_map
+    from wildscan.viz.aerial_map import render_map
 
     out = render_map(plan, str(tmp_path / "map.png"), poses=plan.sites)
     img = (imread(out)[..., :3] * 255).round().astype(int)

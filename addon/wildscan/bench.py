@@ -1914,15 +1914,13 @@ def config_from_args(args) -> BenchConfig:
 def run_bench_command(args, in_blender: bool = False, out: Callable[[str], None] | None = None) -> int:
     """`wildscan bench`: every measurement above, printed, with bench.csv, bench.png and
     scaling.md written to --out. Works the same inside Blender (it builds in scenes of its own)."""
-    from .core.aerial_map import require_matplotlib
+    from .viz import have_matplotlib
 
-    try:
-        require_matplotlib()
-    except UserError:
+    if not have_matplotlib():
         raise UserError(
             "wildscan bench draws its chart with matplotlib (pip install matplotlib); "
             "it is not installed here"
-        ) from None
+        )
     cfg = config_from_args(args)  # creates --out last, once every option is known good
     report = Report(out or _print_flush)
     start = time.perf_counter()

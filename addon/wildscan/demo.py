@@ -60,11 +60,11 @@ def run_demo(args, in_blender: bool = False) -> int:
     from .core.classes import BY_ID, CLASSES
     from .core.io.ply import write_scan_files
     from .core.placement import Pose
-    from .core.preview import render_preview
     from .core.sensor import SensorConfig
     from .core.worldplan import check_seed
     from .raycast.extract import extract_scene
     from .scanning import scan_current_scene
+    from .viz.preview import render_preview
     from .world_cli import run_world
 
     seed = check_seed(args.seed)

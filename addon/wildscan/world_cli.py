@@ -240,7 +240,7 @@ def run_world(args, in_blender: bool = False) -> int:
     sidecar = sidecar_path(out)
     map_path = check_output_path(args.map, ".png", "map") if args.map is not None else None
     if map_path is not None:
-        from .core.aerial_map import require_matplotlib
+        from .viz import require_matplotlib
 
         require_matplotlib()
 
@@ -265,8 +265,8 @@ def run_world(args, in_blender: bool = False) -> int:
             save_blend(temps[0], out)
             progress("save .blend", time.perf_counter() - t0)
             if map_path is not None:
-                from .core.aerial_map import render_map
                 from .core.worldplan import Site
+                from .viz.aerial_map import render_map
 
                 t0 = time.perf_counter()
                 crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]

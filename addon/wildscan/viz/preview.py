@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .classes import BY_ID
-from .errors import UserError
-from .io.files import atomic_outputs
-from .pointcloud import PointCloud
+from ..core.classes import BY_ID
+from ..core.errors import UserError
+from ..core.io.files import atomic_outputs
+from ..core.pointcloud import PointCloud
 
 _DPI = 100
 _BACKGROUND = (0.94, 0.94, 0.94)  # light so black fence points stay visible
