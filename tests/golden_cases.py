@@ -57,13 +57,13 @@ def scan_checksums(result, seed, directory: Path, name: str) -> dict:
 
 def zone_scans(directory: Path) -> dict[str, dict]:
     """Seed 1 built in Blender, the first valid pose of each zone scanned with embree."""
+    from wildscan.app.poses import plan_backend, valid_poses
+    from wildscan.app.scan import scan_current_scene
     from wildscan.core.placement import Pose
     from wildscan.core.sensor import SensorConfig
     from wildscan.raycast.extract import extract_scene
-    from wildscan.scanning import scan_current_scene
     from wildscan.world.builder import build_world
     from wildscan.world.scene_io import empty_scene
-    from wildscan.world_cli import plan_backend, valid_poses
 
     empty_scene()
     plan = build_world(SCAN_SEED)
@@ -83,9 +83,9 @@ def zone_scans(directory: Path) -> dict[str, dict]:
 
 def test_world_scans(directory: Path) -> dict[str, dict]:
     """The test world scanned from one pose by every backend (noise on, as a user scans)."""
+    from wildscan.app.scan import scan_current_scene
     from wildscan.core.placement import Pose
     from wildscan.core.sensor import SensorConfig
-    from wildscan.scanning import scan_current_scene
     from wildscan.world.scene_io import empty_scene
     from wildscan.world.testworld import build_test_world
 

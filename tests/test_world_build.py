@@ -7,6 +7,7 @@ import bpy
 import numpy as np
 import pytest
 
+from wildscan.app.poses import valid_poses
 from wildscan.core.classes import BY_ID, WATER_ID, class_by_name
 from wildscan.core.leveling import rot_z
 from wildscan.core.placement import Pose
@@ -17,7 +18,6 @@ from wildscan.core.worldplan import ZONES, WorldParams
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
 from wildscan.world.builder import ROOT, build_world, generated_objects, scene_counts, scene_hashes
-from wildscan.world_cli import valid_poses
 
 SEED = 1
 TWELVE = {c.name for c in BY_ID.values() if 1 <= c.id <= 12}

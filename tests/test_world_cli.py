@@ -10,10 +10,10 @@ import sys
 
 import pytest
 
+from wildscan.bench.world_build import bench_world
 from wildscan.cli import main
 from wildscan.core.worldplan import ZONES
 from wildscan.world.scene_io import BLEND_MAGICS
-from wildscan.world_cli import bench_world
 
 
 def run(capsys, *argv):

@@ -58,22 +58,16 @@ class WILDSCAN_OT_generate_world(Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
+        from ..app.world import build_in_scene
         from ..core.errors import UserError
-        from ..world.generate import DETAILS, generate_world
         from . import status
-        from .scene import (
-            generate_replacing,
-            world_info,
-        )
+        from .scene import world_info
 
         settings = context.scene.wildscan
         seed, detail = int(settings.seed), str(settings.detail)
-        if detail not in DETAILS:
-            self.report({"ERROR"}, f"Detail must be one of {', '.join(DETAILS)}, got {detail!r}")
-            return {"CANCELLED"}
         try:
             with Progress(context, f"WildScan: building the world of seed {seed}") as progress:
-                generate_replacing(lambda: generate_world(seed, detail, progress.stage))
+                build_in_scene(seed, detail, progress.stage)
         except UserError as e:
             self.report({"ERROR"}, panel_message(e))
             return {"CANCELLED"}
@@ -205,10 +199,10 @@ class WILDSCAN_OT_scan(Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
+        from ..app.scan import scan_current_scene
         from ..core.errors import UserError
         from ..core.frames import check_frame
         from ..raycast.select import check_backend_name
-        from ..scanning import scan_current_scene
         from . import status
         from .properties import pose_from, sensor_from, z_start_from
         from .scene import add_cloud, pose_marker
