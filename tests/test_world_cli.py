@@ -1,5 +1,5 @@
-"""`wildscan world` / `wildscan poses` / world benchmark, through world_cli.main (the same
-functions cli.py wires in): files written, sidecar contents, bad input -> exit 2."""
+"""`wildscan world` / `wildscan poses` / the world benchmark, through cli.main (what the
+`wildscan` script runs): files written, sidecar contents, bad input -> exit 2."""
 
 from __future__ import annotations
 

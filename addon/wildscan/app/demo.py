@@ -88,7 +88,8 @@ def scan_zones(
         ply = world.blend.parent / f"scan_{zone}.ply"
         write_scan(ply, result, seed, str(world.blend), zone=zone)
         cloud = result.cloud
-        title = f"{zone}: {len(cloud):,} points, seed {seed}, pose ({pose.x:.1f}, {pose.y:.1f}, {pose.yaw_deg:.0f} deg)"
+        where = f"({pose.x:.1f}, {pose.y:.1f}, {pose.yaw_deg:.0f} deg)"
+        title = f"{zone}: {len(cloud):,} points, seed {seed}, pose {where}"
         render_preview(cloud, ply.with_suffix(".png"), title=title)
         yield ZoneScan(zone, pose, z_start, cloud, ply)
 

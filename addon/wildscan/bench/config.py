@@ -105,7 +105,8 @@ def make_config(
 
     if not have_matplotlib():
         raise UserError(
-            "wildscan bench draws its chart with matplotlib (pip install matplotlib); it is not installed here"
+            "wildscan bench draws its chart with matplotlib (pip install matplotlib); "
+            "it is not installed here"
         )
     seed = check_seed(seed)
     details = check_details(details) if details else (["low"] if quick else list(DETAILS))

@@ -311,15 +311,16 @@ def format_levels(rows: list[dict], cfg) -> str:
     fits = {r["detail"]: (r["terrain_fit_max_m"], r["terrain_fit_rms_m"]) for r in rows}
     return "\n".join(
         [
-            f"\nfull r_h = {SCAN_RH:g} deg scans, placement to PLY written, medians over the poses (each the median of "
-            f"{cfg.runs} runs); '~' = scene.ray_cast extrapolated from {cfg.reference_rays:,} rays a pose, other phases "
-            "as the first fast backend measured them; 'rays cmp' = rays compared with scene.ray_cast (subsets, and every "
-            "beam of the one full reference scan); ref/own wrong = of the disagreeing rays, where scene.ray_cast / this "
+            f"\nfull r_h = {SCAN_RH:g} deg scans, placement to PLY written, medians over the poses "
+            f"(each the median of {cfg.runs} runs); '~' = scene.ray_cast extrapolated from "
+            f"{cfg.reference_rays:,} rays a pose, other phases as the first fast backend measured them; "
+            "'rays cmp' = rays compared with scene.ray_cast (subsets, and every beam of the one full "
+            "reference scan); ref/own wrong = of the disagreeing rays, where scene.ray_cast / this "
             "backend is wrong by exact float64 brute force",
             text_table(headers, body, [False, True, True, True, False] + [True] * 11),
             "terrain error = |hit height - analytic heightfield| straight down at "
-            f"{cfg.terrain_rays:,} random points ({min(cfg.reference_rays, cfg.terrain_rays):,} for scene.ray_cast); "
-            "the mesh alone (fit_grid, 100k points): "
+            f"{cfg.terrain_rays:,} random points ({min(cfg.reference_rays, cfg.terrain_rays):,} for "
+            "scene.ray_cast); the mesh alone (fit_grid, 100k points): "
             + ", ".join(f"{d} max {m:.4f} / RMS {s:.4f} m" for d, (m, s) in fits.items()),
             "hit height vs the triangulated terrain mesh itself (the backends' own error): max "
             + ", ".join(
@@ -340,9 +341,9 @@ def terrain_tolerance_notes(rows: list[dict]) -> list[str]:
         tol = DETAILS[detail].terrain_tolerance
         if worst > tol:
             notes.append(
-                f"note: at {detail} detail the terrain mesh is {worst:.4f} m off the analytic field somewhere "
-                f"(tolerance {tol:g} m): fit_grid checks its tolerance on a sample of points, and the rays "
-                "found a place it missed (the backends agree with the mesh itself, see above)"
+                f"note: at {detail} detail the terrain mesh is {worst:.4f} m off the analytic field "
+                f"somewhere (tolerance {tol:g} m): fit_grid checks its tolerance on a sample of points, and "
+                "the rays found a place it missed (the backends agree with the mesh itself, see above)"
             )
     return notes
 

@@ -295,7 +295,7 @@ def fast_backend(name: str, geometry):
 
 
 def crop_for(whole, pose, rh_deg: float = SCAN_RH):
-    """What `wildscan scan` keeps of the world for this pose (scanning.make_scene_backend)."""
+    """What `wildscan scan` keeps of the world for this pose (app.scan.make_scene_backend)."""
     from ..app.scan import crop_radius
 
     return whole.cropped((pose.x, pose.y), crop_radius(noise_free(rh_deg)))

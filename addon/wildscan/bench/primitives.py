@@ -307,11 +307,12 @@ def format_analytic(rows: list[dict], rays: int, rh_deg: float) -> str:
     ]
     return "\n".join(
         [
-            f"\n== Analytic primitives: {rays:,} rays (the r_h = {rh_deg:g} deg pattern from {len(ANALYTIC_ORIGINS)} "
-            "origins) on a tilted plane, a box, a 16 x 32 UV-sphere polyhedron and a 48-sided prism; truth in "
-            "closed form from the facet planes (float64)",
+            f"\n== Analytic primitives: {rays:,} rays (the r_h = {rh_deg:g} deg pattern from "
+            f"{len(ANALYTIC_ORIGINS)} origins) on a tilted plane, a box, a 16 x 32 UV-sphere polyhedron "
+            "and a 48-sided prism; truth in closed form from the facet planes (float64)",
             text_table(headers, body),
-            "range error |backend - truth| over hits labelled right; 'wrong' = rays with a clear truth labelled wrong "
-            f"or missed; 'excluded' = rays within {RANGE_TOLERANCE:g} m of a silhouette (either answer is right)",
+            "range error |backend - truth| over hits labelled right; 'wrong' = rays with a clear truth "
+            f"labelled wrong or missed; 'excluded' = rays within {RANGE_TOLERANCE:g} m of a silhouette "
+            "(either answer is right)",
         ]
     )

@@ -145,8 +145,8 @@ def scaling_tables(report: "Report", cfg) -> list[tuple[str, list[str], list[lis
         h = report.beam_rows[0]
         tables.append(
             (
-                f"Scan time against beams (default world, {h['detail']} detail, {h['zone']} pose; placement to "
-                "PLY written; scene.ray_cast ~ from its per-ray time)",
+                f"Scan time against beams (default world, {h['detail']} detail, {h['zone']} pose; "
+                "placement to PLY written; scene.ray_cast ~ from its per-ray time)",
                 headers,
                 body,
             )

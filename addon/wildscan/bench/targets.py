@@ -29,8 +29,8 @@ def targets(report: "Report", cfg) -> list[tuple[str, bool | None, str]]:
         speed = ref.total / mine.total
         out.append(
             (
-                f"full r_h = 1 deg scan with '{default}', placement to PLY, >= {SPEEDUP_TARGET:g}x faster than "
-                "scene.ray_cast (same world and pose)",
+                f"full r_h = 1 deg scan with '{default}', placement to PLY, >= {SPEEDUP_TARGET:g}x faster "
+                "than scene.ray_cast (same world and pose)",
                 speed >= SPEEDUP_TARGET,
                 f"{mine.total:.3f} s vs {ref.total:.1f} s = {speed:,.0f}x (default world, {head['detail']} "
                 f"detail, {head['zone']} pose, measured)",
@@ -40,13 +40,15 @@ def targets(report: "Report", cfg) -> list[tuple[str, bool | None, str]]:
         worst = min(labels, ranges, e2e["e2e_label_agreement"], e2e["e2e_range_agreement"])
         out.append(
             (
-                f">= {100 * AGREEMENT_TARGET:g}% identical labels, ranges within 1e-4 m (noise off), that scan",
+                f">= {100 * AGREEMENT_TARGET:g}% identical labels, ranges within 1e-4 m (noise off), "
+                "that scan",
                 worst >= AGREEMENT_TARGET,
                 f"same rays: labels {100 * labels:.4f}%, ranges {100 * ranges:.4f}% of {agree.rays:,} beams, "
                 f"max |dr| {agree.max_range_diff_m:.1e} m, {agree.disagreements} disagreements of which "
                 f"{agree.reference_wrong} scene.ray_cast's errors and {agree.backend_wrong} {default}'s by "
-                f"exact brute force; as written (own placements, {e2e['placement_diff_m']:.1e} m apart): labels "
-                f"{100 * e2e['e2e_label_agreement']:.4f}%, ranges {100 * e2e['e2e_range_agreement']:.4f}%",
+                f"exact brute force; as written (own placements, {e2e['placement_diff_m']:.1e} m apart): "
+                f"labels {100 * e2e['e2e_label_agreement']:.4f}%, "
+                f"ranges {100 * e2e['e2e_range_agreement']:.4f}%",
             )
         )
     else:
@@ -64,8 +66,9 @@ def targets(report: "Report", cfg) -> list[tuple[str, bool | None, str]]:
             (
                 "(test world, for the record) same scan and comparison",
                 None,
-                f"{t['scan_s']:.3f} s vs {rows[REFERENCE]['scan_s']:.2f} s = {t['speedup_vs_ray_cast']:,.0f}x; "
-                f"labels {percent(t['label_agreement'])}, ranges {percent(t['range_agreement'])}",
+                f"{t['scan_s']:.3f} s vs {rows[REFERENCE]['scan_s']:.2f} s = "
+                f"{t['speedup_vs_ray_cast']:,.0f}x; labels {percent(t['label_agreement'])}, "
+                f"ranges {percent(t['range_agreement'])}",
             )
         )
     fine = [r for r in report.beam_rows if r["backend"] == default and r["rh_deg"] == FINE_RH]
@@ -77,8 +80,9 @@ def targets(report: "Report", cfg) -> list[tuple[str, bool | None, str]]:
                 f"r_h = {FINE_RH:g} deg scan ({f['beams']:,} beams), placement to PLY written, "
                 f"< {FINE_SCAN_TARGET_S:g} s once the scene is extracted",
                 f["scan_s"] < FINE_SCAN_TARGET_S,
-                f"{f['scan_s']:.3f} s (median of {f['runs']}); apart: whole-world extraction {f['extract_s']:.3f} s"
-                f" + crop {f['crop_s']:.3f} s + {default} build {f['build_s']:.3f} s = {prep:.3f} s",
+                f"{f['scan_s']:.3f} s (median of {f['runs']}); apart: whole-world extraction "
+                f"{f['extract_s']:.3f} s + crop {f['crop_s']:.3f} s + {default} build "
+                f"{f['build_s']:.3f} s = {prep:.3f} s",
             )
         )
     if len(report.object_rows) >= 2:

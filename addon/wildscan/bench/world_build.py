@@ -83,8 +83,9 @@ def bench_world(seed: int = 0, details=tuple(DETAILS), stream=None) -> list[dict
         for stage, seconds in plan.timings.items():
             stream.write(f"  {stage:<16} {seconds:7.3f} s\n")
         stream.write(
-            f"  objects {counts['objects']:,}, shared meshes {counts['meshes']}, triangles {counts['triangles']:,} "
-            f"(terrain {fit.grid.triangle_count:,}: {len(fit.grid.xs)} x {len(fit.grid.ys)} lines)\n"
+            f"  objects {counts['objects']:,}, shared meshes {counts['meshes']}, triangles "
+            f"{counts['triangles']:,} (terrain {fit.grid.triangle_count:,}: "
+            f"{len(fit.grid.xs)} x {len(fit.grid.ys)} lines)\n"
         )
         stream.write(
             f"  terrain height error vs the analytic field: max {fit.error.max * 100:.1f} cm, "

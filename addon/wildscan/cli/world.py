@@ -66,9 +66,9 @@ def print_saved_world(saved, quiet: bool = False) -> None:
     if not quiet:
         counts = saved.plan.counts()
         print(
-            f"world of seed {saved.plan.seed} ({saved.plan.detail.name} detail): {counts['objects']:,} objects "
-            f"sharing {counts['meshes']} meshes, {counts['triangles']:,} triangles, built and saved in "
-            f"{saved.seconds:.1f} s"
+            f"world of seed {saved.plan.seed} ({saved.plan.detail.name} detail): {counts['objects']:,} "
+            f"objects sharing {counts['meshes']} meshes, {counts['triangles']:,} triangles, "
+            f"built and saved in {saved.seconds:.1f} s"
         )
     print(f"wrote {saved.blend}")
     print(f"wrote {saved.sidecar}")

@@ -206,7 +206,8 @@ def _min_filter_axis(a: np.ndarray, before: int, after: int, axis: int) -> np.nd
             continue
         dst = [slice(None)] * 2
         src = [slice(None)] * 2
-        # A point at index i covers i-before .. i+after, so pixel j takes the point at j+s, -after <= s <= before.
+        # A point at index i covers i-before .. i+after, so pixel j takes the point at j+s,
+        # -after <= s <= before.
         if shift > 0:
             dst[axis], src[axis] = slice(0, n - shift), slice(shift, n)
         else:
