@@ -205,3 +205,52 @@ def test_out_must_be_a_directory(tmp_path):
     with pytest.raises(UserError, match="it is a file") as info:
         config.make_config(out=str(target))
     assert info.value.setting == "out"
+
+
+# -- suites ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["bench", "--suite", "world"], (0, ["low", "default", "high"])),
+        (["bench", "--suite", "world", "--seed", "3", "--details", "low,high"], (3, ["low", "high"])),
+        (["bench", "--suite", "world", "--quick"], (0, ["low"])),
+        (["bench-world"], (0, ["low", "default", "high"])),
+        (["bench-world", "--seed", "3", "--detail", "low", "--detail", "high"], (3, ["low", "high"])),
+    ],
+)
+def test_bench_world_is_the_world_suite_of_bench(argv, expected, monkeypatch):
+    from wildscan import cli
+    from wildscan.bench import world_build
+
+    calls = []
+    monkeypatch.setattr(world_build, "bench_world", lambda seed, details: calls.append((seed, details)))
+    assert cli.main(argv) == 0
+    assert calls == [expected]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (
+            ["bench", "--suite", "world", "--backends", "embree"],
+            "--backends applies to --suite backends only",
+        ),
+        (["bench", "--suite", "world", "--out", "x"], "--out applies to --suite backends only"),
+        (["bench", "--suite", "world", "--details", "low,ultra"], "--details must list levels from low"),
+        (["bench", "--suite", "fast"], "argument --suite: invalid choice: 'fast'"),
+        (["bench-world", "--detail", "ultra"], "--detail must be one of low, default, high"),
+        (["bench-world", "--seed", "-1"], "--seed must be a whole number from 0 to 2147483647"),
+    ],
+)
+def test_bad_suite_options_are_refused_in_one_line(argv, message, capsys):
+    from wildscan import cli
+
+    try:
+        code = cli.main(argv)
+    except SystemExit as e:  # argparse's own errors exit from inside parse_args
+        code = e.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
