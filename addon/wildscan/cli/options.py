@@ -80,42 +80,40 @@ def detail_name(name: str) -> str:
     return name
 
 
-def _count(setting: str) -> Callable[[Any], int]:
-    return lambda text: whole_number(text, setting, 1, MAX_POSE_COUNT)
+def _count(setting: str, help: str) -> Option:
+    """A number of poses per zone, 1..MAX_POSE_COUNT."""
+    return Option(
+        setting,
+        dict(
+            default=str(DEFAULT_POSES_PER_ZONE),
+            metavar="N",
+            help=f"{help} (default {DEFAULT_POSES_PER_ZONE})",
+        ),
+        lambda text: whole_number(text, setting, 1, MAX_POSE_COUNT),
+    )
 
 
 SEED_HELP = "world seed, a whole number from 0 to 2147483647"
 DETAIL_HELP = "low | default | high"
 
-OPTIONS: dict[str, Option] = {
-    "seed": Option("seed", dict(metavar="S", help=SEED_HELP), check_seed),
-    "detail": Option(
+
+def _number(setting: str, default: float, metavar: str, help: str) -> Option:
+    return Option(setting, dict(type=finite_float, default=default, metavar=metavar, help=help))
+
+
+_SHARED = (
+    Option("seed", dict(metavar="S", help=SEED_HELP), check_seed),
+    Option(
         "detail",
         dict(default="default", metavar="LEVEL", help=f"{DETAIL_HELP} (default: default)"),
         detail_name,
     ),
-    "zone": Option(
+    Option(
         "zone", dict(metavar="NAME", help=f"only this zone: {', '.join(ZONES)} (default: all)"), check_zone
     ),
-    "poses": Option(
-        "poses",
-        dict(
-            default=str(DEFAULT_POSES_PER_ZONE),
-            metavar="N",
-            help=f"valid scan poses listed per zone in the sidecar (default {DEFAULT_POSES_PER_ZONE})",
-        ),
-        _count("poses"),
-    ),
-    "count": Option(
-        "count",
-        dict(
-            default=str(DEFAULT_POSES_PER_ZONE),
-            metavar="N",
-            help=f"poses per zone, 1..{MAX_POSE_COUNT} (default {DEFAULT_POSES_PER_ZONE})",
-        ),
-        _count("count"),
-    ),
-    "pose": Option(
+    _count("poses", "valid scan poses listed per zone in the sidecar"),
+    _count("count", f"poses per zone, 1..{MAX_POSE_COUNT}"),
+    Option(
         "pose",
         dict(
             nargs=3,
@@ -126,7 +124,7 @@ OPTIONS: dict[str, Option] = {
             "YAW in degrees counter-clockwise from +X (the heading of the structure's X arm)",
         ),
     ),
-    "z_start": Option(
+    Option(
         "z_start",
         dict(
             type=finite_float,
@@ -136,46 +134,34 @@ OPTIONS: dict[str, Option] = {
             "surface)",
         ),
     ),
-    "rh": Option(
+    _number(
         "rh",
-        dict(
-            type=finite_float,
-            default=S.DEFAULT_RH_DEG,
-            metavar="DEG",
-            help=f"horizontal resolution r_h in degrees, at least {S.MIN_RH_DEG:g}; 180/r_h must be whole "
-            f"(default {S.DEFAULT_RH_DEG:g}: 180 2D scans, 194,400 beams)",
-        ),
+        S.DEFAULT_RH_DEG,
+        "DEG",
+        f"horizontal resolution r_h in degrees, at least {S.MIN_RH_DEG:g}; 180/r_h must be whole "
+        f"(default {S.DEFAULT_RH_DEG:g}: 180 2D scans, 194,400 beams)",
     ),
-    "min_range": Option(
+    _number(
         "min_range",
-        dict(
-            type=finite_float,
-            default=S.DEFAULT_MIN_RANGE,
-            metavar="M",
-            help=f"shortest range kept, metres (default {S.DEFAULT_MIN_RANGE:g})",
-        ),
+        S.DEFAULT_MIN_RANGE,
+        "M",
+        f"shortest range kept, metres (default {S.DEFAULT_MIN_RANGE:g})",
     ),
-    "max_range": Option(
+    _number(
         "max_range",
-        dict(
-            type=finite_float,
-            default=S.DEFAULT_MAX_RANGE,
-            metavar="M",
-            help=f"longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g} (default "
-            f"{S.DEFAULT_MAX_RANGE:g}, the UTM-30LX-EW under sunlight)",
-        ),
+        S.DEFAULT_MAX_RANGE,
+        "M",
+        f"longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g} (default "
+        f"{S.DEFAULT_MAX_RANGE:g}, the UTM-30LX-EW under sunlight)",
     ),
-    "noise": Option(
+    _number(
         "noise",
-        dict(
-            type=finite_float,
-            default=S.DEFAULT_NOISE_SIGMA,
-            metavar="SIGMA",
-            help=f"standard deviation of the Gaussian range noise, metres, 0 (off) to "
-            f"{S.MAX_NOISE_SIGMA:g} (default {S.DEFAULT_NOISE_SIGMA:g})",
-        ),
+        S.DEFAULT_NOISE_SIGMA,
+        "SIGMA",
+        f"standard deviation of the Gaussian range noise, metres, 0 (off) to "
+        f"{S.MAX_NOISE_SIGMA:g} (default {S.DEFAULT_NOISE_SIGMA:g})",
     ),
-    "noise_seed": Option(
+    Option(
         "noise_seed",
         dict(
             type=non_negative_int,
@@ -184,7 +170,7 @@ OPTIONS: dict[str, Option] = {
             help="seed of the range noise, independent of the world seed (default 0)",
         ),
     ),
-    "frame": Option(
+    Option(
         "frame",
         dict(
             choices=FRAMES,
@@ -194,7 +180,7 @@ OPTIONS: dict[str, Option] = {
             "leveled)",
         ),
     ),
-    "backend": Option(
+    Option(
         "backend",
         dict(
             choices=BACKEND_NAMES,
@@ -203,8 +189,9 @@ OPTIONS: dict[str, Option] = {
             "(embreex), or auto, the fastest available (default auto)",
         ),
     ),
-    "out": Option("out", dict(required=True)),
-}
+    Option("out", dict(required=True)),
+)
+OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
 SENSOR_OPTIONS = ("rh", "min_range", "max_range", "noise", "noise_seed")
 
 

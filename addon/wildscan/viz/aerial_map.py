@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from ..core.classes import class_by_name
+from ..core.classes import CLASSES, class_by_name
 from . import require_matplotlib
 
 MIN_RADIUS = 0.35  # m, smallest drawn footprint
@@ -200,20 +200,9 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
 
     handles = [Patch(facecolor=_rgb("terrain"), edgecolor="k", lw=0.3, label="terrain & flooring")]
     handles += [
-        Patch(facecolor=_rgb(c), edgecolor="k", lw=0.3, label=c)
-        for c in (
-            "trunk",
-            "treetop",
-            "table",
-            "bush",
-            "fence",
-            "bench",
-            "low grass",
-            "rock",
-            "high grass",
-            "wire",
-            "pole",
-        )
+        Patch(facecolor=_rgb(c.name), edgecolor="k", lw=0.3, label=c.name)
+        for c in CLASSES
+        if c.name != "terrain"  # the class table's order, after terrain (drawn above)
     ]
     handles.append(Patch(facecolor=WATER_COLOUR, edgecolor="k", lw=0.3, label="water (no return)"))
     if poses:
