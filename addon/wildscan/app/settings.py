@@ -2,7 +2,9 @@
 
 Errors name a setting by its library name (core/errors.py); the command line says
 `--max-range must be ...` and the add-on's panel "Max range must be ...", both from
-this one table.
+this one table. The command-line options (cli/options.py) and the panel's fields
+(ui/properties.py) take their names from it too, so an error always names the field
+the user sees.
 """
 
 from __future__ import annotations

@@ -48,7 +48,7 @@ def fixed_poses(seed: int, zones: int | None = None) -> list[tuple[str, object, 
 def bench_world_levels(cfg: "BenchConfig", report: "Report", tmp: Path) -> None:
     poses = fixed_poses(cfg.seed, QUICK_ZONES if cfg.quick else None)
     if not poses:
-        raise UserError(f"--seed {cfg.seed}: the world has no valid scan pose to benchmark")
+        raise UserError(f"{cfg.seed}: the world has no valid scan pose to benchmark", setting="seed")
     report.poses = poses
     report.say(
         f"\n== Default world, seed {cfg.seed}: {len(poses)} poses (first valid pose per zone): "
