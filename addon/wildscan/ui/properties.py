@@ -134,8 +134,8 @@ class WildScanSettings(PropertyGroup):
     )
     use_z_start: BoolProperty(
         name=label("z_start"),
-        description="Start the four placement lasers at a given height (e.g. under an overhang or inside the cave) "
-        "instead of above the first terrain surface found from above",
+        description="Start the four placement lasers at a given height (e.g. under an overhang or inside the "
+        "cave) instead of above the first terrain surface found from above",
         default=False,
     )
     z_start: FloatProperty(
