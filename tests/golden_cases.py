@@ -44,7 +44,7 @@ def world_hashes() -> dict[str, str]:
 
 def scan_checksums(result, seed, directory: Path, name: str) -> dict:
     """Write a scan as `wildscan scan` does and return its pose and checksums."""
-    from wildscan.core.ply import read_ply, write_scan_files
+    from wildscan.core.io.ply import read_ply, write_scan_files
 
     ply, _ = write_scan_files(directory / f"{name}.ply", result.cloud, dict(result.metadata, seed=seed))
     records, _ = read_ply(ply)
@@ -57,13 +57,13 @@ def scan_checksums(result, seed, directory: Path, name: str) -> dict:
 
 def zone_scans(directory: Path) -> dict[str, dict]:
     """Seed 1 built in Blender, the first valid pose of each zone scanned with embree."""
+    from wildscan.app.poses import plan_backend, valid_poses
+    from wildscan.app.scan import scan_current_scene
     from wildscan.blender.builder import build_world
     from wildscan.blender.scene_io import empty_scene
     from wildscan.core.placement import Pose
     from wildscan.core.sensor import SensorConfig
     from wildscan.raycast.extract import extract_scene
-    from wildscan.scanning import scan_current_scene
-    from wildscan.world_cli import plan_backend, valid_poses
 
     empty_scene()
     plan = build_world(SCAN_SEED)
@@ -83,11 +83,11 @@ def zone_scans(directory: Path) -> dict[str, dict]:
 
 def test_world_scans(directory: Path) -> dict[str, dict]:
     """The test world scanned from one pose by every backend (noise on, as a user scans)."""
+    from wildscan.app.scan import scan_current_scene
     from wildscan.blender.scene_io import empty_scene
     from wildscan.blender.testworld import build_test_world
     from wildscan.core.placement import Pose
     from wildscan.core.sensor import SensorConfig
-    from wildscan.scanning import scan_current_scene
 
     empty_scene()
     build_test_world(TEST_WORLD_SEED)

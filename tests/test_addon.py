@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 
 import wildscan
+from wildscan.app.scan import scan_current_scene
 from wildscan.core.classes import COLOR_BY_ID
+from wildscan.core.io.ply import read_ply
 from wildscan.core.placement import Pose
-from wildscan.core.ply import read_ply
 from wildscan.core.sensor import SensorConfig
-from wildscan.scanning import scan_current_scene
 
 from scene_helpers import REPO, WILDSCAN, fresh_scene
 
@@ -442,9 +442,9 @@ def test_invalid_poses_give_a_report_naming_the_problem_and_change_nothing(scene
 def box_under_front_laser(x, y):
     """A box around the ground under the front laser of a yaw-0 pose at (x, y), reaching less
     high than where the placement lasers start."""
+    from wildscan.app.scan import make_scene_backend
     from wildscan.core.placement import ARM_X, LASER_CLEARANCE, place
     from wildscan.core.world.shapes.primitives import box
-    from wildscan.scanning import make_scene_backend
 
     pose = Pose(x, y, 0.0)
     ground = place(make_scene_backend("blender", pose, SensorConfig(), notify=None), pose).lasers[0].hit_z
@@ -483,7 +483,7 @@ def test_aerial_view_without_a_world_is_a_report(scene):
 
 
 def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatch):
-    import wildscan.blender.generate as generate_module
+    import wildscan.blender.builder as builder_module
     from wildscan.blender.testworld import build_test_world
     from wildscan.core.errors import UserError
 
@@ -498,15 +498,15 @@ def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatc
         build_test_world(seed + 1)  # builds a whole other world...
         raise MemoryError("out of memory")  # ...and then fails
 
-    monkeypatch.setattr(generate_module, "generate_world", half_then_crash)
+    monkeypatch.setattr(builder_module, "build_world", half_then_crash)
     with pytest.raises(RuntimeError, match="could not finish building the world.*MemoryError"):
         bpy.ops.wildscan.generate_world()
     assert snapshot(exclude_generated=False) == before
 
     def user_mistake(seed, detail="default", progress=None):
-        raise UserError("--detail must be one of low, default, high")
+        raise UserError("must be one of low, default, high", setting="detail")
 
-    monkeypatch.setattr(generate_module, "generate_world", user_mistake)
+    monkeypatch.setattr(builder_module, "build_world", user_mistake)
     with pytest.raises(RuntimeError, match="Detail must be one of"):
         bpy.ops.wildscan.generate_world()
     assert snapshot(exclude_generated=False) == before
@@ -516,7 +516,7 @@ def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatc
 
 
 def test_frame_conversions_round_trip_and_match_the_placement():
-    from wildscan.ui import frames
+    from wildscan.core import frames
 
     placement = {
         "pose": {"yaw_deg": 37.0},

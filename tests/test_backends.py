@@ -510,7 +510,7 @@ def test_fallback_reaches_blender_and_then_fails_clearly(monkeypatch):
     monkeypatch.setattr(select, "missing_reason", lambda n: "not here")
     with pytest.raises(UserError, match="no ray backend"):
         select.make_backend("auto", notify=None)
-    with pytest.raises(UserError, match="--backend must be one of auto, embree, bvh, blender"):
+    with pytest.raises(UserError, match="backend must be one of auto, embree, bvh, blender"):
         select.make_backend("optix")
 
 

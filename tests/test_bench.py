@@ -6,7 +6,6 @@ asserted are the accuracy figures and the shape of the CSV and the chart.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import csv
 import io
@@ -16,7 +15,7 @@ import bpy
 import numpy as np
 import pytest
 
-from wildscan import bench
+from wildscan.bench import config, primitives, report
 from wildscan.core.errors import UserError
 
 FAST = ("embree", "bvh")
@@ -63,16 +62,16 @@ def rows_of(quick, section):
 def test_quick_bench_writes_the_csv_chart_and_tables_and_nothing_else(quick):
     assert quick["code"] == 0
     assert sorted(p.name for p in quick["out"].iterdir()) == ["bench.csv", "bench.png", "scaling.md"]
-    assert tuple(quick["header"]) == bench.CSV_COLUMNS
+    assert tuple(quick["header"]) == report.CSV_COLUMNS
     sections = {}
     for r in quick["rows"]:
         sections.setdefault(r["section"], []).append(r["backend"])
     assert sorted(sections["phases"]) == sorted(ALL)  # the test world, every backend in full
     assert sorted(sections["analytic"]) == sorted(ALL)
     assert sorted(sections["detail"]) == sorted(ALL)  # --quick: the low level only
-    assert sorted(sections["pose"]) == sorted(ALL * bench.QUICK_ZONES)
-    assert sorted(sections["beams"]) == sorted(ALL * len(bench.QUICK_BEAM_STEPS))
-    assert sorted(sections["objects"]) == sorted(ALL * len(bench.QUICK_OBJECT_COUNTS))
+    assert sorted(sections["pose"]) == sorted(ALL * config.QUICK_ZONES)
+    assert sorted(sections["beams"]) == sorted(ALL * len(config.QUICK_BEAM_STEPS))
+    assert sorted(sections["objects"]) == sorted(ALL * len(config.QUICK_OBJECT_COUNTS))
     for r in quick["rows"]:
         if r["section"] in ("phases", "pose", "detail", "beams", "objects"):
             assert float(r["scan_s"]) > 0 and float(r["speedup_vs_ray_cast"]) > 0, r
@@ -81,7 +80,7 @@ def test_quick_bench_writes_the_csv_chart_and_tables_and_nothing_else(quick):
     assert test_world["blender"]["estimated"] == "0" and int(test_world["blender"]["beams"]) == 194_400
     assert {r["estimated"] for r in rows_of(quick, "detail") if r["backend"] == "blender"} == {"1"}
     assert [float(r["rh_deg"]) for r in rows_of(quick, "beams") if r["backend"] == "embree"] == list(
-        bench.QUICK_BEAM_STEPS
+        config.QUICK_BEAM_STEPS
     )
 
     png = (quick["out"] / "bench.png").read_bytes()
@@ -95,10 +94,10 @@ def test_quick_bench_writes_the_csv_chart_and_tables_and_nothing_else(quick):
 
 def test_phases_of_the_full_test_world_scans_add_up(quick):
     for r in rows_of(quick, "phases"):
-        parts = sum(float(r[f"{p}_s"]) for p in bench.PHASES)
+        parts = sum(float(r[f"{p}_s"]) for p in config.PHASES)
         assert parts == pytest.approx(float(r["scan_s"]), rel=0.02, abs=2e-3), r["backend"]
     text = quick["text"]
-    for title in bench.PHASE_TITLES.values():
+    for title in config.PHASE_TITLES.values():
         assert title in text
     assert "scene.ray_cast scan:" in text and "dominated by ray casting" in text
 
@@ -108,7 +107,7 @@ def test_every_backend_agrees_with_scene_ray_cast(quick):
         for r in rows_of(quick, section):
             if r["backend"] == "blender":
                 continue
-            assert int(r["rays_compared"]) >= bench.QUICK_REFERENCE_RAYS, (section, r["backend"])
+            assert int(r["rays_compared"]) >= config.QUICK_REFERENCE_RAYS, (section, r["backend"])
             assert float(r["label_agreement"]) >= 0.9999, (section, r["backend"], r["label_agreement"])
             assert float(r["range_agreement"]) >= 0.9999, (section, r["backend"], r["range_agreement"])
             assert int(r["backend_wrong"]) == 0, (section, r["backend"])
@@ -143,7 +142,7 @@ def test_terrain_error_is_measured_against_the_field_and_the_mesh(quick):
 
 def test_the_bench_leaves_the_users_scenes_as_they_were(quick):
     assert quick["after"] == quick["before"]
-    assert not any(c.name.startswith(bench.BENCH_COLLECTION) for c in bpy.data.collections)
+    assert not any(c.name.startswith(config.BENCH_COLLECTION) for c in bpy.data.collections)
 
 
 def test_targets_are_reported(quick):
@@ -157,7 +156,7 @@ def test_targets_are_reported(quick):
 
 
 def test_closed_form_truth_of_the_primitives():
-    solids = {s.name: s for s in bench.primitive_solids()}
+    solids = {s.name: s for s in primitives.primitive_solids()}
     sphere, prism, box = solids["bench sphere"], solids["bench prism"], solids["bench box"]
     # straight down onto the sphere's top pole and the prism's top cap
     for solid, top in ((sphere, sphere.vertices[0]), (prism, prism.vertices[48:].mean(axis=0))):
@@ -173,7 +172,7 @@ def test_closed_form_truth_of_the_primitives():
     # within 1e-4 m of that silhouette they are left out as unclear, farther in they count
     tip = prism.vertices[12] + [5.0, 0.0, 0.5]
     origins = tip + np.array([[0.0, 1e-5, 0.0], [0.0, -1e-5, 0.0], [0.0, -0.01, 0.0], [0.0, 0.01, 0.0]])
-    truth = bench.analytic_truth([prism], origins, np.tile([-1.0, 0.0, 0.0], (4, 1)), 25.0)
+    truth = primitives.analytic_truth([prism], origins, np.tile([-1.0, 0.0, 0.0], (4, 1)), 25.0)
     assert truth["clear"].tolist() == [False, False, True, True]
     assert np.isfinite(truth["distance"]).tolist() == [False, True, True, False]
 
@@ -203,7 +202,55 @@ def test_bad_options_are_refused_in_one_line(argv, message, tmp_path, capsys):
 def test_out_must_be_a_directory(tmp_path):
     target = tmp_path / "file.txt"
     target.write_text("x")
-    parser = argparse.ArgumentParser()
-    bench.add_bench_arguments(parser)
-    with pytest.raises(UserError, match="it is a file"):
-        bench.config_from_args(parser.parse_args(["--out", str(target)]))
+    with pytest.raises(UserError, match="it is a file") as info:
+        config.make_config(out=str(target))
+    assert info.value.setting == "out"
+
+
+# -- suites ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "argv, expected",
+    [
+        (["bench", "--suite", "world"], (0, ["low", "default", "high"])),
+        (["bench", "--suite", "world", "--seed", "3", "--details", "low,high"], (3, ["low", "high"])),
+        (["bench", "--suite", "world", "--quick"], (0, ["low"])),
+        (["bench-world"], (0, ["low", "default", "high"])),
+        (["bench-world", "--seed", "3", "--detail", "low", "--detail", "high"], (3, ["low", "high"])),
+    ],
+)
+def test_bench_world_is_the_world_suite_of_bench(argv, expected, monkeypatch):
+    from wildscan import cli
+    from wildscan.bench import world_build
+
+    calls = []
+    monkeypatch.setattr(world_build, "bench_world", lambda seed, details: calls.append((seed, details)))
+    assert cli.main(argv) == 0
+    assert calls == [expected]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (
+            ["bench", "--suite", "world", "--backends", "embree"],
+            "--backends applies to --suite backends only",
+        ),
+        (["bench", "--suite", "world", "--out", "x"], "--out applies to --suite backends only"),
+        (["bench", "--suite", "world", "--details", "low,ultra"], "--details must list levels from low"),
+        (["bench", "--suite", "fast"], "argument --suite: invalid choice: 'fast'"),
+        (["bench-world", "--detail", "ultra"], "--detail must be one of low, default, high"),
+        (["bench-world", "--seed", "-1"], "--seed must be a whole number from 0 to 2147483647"),
+    ],
+)
+def test_bad_suite_options_are_refused_in_one_line(argv, message, capsys):
+    from wildscan import cli
+
+    try:
+        code = cli.main(argv)
+    except SystemExit as e:  # argparse's own errors exit from inside parse_args
+        code = e.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err

@@ -7,7 +7,7 @@ from matplotlib.image import imread
 from plyfile import PlyData
 
 from wildscan.core.classes import CLASSES
-from wildscan.world_cli import ZONES
+from wildscan.core.world import ZONES
 
 from scene_helpers import WILDSCAN, run
 

@@ -108,7 +108,8 @@ Pose = module.core.placement.Pose
 SensorConfig = module.core.sensor.SensorConfig
 check = module.ui.status.check_pose
 pose = next(Pose(x, y, 0.0) for x, y in CANDIDATES if check(Pose(x, y, 0.0), None).ok)
-result = module.scanning.scan_current_scene(pose, SensorConfig(rh_deg=6.0), notify=print)
+scan = importlib.import_module(module.__name__ + ".app.scan")
+result = scan.scan_current_scene(pose, SensorConfig(rh_deg=6.0), notify=print)
 print("SCANNED", result.metadata["backend"], len(result.cloud))
 """
 

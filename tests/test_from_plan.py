@@ -21,17 +21,17 @@ import sys
 import numpy as np
 import pytest
 
+from wildscan.app.poses import valid_poses
+from wildscan.app.scan import scan_current_scene
+from wildscan.blender.builder import build_world
+from wildscan.blender.scene_io import empty_scene
+from wildscan.core.io.ply import write_scan_files
 from wildscan.core.placement import Pose
-from wildscan.core.ply import write_scan_files
 from wildscan.core.sensor import SensorConfig
 from wildscan.core.world import ZONES, plan_world
 from wildscan.raycast.extract import extract_scene
 from wildscan.raycast.from_plan import blender_matrices, blender_order, plan_geometry, world_geometry
 from wildscan.raycast.select import make_backend
-from wildscan.scanning import scan_current_scene
-from wildscan.blender.builder import build_world
-from wildscan.blender.scene_io import empty_scene
-from wildscan.world_cli import valid_poses
 
 SEEDS = (0, 1, 2)
 DETAILS = ("low", "default", "high")

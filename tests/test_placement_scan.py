@@ -188,7 +188,9 @@ def test_canopy_overhead_does_not_fool_the_probe_but_z_start_can_go_under_a_roof
 
 
 def test_bad_pose_and_frame_are_user_errors():
-    with pytest.raises(UserError, match="--pose"):
+    with pytest.raises(UserError, match="x must be a finite number") as info:
         P.place(flat_world(), P.Pose(float("nan"), 0, 0))
-    with pytest.raises(UserError, match="--frame"):
+    assert info.value.setting == "pose"
+    with pytest.raises(UserError, match="must be one of leveled, sensor, world") as info:
         run_scan(flat_world(), P.Pose(0, 0, 0), QUIET, frame="robot")
+    assert info.value.setting == "frame" and info.value.allowed == ("leveled", "sensor", "world")

@@ -18,10 +18,10 @@ import plyfile
 import pytest
 
 import wildscan
-from wildscan.core import ply
 from wildscan.core.classes import COLOR_BY_ID, class_table_dict, class_table_lines
 from wildscan.core.errors import UserError
-from wildscan.core.ply import check_output_path, read_ply, sidecar_path, write_scan_files
+from wildscan.core.io import ply
+from wildscan.core.io.ply import check_output_path, read_ply, sidecar_path, write_scan_files
 from wildscan.core.pointcloud import PLY_FIELDS, PointCloud
 
 FIELD_NAMES = [name for name, _ in PLY_FIELDS]

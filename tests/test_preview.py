@@ -8,11 +8,11 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from wildscan.core import preview
 from wildscan.core.classes import BY_ID, COLOR_BY_ID
 from wildscan.core.errors import UserError
 from wildscan.core.pointcloud import PointCloud
-from wildscan.core.preview import legend_entries, nice_length, rasterize, render_preview, view_axes
+from wildscan.viz import preview
+from wildscan.viz.preview import legend_entries, nice_length, rasterize, render_preview, view_axes
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 SIZE = (640, 480)  # small: fast tests

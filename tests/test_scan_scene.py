@@ -293,7 +293,7 @@ def test_a_bug_inside_blender_exits_1_not_0(tmp_path):
         "from wildscan import cli\n"
         "def boom(args, in_blender):\n"
         "    raise RuntimeError('a bug')\n"
-        "cli.COMMANDS['scan'] = boom\n"
+        "cli.COMMANDS['scan'] = cli.COMMANDS['scan']._replace(run=boom)\n"
         "sys.exit(cli.blender_main('scan'))\n"
     )
     proc = run(

@@ -15,17 +15,17 @@ import numpy as np
 import pytest
 from test_backends import add_mesh, box_mesh
 
+from wildscan.app.scan import scan_current_scene
+from wildscan.blender.scene_io import empty_scene, open_world
+from wildscan.blender.testworld import build_test_world
 from wildscan.core.errors import UserError
+from wildscan.core.io.ply import write_scan_files
 from wildscan.core.placement import Pose
-from wildscan.core.ply import write_scan_files
 from wildscan.core.sensor import SensorConfig
 from wildscan.raycast import scene_file
 from wildscan.raycast.extract import extract_scene
 from wildscan.raycast.geometry import from_triangles
 from wildscan.raycast.scene_file import geometry_file_bytes, load_geometry, load_geometry_file, save_geometry
-from wildscan.scanning import scan_current_scene
-from wildscan.blender.scene_io import empty_scene, open_world
-from wildscan.blender.testworld import build_test_world
 
 POSE = Pose(0.0, 0.0, 20.0)
 SENSOR = SensorConfig(rh_deg=2.0)
@@ -81,10 +81,10 @@ def test_a_python_without_blender_loads_and_scans_it_to_the_same_bytes(extracted
         "import hashlib, sys\n"
         "for m in ('bpy', 'mathutils', 'bmesh'): sys.modules[m] = None\n"
         "from wildscan.core.placement import Pose\n"
-        "from wildscan.core.ply import write_scan_files\n"
+        "from wildscan.core.io.ply import write_scan_files\n"
         "from wildscan.core.sensor import SensorConfig\n"
         "from wildscan.raycast.scene_file import load_geometry\n"
-        "from wildscan.scanning import scan_current_scene\n"
+        "from wildscan.app.scan import scan_current_scene\n"
         f"g = load_geometry({str(path)!r})\n"
         f"r = scan_current_scene(Pose({POSE.x!r}, {POSE.y!r}, {POSE.yaw_deg!r}), SensorConfig(rh_deg={SENSOR.rh_deg}),"
         " backend='auto', geometry=g)\n"
@@ -177,7 +177,7 @@ def test_wrong_or_damaged_files_are_refused_clearly(tmp_path, change, message):
     bad = rewrite(good, tmp_path / "bad.npz", **change)
     with pytest.raises(UserError, match=message) as error:
         load_geometry(bad)
-    assert str(error.value).startswith(f"--geometry {bad}")
+    assert str(error.value).startswith(f"geometry {bad}")
 
 
 def test_files_that_are_not_geometry_are_refused(tmp_path):
@@ -185,4 +185,4 @@ def test_files_that_are_not_geometry_are_refused(tmp_path):
     with pytest.raises(UserError, match="not a WildScan scene geometry file"):
         load_geometry(tmp_path / "notes.npz")
     with pytest.raises(UserError, match="no such file"):
-        load_geometry(tmp_path / "absent.npz", option="--in")
+        load_geometry(tmp_path / "absent.npz", setting="scene")

@@ -41,25 +41,51 @@ def test_rh_that_divides_180(rh, sweeps):
 
 @pytest.mark.parametrize("rh", [7, 0.7, 0, -1, float("nan"), float("inf"), 181, 1.0001])
 def test_rh_that_does_not_divide_180_is_a_clear_error(rh):
-    with pytest.raises(UserError, match="--rh"):
+    with pytest.raises(UserError) as info:
         S.sweep_count(rh)
+    assert info.value.setting == "rh"
 
 
 @pytest.mark.parametrize(
-    "kw, option",
+    "kw, setting",
     [
-        ({"max_range": 31}, "--max-range"),
-        ({"max_range": -1}, "--max-range"),
-        ({"min_range": -0.1}, "--min-range"),
-        ({"min_range": float("nan")}, "--min-range"),
-        ({"min_range": 5, "max_range": 4}, "--min-range"),
-        ({"noise_sigma": -0.01}, "--noise"),
-        ({"noise_sigma": float("inf")}, "--noise"),
+        ({"max_range": 31}, "max_range"),
+        ({"max_range": -1}, "max_range"),
+        ({"min_range": -0.1}, "min_range"),
+        ({"min_range": float("nan")}, "min_range"),
+        ({"min_range": 5, "max_range": 4}, "min_range"),
+        ({"noise_sigma": -0.01}, "noise"),
+        ({"noise_sigma": float("inf")}, "noise"),
     ],
 )
-def test_bad_sensor_settings(kw, option):
-    with pytest.raises(UserError, match=option):
+def test_bad_sensor_settings_name_the_setting(kw, setting):
+    with pytest.raises(UserError) as info:
         S.SensorConfig(**kw).validate()
+    assert info.value.setting == setting and str(info.value).startswith(f"{setting} ")
+
+
+def test_an_error_is_phrased_by_each_front_end_from_one_table():
+    from wildscan.app.settings import command_line_message, panel_message
+
+    with pytest.raises(UserError) as info:
+        S.SensorConfig(min_range=5, max_range=4).validate()
+    e = info.value
+    assert e.setting == "min_range" and e.related == ("max_range",)
+    assert str(e) == "min_range (5 m) must be below max_range (4 m)"
+    assert command_line_message(e) == "--min-range (5 m) must be below --max-range (4 m)"
+    assert panel_message(e) == "Min range (5 m) must be below Max range (4 m)"
+    with pytest.raises(UserError) as info:
+        S.SensorConfig(max_range=31).validate()
+    assert info.value.allowed == (0, S.MAX_RANGE_LIMIT)
+    assert command_line_message(info.value).startswith("--max-range must be in (0, 30] m")
+    assert panel_message(info.value).startswith("Max range must be in (0, 30] m")
+
+
+def test_user_errors_keep_their_setting_across_pickling():
+    import pickle
+
+    e = pickle.loads(pickle.dumps(UserError("must be x", setting="rh", allowed=(1, 2), related=("frame",))))
+    assert (e.message, e.setting, e.allowed, e.related) == ("must be x", "rh", (1, 2), ("frame",))
 
 
 def test_max_range_settable_up_to_30_m():

@@ -7,6 +7,7 @@ import bpy
 import numpy as np
 import pytest
 
+from wildscan.app.poses import valid_poses
 from wildscan.blender import WORLD_COLLECTION
 from wildscan.blender.builder import build_world, generated_objects, scene_counts, scene_hashes
 from wildscan.core.classes import BY_ID, WATER_ID, class_by_name
@@ -18,7 +19,6 @@ from wildscan.core.sensor import SensorConfig
 from wildscan.core.world import ZONES, WorldParams
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
-from wildscan.world_cli import valid_poses
 
 SEED = 1
 TWELVE = {c.name for c in BY_ID.values() if 1 <= c.id <= 12}

@@ -1,5 +1,5 @@
-"""`wildscan world` / `wildscan poses` / world benchmark, through world_cli.main (the same
-functions cli.py wires in): files written, sidecar contents, bad input -> exit 2."""
+"""`wildscan world` / `wildscan poses` / the world benchmark, through cli.main (what the
+`wildscan` script runs): files written, sidecar contents, bad input -> exit 2."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import sys
 
 import pytest
 
+from wildscan.bench.world_build import bench_world
 from wildscan.blender.scene_io import BLEND_MAGICS
 from wildscan.cli import main
 from wildscan.core.world import ZONES
-from wildscan.world_cli import bench_world
 
 
 def run(capsys, *argv):

@@ -361,7 +361,7 @@ def test_buried_faces_are_dropped():
 
 @pytest.mark.parametrize("bad", [-1, "-3", "1.5", "abc", "", True, 2.5])
 def test_bad_seed_is_a_user_error(bad):
-    with pytest.raises(UserError, match="--seed must be a whole number from 0 to 2147483647"):
+    with pytest.raises(UserError, match="seed must be a whole number from 0 to 2147483647"):
         check_seed(bad)
 
 
@@ -372,9 +372,9 @@ def test_good_seeds():
 
 
 def test_unknown_detail_and_zone():
-    with pytest.raises(UserError, match="--detail must be one of low, default, high"):
+    with pytest.raises(UserError, match="detail must be one of low, default, high"):
         detail_level("ultra")
-    with pytest.raises(UserError, match="--zone must be one of"):
+    with pytest.raises(UserError, match="zone must be one of"):
         check_zone("desert")
 
 
@@ -384,7 +384,7 @@ def test_unknown_detail_and_zone():
 def test_aerial_map_shows_classes_zones_and_poses(plan, tmp_path):
     from matplotlib.image import imread
 
-    from wildscan.core.aerial_map import render_map
+    from wildscan.viz.aerial_map import render_map
 
     out = render_map(plan, str(tmp_path / "map.png"), poses=plan.sites)
     img = (imread(out)[..., :3] * 255).round().astype(int)

@@ -13,19 +13,19 @@ BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
 
 def check_blend_file(path: str) -> str:
     if not str(path).strip():
-        raise UserError("--world needs a .blend file name, got an empty one")
+        raise UserError("needs a .blend file name, got an empty one", setting="world")
     path = os.path.abspath(path)
     if os.path.isdir(path):
-        raise UserError(f"--world {path}: is a directory, not a .blend file")
+        raise UserError(f"{path}: is a directory, not a .blend file", setting="world")
     if not os.path.isfile(path):
-        raise UserError(f"--world {path}: no such file")
+        raise UserError(f"{path}: no such file", setting="world")
     try:
         with open(path, "rb") as f:
             head = f.read(8)
     except OSError as e:
-        raise UserError(f"--world {path}: cannot read it ({e.strerror})") from None
+        raise UserError(f"{path}: cannot read it ({e.strerror})", setting="world") from None
     if not head.startswith(BLEND_MAGICS):
-        raise UserError(f"--world {path}: not a Blender .blend file")
+        raise UserError(f"{path}: not a Blender .blend file", setting="world")
     return path
 
 
@@ -37,7 +37,7 @@ def open_world(path: str) -> None:
         bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
     except RuntimeError as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else "unknown error"
-        raise UserError(f"--world {path}: Blender could not open it ({first})") from None
+        raise UserError(f"{path}: Blender could not open it ({first})", setting="world") from None
 
 
 def empty_scene() -> None:

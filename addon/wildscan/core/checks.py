@@ -1,4 +1,4 @@
-"""Parsing what users type (numpy-free): one message style for every command."""
+"""Parsing what users type (numpy-free): one message style for every front end."""
 
 from __future__ import annotations
 
@@ -10,9 +10,21 @@ from .errors import UserError
 _WHOLE = re.compile(r"[0-9]{1,19}")
 
 
-def whole_number(text, option: str, low: int, high: int) -> int:
-    """`text` as an integer in [low, high], or UserError naming the option and the range."""
+def whole_number(text, setting: str, low: int, high: int) -> int:
+    """`text` as an integer in [low, high], or UserError naming the setting and the range."""
     s = str(text).strip()
     if isinstance(text, bool) or not _WHOLE.fullmatch(s) or not low <= int(s) <= high:
-        raise UserError(f"{option} must be a whole number from {low} to {high}, got {text!r}")
+        raise UserError(
+            f"must be a whole number from {low} to {high}, got {text!r}", setting=setting, allowed=(low, high)
+        )
     return int(s)
+
+
+def one_of(value: str, setting: str, choices) -> str:
+    """`value` when it is one of `choices`, or UserError naming the setting and the choices."""
+    choices = tuple(choices)
+    if value not in choices:
+        raise UserError(
+            f"must be one of {', '.join(choices)}, got {value!r}", setting=setting, allowed=choices
+        )
+    return value

@@ -11,14 +11,14 @@ wide), so every tip lies well inside the blind cone, whose radius on flat ground
 equals the column height (0.723 m): the structure never shows up in a scan.
 
 How the lasers find the ground: unless the user gives a start height
-(--z-start), a probe is cast straight down from high above the pose; it passes
+(z_start), a probe is cast straight down from high above the pose; it passes
 through everything that is not terrain or water (tree crowns, wires, tables,
 rocks — the robot may stand under them or be rejected by its lasers, not by the
 probe) and stops at the first terrain or water surface. The four lasers then
 start LASER_CLEARANCE above that surface, so an overhead crown is never
 mistaken for the ground while a rock, bench or table under the footprint still
 is. The first terrain surface from above a cave is its roof; to stand inside
-the cave, give --z-start under the roof.
+the cave, give a z_start under the roof.
 """
 
 from __future__ import annotations
@@ -65,10 +65,10 @@ class Pose:
     def validate(self) -> "Pose":
         for name, v in (("x", self.x), ("y", self.y), ("yaw", self.yaw_deg)):
             if not math.isfinite(v):
-                raise UserError(f"--pose {name} must be a finite number, got {v}")
+                raise UserError(f"{name} must be a finite number, got {v}", setting="pose")
         for name, v in (("x", self.x), ("y", self.y)):
             if abs(v) > MAX_COORDINATE:
-                raise UserError(f"--pose {name} must be within +-{MAX_COORDINATE:g} m, got {v:g}")
+                raise UserError(f"{name} must be within +-{MAX_COORDINATE:g} m, got {v:g}", setting="pose")
         return self
 
     def to_dict(self) -> dict:
@@ -156,7 +156,11 @@ class Placement:
 
 def check_z_start(z_start: float | None) -> float | None:
     if z_start is not None and (not math.isfinite(z_start) or abs(z_start) > MAX_COORDINATE):
-        raise UserError(f"--z-start must be a height within +-{MAX_COORDINATE:g} m, got {z_start:g}")
+        raise UserError(
+            f"must be a height within +-{MAX_COORDINATE:g} m, got {z_start:g}",
+            setting="z_start",
+            allowed=(-MAX_COORDINATE, MAX_COORDINATE),
+        )
     return z_start
 
 

@@ -13,13 +13,12 @@ import numpy as np
 
 from .. import __version__
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
-from .errors import UserError
+from .frames import check_frame, to_world
 from .hits import RayHits
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
 from .sensor import SensorConfig, beam_directions, range_noise
 
-FRAMES = ("leveled", "sensor", "world")
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
 NOISE_MARGIN_SIGMAS = 6.0
@@ -38,12 +37,6 @@ class ScanResult:
     hits: int = 0
 
 
-def check_frame(frame: str) -> str:
-    if frame not in FRAMES:
-        raise UserError(f"--frame must be one of {', '.join(FRAMES)}, got {frame!r}")
-    return frame
-
-
 def cast_in_chunks(
     backend, origin: np.ndarray, dirs: np.ndarray, max_range: float, progress: Progress | None
 ):
@@ -59,13 +52,15 @@ def cast_in_chunks(
 
 
 def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str) -> np.ndarray:
+    """A scan's points in its output frame: leveled by Eq. 2 itself (the paper's leveling),
+    the world frame by the frame conversion every other user of frames shares."""
     if frame == "sensor":
         return points_sensor
     if frame == "leveled":
         from .leveling import level_points
 
         return level_points(points_sensor, placement.roll_rad, placement.pitch_rad)
-    return placement.optical_centre + points_sensor @ placement.rotation.T
+    return to_world(points_sensor, "sensor", placement)
 
 
 def run_scan(

@@ -55,25 +55,35 @@ class SensorConfig:
 
     def validate(self) -> "SensorConfig":
         sweep_count(self.rh_deg)
-        _check_finite("--min-range", self.min_range, "m")
-        _check_finite("--max-range", self.max_range, "m")
-        _check_finite("--noise", self.noise_sigma, "m")
+        _check_finite("min_range", self.min_range, "m")
+        _check_finite("max_range", self.max_range, "m")
+        _check_finite("noise", self.noise_sigma, "m")
         if self.min_range < 0:
-            raise UserError(f"--min-range must be >= 0 m, got {self.min_range:g}")
+            raise UserError(f"must be >= 0 m, got {self.min_range:g}", setting="min_range", allowed=(0, None))
         if self.max_range <= 0 or self.max_range > MAX_RANGE_LIMIT:
             raise UserError(
-                f"--max-range must be in (0, {MAX_RANGE_LIMIT:g}] m (the UTM-30LX-EW's limit), got {self.max_range:g}"
+                f"must be in (0, {MAX_RANGE_LIMIT:g}] m (the UTM-30LX-EW's limit), got {self.max_range:g}",
+                setting="max_range",
+                allowed=(0, MAX_RANGE_LIMIT),
             )
         if self.min_range >= self.max_range:
             raise UserError(
-                f"--min-range ({self.min_range:g} m) must be below --max-range ({self.max_range:g} m)"
+                f"({self.min_range:g} m) must be below {{max_range}} ({self.max_range:g} m)",
+                setting="min_range",
+                related=("max_range",),
             )
         if not 0 <= self.noise_sigma <= MAX_NOISE_SIGMA:
             raise UserError(
-                f"--noise must be from 0 (off) to {MAX_NOISE_SIGMA:g} m, got {self.noise_sigma:g}"
+                f"must be from 0 (off) to {MAX_NOISE_SIGMA:g} m, got {self.noise_sigma:g}",
+                setting="noise",
+                allowed=(0, MAX_NOISE_SIGMA),
             )
         if not (0 <= int(self.noise_seed) < 2**63):
-            raise UserError(f"--noise-seed must be an integer in [0, 2^63), got {self.noise_seed}")
+            raise UserError(
+                f"must be an integer in [0, 2^63), got {self.noise_seed}",
+                setting="noise_seed",
+                allowed=(0, 2**63 - 1),
+            )
         return self
 
     def to_dict(self) -> dict:
@@ -87,27 +97,31 @@ class SensorConfig:
         return d
 
 
-def _check_finite(option: str, value: float, unit: str) -> None:
+def _check_finite(setting: str, value: float, unit: str) -> None:
     if not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise UserError(f"{option} must be a finite number of {unit}, got {value}")
+        raise UserError(f"must be a finite number of {unit}, got {value}", setting=setting)
 
 
 def sweep_count(rh_deg: float) -> int:
     """M = 180 / r_h, which must come out whole."""
     if not isinstance(rh_deg, (int, float)) or not math.isfinite(rh_deg) or rh_deg <= 0:
         raise UserError(
-            f"--rh must be a positive number of degrees dividing 180 (e.g. 0.25, 0.5, 1, 2), got {rh_deg}"
+            f"must be a positive number of degrees dividing 180 (e.g. 0.25, 0.5, 1, 2), got {rh_deg}",
+            setting="rh",
         )
     if rh_deg < MIN_RH_DEG:
         raise UserError(
-            f"--rh must be at least {MIN_RH_DEG:g} deg (finer scans need gigabytes), got {rh_deg:g}"
+            f"must be at least {MIN_RH_DEG:g} deg (finer scans need gigabytes), got {rh_deg:g}",
+            setting="rh",
+            allowed=(MIN_RH_DEG, SWEEP_DEG),
         )
     m = SWEEP_DEG / rh_deg
     whole = round(m)
     if whole < 1 or abs(m - whole) > 1e-9 * max(1.0, m):
         raise UserError(
-            f"--rh must divide 180 into a whole number of 2D scans (e.g. 0.25, 0.5, 1, 2, 4), got {rh_deg:g} "
-            f"(180/{rh_deg:g} = {m:g})"
+            f"must divide 180 into a whole number of 2D scans (e.g. 0.25, 0.5, 1, 2, 4), got {rh_deg:g} "
+            f"(180/{rh_deg:g} = {m:g})",
+            setting="rh",
         )
     return int(whole)
 

@@ -53,7 +53,7 @@ def plan_geometry(plan) -> SceneGeometry:
     `plan` is a `core.world.WorldPlan` (from `plan_world(seed, detail)`). Returns
     one SceneGeometry of the whole world, uncropped; crop it per pose with
     `geometry.cropped(centre, radius)` or pass it as `geometry=` to
-    `raycast.select.make_backend` / `scanning.scan_current_scene`, which crop the
+    `raycast.select.make_backend` / `app.scan.scan_current_scene`, which crop the
     same way as the Blender path.
     """
     elements = [el for el in blender_order(plan.elements) if len(plan.prototypes[el.proto].faces)]

@@ -34,7 +34,7 @@ import numpy as np
 
 from .. import __version__
 from ..core.errors import UserError
-from ..core.files import atomic_outputs, check_output_path, write_durably
+from ..core.io.files import atomic_outputs, check_output_path, write_durably
 from .geometry import SceneGeometry
 
 FORMAT = "wildscan-scene-geometry"
@@ -53,11 +53,11 @@ ARRAYS = (
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # the zip format's earliest date: no clock in the bytes
 
 
-def save_geometry(geometry: SceneGeometry, path, metadata: dict | None = None, option: str = "--out") -> Path:
+def save_geometry(geometry: SceneGeometry, path, metadata: dict | None = None, setting: str = "out") -> Path:
     """Write `geometry` (and a JSON-serialisable `metadata` dict, e.g. the .blend it came
     from) to `path` (.npz), atomically; returns the resolved path. UserError when the
     path cannot be written or the metadata is not JSON."""
-    out = check_output_path(path, SUFFIX, option)
+    out = check_output_path(path, SUFFIX, setting)
     data = geometry_file_bytes(geometry, metadata)
     with atomic_outputs(out) as (tmp,):
         write_durably(tmp, lambda f: f.write(data))
@@ -96,19 +96,19 @@ def _write_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     zf.writestr(info, data)
 
 
-def load_geometry(path, option: str = "--geometry") -> SceneGeometry:
-    """The SceneGeometry saved at `path`; UserError naming `option` and the file when it
+def load_geometry(path, setting: str = "geometry") -> SceneGeometry:
+    """The SceneGeometry saved at `path`; UserError naming `setting` and the file when it
     is missing, not a WildScan scene geometry file, damaged, or from a newer version."""
-    return load_geometry_file(path, option)[0]
+    return load_geometry_file(path, setting)[0]
 
 
-def load_geometry_file(path, option: str = "--geometry") -> tuple[SceneGeometry, dict]:
+def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, dict]:
     """(geometry, header) of the file at `path`; the header holds `metadata`,
     `object_names`, `wildscan_version` (of the writer), `format` and `version`."""
     path = Path(str(path)).expanduser().resolve()
 
     def fail(why: str) -> UserError:
-        return UserError(f"{option} {path}: {why}")
+        return UserError(f"{path}: {why}", setting=setting)
 
     if not path.is_file():
         raise fail("no such file" if not path.exists() else "not a file")

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from ..core.checks import one_of
 from ..core.errors import UserError
 
 BACKEND_NAMES = ("auto", "embree", "bvh", "blender")
@@ -38,7 +39,7 @@ _INSTALL_HINT = {
 
 def check_backend_name(name: str) -> str:
     if name not in BACKEND_NAMES:
-        raise UserError(f"--backend must be one of {', '.join(BACKEND_NAMES)}, got {name!r}")
+        one_of(name, "backend", BACKEND_NAMES)
     return name
 
 
@@ -80,7 +81,7 @@ def resolve_backend(name: str = DEFAULT_BACKEND, notify: Callable[[str], None] |
             return candidate
         reasons.append(why)
     tried = "; ".join(f"{c}: {r}" for c, r in zip(FALLBACK_ORDER[start:], reasons))
-    raise UserError(f"no ray backend can run here for --backend {name} ({tried})")
+    raise UserError(f"{name}: no ray backend can run here ({tried})", setting="backend")
 
 
 def _fallback_message(name: str, wanted: str, used: str, why: str) -> str:

@@ -1,35 +1,13 @@
-"""How operators talk to the user: progress on the window manager and messages worded
-for the panel (the shared checks name command-line options; here the fields are named
-as the panel labels them)."""
+"""How operators talk to the user: progress on the window manager and one-line reports of
+bugs. (User errors are phrased for the panel by app.settings.panel_message.)"""
 
 from __future__ import annotations
 
 import sys
 import traceback
 
-# Longest first, so "--noise-seed" is not read as "--noise" + "-seed".
-_PANEL_NAMES = (
-    ("--noise-seed", "Noise seed"),
-    ("--min-range", "Min range"),
-    ("--max-range", "Max range"),
-    ("--z-start", "Start height"),
-    ("--backend", "Ray caster"),
-    ("--detail", "Detail"),
-    ("--seed", "Seed"),
-    ("--noise", "Noise"),
-    ("--frame", "Frame"),
-    ("--pose", "Pose"),
-    ("--rh", "r_h"),
-)
 PROGRESS_STEPS = 1000
 STAGE_HALF = 4  # world-building stages after which the bar shows half way
-
-
-def panel_message(error: BaseException | str) -> str:
-    text = str(error)
-    for option, label in _PANEL_NAMES:
-        text = text.replace(option, label)
-    return text
 
 
 def internal_error(operator, what: str, error: BaseException) -> set:

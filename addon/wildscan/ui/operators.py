@@ -14,7 +14,8 @@ from bpy.props import BoolProperty, StringProperty
 from bpy.types import Operator
 from bpy_extras.io_utils import ExportHelper
 
-from .feedback import Progress, internal_error, panel_message
+from ..app.settings import panel_message
+from .feedback import Progress, internal_error
 
 AERIAL_MARGIN = 1.15  # the aerial view shows the world with this much room around it
 MARKER_SIZE_OF_WORLD = 0.04  # the marker's cross spans this fraction of the world's extent each way
@@ -57,22 +58,16 @@ class WILDSCAN_OT_generate_world(Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        from ..blender.generate import DETAILS, generate_world
+        from ..app.world import build_in_scene
         from ..core.errors import UserError
         from . import status
-        from .scene import (
-            generate_replacing,
-            world_info,
-        )
+        from .scene import world_info
 
         settings = context.scene.wildscan
         seed, detail = int(settings.seed), str(settings.detail)
-        if detail not in DETAILS:
-            self.report({"ERROR"}, f"Detail must be one of {', '.join(DETAILS)}, got {detail!r}")
-            return {"CANCELLED"}
         try:
             with Progress(context, f"WildScan: building the world of seed {seed}") as progress:
-                generate_replacing(lambda: generate_world(seed, detail, progress.stage))
+                build_in_scene(seed, detail, progress.stage)
         except UserError as e:
             self.report({"ERROR"}, panel_message(e))
             return {"CANCELLED"}
@@ -206,10 +201,10 @@ class WILDSCAN_OT_scan(Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
+        from ..app.scan import scan_current_scene
         from ..core.errors import UserError
-        from ..core.scan import check_frame
+        from ..core.frames import check_frame
         from ..raycast.select import check_backend_name
-        from ..scanning import scan_current_scene
         from . import status
         from .properties import pose_from, sensor_from, z_start_from
         from .scene import add_cloud, pose_marker
@@ -285,7 +280,7 @@ class WILDSCAN_OT_export_ply(Operator, ExportHelper):
 
     def execute(self, context):
         from ..core.errors import UserError
-        from ..core.ply import check_output_path, write_scan_files
+        from ..core.io.ply import check_output_path, write_scan_files
         from .scene import current_cloud
 
         obj = current_cloud(context)
@@ -308,11 +303,10 @@ class WILDSCAN_OT_export_ply(Operator, ExportHelper):
 def cloud_for_export(obj, frame: str):
     """(PointCloud, metadata) of a cloud object in `frame`: as scanned when it is the frame of
     the scan, else moved with the scan's placement (metadata records both)."""
-    from ..core.scan import check_frame
-    from . import frames
+    from ..core import frames
     from .scene import cloud_metadata, read_cloud
 
-    check_frame(frame)
+    frames.check_frame(frame)
     cloud = read_cloud(obj)
     metadata = cloud_metadata(obj)
     if cloud.frame != frame:

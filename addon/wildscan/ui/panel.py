@@ -101,8 +101,8 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
     bl_order = 2
 
     def draw(self, context):
+        from ..app.settings import panel_message
         from ..core.errors import UserError
-        from .feedback import panel_message
         from .properties import sensor_from
 
         s = context.scene.wildscan

@@ -16,6 +16,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 from bpy.types import PropertyGroup
 
+from ..app.settings import label
 from ..blender.generate import DETAILS
 from ..core import sensor as S
 from ..raycast.select import BACKEND_NAMES
@@ -99,10 +100,10 @@ def _set_show_world(self, value):
 class WildScanSettings(PropertyGroup):
     # World
     seed: IntProperty(
-        name="Seed", description="World seed: the same seed builds the same world", min=0, default=0
+        name=label("seed"), description="World seed: the same seed builds the same world", min=0, default=0
     )
     detail: EnumProperty(
-        name="Detail",
+        name=label("detail"),
         description="How detailed the generated world is",
         items=[(d, d.capitalize(), _DETAIL_TEXT.get(d, d)) for d in DETAILS],
         default="default" if "default" in DETAILS else DETAILS[0],
@@ -132,9 +133,9 @@ class WildScanSettings(PropertyGroup):
         set=_pose_setter("pose_yaw"),
     )
     use_z_start: BoolProperty(
-        name="Start height",
-        description="Start the four placement lasers at a given height (e.g. under an overhang or inside the cave) "
-        "instead of above the first terrain surface found from above",
+        name=label("z_start"),
+        description="Start the four placement lasers at a given height (e.g. under an overhang or inside the "
+        "cave) instead of above the first terrain surface found from above",
         default=False,
     )
     z_start: FloatProperty(
@@ -147,7 +148,7 @@ class WildScanSettings(PropertyGroup):
 
     # Sensor
     rh: FloatProperty(
-        name="r_h",
+        name=label("rh"),
         description="Horizontal resolution in degrees; 180/r_h must be whole (1 deg: 180 2D scans)",
         default=S.DEFAULT_RH_DEG,
         soft_min=0.25,
@@ -156,7 +157,7 @@ class WildScanSettings(PropertyGroup):
         step=25,
     )
     min_range: FloatProperty(
-        name="Min range",
+        name=label("min_range"),
         description="Shortest range kept, metres",
         unit="LENGTH",
         default=S.DEFAULT_MIN_RANGE,
@@ -164,7 +165,7 @@ class WildScanSettings(PropertyGroup):
         soft_max=S.MAX_RANGE_LIMIT,
     )
     max_range: FloatProperty(
-        name="Max range",
+        name=label("max_range"),
         description=f"Longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g}",
         unit="LENGTH",
         default=S.DEFAULT_MAX_RANGE,
@@ -172,7 +173,7 @@ class WildScanSettings(PropertyGroup):
         soft_max=S.MAX_RANGE_LIMIT,
     )
     noise: FloatProperty(
-        name="Noise",
+        name=label("noise"),
         description="Standard deviation of the Gaussian range noise, metres (0 turns it off)",
         unit="LENGTH",
         default=S.DEFAULT_NOISE_SIGMA,
@@ -182,13 +183,13 @@ class WildScanSettings(PropertyGroup):
         step=0.1,
     )
     noise_seed: IntProperty(
-        name="Noise seed",
+        name=label("noise_seed"),
         description="Seed of the range noise, independent of the world seed",
         min=0,
         default=0,
     )
     frame: EnumProperty(
-        name="Frame",
+        name=label("frame"),
         description="Coordinate frame of the exported points",
         items=_FRAME_TEXT,
         default="leveled",
@@ -196,7 +197,7 @@ class WildScanSettings(PropertyGroup):
 
     # Scan
     backend: EnumProperty(
-        name="Ray caster",
+        name=label("backend"),
         description="Which ray caster scans (all give the same labels)",
         items=[(b, b.capitalize() if b != "bvh" else "BVH", _BACKEND_TEXT.get(b, b)) for b in BACKEND_NAMES],
         default="auto",

@@ -20,9 +20,9 @@ import bpy
 import numpy as np
 
 from ..blender import WORLD_COLLECTION
-from ..blender.mesh import GENERATED, remove_generated, remove_objects_and_their_meshes, wildscan_collection
+from ..blender.mesh import GENERATED, remove_objects_and_their_meshes, wildscan_collection
+from ..core import frames
 from ..core.pointcloud import PointCloud
-from . import frames
 
 SCANS_COLLECTION = "WildScan Scans"
 MARKER_PROP = "wildscan_pose_marker"
@@ -305,74 +305,3 @@ def read_cloud(obj) -> PointCloud:
         fields[field] = values.reshape(-1, 3) if width == 3 else values
     typed = {f: v.astype(POINTCLOUD_DTYPES[f]) for f, v in fields.items()}
     return PointCloud(frame=str(obj.get(FRAME_PROP, "leveled")), **typed)
-
-
-# --------------------------------------------------------------------------- world replacement
-
-
-def _parents_of(coll) -> list:
-    parents = [c for c in bpy.data.collections if coll.name in c.children]
-    parents += [s.collection for s in bpy.data.scenes if coll.name in s.collection.children]
-    return parents
-
-
-def generate_replacing(build) -> object:
-    """Run `build()` (which replaces the generated content of the "WildScan" collection)
-    so that a failure leaves the previous world exactly as it was.
-
-    The previous world is set aside while the new one is built: its generated
-    collections, objects and data get temporary names, so the new world gets the same
-    names a first build would. On success the user's own objects and collections in
-    the old collection move to the new one and the generated rest is removed; on
-    failure the partial new world is removed and the old one gets its names back.
-    """
-    old = bpy.data.collections.get(WORLD_COLLECTION)
-    if old is None or not old.get(GENERATED):
-        # Nothing to set aside (or a collection of the user's own, which the builder reuses).
-        return build()
-    renamed = _set_aside(old)
-    try:
-        result = build()
-    except BaseException:
-        remove_generated(WORLD_COLLECTION)
-        for block, name in renamed:
-            block.name = name
-        raise
-    new = bpy.data.collections.get(WORLD_COLLECTION)
-    if new is not None and new != old:
-        _adopt_user_content(old, new)
-    remove_generated(old.name)
-    return result
-
-
-def _set_aside(root) -> list:
-    """Give the generated collections, objects and object data under `root` temporary
-    names; returns (datablock, original name) pairs."""
-    collections = [root, *(c for c in root.children_recursive if c.get(GENERATED))]
-    objects = {o for c in collections for o in c.objects if o.get(GENERATED)}
-    data = {o.data for o in objects if o.data is not None and o.data.get(GENERATED)}
-    renamed = []
-    for i, block in enumerate([*collections, *objects, *data]):
-        renamed.append((block, block.name))
-        block.name = f".wildscan-replaced-{i}"
-    return renamed
-
-
-def _adopt_user_content(old, new) -> None:
-    """Give `new` the place and the user content `old` had."""
-    for obj in [o for o in old.objects if not o.get(GENERATED)]:
-        if obj.name not in new.objects:
-            new.objects.link(obj)
-        old.objects.unlink(obj)
-    for child in [c for c in old.children if not c.get(GENERATED)]:
-        if child.name not in new.children:
-            new.children.link(child)
-        old.children.unlink(child)
-    old_parents = _parents_of(old)
-    if old_parents:
-        for parent in old_parents:
-            if new.name not in parent.children:
-                parent.children.link(new)
-        for parent in _parents_of(new):
-            if parent not in old_parents:
-                parent.children.unlink(new)

@@ -64,11 +64,11 @@ def cached_status(scene) -> PoseStatus | None:
 
 def check_pose(pose, z_start) -> PoseStatus:
     """The placement check, as a status (never raises for a user mistake)."""
+    from ..app.scan import make_scene_backend
+    from ..app.settings import panel_message
     from ..core.errors import UserError
     from ..core.placement import place
     from ..core.sensor import SensorConfig
-    from ..scanning import make_scene_backend
-    from .feedback import panel_message
 
     try:
         backend = make_scene_backend(LIVE_BACKEND, pose, SensorConfig(), notify=lambda _text: None)

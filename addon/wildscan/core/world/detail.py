@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import UserError
+from ..checks import one_of
 from .shapes.powerline import catenary_parameter
 from .shapes.primitives import icosphere
 
@@ -60,7 +60,7 @@ DETAILS: dict[str, DetailLevel] = {
 
 def detail_level(name: str) -> DetailLevel:
     if name not in DETAILS:
-        raise UserError(f"--detail must be one of {', '.join(DETAILS)}, got {name!r}")
+        one_of(name, "detail", DETAILS)
     return DETAILS[name]
 
 

@@ -17,8 +17,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..checks import whole_number
-from ..errors import UserError
+from ..checks import one_of, whole_number
 from ..placement import Pose
 from .detail import DetailLevel
 from .elements import Element, ElementSet, Prototype
@@ -57,13 +56,11 @@ MAX_SEED = 2**31 - 1
 
 def check_seed(seed) -> int:
     """A seed is a whole number from 0 to MAX_SEED (given as int or text)."""
-    return whole_number(seed, "--seed", 0, MAX_SEED)
+    return whole_number(seed, "seed", 0, MAX_SEED)
 
 
 def check_zone(zone: str) -> str:
-    if zone not in ZONES:
-        raise UserError(f"--zone must be one of {', '.join(ZONES)}, got {zone!r}")
-    return zone
+    return one_of(zone, "zone", ZONES)
 
 
 Density = tuple[tuple[str, float], ...]  # (zone, elements per 1000 m^2)

@@ -12,17 +12,17 @@ import os
 from contextlib import contextmanager
 from pathlib import Path
 
-from .errors import UserError
+from ..errors import UserError
 
 
 def check_output_path(
     path,
     suffix: str,
-    option: str = "--out",
+    setting: str = "out",
     companions: tuple[str, ...] = (),
     foreign_sidecar_key: str | None = None,
 ) -> Path:
-    """The resolved output path, or UserError saying why it cannot be written.
+    """The resolved output path, or UserError (naming `setting`) saying why it cannot be written.
 
     Called before any work so a typo in an output option costs nothing.
     `companions` are suffixes of files written beside it (a sidecar .json);
@@ -30,11 +30,11 @@ def check_output_path(
     kind of output (a world's, beside a scan named after it) and is not replaced.
     """
     if not str(path).strip():
-        raise UserError(f"{option} needs a file name ending in {suffix}, got an empty one")
+        raise UserError(f"needs a file name ending in {suffix}, got an empty one", setting=setting)
     out = Path(path).expanduser().resolve()
 
     def fail(why: str) -> UserError:
-        return UserError(f"{option} {out}: {why}")
+        return UserError(f"{out}: {why}", setting=setting)
 
     if out.suffix.lower() != suffix:
         raise fail(f"the file name must end in {suffix}")
@@ -95,19 +95,19 @@ def _json_has_key(path: Path, key: str) -> bool:
         return False
 
 
-def output_directory(text, option: str = "--out") -> Path:
+def output_directory(text, setting: str = "out") -> Path:
     """A directory to write into, created (with its parents) if missing, or UserError."""
     if not str(text).strip():
-        raise UserError(f"{option} needs a directory name, got an empty one")
+        raise UserError("needs a directory name, got an empty one", setting=setting)
     out = Path(str(text)).expanduser().resolve()
     if out.exists() and not out.is_dir():
-        raise UserError(f"{option} {out}: it is a file; give a directory")
+        raise UserError(f"{out}: it is a file; give a directory", setting=setting)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise UserError(f"{option} {out}: cannot create the directory ({e.strerror or e})") from None
+        raise UserError(f"{out}: cannot create the directory ({e.strerror or e})", setting=setting) from None
     if not os.access(out, os.W_OK | os.X_OK):
-        raise UserError(f"{option} {out}: directory is not writable")
+        raise UserError(f"{out}: directory is not writable", setting=setting)
     return out
 
 

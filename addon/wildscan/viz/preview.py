@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .classes import BY_ID
-from .errors import UserError
-from .files import atomic_outputs
-from .pointcloud import PointCloud
+from ..core.classes import BY_ID
+from ..core.errors import UserError
+from ..core.io.files import atomic_outputs
+from ..core.pointcloud import PointCloud
 
 _DPI = 100
 _BACKGROUND = (0.94, 0.94, 0.94)  # light so black fence points stay visible
@@ -206,7 +206,8 @@ def _min_filter_axis(a: np.ndarray, before: int, after: int, axis: int) -> np.nd
             continue
         dst = [slice(None)] * 2
         src = [slice(None)] * 2
-        # A point at index i covers i-before .. i+after, so pixel j takes the point at j+s, -after <= s <= before.
+        # A point at index i covers i-before .. i+after, so pixel j takes the point at j+s,
+        # -after <= s <= before.
         if shift > 0:
             dst[axis], src[axis] = slice(0, n - shift), slice(shift, n)
         else:

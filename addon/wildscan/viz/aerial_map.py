@@ -13,8 +13,8 @@ import os
 
 import numpy as np
 
-from .classes import class_by_name
-from .errors import UserError
+from ..core.classes import CLASSES, class_by_name
+from . import require_matplotlib
 
 MIN_RADIUS = 0.35  # m, smallest drawn footprint
 WATER_COLOUR = (0.62, 0.78, 0.92)  # water has no colour tag (it returns no point)
@@ -39,13 +39,6 @@ def _rgb(name: str) -> tuple[float, float, float]:
     return tuple(c / 255.0 for c in class_by_name(name).color)
 
 
-def require_matplotlib():
-    try:
-        import matplotlib  # noqa: F401
-    except ImportError:
-        raise UserError("--map needs matplotlib (pip install matplotlib); it is not installed here") from None
-
-
 def hillshade(z: np.ndarray, spacing: float) -> np.ndarray:
     """Lambert shading for light from the north-west, 45 deg up."""
     gy, gx = np.gradient(z, spacing)
@@ -57,8 +50,8 @@ def hillshade(z: np.ndarray, spacing: float) -> np.ndarray:
 
 
 def terrain_image(plan, spacing: float = 0.5) -> tuple[np.ndarray, tuple[float, float, float, float]]:
-    from .world import EXTENT
-    from .world.heightfield import lattice
+    from ..core.world import EXTENT
+    from ..core.world.heightfield import lattice
 
     xs, ys = lattice(EXTENT, spacing)
     gx, gy = np.meshgrid(xs, ys)
@@ -99,7 +92,7 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Polygon, Rectangle
 
-    from .world import EXTENT, ZONES
+    from ..core.world import EXTENT, ZONES
 
     fig = Figure(figsize=(10.5, 9.0), dpi=dpi)
     FigureCanvasAgg(fig)
@@ -207,20 +200,9 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
 
     handles = [Patch(facecolor=_rgb("terrain"), edgecolor="k", lw=0.3, label="terrain & flooring")]
     handles += [
-        Patch(facecolor=_rgb(c), edgecolor="k", lw=0.3, label=c)
-        for c in (
-            "trunk",
-            "treetop",
-            "table",
-            "bush",
-            "fence",
-            "bench",
-            "low grass",
-            "rock",
-            "high grass",
-            "wire",
-            "pole",
-        )
+        Patch(facecolor=_rgb(c.name), edgecolor="k", lw=0.3, label=c.name)
+        for c in CLASSES
+        if c.name != "terrain"  # the class table's order, after terrain (drawn above)
     ]
     handles.append(Patch(facecolor=WATER_COLOUR, edgecolor="k", lw=0.3, label="water (no return)"))
     if poses:

@@ -18,12 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from ... import __version__
+from ..classes import BY_ID, class_table_dict, class_table_lines
+from ..errors import UserError
+from ..pointcloud import PLY_FIELDS, PointCloud
 from . import files
-from .classes import BY_ID, class_table_dict, class_table_lines
-from .errors import UserError
 from .files import atomic_outputs, write_durably
-from .pointcloud import PLY_FIELDS, PointCloud
 
 # numpy kind+size -> PLY type name (the names plyfile, PCL and CloudCompare all read).
 _PLY_TYPE_BY_CODE = {
@@ -72,7 +72,7 @@ _PLAIN_TEXT = re.compile(r"[A-Za-z0-9_.,:/+\-]+")
 def check_output_path(path: str | os.PathLike) -> Path:
     """The resolved PLY path, or UserError saying why it (or its sidecar) cannot be written."""
     # A world's sidecar lists its zones; a scan beside it must not replace it.
-    return files.check_output_path(path, ".ply", "--out", companions=(".json",), foreign_sidecar_key="zones")
+    return files.check_output_path(path, ".ply", "out", companions=(".json",), foreign_sidecar_key="zones")
 
 
 def sidecar_path(ply_path: str | os.PathLike) -> Path:

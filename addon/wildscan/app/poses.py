@@ -1,0 +1,60 @@
+"""Scan poses the placement accepts, per zone (no Blender needed: the plan's own triangles
+are ray cast, the same geometry Blender gets). `wildscan poses` prints them, `wildscan world`
+lists them in the world's sidecar, the demo and the benchmark scan from them."""
+
+from __future__ import annotations
+
+from ..core.errors import PoseRejected
+from ..core.world import ZONES, WorldPlan, candidate_sites, plan_world
+
+DEFAULT_POSES_PER_ZONE = 5
+MAX_POSE_COUNT = 1000
+
+
+def plan_backend(plan: WorldPlan, notify=None):
+    """The fastest ray backend over the plan's own triangles (embree, else mathutils' BVH)."""
+    from ..raycast.from_plan import plan_geometry
+    from ..raycast.select import make_backend
+
+    return make_backend("auto", geometry=plan_geometry(plan), notify=notify)
+
+
+def valid_poses(
+    plan: WorldPlan, backend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
+) -> dict[str, list[dict]]:
+    """Up to `count` poses per zone that `placement.place` accepts: the zone's reserved
+    sites first (chosen where its classes are in view), then random candidates."""
+    from ..core.placement import place
+
+    out: dict[str, list[dict]] = {}
+    for zone in zones:
+        accepted: list[dict] = []
+        tried = 0
+        asked = count
+        while len(accepted) < count:
+            pool = candidate_sites(plan, zone, asked)  # a longer ask keeps the same prefix
+            if len(pool) <= tried:
+                break
+            for site in pool[tried:]:
+                if len(accepted) >= count:
+                    break
+                try:
+                    placement = place(backend, site.pose, site.z_start)
+                except PoseRejected:
+                    continue
+                entry = site.to_dict()
+                entry["tilt_deg"] = round(float(placement.to_dict()["tilt_deg"]), 2)
+                entry["optical_centre_z"] = round(float(placement.optical_centre[2]), 3)
+                accepted.append(entry)
+            tried = len(pool)
+            asked = tried + 2 * (count - len(accepted)) + 2
+        out[zone] = accepted
+    return out
+
+
+def poses_of_seed(
+    seed: int, detail: str = "default", count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
+) -> dict[str, list[dict]]:
+    """Valid poses of the world of `seed`, planned (not built): `wildscan poses`."""
+    plan = plan_world(seed, detail)
+    return valid_poses(plan, plan_backend(plan), count, zones)

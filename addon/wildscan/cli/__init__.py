@@ -1,0 +1,105 @@
+"""The `wildscan` command (runs on the bpy wheel) and `blender -b -P blender_scripts/*.py -- …`,
+which take the same arguments.
+
+One registry of subcommands (COMMANDS); one module per command, each with its arguments
+(`add_arguments`) and what it runs (`run`, calling app/ and bench/); the options they
+share are declared once in options.py.
+
+A user mistake ends with one line on stderr and exit code 2; nothing is written.
+Ctrl-C ends with exit code 130, and nothing is written either.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+from collections.abc import Callable
+from typing import NamedTuple
+
+from .. import __version__
+from ..app.settings import command_line_message
+from ..core.errors import UserError
+from . import bench, demo, options, poses, scan, world
+from .options import EXIT_USER_ERROR, ArgumentParser
+
+EXIT_INTERRUPTED = 130
+
+
+class Command(NamedTuple):
+    help: str  # one line in `wildscan --help`
+    description: str  # `wildscan COMMAND --help`
+    add_arguments: Callable[[ArgumentParser, bool], None]  # (parser, in_blender)
+    run: Callable[[argparse.Namespace, bool], int]  # (checked arguments, in_blender) -> exit code
+
+
+COMMANDS: dict[str, Command] = {
+    "world": Command(world.HELP, world.DESCRIPTION, world.add_arguments, world.run),
+    "scan": Command(scan.HELP, scan.DESCRIPTION, scan.add_arguments, scan.run),
+    "poses": Command(poses.HELP, poses.DESCRIPTION, poses.add_arguments, poses.run),
+    "demo": Command(demo.HELP, demo.DESCRIPTION, demo.add_arguments, demo.run),
+    "bench": Command(bench.HELP, bench.DESCRIPTION, bench.add_arguments, bench.run),
+    "bench-world": Command(
+        bench.WORLD_HELP, bench.WORLD_DESCRIPTION, bench.add_world_arguments, bench.run_world
+    ),
+}
+
+
+def build_parser(prog: str = "wildscan") -> ArgumentParser:
+    """The `wildscan` parser: one sub-command per entry of COMMANDS."""
+    parser = ArgumentParser(
+        prog=prog,
+        description="WildScan: labeled synthetic 3D laser scans of natural worlds, built in Blender.",
+    )
+    parser.add_argument("--version", action="version", version=f"wildscan {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=ArgumentParser)
+    sub.required = True
+    parser.command_parsers = {}
+    for name, command in COMMANDS.items():
+        p = sub.add_parser(name, help=command.help, description=command.description)
+        command.add_arguments(p, False)
+        parser.command_parsers[name] = p
+    return parser
+
+
+def build_blender_parser(command: str) -> ArgumentParser:
+    """The parser of `blender -b [file.blend] -P blender_scripts/<command>.py -- ARGS`."""
+    parser = ArgumentParser(
+        prog=f"blender -b [file.blend] -P blender_scripts/{command}.py --",
+        description=COMMANDS[command].description,
+    )
+    COMMANDS[command].add_arguments(parser, True)
+    parser.set_defaults(command=command)
+    parser.command_parsers = {command: parser}
+    return parser
+
+
+def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:
+    args = parser.parse_args(argv)  # a malformed command line exits 2 here, in one line
+    where = f"blender_scripts/{args.command}.py" if in_blender else f"wildscan {args.command}"
+    try:
+        options.apply_checks(parser.command_parsers[args.command], args)
+        return COMMANDS[args.command].run(args, in_blender)
+    except UserError as e:
+        sys.stderr.write(f"{where}: error: {command_line_message(e)}\n")
+        return EXIT_USER_ERROR
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{where}: interrupted; nothing written\n")
+        return EXIT_INTERRUPTED
+
+
+def main(argv: list[str] | None = None) -> int:
+    return dispatch(build_parser(), sys.argv[1:] if argv is None else argv, in_blender=False)
+
+
+def blender_main(command: str) -> int:
+    """Entry for `blender -b [file.blend] -P blender_scripts/<command>.py -- ARGS`.
+
+    Blender would print an escaping exception and still exit 0, so a bug ends
+    here with its traceback and exit code 1."""
+    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
+    try:
+        return dispatch(build_blender_parser(command), argv, in_blender=True)
+    except Exception:
+        traceback.print_exc()
+        return 1

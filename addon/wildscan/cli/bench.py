@@ -1,0 +1,149 @@
+"""`wildscan bench [--suite backends|world]` and `wildscan bench-world` (= `bench --suite world`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from . import options
+from .options import ArgumentParser, Option
+
+SUITES = ("backends", "world")
+HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
+DESCRIPTION = (
+    "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
+    "world, analytic primitives and the default world at each detail level, print ratios against "
+    "scene.ray_cast and scaling tables, and write a CSV and a chart of time against error. With --suite "
+    "world, time the building of the world instead (as `wildscan bench-world`)."
+)
+WORLD_HELP = "time every world-building stage at each detail level (= bench --suite world)"
+WORLD_DESCRIPTION = (
+    "Build the world at each detail level and print the time of every stage, object and triangle "
+    "counts, and the terrain's height error against the analytic heightfield."
+)
+
+
+def _names(setting: str):
+    """A check for a comma-separated list of names."""
+
+    def check(text: str) -> list[str]:
+        from ..core.errors import UserError
+
+        names = [n.strip() for n in str(text).split(",")]
+        if not all(names):
+            raise UserError(
+                f"must be a comma-separated list without empty entries, got {text!r}", setting=setting
+            )
+        return names
+
+    return check
+
+
+def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
+    from ..bench.config import (
+        DEFAULT_OUT,
+        DEFAULT_REFERENCE_RAYS,
+        DEFAULT_RUNS,
+        QUICK_REFERENCE_RAYS,
+        QUICK_RUNS,
+    )
+
+    p.add_argument(
+        "--suite",
+        choices=SUITES,
+        default="backends",
+        help="backends: every ray backend on the test world, analytic primitives, the default world per "
+        "detail level and scaling (default); world: the world built at each detail level, as "
+        "`wildscan bench-world`",
+    )
+    options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
+    options.add(
+        p,
+        Option("details", dict(metavar="LIST"), _names("details")),
+        help="detail levels of the default world, comma-separated from low, default, high "
+        "(default: low,default,high; with --quick: low)",
+    )
+    options.add(
+        p,
+        Option("backends", dict(metavar="LIST"), _names("backends")),
+        help="fast backends to compare, comma-separated from auto, embree, bvh (default: every one "
+        "available here); scene.ray_cast (blender) is always measured: ratios are against it",
+    )
+    p.add_argument(
+        "--runs",
+        metavar="N",
+        help=f"runs per timing, the median is reported, 1..50 (default {DEFAULT_RUNS}; --quick {QUICK_RUNS})",
+    )
+    p.add_argument(
+        "--reference-rays",
+        metavar="N",
+        help="rays per pose cast with scene.ray_cast where its full-scan time is extrapolated, 100..194400 "
+        f"(default {DEFAULT_REFERENCE_RAYS}; --quick {QUICK_REFERENCE_RAYS}); one full scene.ray_cast "
+        "scan of the test world and one of the default world are always timed whole (not in --quick)",
+    )
+    options.add(
+        p,
+        "out",
+        required=False,
+        metavar="DIR",
+        help=f"directory for bench.csv, bench.png and scaling.md (default {DEFAULT_OUT})",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a smoke run in well under a minute: low detail, 2 poses, 1 run, small subsets, no full "
+        "scene.ray_cast scan of the default world",
+    )
+
+
+def run(args: argparse.Namespace, in_blender: bool = False) -> int:
+    if args.suite == "world":
+        from ..bench.config import check_details
+
+        _only_for_backends(args)
+        return _world_suite(args.seed, check_details(args.details or (["low"] if args.quick else [])))
+    from ..bench.backends import run_backends
+    from ..bench.config import DEFAULT_OUT, make_config
+
+    cfg = make_config(
+        args.seed,
+        args.details,
+        args.backends,
+        args.runs,
+        args.reference_rays,
+        args.out or DEFAULT_OUT,
+        args.quick,
+    )
+    return run_backends(cfg)
+
+
+def _only_for_backends(args: argparse.Namespace) -> None:
+    from ..core.errors import UserError
+
+    for setting in ("backends", "runs", "reference_rays", "out"):
+        if getattr(args, setting) is not None:
+            raise UserError("applies to {suite} backends only", setting=setting, related=("suite",))
+
+
+def add_world_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
+    options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
+    options.add(
+        p,
+        Option(
+            "detail",
+            dict(action="append", metavar="LEVEL"),
+            lambda names: [options.detail_name(n) for n in names],
+        ),
+        help="detail level to measure; repeat for several (default: low, default, high)",
+    )
+
+
+def run_world(args: argparse.Namespace, in_blender: bool = False) -> int:
+    return _world_suite(args.seed, args.detail)
+
+
+def _world_suite(seed: int, details: list[str] | None) -> int:
+    from ..bench.world_build import bench_world
+    from ..core.world import DETAILS
+
+    bench_world(seed, details or list(DETAILS))
+    return 0

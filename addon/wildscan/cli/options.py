@@ -1,0 +1,224 @@
+"""The options the commands share, declared once: flag (from app/settings.py), help, default,
+and the check that turns what a user typed into a value.
+
+argparse only parses; once it has, `apply_checks` runs the check of every option the
+command declared, in order, and each raises UserError naming its setting, so every
+command words a mistake the same way ("--seed must be a whole number ...").
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+from ..app.poses import DEFAULT_POSES_PER_ZONE, MAX_POSE_COUNT
+from ..app.settings import flag
+from ..core import sensor as S
+from ..core.checks import whole_number
+from ..core.errors import UserError
+from ..core.frames import FRAMES
+from ..core.world import ZONES, check_seed, check_zone, detail_level
+from ..raycast.select import BACKEND_NAMES
+
+EXIT_USER_ERROR = 2
+
+# argparse takes "-1e3" for an option (it only knows -1 and -1.5 as numbers).
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse that reports a mistake in one line (not usage + error) and exits 2, and
+    keeps the checks of the options added with `add`."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
+        self.checks: list[tuple[str, Callable[[Any], Any]]] = []
+
+    def error(self, message: str):
+        sys.stderr.write(f"{self.prog}: error: {message} (see --help)\n")
+        sys.exit(EXIT_USER_ERROR)
+
+
+# ---------------------------------------------------------------------------------------
+# argparse types: text to numbers
+
+
+def finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    try:
+        return whole_number(text, "", 0, 2**63 - 1)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(e.message) from None
+
+
+# ---------------------------------------------------------------------------------------
+# the shared options
+
+
+class Option(NamedTuple):
+    setting: str  # its name in app/settings.py, which gives the flag
+    kwargs: dict  # for add_argument; a command may override any of them
+    check: Callable[[Any], Any] | None = None  # the parsed value -> the checked value
+
+
+def detail_name(name: str) -> str:
+    detail_level(name)
+    return name
+
+
+def _count(setting: str, help: str) -> Option:
+    """A number of poses per zone, 1..MAX_POSE_COUNT."""
+    return Option(
+        setting,
+        dict(
+            default=str(DEFAULT_POSES_PER_ZONE),
+            metavar="N",
+            help=f"{help} (default {DEFAULT_POSES_PER_ZONE})",
+        ),
+        lambda text: whole_number(text, setting, 1, MAX_POSE_COUNT),
+    )
+
+
+SEED_HELP = "world seed, a whole number from 0 to 2147483647"
+DETAIL_HELP = "low | default | high"
+
+
+def _number(setting: str, default: float, metavar: str, help: str) -> Option:
+    return Option(setting, dict(type=finite_float, default=default, metavar=metavar, help=help))
+
+
+_SHARED = (
+    Option("seed", dict(metavar="S", help=SEED_HELP), check_seed),
+    Option(
+        "detail",
+        dict(default="default", metavar="LEVEL", help=f"{DETAIL_HELP} (default: default)"),
+        detail_name,
+    ),
+    Option(
+        "zone", dict(metavar="NAME", help=f"only this zone: {', '.join(ZONES)} (default: all)"), check_zone
+    ),
+    _count("poses", "valid scan poses listed per zone in the sidecar"),
+    _count("count", f"poses per zone, 1..{MAX_POSE_COUNT}"),
+    Option(
+        "pose",
+        dict(
+            nargs=3,
+            type=finite_float,
+            required=True,
+            metavar=("X", "Y", "YAW"),
+            help="where the robot stands: X, Y in metres (world frame, origin at the world centre) and "
+            "YAW in degrees counter-clockwise from +X (the heading of the structure's X arm)",
+        ),
+    ),
+    Option(
+        "z_start",
+        dict(
+            type=finite_float,
+            metavar="Z",
+            help="world height in metres where the four downward placement lasers start; give one under "
+            "an overhang (e.g. inside the cave). Default: found by a probe from above (the first terrain "
+            "surface)",
+        ),
+    ),
+    _number(
+        "rh",
+        S.DEFAULT_RH_DEG,
+        "DEG",
+        f"horizontal resolution r_h in degrees, at least {S.MIN_RH_DEG:g}; 180/r_h must be whole "
+        f"(default {S.DEFAULT_RH_DEG:g}: 180 2D scans, 194,400 beams)",
+    ),
+    _number(
+        "min_range",
+        S.DEFAULT_MIN_RANGE,
+        "M",
+        f"shortest range kept, metres (default {S.DEFAULT_MIN_RANGE:g})",
+    ),
+    _number(
+        "max_range",
+        S.DEFAULT_MAX_RANGE,
+        "M",
+        f"longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g} (default "
+        f"{S.DEFAULT_MAX_RANGE:g}, the UTM-30LX-EW under sunlight)",
+    ),
+    _number(
+        "noise",
+        S.DEFAULT_NOISE_SIGMA,
+        "SIGMA",
+        f"standard deviation of the Gaussian range noise, metres, 0 (off) to "
+        f"{S.MAX_NOISE_SIGMA:g} (default {S.DEFAULT_NOISE_SIGMA:g})",
+    ),
+    Option(
+        "noise_seed",
+        dict(
+            type=non_negative_int,
+            default=0,
+            metavar="N",
+            help="seed of the range noise, independent of the world seed (default 0)",
+        ),
+    ),
+    Option(
+        "frame",
+        dict(
+            choices=FRAMES,
+            default="leveled",
+            help="coordinate frame of the points: leveled (origin at the optical centre, Z vertical, X "
+            "along the heading; as the paper), sensor (tilted with the structure) or world (default "
+            "leveled)",
+        ),
+    ),
+    Option(
+        "backend",
+        dict(
+            choices=BACKEND_NAMES,
+            default="auto",
+            help="ray caster: blender (scene.ray_cast, the reference), bvh (mathutils BVH tree), embree "
+            "(embreex), or auto, the fastest available (default auto)",
+        ),
+    ),
+    Option("out", dict(required=True)),
+)
+OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
+SENSOR_OPTIONS = ("rh", "min_range", "max_range", "noise", "noise_seed")
+
+
+def add(parser: ArgumentParser, option: str | Option, group=None, **overrides) -> None:
+    """Add a shared option (by name) or a command's own `Option` to `parser` (inside
+    `group` when given), with some of its add_argument keywords overridden."""
+    option = OPTIONS[option] if isinstance(option, str) else option
+    (group or parser).add_argument(flag(option.setting), **{**option.kwargs, **overrides})
+    if option.check is not None:
+        parser.checks.append((option.setting, option.check))
+
+
+def apply_checks(parser: ArgumentParser, args: argparse.Namespace) -> argparse.Namespace:
+    """Replace each checked option's value by its check's result (None stays None)."""
+    for dest, check in parser.checks:
+        value = getattr(args, dest)
+        if value is not None:
+            setattr(args, dest, check(value))
+    return args
+
+
+def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
+    """The sensor the sensor options describe (validated where it is used)."""
+    return S.SensorConfig(
+        rh_deg=args.rh,
+        min_range=args.min_range,
+        max_range=args.max_range,
+        noise_sigma=args.noise,
+        noise_seed=args.noise_seed,
+    )

@@ -1,0 +1,1 @@
+"""Files WildScan writes and reads (numpy only): PLY + JSON sidecar, and atomic outputs."""
