@@ -528,7 +528,7 @@ def test_frame_conversions_round_trip_and_match_the_placement():
     for frame in ("leveled", "sensor", "world"):
         back = frames.from_world(frames.to_world(pts, frame, placement), frame, placement)
         assert np.abs(back - pts).max() < 1e-12
-    # leveled = Rz(-yaw)·(world - c) (DESIGN.md "Frames")
+    # leveled = Rz(-yaw)·(world - c) (docs/architecture.md "Frames")
     world = frames.to_world(pts, "leveled", placement)
     yaw = math.radians(37.0)
     rz = np.array([[math.cos(-yaw), -math.sin(-yaw), 0], [math.sin(-yaw), math.cos(-yaw), 0], [0, 0, 1]])

@@ -279,7 +279,8 @@ def test_blender_34_gives_the_same_hits_as_the_wheel(tmp_path):
     assert wheel["class_id"] == old["class_id"] and wheel["instance"] == old["instance"]
     assert len(set(wheel["class_id"])) >= 12  # the fan from the origin sees most classes
     print(
-        f"\nwheel {wheel['version']}: build {wheel['build_s'] * 1e3:.0f} ms, {wheel['us_per_ray']:.2f} us/ray; "
+        f"\nwheel {wheel['version']}: build {wheel['build_s'] * 1e3:.0f} ms, "
+        f"{wheel['us_per_ray']:.2f} us/ray; "
         f"blender {old['version']}: build {old['build_s'] * 1e3:.0f} ms, {old['us_per_ray']:.2f} us/ray",
         file=sys.stderr,
     )

@@ -86,8 +86,8 @@ def test_a_python_without_blender_loads_and_scans_it_to_the_same_bytes(extracted
         "from wildscan.raycast.scene_file import load_geometry\n"
         "from wildscan.app.scan import scan_current_scene\n"
         f"g = load_geometry({str(path)!r})\n"
-        f"r = scan_current_scene(Pose({POSE.x!r}, {POSE.y!r}, {POSE.yaw_deg!r}), SensorConfig(rh_deg={SENSOR.rh_deg}),"
-        " backend='auto', geometry=g)\n"
+        f"r = scan_current_scene(Pose({POSE.x!r}, {POSE.y!r}, {POSE.yaw_deg!r}), "
+        f"SensorConfig(rh_deg={SENSOR.rh_deg}), backend='auto', geometry=g)\n"
         f"ply, _ = write_scan_files({str(tmp_path / 'free.ply')!r}, r.cloud, dict(r.metadata, seed=None))\n"
         "print(hashlib.sha256(ply.read_bytes()).hexdigest())\n"
     )

@@ -58,7 +58,7 @@ def world():
 
 
 def world_points(pose: dict, result) -> np.ndarray:
-    """Leveled points back in the world frame (DESIGN.md: leveled = Rz(-yaw)(p - centre))."""
+    """Leveled points back in the world frame (docs/architecture.md: leveled = Rz(-yaw)(p - centre))."""
     return result.cloud.xyz @ rot_z(np.radians(pose["yaw"])).T + result.placement.optical_centre
 
 

@@ -14,7 +14,8 @@ bl_info = {
     "version": (0, 1, 0),
     "blender": (3, 4, 0),
     "location": "View3D > Sidebar > WildScan",
-    "description": "Procedural natural worlds scanned by an emulated rotating Hokuyo UTM-30LX-EW, labeled per point",
+    "description": "Procedural natural worlds scanned by an emulated rotating Hokuyo UTM-30LX-EW, "
+    "labeled per point",
     "category": "3D View",
 }
 

@@ -25,6 +25,7 @@ SETTINGS: dict[str, Setting] = {
     "detail": Setting("--detail", "Detail"),
     "zone": Setting("--zone"),
     "world": Setting("--world"),
+    "geometry": Setting("--geometry"),
     "map": Setting("--map"),
     "poses": Setting("--poses"),
     "count": Setting("--count"),

@@ -20,7 +20,7 @@ from typing import NamedTuple
 from .. import __version__
 from ..app.settings import command_line_message
 from ..core.errors import UserError
-from . import bench, demo, options, poses, scan, world
+from . import bench, demo, extract, options, poses, scan, world
 from .options import EXIT_USER_ERROR, ArgumentParser
 
 EXIT_INTERRUPTED = 130
@@ -37,6 +37,7 @@ COMMANDS: dict[str, Command] = {
     "world": Command(world.HELP, world.DESCRIPTION, world.add_arguments, world.run),
     "scan": Command(scan.HELP, scan.DESCRIPTION, scan.add_arguments, scan.run),
     "poses": Command(poses.HELP, poses.DESCRIPTION, poses.add_arguments, poses.run),
+    "extract": Command(extract.HELP, extract.DESCRIPTION, extract.add_arguments, extract.run),
     "demo": Command(demo.HELP, demo.DESCRIPTION, demo.add_arguments, demo.run),
     "bench": Command(bench.HELP, bench.DESCRIPTION, bench.add_arguments, bench.run),
     "bench-world": Command(

@@ -25,6 +25,11 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         group=source,
         help="build the world from this seed (integer from 0 to 2147483647) and scan it",
     )
+    source.add_argument(
+        "--geometry",
+        metavar="SCENE.npz",
+        help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
+    )
     for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
         options.add(p, name)
     p.add_argument("--ascii", action="store_true", help="write an ASCII PLY instead of binary little-endian")
@@ -38,6 +43,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
 
 
 def run(args: argparse.Namespace, in_blender: bool) -> int:
+    from ..app.geometry import load_scan_geometry
     from ..app.scan import check_scan, open_scan_world, scan_current_scene, write_scan
     from ..blender.scene_io import scene_provenance
     from ..core.placement import Pose
@@ -45,9 +51,13 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
 
     pose, sensor = Pose(*args.pose), options.sensor_of(args)
     out = check_scan(pose, sensor, args.z_start, args.out)
-    if args.seed is not None:
+    geometry, provenance = None, {}
+    if args.geometry is not None:
+        geometry, provenance = load_scan_geometry(args.geometry, args.backend)
+    elif args.seed is not None:
         say(args, f"building the world of seed {args.seed}")
-    open_scan_world(args.world, args.seed, progress=StageProgress(args.quiet))
+    if geometry is None:
+        open_scan_world(args.world, args.seed, progress=StageProgress(args.quiet))
     result = scan_current_scene(
         pose,
         sensor,
@@ -56,9 +66,16 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         args.backend,
         progress=Progress("scanning", args.quiet),
         notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
+        geometry=geometry,
     )
-    seed, blend = scene_provenance()
-    ply, sidecar = write_scan(out, result, seed if args.seed is None else args.seed, blend, ascii=args.ascii)
+    if geometry is not None:
+        seed, blend = provenance.get("seed"), provenance.get("world")
+        extra = {"geometry": provenance["geometry"]}
+    else:
+        seed, blend = scene_provenance()
+        extra = {}
+    seed = seed if args.seed is None else args.seed
+    ply, sidecar = write_scan(out, result, seed, blend, ascii=args.ascii, **extra)
 
     p = result.placement
     say(

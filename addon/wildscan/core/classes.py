@@ -1,4 +1,4 @@
-"""The class table (DESIGN.md, paper Table I): the single source of class ids,
+"""The class table (docs/architecture.md "Classes", paper Table I): the single source of class ids,
 names, reflectivities and colour tags.
 
 Ids are a contract with users (they are the PLY `label` field): never renumber.
@@ -19,7 +19,7 @@ class ElementClass:
     color: tuple[int, int, int]
 
 
-# The custom properties that tag an object (DESIGN.md: all a user adds to scan a scene).
+# The custom properties that tag an object (docs/architecture.md: all a user adds to scan a scene).
 CLASS_PROP = "wildscan_class"
 INSTANCE_PROP = "wildscan_instance"
 
@@ -112,7 +112,7 @@ def colors_of(labels: np.ndarray) -> np.ndarray:
 def class_table_lines() -> list[str]:
     """One line per PLY label, for file headers and sidecars."""
     return [
-        f"{c.id} {c.name.replace(' ', '_')} reflectivity={c.reflectivity:g} rgb={c.color[0]},{c.color[1]},{c.color[2]}"
+        f"{c.id} {c.name.replace(' ', '_')} reflectivity={c.reflectivity:g} rgb={','.join(map(str, c.color))}"
         for c in (UNLABELED, *CLASSES)
     ]
 

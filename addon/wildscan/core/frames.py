@@ -5,7 +5,7 @@ leveled  same origin, Z vertical, X along the heading (paper Eq. 2; leveling.py)
 world    Blender's world frame
 
 A placement fixes all three: world = c + R·p_sensor = c + Rz(yaw)·p_leveled
-(DESIGN.md "Frames"). It is given either as a core.placement.Placement or as the
+(docs/architecture.md "Frames"). It is given either as a core.placement.Placement or as the
 dict a scan stores in its metadata (`Placement.to_dict()`, angles in degrees).
 """
 

@@ -9,7 +9,7 @@ With the fix, Eq. (2) maps sensor coordinates to leveled ones:
 (Ry'(t) is the standard Ry(−t)). The angles are therefore defined by the
 structure's attitude in its heading frame: pitch β > 0 when the front (+X) arm
 tip is lower than the rear one (nose down), roll α > 0 when the left (+Y) arm
-tip is lower than the right one. The property that decides it (DESIGN.md):
+tip is lower than the right one. The property that decides it (docs/architecture.md "Frames"):
 without noise, every leveled point equals Rz(−yaw) · (p_world − optical_centre).
 """
 

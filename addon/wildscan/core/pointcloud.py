@@ -8,7 +8,7 @@ import numpy as np
 
 from .classes import colors_of
 
-# PLY vertex fields in file order (DESIGN.md contract) and their numpy types.
+# PLY vertex fields in file order (docs/architecture.md "Files") and their numpy types.
 # `scalar_label` repeats `label` because CloudCompare's command-line mode only
 # loads `intensity` and properties named `scalar_*` as scalar fields.
 PLY_FIELDS: tuple[tuple[str, str], ...] = (

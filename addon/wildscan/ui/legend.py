@@ -1,5 +1,5 @@
 """Colour swatches for the Result panel's legend: one custom preview icon per class,
-filled with the class's colour tag (DESIGN.md class table)."""
+filled with the class's colour tag (docs/architecture.md "Classes")."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """PLY + JSON sidecar writer (and a small reader) for WildScan point clouds.
 
-Numpy only. The files are a contract with users (DESIGN.md "PLY"): the vertex
+Numpy only. The files are a contract with users (docs/architecture.md "Files"): the vertex
 fields and their order come from `pointcloud.PLY_FIELDS`, the header comments
 carry the tool version, the scan metadata and the class table.
 

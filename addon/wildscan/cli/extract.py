@@ -1,0 +1,37 @@
+"""`wildscan extract` and `blender -b [world.blend] -P blender_scripts/extract.py -- …`."""
+
+from __future__ import annotations
+
+import argparse
+
+from . import options
+from .options import ArgumentParser
+
+HELP = "save a world's scan geometry to a file (scan it later without Blender)"
+DESCRIPTION = (
+    "Turn a world into the triangles a scan casts against, with their classes and instances, and save "
+    "them as a .npz file: the world of a seed (built without Blender), a saved .blend, or inside "
+    "`blender -b file.blend -P blender_scripts/extract.py` the open file. `wildscan scan --geometry FILE` "
+    "scans it without Blender and gives the same points as scanning the world itself."
+)
+
+
+def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
+    source = p.add_mutually_exclusive_group(required=not in_blender)
+    source.add_argument(
+        "--world", metavar="FILE.blend", help="extract this .blend (any scene with tagged objects)"
+    )
+    options.add(p, "seed", group=source, help=f"{options.SEED_HELP}: extract the world of this seed")
+    options.add(p, "detail", help=f"{options.DETAIL_HELP}, with --seed (default: default)")
+    options.add(p, "out", metavar="SCENE.npz", help="the geometry file to write")
+    p.add_argument("--quiet", action="store_true", help="print only the file written")
+
+
+def run(args: argparse.Namespace, in_blender: bool = False) -> int:
+    from ..app.geometry import extract
+    from .output import say
+
+    path, geometry, _ = extract(args.out, args.world, args.seed, args.detail)
+    say(args, f"{geometry.triangle_count:,} triangles of {len(geometry.object_names):,} objects")
+    print(f"wrote {path}")
+    return 0

@@ -1,0 +1,14 @@
+"""Save scan geometry with a real Blender: `blender -b [world.blend] -P blender_scripts/extract.py -- ARGS`.
+
+ARGS are those of `wildscan extract`. Without --world or --seed it extracts the file
+Blender was opened with; `wildscan scan --geometry FILE` then scans it without Blender.
+"""
+
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "addon"))
+
+from wildscan.cli import blender_main  # noqa: E402
+
+sys.exit(blender_main("extract"))

@@ -1,0 +1,119 @@
+"""`wildscan extract` and `scan --geometry`: a world's scan geometry saved once, scanned
+anywhere without Blender, with the points of a scan of the world itself."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import pytest
+
+from wildscan.core.io.ply import read_ply
+
+from scene_helpers import BLENDER, WILDSCAN, run, user_error_line
+
+PARK_POSE_SEED_2_LOW = ("61.908", "-58.594", "126.6")  # `wildscan poses --seed 2 --detail low --zone park`
+# Runs a wildscan command in a Python where bpy cannot be imported at all.
+NO_BPY = (
+    "import sys; sys.modules['bpy'] = None; sys.modules['mathutils'] = None\n"
+    "from wildscan.cli import main; sys.exit(main(sys.argv[1:]))"
+)
+
+
+def without_bpy(*args: str):
+    return run([sys.executable, "-c", NO_BPY, *args])
+
+
+def points(path) -> bytes:
+    return read_ply(path)[0].tobytes()
+
+
+def test_a_seeds_geometry_is_extracted_and_scanned_without_blender_as_the_seed_itself(tmp_path):
+    scene = tmp_path / "seed2.npz"
+    extracted = without_bpy("extract", "--seed", "2", "--detail", "low", "--out", str(scene))
+    assert extracted.returncode == 0, extracted.stderr
+    assert f"wrote {scene}" in extracted.stdout
+    pose = ["--pose", *PARK_POSE_SEED_2_LOW, "--rh", "4", "--noise", "0"]
+    from_file = without_bpy("scan", "--geometry", str(scene), *pose, "--out", str(tmp_path / "file.ply"))
+    assert from_file.returncode == 0, from_file.stderr
+    # the same world built in Blender (the bpy wheel) and scanned there
+    low = run([WILDSCAN, "world", "--seed", "2", "--detail", "low", "--out", str(tmp_path / "w.blend")])
+    assert low.returncode == 0, low.stderr
+    in_blender = run(
+        [WILDSCAN, "scan", "--world", str(tmp_path / "w.blend"), *pose, "--out", str(tmp_path / "b.ply")]
+    )
+    assert in_blender.returncode == 0, in_blender.stderr
+    assert points(tmp_path / "file.ply") == points(tmp_path / "b.ply")
+    sidecar = json.loads((tmp_path / "file.json").read_text())
+    assert sidecar["seed"] == 2 and sidecar["geometry"] == str(scene)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--backend", "blender"], "--backend blender needs a Blender scene"),
+        (["--geometry", "missing.npz"], "--geometry"),
+    ],
+)
+def test_geometry_mistakes_exit_2_in_one_line(tmp_path, args, message):
+    scene = tmp_path / "s.npz"
+    assert without_bpy("extract", "--seed", "0", "--detail", "low", "--out", str(scene)).returncode == 0
+    argv = ["scan", "--geometry", str(scene), "--pose", "0", "0", "0", "--out", str(tmp_path / "x.ply")]
+    if args[0] == "--geometry":
+        argv[2] = str(tmp_path / args[1])
+    else:
+        argv += args
+    proc = without_bpy(*argv)
+    assert proc.returncode == 2
+    assert message in user_error_line(proc)
+    assert not (tmp_path / "x.ply").exists()
+
+
+def test_extract_refuses_a_wrong_suffix_before_any_work(tmp_path):
+    proc = without_bpy("extract", "--seed", "1", "--out", str(tmp_path / "scene.txt"))
+    assert proc.returncode == 2
+    assert "must end in .npz" in user_error_line(proc)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.blender_binary
+def test_blender_34_extracts_the_open_file_and_the_wheel_scans_it_as_blender_does(tmp_path):
+    blend, scene = tmp_path / "w.blend", tmp_path / "w.npz"
+    script = [BLENDER, "-b", "--factory-startup", "-P"]
+    built = run(
+        [*script, "blender_scripts/world.py", "--", "--seed", "2", "--detail", "low", "--out", str(blend)]
+    )
+    assert built.returncode == 0, built.stderr
+    extracted = run(
+        [
+            BLENDER,
+            "-b",
+            str(blend),
+            "--factory-startup",
+            "-P",
+            "blender_scripts/extract.py",
+            "--",
+            "--out",
+            str(scene),
+        ]
+    )
+    assert extracted.returncode == 0, extracted.stderr
+    pose = ["--pose", *PARK_POSE_SEED_2_LOW, "--rh", "4", "--backend", "bvh"]
+    scanned = run(
+        [
+            BLENDER,
+            "-b",
+            str(blend),
+            "--factory-startup",
+            "-P",
+            "blender_scripts/scan.py",
+            "--",
+            *pose,
+            "--out",
+            str(tmp_path / "b.ply"),
+        ]
+    )
+    assert scanned.returncode == 0, scanned.stderr
+    from_file = run([WILDSCAN, "scan", "--geometry", str(scene), *pose, "--out", str(tmp_path / "g.ply")])
+    assert from_file.returncode == 0, from_file.stderr
+    assert points(tmp_path / "g.ply") == points(tmp_path / "b.ply")
