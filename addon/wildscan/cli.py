@@ -192,7 +192,14 @@ def _register_bench_command() -> None:
     COMMANDS["bench"] = bench.run_bench_command
 
 
-ALL_COMMANDS = ("world", "scan", "poses", "demo", "bench", "bench-world")
+def _register_dataset_commands() -> None:
+    from . import cli_dataset
+
+    for name, (short, long, add, run) in cli_dataset.COMMANDS.items():
+        COMMAND_HELP[name], ADD_ARGUMENTS[name], COMMANDS[name] = (short, long), add, run
+
+
+ALL_COMMANDS = ("world", "scan", "poses", "demo", "bench", "bench-world", "dataset", "bench-dataset")
 
 
 def build_parser(prog: str = "wildscan", commands=ALL_COMMANDS) -> ArgumentParser:
@@ -330,6 +337,7 @@ def load_world_for_scan(args, in_blender: bool) -> None:
 COMMANDS = {"scan": run_scan_command}
 _register_world_commands()
 _register_bench_command()
+_register_dataset_commands()
 
 
 def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:

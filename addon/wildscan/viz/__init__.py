@@ -1,0 +1,1 @@
+"""Pictures (matplotlib, an optional extra, imported lazily by whoever draws)."""
