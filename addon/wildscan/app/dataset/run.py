@@ -52,6 +52,7 @@ class RunReport:
     engine: str
     peak_rss: dict[int, int] = field(default_factory=dict)  # worker pid -> peak resident bytes
     world_build_seconds: float = 0.0
+    bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
 
 
 # ---------------------------------------------------------------------------------------
@@ -244,6 +245,7 @@ def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunRe
         facts = result["worker"]
         report.peak_rss[facts["pid"]] = max(report.peak_rss.get(facts["pid"], 0), facts["peak_rss_bytes"])
         report.world_build_seconds += facts["world_build_seconds"]
+        report.bpy_imported |= facts["bpy_imported"]
         if state.world_rows(batch.seed) is not None:
             state.write_sequence_files(batch.seed)
             state.save()
@@ -304,18 +306,15 @@ def _run_record(report: RunReport) -> dict:
         "scans_per_second": round(report.written / report.seconds, 3) if report.seconds > 0 else 0.0,
         "world_build_seconds": round(report.world_build_seconds, 3),
         "peak_rss_bytes_per_worker": sorted(report.peak_rss.values()),
+        "bpy_imported_by_a_worker": report.bpy_imported,
     }
 
 
 def finalize(state: _State, report: RunReport) -> None:
     """Sequence files of complete worlds, the label config, dataset.json and the card."""
     spec = state.spec
-    for seed in spec.seeds:
-        if (
-            state.world_rows(seed) is not None
-            and sequence_files(spec.sequence_of(seed))["poses"] not in state.files
-        ):
-            state.write_sequence_files(seed)
+    for seed in spec.seeds:  # written again each time: cheap, and repairs a changed one
+        state.write_sequence_files(seed)
     complete = all(state.world_rows(seed) is not None for seed in spec.seeds)
     totals = card.totals(spec, state.manifest)
     state.write_text(LABELS_YAML, _labels_yaml(spec, totals))

@@ -14,6 +14,7 @@ import functools
 import hashlib
 import os
 import resource
+import sys
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -182,6 +183,7 @@ def _worker_facts(build_seconds: float) -> dict:
         "pid": os.getpid(),
         "peak_rss_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
         "world_build_seconds": build_seconds,
+        "bpy_imported": "bpy" in sys.modules,  # the Blender-free path: tests check it stays False
     }
 
 
