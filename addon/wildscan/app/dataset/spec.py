@@ -101,7 +101,10 @@ class DatasetSpec:
 
 
 def load_spec(path) -> DatasetSpec:
-    import tomllib
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10: the same parser as a package (the `dataset` extra)
+        import tomli as tomllib
 
     path = Path(str(path)).expanduser()
     try:
