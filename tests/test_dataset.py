@@ -328,3 +328,76 @@ def test_the_card_compares_with_rellis_and_counts_classes(dataset):
     assert set(totals["class_points"]) == {BY_ID[i].name for i in range(13)}
     assert data["versions"]["wildscan"] and data["versions"]["dask"]
     assert data["runs"][-1]["bpy_imported_by_a_worker"] is False  # workers stay Blender-free
+
+
+# --------------------------------------------------------------------------- poses and frames
+
+
+@pytest.fixture(scope="module")
+def world():
+    from wildscan.core.worldplan import plan_world
+    from wildscan.world_cli import plan_backend
+
+    plan = plan_world(2, "low")
+    return plan, plan_backend(plan)
+
+
+def accept_with(backend):
+    from wildscan.core.errors import PoseRejected
+    from wildscan.core.placement import place
+
+    def accept(c):
+        try:
+            place(backend, c.pose, c.z_start)
+        except PoseRejected:
+            return False
+        return True
+
+    return accept
+
+
+def test_poses_are_seeded_spread_and_follow_the_zone_quotas(world):
+    from wildscan.core.posesampler import sample_poses, zone_quotas
+
+    plan, backend = world
+    weights = {"forest": 2.0, "park": 1.0, "cave": 1.0}
+    poses = sample_poses(plan, 12, "zones", weights, 3.0, accept_with(backend))
+    assert poses == sample_poses(plan, 12, "zones", weights, 3.0, accept_with(backend))
+    assert zone_quotas(weights, 12) == {"forest": 6, "park": 3, "cave": 3}
+    assert [p.zone for p in poses].count("forest") == 6 and poses[0].zone == "forest"
+    xy = np.array([(p.x, p.y) for p in poses])
+    gaps = np.hypot(*(xy[:, None] - xy[None]).transpose(2, 0, 1)) + np.eye(len(xy)) * 1e9
+    assert gaps.min() >= 3.0
+    assert any(p.z_start is not None for p in poses)  # the cave interior (a reserved site) is used
+    uniform = sample_poses(plan, 6, "uniform", weights, 3.0, accept_with(backend))
+    assert len({p.zone for p in uniform}) > 1 and all(p.kind == "random" for p in uniform)
+
+
+def test_a_full_zone_reports_its_scans_instead_of_dropping_them(world):
+    from wildscan.core.posesampler import NoPose, sample_poses
+
+    plan, backend = world
+    poses = sample_poses(plan, 40, "zones", {"cave": 1.0}, 30.0, accept_with(backend))
+    missing = [p for p in poses if isinstance(p, NoPose)]
+    assert missing and len(poses) == 40
+    assert "no valid pose left in zone cave" in missing[0].reason
+
+
+@pytest.mark.parametrize("frame", ["leveled", "sensor"])
+def test_points_of_any_frame_go_back_to_the_world_exactly(world, frame):
+    from wildscan.core.groundtruth import pose_matrix, world_points
+    from wildscan.core.placement import Pose
+    from wildscan.core.scan import run_scan
+    from wildscan.core.sensor import SensorConfig
+
+    plan, backend = world
+    site = next(s for s in plan.sites if s.zone == "forest")
+    sensor = SensorConfig(rh_deg=6.0, noise_sigma=0.01, noise_seed=3)
+    pose = Pose(site.x, site.y, site.yaw_deg)
+    in_frame = run_scan(backend, pose, sensor, frame)
+    in_world = run_scan(backend, pose, sensor, "world")
+    np.testing.assert_allclose(
+        world_points(in_frame.cloud.xyz, in_frame.placement, frame), in_world.cloud.xyz, atol=1e-9
+    )
+    m = pose_matrix(in_frame.placement, frame)
+    np.testing.assert_allclose(in_frame.cloud.xyz @ m[:3, :3].T + m[:3, 3], in_world.cloud.xyz, atol=1e-9)

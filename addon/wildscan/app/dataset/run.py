@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...core.errors import UserError
-from ...core.files import atomic_outputs, write_durably
+from ...core.files import atomic_outputs, output_directory, write_durably
 from ...core.io import semantickitti as sk
 from ...core.label_schemes import scheme
 from . import card
@@ -57,19 +57,6 @@ class RunReport:
 
 # ---------------------------------------------------------------------------------------
 # the output folder
-
-
-def output_root(out) -> Path:
-    if not str(out).strip():
-        raise UserError("--out needs a directory name, got an empty one")
-    root = Path(str(out)).expanduser().resolve()
-    if root.exists() and not root.is_dir():
-        raise UserError(f"--out {root}: it is a file; give a directory")
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UserError(f"--out {root}: cannot create the directory ({e.strerror or e})") from None
-    return root
 
 
 def lock(root: Path) -> int:
@@ -177,7 +164,7 @@ def run_dataset(
     quiet: bool = False,
     say=print,
 ) -> RunReport:
-    root = output_root(out)
+    root = output_directory(out, "--out")
     fd = lock(root)
     try:
         return _run_locked(spec, root, workers, scheduler, limit, quiet, say)
