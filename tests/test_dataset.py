@@ -401,3 +401,26 @@ def test_points_of_any_frame_go_back_to_the_world_exactly(world, frame):
     )
     m = pose_matrix(in_frame.placement, frame)
     np.testing.assert_allclose(in_frame.cloud.xyz @ m[:3, :3].T + m[:3, 3], in_world.cloud.xyz, atol=1e-9)
+
+
+def test_a_full_disk_while_writing_a_scan_leaves_none_of_its_files(tmp_path, monkeypatch):
+    import errno
+    from pathlib import Path
+
+    from wildscan.app.dataset.worker import write_scan
+
+    real = Path.write_bytes
+    calls = []
+
+    def fill_up(self, data):
+        calls.append(self.name)
+        if len(calls) == 3:
+            real(self, data[: len(data) // 2])
+            raise OSError(errno.ENOSPC, "No space left on device", str(self))
+        return real(self, data)
+
+    monkeypatch.setattr(Path, "write_bytes", fill_up)
+    files = {f"sequences/00/{kind}/000000.bin": bytes(1000) for kind in ("velodyne", "labels", "hag", "bev")}
+    with pytest.raises(UserError, match="cannot write .*hag/000000.bin: No space left on device"):
+        write_scan(tmp_path, files)
+    assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
