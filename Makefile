@@ -14,7 +14,8 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml addon/wildscan/__init__.py
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest plyfile ruff
+	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest plyfile ruff \
+		dask distributed laspy laszip tqdm pyyaml psutil
 	$(PY) -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
 

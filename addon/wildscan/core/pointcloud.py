@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,6 +27,12 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
     ("scalar_label", "<f4"),
 )
 
+# Optional per-point fields, in file order after `scalar_label`: a cloud carries those it
+# has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract.
+OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
+    ("hag", "<f4"),  # height above the true terrain surface under the point, metres (datasets)
+)
+
 
 @dataclass
 class PointCloud:
@@ -40,6 +46,7 @@ class PointCloud:
     sweep: np.ndarray  # uint16 (N,) 2D scan index m (0..M-1)
     range: np.ndarray  # float32 (N,) measured range in metres (noise included)
     frame: str = "leveled"
+    extra: dict[str, np.ndarray] = field(default_factory=dict)  # OPTIONAL_FIELDS name -> (N,) array
 
     def __len__(self) -> int:
         return len(self.label)
@@ -48,9 +55,16 @@ class PointCloud:
     def colors(self) -> np.ndarray:
         return colors_of(self.label)
 
+    def fields(self) -> tuple[tuple[str, str], ...]:
+        """PLY_FIELDS, then the OPTIONAL_FIELDS this cloud carries, in registry order."""
+        unknown = set(self.extra) - {name for name, _ in OPTIONAL_FIELDS}
+        if unknown:
+            raise ValueError(f"unknown optional point fields {sorted(unknown)}; see OPTIONAL_FIELDS")
+        return PLY_FIELDS + tuple((name, code) for name, code in OPTIONAL_FIELDS if name in self.extra)
+
     def to_structured(self) -> np.ndarray:
-        """The PLY vertex records (PLY_FIELDS order, little-endian)."""
-        out = np.empty(len(self), dtype=list(PLY_FIELDS))
+        """The PLY vertex records (`fields()` order, little-endian)."""
+        out = np.empty(len(self), dtype=list(self.fields()))
         xyz = np.asarray(self.xyz, dtype=np.float32)
         out["x"], out["y"], out["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
         out["intensity"] = self.intensity
@@ -62,6 +76,8 @@ class PointCloud:
         out["sweep"] = self.sweep
         out["range"] = self.range
         out["scalar_label"] = self.label
+        for name in self.extra:
+            out[name] = self.extra[name]
         return out
 
     def class_counts(self) -> dict[int, int]:

@@ -3,7 +3,7 @@
 The world's layout and elements are the same at every level; only how finely
 each shape is modelled changes. Errors are against the smooth shape a mesh
 stands for (model_errors; terrain: fit_grid at 100,000 random points, seed 0;
-`bench_world` in world_cli measures them):
+`wildscan bench --suite world` measures them):
 
 | level   | terrain max / rms | 3 m crown | 0.3 m trunk | wire chord | tuft tris | world triangles |
 |---------|-------------------|-----------|-------------|------------|-----------|-----------------|

@@ -1,0 +1,180 @@
+"""The dataset card: dataset.json (spec, versions, totals, runs, the files beside the
+manifest with their checksums) and CARD.md (tables, and figures when matplotlib is there),
+with the class mix beside RELLIS-3D's published shares."""
+
+from __future__ import annotations
+
+import json
+import platform
+from importlib import metadata
+from pathlib import Path
+
+from ... import __version__
+from ...core.classes import BY_ID, CLASSES
+from ...core.errors import UserError
+from ...core.io.files import atomic_outputs, write_durably
+from ...core.label_schemes import RELLIS_POINT_COUNTS
+from .layout import CARD, CARD_FIGURES, DATASET_JSON
+from .manifest import Manifest
+from .spec import SPLITS, DatasetSpec
+from .worker import RANGE_BIN, RANGE_BINS
+
+FORMAT = "WildScan dataset 1"
+# WildScan classes -> the categories compared with RELLIS-3D, and RELLIS-3D's classes in each
+CATEGORIES = {
+    "grass": (("low grass", "high grass"), ("grass",)),
+    "bush": (("bush",), ("bush",)),
+    "tree": (("trunk", "treetop"), ("tree", "log")),
+    "ground": (("terrain",), ("dirt", "mud", "puddle", "asphalt", "concrete")),
+}
+_PACKAGES = ("numpy", "embreex", "dask", "distributed", "laspy", "tqdm", "matplotlib")
+
+
+def versions() -> dict[str, str]:
+    out = {"wildscan": __version__, "python": platform.python_version()}
+    for name in _PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            pass
+    return out
+
+
+def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
+    rows = list(manifest.rows.values())
+    ok = [r for r in rows if r["status"] == "ok"]
+    class_points = {c.name: 0 for c in (BY_ID[0], *CLASSES)}
+    class_scans = dict.fromkeys(class_points, 0)
+    ranges = [0] * RANGE_BINS
+    zones: dict[str, dict[str, int]] = {}
+    for r in ok:
+        for cid, n in r["class_counts"].items():
+            name = BY_ID[int(cid)].name
+            class_points[name] += n
+            class_scans[name] += 1
+        ranges = [a + b for a, b in zip(ranges, r["range_histogram"], strict=True)]
+        zones.setdefault(r["zone"], dict.fromkeys(SPLITS, 0))[r["split"]] += 1
+    return {
+        "scans_planned": len(spec.seeds) * spec.scans_per_world,
+        "scans_ok": len(ok),
+        "scans_failed": len(rows) - len(ok),
+        "points": sum(r["points"] for r in ok),
+        "bytes": sum(f["bytes"] for r in ok for f in r["files"]),
+        "class_points": class_points,
+        "class_scans": class_scans,
+        "range_histogram": {"bin_m": RANGE_BIN, "counts": ranges},
+        "scans_by_zone_and_split": dict(sorted(zones.items())),
+        "scan_seconds": sum(r.get("seconds", 0.0) for r in rows),
+        "failures": sorted({r["reason"] for r in rows if r["status"] != "ok"}),
+    }
+
+
+def category_shares(class_points: dict[str, int]) -> dict[str, tuple[float, float]]:
+    """category -> (RELLIS-3D share, this dataset's share) of labeled points."""
+    ours_total = sum(n for name, n in class_points.items() if name != "unlabeled") or 1
+    rellis_total = sum(RELLIS_POINT_COUNTS.values())
+    out = {}
+    for cat, (ours, theirs) in CATEGORIES.items():
+        out[cat] = (
+            sum(RELLIS_POINT_COUNTS[c] for c in theirs) / rellis_total,
+            sum(class_points.get(c, 0) for c in ours) / ours_total,
+        )
+    out["other"] = (1 - sum(v[0] for v in out.values()), 1 - sum(v[1] for v in out.values()))
+    return out
+
+
+def write_dataset_json(root: Path, data: dict) -> None:
+    text = (json.dumps(data, indent=1, sort_keys=True) + "\n").encode("utf-8")
+    with atomic_outputs(root / DATASET_JSON) as (tmp,):
+        write_durably(tmp, lambda f: f.write(text))
+
+
+def read_dataset_json(root: Path) -> dict | None:
+    path = root / DATASET_JSON
+    if not path.exists():
+        return None
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as e:
+        raise UserError(f"cannot read {path}: {e}") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise UserError(f"{path} is not the card of a WildScan dataset")
+    return data
+
+
+def write_card(root: Path, spec: DatasetSpec, data: dict) -> None:
+    figures = _figures(root, data)
+    text = card_markdown(spec, data, figures).encode("utf-8")
+    with atomic_outputs(root / CARD) as (tmp,):
+        write_durably(tmp, lambda f: f.write(text))
+
+
+def _figures(root: Path, data: dict) -> list[tuple[str, str]]:
+    from ...viz import have_matplotlib
+
+    if not have_matplotlib():  # the card is written without its pictures
+        return []
+    from ...viz.dataset_card import render_card_figures
+
+    return render_card_figures(root / CARD_FIGURES, data, category_shares(data["totals"]["class_points"]))
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.1f} %"
+
+
+def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]]) -> str:
+    t = data["totals"]
+    lines = [
+        f"# WildScan dataset ({'complete' if data['complete'] else 'incomplete: rerun the same command'})",
+        "",
+        f"{len(spec.seeds)} worlds (detail {spec.detail}) x {spec.scans_per_world} scans; formats "
+        f"{', '.join(spec.formats)}; label ids: {spec.label_scheme}; "
+        f"config hash `{data['config_hash'][:16]}`.",
+        f"Scans written: {t['scans_ok']:,} of {t['scans_planned']:,} "
+        f"({t['scans_failed']:,} without a valid pose); {t['points']:,} points; {t['bytes'] / 1e9:.2f} GB.",
+        "",
+        "## Classes",
+        "",
+        "| class | points | share | scans containing it |",
+        "|---|---:|---:|---:|",
+    ]
+    total = max(1, t["points"])
+    for name, n in t["class_points"].items():
+        lines.append(f"| {name} | {n:,} | {_pct(n / total)} | {t['class_scans'][name]:,} |")
+    lines += ["", "Beside RELLIS-3D (share of labeled points; RELLIS-3D's published counts):", ""]
+    lines += ["| category | RELLIS-3D | this dataset |", "|---|---:|---:|"]
+    for cat, (theirs, ours) in category_shares(t["class_points"]).items():
+        lines.append(f"| {cat} | {_pct(theirs)} | {_pct(ours)} |")
+    lines += ["", "## Points against range", "", "| range (m) | points |", "|---|---:|"]
+    counts = t["range_histogram"]["counts"]
+    step = 5  # 2.5 m rows
+    for start in range(0, len(counts), step):
+        lo, hi = start * RANGE_BIN, (start + step) * RANGE_BIN
+        lines.append(f"| {lo:g}-{hi:g} | {sum(counts[start : start + step]):,} |")
+    lines += [
+        "",
+        "## Scans per zone and split",
+        "",
+        "| zone | " + " | ".join(SPLITS) + " |",
+        "|---|" + "---:|" * 3,
+    ]
+    for zone, by_split in t["scans_by_zone_and_split"].items():
+        lines.append(f"| {zone} | " + " | ".join(f"{by_split[s]:,}" for s in SPLITS) + " |")
+    lines += [
+        "",
+        "## Time",
+        "",
+        "| run | scans written | seconds | scans/s | workers |",
+        "|---|---:|---:|---:|---|",
+    ]
+    for k, run in enumerate(data["runs"], 1):
+        lines.append(
+            f"| {k} | {run['scans_written']:,} | {run['seconds']:.1f} | "
+            f"{run['scans_per_second']:.1f} | {run['engine']} |"
+        )
+    if t["failures"]:
+        lines += ["", "## Scans without a pose", ""] + [f"- {reason}" for reason in t["failures"]]
+    if figures:
+        lines += ["", "## Figures", ""] + [f"![{title}]({path})" for title, path in figures]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,140 @@
+"""The Dask side: a LocalCluster (one single-threaded worker process per core, or N), or an
+existing scheduler by address; batches submitted as tasks, results handed back as they
+finish.
+
+A task is one world seed with a batch of its scan indices, so a world is planned once per
+batch (and once per worker: workers keep their last worlds). A worker that dies mid-task
+is replaced by its nanny and the scheduler runs the task again elsewhere (up to
+`distributed.scheduler.allowed-failures` times, 3 by default); a task that kills every
+worker it touches ends the run with a message.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from ... import __version__
+from ...core.errors import UserError
+
+MAX_BATCH = 50  # scans per task: bounds the work a killed run redoes
+POLL_SECONDS = 0.5
+
+
+class RunFailed(Exception):
+    """The job cannot go on for a reason that is not the user's (a task keeps killing workers)."""
+
+
+@dataclass
+class Batch:
+    seed: int
+    indices: list[int]
+    order: int
+    label: str = ""
+
+
+def make_batches(pending: dict[int, list[int]], worker_count: int) -> list[Batch]:
+    """Each world's pending scans in contiguous batches: one per world when there are enough
+    worlds to keep every worker busy, more when there are fewer worlds than workers."""
+    worlds = [seed for seed, indices in pending.items() if indices]
+    per_world = max(1, math.ceil(worker_count / max(1, len(worlds))))
+    batches: list[Batch] = []
+    for seed in worlds:
+        indices = pending[seed]
+        parts = max(per_world, math.ceil(len(indices) / MAX_BATCH))
+        size = math.ceil(len(indices) / parts)
+        for start in range(0, len(indices), size):
+            batches.append(Batch(seed, indices[start : start + size], len(batches)))
+    return batches
+
+
+@dataclass
+class Engine:
+    workers: int | None = None
+    scheduler: str | None = None
+    client: object = None
+    cluster: object = None
+    ticks: dict[str, int] = field(default_factory=dict)
+    token: str = field(default_factory=lambda: uuid.uuid4().hex[:8])  # keeps two runs' tasks apart
+
+    def start(self) -> None:
+        from distributed import Client, LocalCluster
+
+        if self.scheduler:
+            try:
+                self.client = Client(self.scheduler, timeout="15s")
+            except (OSError, TimeoutError, ValueError) as e:
+                raise UserError(
+                    f"--scheduler {self.scheduler}: cannot reach a Dask scheduler there ({e})"
+                ) from None
+            return
+        self.cluster = LocalCluster(
+            n_workers=self.workers or os.cpu_count() or 1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        )
+        self.client = Client(self.cluster)
+
+    def worker_count(self) -> int:
+        threads = self.client.nthreads()
+        return max(1, sum(threads.values()))
+
+    def run(
+        self, spec_json: dict, out: str, batches: list[Batch], on_batch: Callable, on_poll: Callable
+    ) -> None:
+        """Submit every batch; call on_batch(batch, result) as each finishes and on_poll()
+        twice a second. Raises UserError/RunFailed when a task fails."""
+        from distributed import wait
+
+        from .worker import scan_batch
+
+        topic = f"wildscan-dataset-{self.token}"
+        self.client.subscribe_topic(topic, self._tick)
+        futures = {}
+        for b in batches:
+            f = self.client.submit(
+                scan_batch, spec_json, out, b.seed, b.indices, __version__, topic, b.label,
+                key=b.label, pure=False, priority=-b.order,
+            )  # fmt: skip
+            futures[f] = b
+        pending = set(futures)
+        while pending:
+            try:
+                done, pending = wait(pending, timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                done = set()
+            for f in done:
+                on_batch(futures[f], self._result(f, futures[f]))
+                f.release()
+            on_poll()
+
+    def _result(self, future, batch: Batch):
+        if future.status == "error":
+            exc = future.exception()
+            if isinstance(exc, UserError):
+                raise UserError(str(exc))
+            if type(exc).__name__ == "KilledWorker":
+                raise RunFailed(
+                    f"world seed {batch.seed}: its task killed every worker that ran it ({exc}); "
+                    "is a worker running out of memory?"
+                )
+        return future.result()
+
+    def _tick(self, event) -> None:
+        _, label = event
+        self.ticks[label] = self.ticks.get(label, 0) + 1
+
+    def close(self) -> None:
+        for closer in (self.client, self.cluster):
+            if closer is not None:
+                try:
+                    closer.close(timeout=10) if closer is self.cluster else closer.close()
+                except Exception:  # closing after an interrupt: never hide the reason we stop
+                    pass
+        self.client = self.cluster = None

@@ -1,0 +1,59 @@
+"""Where everything of a dataset lives inside its output folder (README "Datasets")."""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+MANIFEST = "manifest.jsonl"
+DATASET_JSON = "dataset.json"
+CARD = "CARD.md"
+CARD_FIGURES = "card"
+LABELS_YAML = "labels.yaml"
+LOCK = ".wildscan-dataset.lock"
+# core.io.files.temp_path names temporary files ".NAME.tmp-PID.EXT"
+TEMP_NAME = re.compile(r"^\..+\.tmp-\d+(\.[A-Za-z0-9]+)?$")
+
+# kind -> (folder, suffix) of the per-scan files, by format (the bird's-eye grid always)
+SCAN_FILES: dict[str, tuple[tuple[str, str, str], ...]] = {
+    "semantickitti": (
+        ("velodyne", "velodyne", ".bin"),
+        ("labels", "labels", ".label"),
+        ("hag", "hag", ".bin"),
+    ),
+    "las": (("las", "las", ".las"),),
+    "ply": (("ply", "ply", ".ply"), ("ply_sidecar", "ply", ".json")),
+    "bev": (("bev", "bev", ".npy"),),
+}
+
+
+def sequence_dir(sequence: str) -> str:
+    return f"sequences/{sequence}"
+
+
+def scan_paths(formats, sequence: str, index: int) -> dict[str, str]:
+    """kind -> path relative to the output folder of every file of one scan."""
+    out = {}
+    for fmt in (*formats, "bev"):
+        for kind, folder, suffix in SCAN_FILES[fmt]:
+            out[kind] = f"{sequence_dir(sequence)}/{folder}/{index:06d}{suffix}"
+    return out
+
+
+def sequence_files(sequence: str) -> dict[str, str]:
+    return {"poses": f"{sequence_dir(sequence)}/poses.txt", "calib": f"{sequence_dir(sequence)}/calib.txt"}
+
+
+def remove_temp_files(root: Path) -> int:
+    """Delete temporary files a killed run left (only while holding the run's lock)."""
+    removed = 0
+    for folder, _, names in os.walk(root):
+        for name in names:
+            if TEMP_NAME.match(name):
+                try:
+                    os.unlink(os.path.join(folder, name))
+                    removed += 1
+                except OSError:
+                    pass
+    return removed

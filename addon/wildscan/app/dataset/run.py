@@ -1,0 +1,353 @@
+"""`wildscan dataset`: make (or finish) a dataset, and verify one.
+
+A run locks the output folder, removes what a killed run left (temporary files only),
+re-checks the scans already in the manifest (size and SHA-256: a changed file is scanned
+again), submits the missing scans to Dask and records each batch as it returns. Whatever
+stops it - Ctrl-C, SIGTERM, SIGKILL, a dead worker, a full disk - the manifest lists only
+complete scans whose files are all in place, and the same command finishes the job with
+the bytes one uninterrupted run would have written.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import os
+import signal
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ...core.errors import UserError
+from ...core.io import semantickitti as sk
+from ...core.io.files import atomic_outputs, output_directory, write_durably
+from ...core.label_schemes import scheme
+from . import card
+from .engine import Batch, Engine, RunFailed, make_batches
+from .layout import LABELS_YAML, LOCK, remove_temp_files, sequence_files
+from .manifest import Manifest, broken_rows, check_files
+from .progress import ScanProgress
+from .spec import DatasetSpec
+
+
+class Terminated(BaseException):
+    """SIGTERM, turned into an exception so the run stops as on Ctrl-C."""
+
+
+class Interrupted(Exception):
+    def __init__(self, message: str, code: int):
+        super().__init__(message)
+        self.code = code
+
+
+@dataclass
+class RunReport:
+    root: Path
+    planned: int
+    ok: int
+    failed: int
+    written: int
+    seconds: float
+    complete: bool
+    engine: str
+    peak_rss: dict[int, int] = field(default_factory=dict)  # worker pid -> peak resident bytes
+    world_build_seconds: float = 0.0
+    bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
+
+
+# ---------------------------------------------------------------------------------------
+# the output folder
+
+
+def lock(root: Path) -> int:
+    """An exclusive lock on the folder for this run (released by the OS if the run dies)."""
+    fd = os.open(root / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        raise UserError(f"--out {root}: another wildscan dataset run is writing into it") from None
+    return fd
+
+
+def unlock(root: Path, fd: int) -> None:
+    try:
+        os.unlink(root / LOCK)
+    except OSError:
+        pass
+    os.close(fd)
+
+
+def check_same_spec(root: Path, existing: dict | None, manifest: Manifest, spec: DatasetSpec) -> None:
+    wanted = spec.config_hash()
+    hashes = {r["config_hash"] for r in manifest.rows.values()} | (
+        {existing["config_hash"]} if existing else set()
+    )
+    if hashes - {wanted}:
+        raise UserError(
+            f"--out {root} holds a dataset of another spec or WildScan version (config hash "
+            f"{sorted(hashes - {wanted})[0][:12]}, this spec {wanted[:12]}); give another --out or that spec"
+        )
+    if existing is None and not manifest.rows:
+        strays = [p.name for p in root.iterdir() if not p.name.startswith(".")]
+        if strays:
+            raise UserError(
+                f"--out {root} is not empty and holds no WildScan dataset (it has {strays[0]}, ...)"
+            )
+
+
+# ---------------------------------------------------------------------------------------
+# the run
+
+
+@dataclass
+class _State:
+    spec: DatasetSpec
+    root: Path
+    manifest: Manifest
+    existing: dict | None
+    files: dict[str, dict] = field(default_factory=dict)
+    runs: list[dict] = field(default_factory=list)
+
+    def world_rows(self, seed: int) -> list[dict] | None:
+        """The rows of a world in scan order, or None while any is missing."""
+        seq = self.spec.sequence_of(seed)
+        rows = [self.manifest.rows.get((seq, i)) for i in range(self.spec.scans_per_world)]
+        return None if any(r is None for r in rows) else rows
+
+    def write_text(self, rel: str, text: str) -> None:
+        data = text.encode("utf-8")
+        with atomic_outputs(self.root / rel) as (tmp,):
+            write_durably(tmp, lambda f: f.write(data))
+        self.files[rel] = {"path": rel, "bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+
+    def write_sequence_files(self, seed: int) -> None:
+        rows = self.world_rows(seed)
+        if rows is None or "semantickitti" not in self.spec.formats:
+            return
+        import numpy as np
+
+        paths = sequence_files(self.spec.sequence_of(seed))
+        poses = [np.array(r["pose_matrix"]).reshape(3, 4) for r in rows if r["status"] == "ok"]
+        self.write_text(paths["poses"], sk.poses_text(poses))
+        self.write_text(paths["calib"], sk.calib_text())
+
+    def dataset_json(self, complete: bool) -> dict:
+        spec = self.spec
+        splits = spec.splits()
+        return {
+            "format": card.FORMAT,
+            "config_hash": spec.config_hash(),
+            "spec": spec.to_dict(),
+            "versions": card.versions(),
+            "sequences": [
+                {"sequence": spec.sequence_of(s), "seed": s, "split": splits[s]} for s in spec.seeds
+            ],
+            "complete": complete,
+            "totals": card.totals(spec, self.manifest),
+            "files": dict(sorted(self.files.items())),
+            "runs": self.runs,
+        }
+
+    def save(self, complete: bool = False) -> dict:
+        data = self.dataset_json(complete)
+        card.write_dataset_json(self.root, data)
+        return data
+
+
+def run_dataset(
+    spec: DatasetSpec,
+    out,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    limit: int | None = None,
+    quiet: bool = False,
+    say=print,
+) -> RunReport:
+    root = output_directory(out, "--out")
+    fd = lock(root)
+    try:
+        return _run_locked(spec, root, workers, scheduler, limit, quiet, say)
+    finally:
+        unlock(root, fd)
+
+
+def _run_locked(spec, root, workers, scheduler, limit, quiet, say) -> RunReport:
+    existing = card.read_dataset_json(root)
+    manifest = Manifest.load(root)
+    check_same_spec(root, existing, manifest, spec)
+    remove_temp_files(root)
+    broken = broken_rows(manifest)
+    for key, problem in sorted(broken.items()):
+        say(f"scan {key[1]} of sequence {key[0]} will be written again: {problem}")
+        manifest.drop(key)
+    if broken:
+        manifest.write()
+    state = _State(spec, root, manifest, existing)
+    if existing:
+        state.files = dict(existing.get("files", {}))
+        state.runs = list(existing.get("runs", []))
+    pending = _pending(spec, manifest, limit)
+    state.save()
+    report = RunReport(
+        root, len(spec.seeds) * spec.scans_per_world, 0, 0, 0, 0.0, False, _engine_name(workers, scheduler)
+    )
+    if any(pending.values()):
+        _run_engine(state, pending, workers, scheduler, quiet, report)
+    finalize(state, report)
+    return report
+
+
+def _engine_name(workers, scheduler) -> str:
+    if scheduler:
+        return f"scheduler {scheduler}"
+    return f"local, {workers or os.cpu_count() or 1} workers"
+
+
+def _pending(spec: DatasetSpec, manifest: Manifest, limit: int | None) -> dict[int, list[int]]:
+    pending, budget = {}, limit if limit is not None else float("inf")
+    for seed in spec.seeds:
+        seq = spec.sequence_of(seed)
+        todo = [i for i in range(spec.scans_per_world) if (seq, i) not in manifest.rows]
+        todo = todo[: int(max(0, min(budget, len(todo))))]
+        budget -= len(todo)
+        pending[seed] = todo
+    return pending
+
+
+def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunReport) -> None:
+    engine = Engine(workers, scheduler)
+    recorded = len(state.manifest.rows)
+    progress = ScanProgress(report.planned, recorded, quiet)
+    written = [0]
+    in_flight: dict[str, int] = {}
+    t0 = time.perf_counter()
+
+    def on_batch(batch: Batch, result: dict) -> None:
+        for row in result["rows"]:
+            state.manifest.add(row)
+        state.manifest.write()
+        written[0] += len(result["rows"])
+        in_flight.pop(batch.label, None)
+        facts = result["worker"]
+        report.peak_rss[facts["pid"]] = max(report.peak_rss.get(facts["pid"], 0), facts["peak_rss_bytes"])
+        report.world_build_seconds += facts["world_build_seconds"]
+        report.bpy_imported |= facts["bpy_imported"]
+        if state.world_rows(batch.seed) is not None:
+            state.write_sequence_files(batch.seed)
+            state.save()
+
+    def on_poll() -> None:
+        ticking = sum(min(n, in_flight.get(k, 0)) for k, n in engine.ticks.items())
+        progress.update(len(state.manifest.rows) + ticking)
+
+    stop: tuple[str, int] | None = None
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        engine.start()
+        batches = make_batches(pending, engine.worker_count())
+        for b in batches:
+            b.label = f"wildscan-{engine.token}-{b.seed}-{b.indices[0]}"
+            in_flight[b.label] = len(b.indices)
+        engine.run(state.spec.to_dict(), str(state.root), batches, on_batch, on_poll)
+    except KeyboardInterrupt:
+        stop = ("interrupted", 130)
+    except Terminated:
+        stop = ("terminated", 143)
+    except (UserError, RunFailed) as e:
+        _stop_engine(engine, progress, state, previous)
+        report.written = written[0]
+        raise type(e)(f"{e} ({_written_text(state, report)}; the same command finishes the job)") from None
+    _stop_engine(engine, progress, state, previous)
+    report.written = written[0]
+    report.seconds = time.perf_counter() - t0
+    state.runs.append(_run_record(report))
+    if stop is not None:
+        finalize(state, report)
+        raise Interrupted(
+            f"{stop[0]}: {_written_text(state, report)}; the same command finishes the job", stop[1]
+        )
+
+
+def _stop_engine(engine: Engine, progress: ScanProgress, state: _State, previous) -> None:
+    engine.close()
+    progress.close()
+    signal.signal(signal.SIGTERM, previous)
+    remove_temp_files(state.root)  # the local workers are gone: any temporary file is debris
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated()
+
+
+def _written_text(state: _State, report: RunReport) -> str:
+    ok = sum(1 for r in state.manifest.rows.values())
+    return f"{ok:,} of {report.planned:,} scans in the manifest, {report.written:,} written by this run"
+
+
+def _run_record(report: RunReport) -> dict:
+    return {
+        "engine": report.engine,
+        "scans_written": report.written,
+        "seconds": round(report.seconds, 3),
+        "scans_per_second": round(report.written / report.seconds, 3) if report.seconds > 0 else 0.0,
+        "world_build_seconds": round(report.world_build_seconds, 3),
+        "peak_rss_bytes_per_worker": sorted(report.peak_rss.values()),
+        "bpy_imported_by_a_worker": report.bpy_imported,
+    }
+
+
+def finalize(state: _State, report: RunReport) -> None:
+    """Sequence files of complete worlds, the label config, dataset.json and the card."""
+    spec = state.spec
+    for seed in spec.seeds:  # written again each time: cheap, and repairs a changed one
+        state.write_sequence_files(seed)
+    complete = all(state.world_rows(seed) is not None for seed in spec.seeds)
+    totals = card.totals(spec, state.manifest)
+    state.write_text(LABELS_YAML, _labels_yaml(spec, totals))
+    data = state.save(complete)
+    card.write_card(state.root, spec, data)
+    report.ok, report.failed, report.complete = totals["scans_ok"], totals["scans_failed"], complete
+
+
+def _labels_yaml(spec: DatasetSpec, totals: dict) -> str:
+    from ...core.classes import BY_ID
+
+    s = scheme(spec.label_scheme)
+    by_name = {c.name: c.id for c in BY_ID.values()}
+    points = max(1, totals["points"])
+    content: dict[int, float] = {}
+    for name, n in totals["class_points"].items():
+        raw = s.from_wildscan[by_name[name]]
+        content[raw] = content.get(raw, 0.0) + n / points
+    splits = spec.splits()
+    by_split = {"train": [], "valid": [], "test": []}
+    for seed in spec.seeds:
+        by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
+    return sk.label_config_yaml(s, content, by_split, f"WildScan dataset, config {spec.config_hash()[:16]}")
+
+
+# ---------------------------------------------------------------------------------------
+# --verify
+
+
+@dataclass
+class VerifyReport:
+    root: Path
+    checked: int
+    problems: list[str]
+    scans: int
+    planned: int
+    complete: bool
+
+
+def verify_dataset(out) -> VerifyReport:
+    root = Path(str(out)).expanduser().resolve()
+    data = card.read_dataset_json(root) if root.is_dir() else None
+    if data is None:
+        raise UserError(f"--verify {root}: no WildScan dataset there (no dataset.json)")
+    manifest = Manifest.load(root)
+    records = [f for row in manifest.ok_rows() for f in row["files"]] + list(data.get("files", {}).values())
+    problems = [p for p in check_files(root, records) if p]
+    planned = len(data["spec"]["seeds"]) * data["spec"]["scans_per_world"]
+    return VerifyReport(root, len(records), problems, len(manifest.rows), planned, bool(data.get("complete")))

@@ -1,0 +1,385 @@
+"""SPEC.toml: what a dataset is made of (a contract: README "Datasets" lists every key).
+
+Every key is optional with a default; an unknown key or a bad value is a UserError
+naming the key and what is allowed. Sensor values may be a fixed value or a range
+[lo, hi] drawn per scan from a stream seeded by (world seed, scan index, key), and the
+value drawn is recorded with the scan.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+from ... import __version__
+from ...core import sensor as S
+from ...core.errors import UserError
+from ...core.frames import FRAMES
+from ...core.label_schemes import SCHEME_NAMES
+from ...core.posesampler import STRATEGIES
+from ...core.rng import stage_rng, stage_seed
+from ...core.world import DETAILS, MAX_SEED, ZONES
+
+FORMATS = ("semantickitti", "las", "ply")
+SPLITS = ("train", "val", "test")
+MAX_SCANS_PER_WORLD = 100_000
+MAX_WORLDS = 100_000
+DEFAULT_ZONE_WEIGHTS = (
+    ("hills", 1.0),
+    ("forest", 2.0),
+    ("park", 1.0),
+    ("lake", 1.0),
+    ("cave", 1.0),
+    ("trail", 1.0),
+)
+Value = float | tuple[float, float]
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    rh: Value = S.DEFAULT_RH_DEG
+    min_range: Value = S.DEFAULT_MIN_RANGE
+    max_range: Value = S.DEFAULT_MAX_RANGE
+    noise: Value = S.DEFAULT_NOISE_SIGMA
+    noise_seed: int | tuple[int, int] | None = None  # None: a seed of its own per scan
+    frame: str = "leveled"
+
+
+@dataclass(frozen=True)
+class PoseSpec:
+    strategy: str = "zones"
+    zones: tuple[tuple[str, float], ...] = DEFAULT_ZONE_WEIGHTS
+    min_distance: float = 2.0
+
+
+@dataclass(frozen=True)
+class DatasetSpec:
+    seeds: tuple[int, ...] = (0, 1, 2)
+    detail: str = "default"
+    scans_per_world: int = 50
+    formats: tuple[str, ...] = FORMATS
+    label_scheme: str = "wildscan"
+    split: tuple[tuple[str, float], ...] = (("train", 0.8), ("val", 0.1), ("test", 0.1))
+    poses: PoseSpec = field(default_factory=PoseSpec)
+    sensor: SensorSpec = field(default_factory=SensorSpec)
+
+    def to_dict(self) -> dict:
+        return json.loads(json.dumps(asdict(self)))
+
+    def config_hash(self) -> str:
+        """SHA-256 of the spec with every default filled in and the WildScan version."""
+        text = json.dumps({"spec": self.to_dict(), "wildscan": __version__}, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def sequence_of(self, seed: int) -> str:
+        return f"{self.seeds.index(seed):02d}"
+
+    def splits(self) -> dict[int, str]:
+        """World seed -> split. Counts by largest remainder; which worlds by a seeded order."""
+        shares = dict(self.split)
+        n = len(self.seeds)
+        exact = {s: n * shares.get(s, 0.0) for s in SPLITS}
+        count = {s: math.floor(exact[s]) for s in SPLITS}
+        for s in sorted(SPLITS, key=lambda s: (-(exact[s] - count[s]), SPLITS.index(s)))[
+            : n - sum(count.values())
+        ]:
+            count[s] += 1
+        order = sorted(self.seeds, key=lambda seed: stage_seed(seed, "dataset.split"))
+        out, start = {}, 0
+        for s in SPLITS:
+            for seed in order[start : start + count[s]]:
+                out[seed] = s
+            start += count[s]
+        return out
+
+
+# ---------------------------------------------------------------------------------------
+# loading
+
+
+def load_spec(path) -> DatasetSpec:
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10: the same parser as a package (the `dataset` extra)
+        import tomli as tomllib
+
+    path = Path(str(path)).expanduser()
+    try:
+        text = path.read_bytes()
+    except OSError as e:
+        raise UserError(f"cannot read the spec {path}: {e.strerror or e}") from None
+    try:
+        data = tomllib.loads(text.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise UserError(f"{path.name}: not valid TOML ({e})") from None
+    return spec_from_dict(data, path.name)
+
+
+def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
+    top = _Table(data, "", where)
+    top.only("seeds", "detail", "scans_per_world", "formats", "label_scheme", "split", "poses", "sensor")
+    d = DatasetSpec()
+    spec = replace(
+        d,
+        seeds=_seeds(top),
+        detail=top.choice("detail", d.detail, tuple(DETAILS)),
+        scans_per_world=top.integer("scans_per_world", d.scans_per_world, 1, MAX_SCANS_PER_WORLD),
+        formats=_formats(top),
+        label_scheme=top.choice("label_scheme", d.label_scheme, SCHEME_NAMES),
+        split=_split(top.table("split", dict(d.split))),
+        poses=_poses(top.table("poses", {})),
+        sensor=_sensor(top.table("sensor", {})),
+    )
+    return spec
+
+
+class _Table:
+    """One TOML table with its dotted name, for messages that say which key is wrong."""
+
+    def __init__(self, data, prefix: str, where: str):
+        self.data, self.prefix, self.where = data, prefix, where
+
+    def name(self, key: str) -> str:
+        return f"{self.prefix}{key}"
+
+    def fail(self, key: str, allowed: str, value) -> UserError:
+        return UserError(f"{self.where}: {self.name(key)} must be {allowed}, got {_show(value)}")
+
+    def only(self, *keys: str) -> None:
+        for key in self.data:
+            if key not in keys:
+                where = f"[{self.prefix[:-1]}]" if self.prefix else "the top level"
+                raise UserError(
+                    f"{self.where}: unknown key {self.name(key)!r}; allowed in {where}: {', '.join(keys)}"
+                )
+
+    def get(self, key: str, default):
+        return self.data.get(key, default)
+
+    def table(self, key: str, default: dict) -> "_Table":
+        value = self.data.get(key, default)
+        if not isinstance(value, dict):
+            raise self.fail(key, "a table", value)
+        return _Table(value, f"{self.name(key)}.", self.where)
+
+    def choice(self, key: str, default: str, allowed: tuple[str, ...]) -> str:
+        value = self.data.get(key, default)
+        if value not in allowed:
+            raise self.fail(key, "one of " + ", ".join(f'"{a}"' for a in allowed), value)
+        return value
+
+    def integer(self, key: str, default: int, low: int, high: int) -> int:
+        value = self.data.get(key, default)
+        if not _is_int(value) or not low <= value <= high:
+            raise self.fail(key, f"a whole number from {low} to {high}", value)
+        return value
+
+    def number(self, key: str, default: float, low: float, high: float) -> float:
+        value = self.data.get(key, default)
+        if not _is_number(value) or not low <= value <= high:
+            raise self.fail(key, f"a number from {low:g} to {high:g}", value)
+        return float(value)
+
+
+def _show(value) -> str:
+    return json.dumps(value) if isinstance(value, (str, list, dict, bool)) else repr(value)
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_number(v) -> bool:
+    return (isinstance(v, (int, float)) and not isinstance(v, bool)) and math.isfinite(v)
+
+
+def _seeds(t: _Table) -> tuple[int, ...]:
+    value = t.get("seeds", list(DatasetSpec().seeds))
+    allowed = f'a list of world seeds (whole numbers from 0 to {MAX_SEED}) or a range "A..B"'
+    seeds: list = []
+    if isinstance(value, str) and ".." in value:
+        a, _, b = value.partition("..")
+        if a.strip().isdigit() and b.strip().isdigit() and int(a) <= int(b):
+            seeds = list(range(int(a), int(b) + 1))
+    elif isinstance(value, list):
+        seeds = value
+    ok = seeds and all(_is_int(s) and 0 <= s <= MAX_SEED for s in seeds) and len(seeds) <= MAX_WORLDS
+    if not ok or len(set(seeds)) != len(seeds):
+        extra = " without repeats" if ok else ""
+        raise t.fail("seeds", f"{allowed}{extra}, at most {MAX_WORLDS:,} worlds", value)
+    return tuple(seeds)
+
+
+def _formats(t: _Table) -> tuple[str, ...]:
+    value = t.get("formats", list(FORMATS))
+    if (
+        not isinstance(value, list)
+        or not value
+        or any(v not in FORMATS for v in value)
+        or len(set(value)) != len(value)
+    ):
+        allowed = ", ".join(f'"{f}"' for f in FORMATS)
+        raise t.fail("formats", f"a non-empty list of {allowed} (each once)", value)
+    return tuple(f for f in FORMATS if f in value)
+
+
+def _split(t: _Table) -> tuple[tuple[str, float], ...]:
+    t.only(*SPLITS)
+    shares = {s: t.number(s, 0.0, 0.0, 1.0) for s in SPLITS}
+    if abs(sum(shares.values()) - 1.0) > 1e-9:
+        raise UserError(
+            f"{t.where}: split shares must add up to 1 (train + val + test), got {sum(shares.values()):g}"
+        )
+    return tuple(shares.items())
+
+
+def _poses(t: _Table) -> PoseSpec:
+    t.only("strategy", "zones", "min_distance")
+    d = PoseSpec()
+    zones = t.table("zones", dict(d.zones))
+    zones.only(*ZONES)
+    weights = tuple((z, zones.number(z, 0.0, 0.0, 1e9)) for z in ZONES if z in zones.data)
+    if not any(w > 0 for _, w in weights):
+        raise UserError(f"{t.where}: poses.zones must give at least one zone a weight above 0")
+    return PoseSpec(
+        strategy=t.choice("strategy", d.strategy, STRATEGIES),
+        zones=weights,
+        min_distance=t.number("min_distance", d.min_distance, 0.0, 50.0),
+    )
+
+
+# (key, lowest, highest, unit) of the sensor values that may be ranges
+_SENSOR_LIMITS = {
+    "rh": (S.MIN_RH_DEG, 180.0, "deg dividing 180 into whole 2D scans"),
+    "min_range": (0.0, S.MAX_RANGE_LIMIT, "m"),
+    "max_range": (0.0, S.MAX_RANGE_LIMIT, "m"),
+    "noise": (0.0, S.MAX_NOISE_SIGMA, "m"),
+}
+
+
+def _sensor(t: _Table) -> SensorSpec:
+    t.only("rh", "min_range", "max_range", "noise", "noise_seed", "frame")
+    d = SensorSpec()
+    values = {key: _sensor_value(t, key, getattr(d, key)) for key in _SENSOR_LIMITS}
+    if not any(True for _ in rh_choices(values["rh"])):
+        raise t.fail(
+            "rh", "a value (or range) holding an r_h that divides 180 into whole 2D scans", t.get("rh", None)
+        )
+    if _hi(values["min_range"]) >= _lo(values["max_range"]):
+        raise UserError(
+            f"{t.where}: sensor.min_range must stay below sensor.max_range (every value of each range)"
+        )
+    if _lo(values["max_range"]) <= 0:
+        raise t.fail(
+            "max_range",
+            f"above 0 and at most {S.MAX_RANGE_LIMIT:g} m (or a range of such)",
+            t.get("max_range", None),
+        )
+    return SensorSpec(**values, noise_seed=_noise_seed(t), frame=t.choice("frame", d.frame, FRAMES))
+
+
+def _lo(v: Value) -> float:
+    return v[0] if isinstance(v, tuple) else v
+
+
+def _hi(v: Value) -> float:
+    return v[1] if isinstance(v, tuple) else v
+
+
+def _sensor_value(t: _Table, key: str, default: float) -> Value:
+    low, high, unit = _SENSOR_LIMITS[key]
+    value = t.get(key, default)
+    allowed = f"a number from {low:g} to {high:g} {unit}, or a range [lo, hi] of such numbers"
+    if isinstance(value, list):
+        if (
+            len(value) != 2
+            or not all(_is_number(v) and low <= v <= high for v in value)
+            or value[0] > value[1]
+        ):
+            raise t.fail(key, allowed + " with lo <= hi", value)
+        return (float(value[0]), float(value[1]))
+    if not _is_number(value) or not low <= value <= high:
+        raise t.fail(key, allowed, value)
+    return float(value)
+
+
+def _noise_seed(t: _Table) -> int | tuple[int, int] | None:
+    value = t.get("noise_seed", None)
+    if value is None:
+        return None
+    top = 2**63 - 1
+    allowed = f"a whole number from 0 to {top}, or a range [lo, hi] of such"
+    if isinstance(value, list):
+        if len(value) != 2 or not all(_is_int(v) and 0 <= v <= top for v in value) or value[0] > value[1]:
+            raise t.fail("noise_seed", allowed, value)
+        return (value[0], value[1])
+    if not _is_int(value) or not 0 <= value <= top:
+        raise t.fail("noise_seed", allowed, value)
+    return value
+
+
+# ---------------------------------------------------------------------------------------
+# per-scan draws
+
+
+def rh_choices(rh: Value):
+    """The r_h values allowed by a fixed value or range: 180/M for whole M."""
+    lo, hi = _lo(rh), _hi(rh)
+    for m in range(
+        max(1, math.ceil(S.SWEEP_DEG / hi - 1e-9)), math.floor(S.SWEEP_DEG / max(lo, S.MIN_RH_DEG) + 1e-9) + 1
+    ):
+        value = S.SWEEP_DEG / m
+        if lo - 1e-9 <= value <= hi + 1e-9:
+            yield value
+
+
+def _draw(value, seed: int, index: int, key: str):
+    if not isinstance(value, tuple):
+        return value
+    rng = stage_rng(seed, f"dataset.sensor.{key}.{index}")
+    if key == "noise_seed":
+        return int(rng.integers(value[0], value[1], endpoint=True))
+    if key == "rh":
+        choices = list(rh_choices(value))
+        return choices[int(rng.integers(len(choices)))]
+    return float(rng.uniform(value[0], value[1]))
+
+
+def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
+    """The sensor of scan `index` of world `seed`: fixed values as given, ranges drawn."""
+    if spec.noise_seed is None:
+        noise_seed = stage_seed(seed, f"dataset.noise.{index}") >> 1  # below 2^63
+    else:
+        noise_seed = _draw(spec.noise_seed, seed, index, "noise_seed")
+    rh = spec.rh if not isinstance(spec.rh, tuple) else _draw(spec.rh, seed, index, "rh")
+    if not isinstance(spec.rh, tuple):
+        rh = next(rh_choices(rh))  # exactly 180/M, as the spec check found it
+    return S.SensorConfig(
+        rh_deg=rh,
+        min_range=_draw(spec.min_range, seed, index, "min_range"),
+        max_range=_draw(spec.max_range, seed, index, "max_range"),
+        noise_sigma=_draw(spec.noise, seed, index, "noise"),
+        noise_seed=noise_seed,
+    ).validate()
+
+
+def spec_from_json(data: dict) -> DatasetSpec:
+    """The inverse of DatasetSpec.to_dict (specs travel to Dask workers as plain data)."""
+
+    def value(v):
+        return tuple(v) if isinstance(v, list) else v
+
+    poses, sensor = data["poses"], data["sensor"]
+    return DatasetSpec(
+        seeds=tuple(data["seeds"]),
+        detail=data["detail"],
+        scans_per_world=data["scans_per_world"],
+        formats=tuple(data["formats"]),
+        label_scheme=data["label_scheme"],
+        split=tuple((k, v) for k, v in data["split"]),
+        poses=PoseSpec(poses["strategy"], tuple((k, v) for k, v in poses["zones"]), poses["min_distance"]),
+        sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
+    )

@@ -1,0 +1,128 @@
+"""`wildscan dataset` and `wildscan bench-dataset`: argument parsing only (the work is in
+app/dataset and bench/dataset.py)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..core.checks import whole_number
+from ..core.errors import UserError
+
+HELP, DESCRIPTION = (
+    "make (or finish) a labeled dataset: many worlds x many poses, on Dask",
+    "Scan every world seed of SPEC.toml from many valid poses and write the scans in the formats training "
+    "code reads (SemanticKITTI, LAS 1.4, PLY), with a manifest of every file (size, SHA-256), a dataset card "
+    "and ground truth for traversability (height above terrain per point, a bird's-eye grid per scan). Runs "
+    "on a local Dask cluster, or on an existing one with --scheduler; rerunning the same command into the "
+    "same --out resumes and gives the bytes of one uninterrupted run. See README 'Datasets' for the spec "
+    "keys.",
+)
+BENCH_HELP, BENCH_DESCRIPTION = (
+    "time `wildscan dataset` with 1 and 2 workers side by side",
+    "Make the same SemanticKITTI dataset (default: 1,000 scans at r_h = 1 deg from 20 worlds, world builds "
+    "included) once per worker count, in fresh temporary folders, and print scans per second, the speed-up "
+    "and the peak memory of each worker side by side.",
+)
+
+
+def _positive(text: str, setting: str, high: int = 1_000_000) -> int:
+    try:
+        return whole_number(text, setting, 1, high)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(e.message) from None
+
+
+def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
+    p.add_argument("spec", nargs="?", metavar="SPEC.toml", help="the dataset spec (README 'Datasets')")
+    p.add_argument(
+        "--out", metavar="DIR", help="the dataset folder (created if missing; rerun into it to resume)"
+    )
+    engine = p.add_mutually_exclusive_group()
+    engine.add_argument(
+        "--workers",
+        type=lambda t: _positive(t, "workers", 1024),
+        metavar="N",
+        help="local Dask worker processes, one thread each (default: one per core)",
+    )
+    engine.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster (tcp://host:port) whose workers have WildScan installed and "
+        "see DIR at the same path",
+    )
+    p.add_argument(
+        "--limit",
+        type=lambda t: _positive(t, "limit", 10**9),
+        metavar="K",
+        help="write at most K more scans in this run (the next run continues)",
+    )
+    p.add_argument(
+        "--verify",
+        metavar="DIR",
+        help="re-check every file of the dataset in DIR against its manifest (size and SHA-256) and exit",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
+
+
+def run(args, in_blender: bool = False) -> int:
+    from ..app.dataset import Interrupted, load_spec, run_dataset
+
+    if args.verify is not None:
+        if args.spec or args.out or args.workers or args.scheduler or args.limit:
+            raise UserError("--verify DIR takes no SPEC.toml, --out, --workers, --scheduler or --limit")
+        return _verify(args.verify)
+    if args.spec is None or args.out is None:
+        raise UserError("give SPEC.toml and --out DIR (or --verify DIR)")
+    spec = load_spec(args.spec)
+    try:
+        report = run_dataset(spec, args.out, args.workers, args.scheduler, args.limit, args.quiet)
+    except Interrupted as e:
+        sys.stderr.write(f"wildscan dataset: {e}\n")
+        return e.code
+    rate = report.written / report.seconds if report.seconds > 0 else 0.0
+    state = "complete" if report.complete else "incomplete (rerun the same command to continue)"
+    print(
+        f"wrote {report.written:,} scans in {report.seconds:.1f} s ({rate:.1f} scans/s); the dataset in "
+        f"{report.root} is {state}: {report.ok:,} of {report.planned:,} scans, "
+        f"{report.failed:,} without a valid pose"
+    )
+    return 0
+
+
+def _verify(folder: str) -> int:
+    from ..app.dataset import verify_dataset
+
+    report = verify_dataset(folder)
+    for problem in report.problems:
+        sys.stderr.write(f"wildscan dataset --verify: {problem}\n")
+    state = "complete" if report.complete else f"incomplete ({report.scans:,} of {report.planned:,} scans)"
+    if report.problems:
+        print(
+            f"{len(report.problems):,} of {report.checked:,} files differ from the manifest; "
+            f"the dataset is {state}"
+        )
+        return 1
+    print(f"all {report.checked:,} files match the manifest (size and SHA-256); the dataset is {state}")
+    return 0
+
+
+def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
+    p.add_argument("--worlds", type=lambda t: _positive(t, "worlds", 10_000), default=20, metavar="N")
+    p.add_argument("--scans", type=lambda t: _positive(t, "scans", 10**7), default=1000, metavar="N")
+    p.add_argument("--rh", type=float, default=1.0, metavar="DEG", help="r_h of every scan (default 1)")
+    p.add_argument(
+        "--workers",
+        type=lambda t: _positive(t, "workers", 1024),
+        action="append",
+        metavar="N",
+        help="a worker count to time; repeat (default: 1 and 2)",
+    )
+    p.add_argument("--format", default="semantickitti", choices=("semantickitti", "las", "ply"))
+
+
+def run_bench(args, in_blender: bool = False) -> int:
+    from ..bench.dataset import bench_dataset
+
+    bench_dataset(args.worlds, args.scans, args.rh, tuple(args.workers or (1, 2)), (args.format,))
+    return 0

@@ -1,0 +1,98 @@
+"""SemanticKITTI's layout (numpy only): what its readers (semantic-kitti-api, Open3D-ML,
+mmdetection3d) load unchanged.
+
+    sequences/NN/velodyne/NNNNNN.bin   float32 x y z remission per point
+    sequences/NN/labels/NNNNNN.label   uint32 per point: class in the low 16 bits, instance in the high 16
+    sequences/NN/poses.txt             one line per scan: the 3x4 matrix taking its points to the world
+    sequences/NN/calib.txt             P0..P3 and Tr (no cameras here: identities)
+    labels.yaml                        label config in semantic-kitti-api's form
+
+Remission is the reflectivity of the element hit divided by 100 (Table I's 15..100
+become 0.15..1, KITTI's range). The instance is the element's rank among its world's
+instance ids (1-based), so it fits 16 bits and is the same object across one sequence.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..label_schemes import LabelScheme
+
+REMISSION_SCALE = 0.01  # reflectivity (Table I) -> remission
+MAX_INSTANCE = 0xFFFF
+
+
+def scan_bytes(xyz: np.ndarray, intensity: np.ndarray) -> bytes:
+    """A velodyne .bin: float32 (N, 4) x y z remission, little-endian."""
+    out = np.empty((len(xyz), 4), dtype="<f4")
+    out[:, :3] = xyz
+    out[:, 3] = np.asarray(intensity, dtype=np.float64) * REMISSION_SCALE
+    return out.tobytes()
+
+
+def label_bytes(labels: np.ndarray, instances: np.ndarray) -> bytes:
+    """A .label: uint32 per point, class id in the low 16 bits and instance in the high 16."""
+    labels = np.asarray(labels, dtype=np.uint32)
+    instances = np.asarray(instances, dtype=np.uint32)
+    if labels.size and labels.max() > 0xFFFF:
+        raise ValueError("SemanticKITTI class ids must fit 16 bits")
+    if instances.size and instances.max() > MAX_INSTANCE:
+        raise ValueError("SemanticKITTI instance ids must fit 16 bits")
+    return ((instances << np.uint32(16)) | labels).astype("<u4").tobytes()
+
+
+def float_bytes(values: np.ndarray) -> bytes:
+    """A per-point float32 side file (the `hag` folder), same order as the velodyne file."""
+    return np.asarray(values, dtype="<f4").tobytes()
+
+
+def instance_ranks(world_instances: np.ndarray, instances: np.ndarray) -> np.ndarray:
+    """Each point's instance as its rank (1-based) among the world's sorted instance ids;
+    0 stays 0 (an untagged surface)."""
+    world = np.unique(np.asarray(world_instances, dtype=np.int64))
+    world = world[world > 0]
+    if len(world) > MAX_INSTANCE:
+        raise ValueError(f"a world with {len(world)} instances does not fit SemanticKITTI's 16 bits")
+    inst = np.asarray(instances, dtype=np.int64)
+    rank = np.searchsorted(world, inst) + 1
+    return np.where(inst > 0, rank, 0).astype(np.uint32)
+
+
+def _matrix_line(matrix: np.ndarray) -> str:
+    return " ".join(f"{v:.12e}" for v in np.asarray(matrix, dtype=np.float64)[:3, :4].ravel())
+
+
+def poses_text(matrices: list[np.ndarray]) -> str:
+    """poses.txt: one row-major 3x4 matrix per scan, in the order of the scan files."""
+    return "".join(_matrix_line(m) + "\n" for m in matrices)
+
+
+def calib_text() -> str:
+    """calib.txt: there are no cameras, so every projection is the identity and Tr (velodyne
+    to camera frame) is the identity: poses.txt applies to the points directly."""
+    eye = np.eye(4)
+    return "".join(f"{key}: {_matrix_line(eye)}\n" for key in ("P0", "P1", "P2", "P3", "Tr"))
+
+
+def _yaml_map(name: str, mapping: dict, value=lambda v: str(v)) -> list[str]:
+    return [f"{name}:"] + [f"  {k}: {value(v)}" for k, v in sorted(mapping.items())]
+
+
+def label_config_yaml(
+    scheme: LabelScheme, content: dict[int, float], splits: dict[str, list[int]], title: str
+) -> str:
+    """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
+    learning_map, learning_map_inv, learning_ignore, split by sequence number)."""
+    lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
+    lines += _yaml_map("labels", scheme.labels, json.dumps)
+    lines += _yaml_map("color_map", scheme.colors_bgr, lambda c: f"[{c[0]}, {c[1]}, {c[2]}]")
+    lines += _yaml_map("content", {k: content.get(k, 0.0) for k in scheme.labels}, repr)
+    lines += _yaml_map("learning_map", scheme.learning_map)
+    lines += _yaml_map("learning_map_inv", scheme.learning_map_inv)
+    lines += _yaml_map("learning_ignore", scheme.learning_ignore, lambda b: "True" if b else "False")
+    lines.append("split:")
+    for key in ("train", "valid", "test"):
+        lines.append(f"  {key}: [{', '.join(str(s) for s in splits.get(key, []))}]")
+    return "\n".join(lines) + "\n"

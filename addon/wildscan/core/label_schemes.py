@@ -1,0 +1,217 @@
+"""What the label ids of a dataset mean: WildScan's own ids, or those of SemanticKITTI,
+RELLIS-3D or GOOSE, so a model trained on one of those datasets reads our scans directly.
+Numpy only.
+
+Every WildScan class (classes.py, plus water, which appears only in the bird's-eye
+grids) maps to one id of the scheme. A class with no counterpart maps to the scheme's
+"other" id and the table says so. The label lists and learning maps follow each dataset's
+published label configuration (semantic-kitti-api's `semantic-kitti-all.yaml`, RELLIS-3D's
+`rellis.yaml`, GOOSE's 64-class `goose_label_mapping.csv` order); colours are BGR as in
+those files (GOOSE's colours are WildScan's own, which the GOOSE files do not fix here).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .classes import ALL_ELEMENTS, BY_ID, CLASSES, WATER_ID
+
+SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
+
+
+@dataclass(frozen=True)
+class LabelScheme:
+    name: str
+    title: str
+    labels: dict[int, str]  # raw id -> name, the ids written to the label files
+    colors_bgr: dict[int, tuple[int, int, int]]
+    from_wildscan: dict[int, int]  # WildScan id (0..13, 13 = water) -> raw id
+    other: int | None  # the id that classes without a counterpart get (None: every class has one)
+    learning_map: dict[int, int]
+    learning_map_inv: dict[int, int]
+    learning_ignore: dict[int, bool]
+
+    def lookup(self) -> np.ndarray:
+        """uint16 table indexed by WildScan id (0..13) giving the raw id."""
+        table = np.zeros(max(BY_ID) + 1, dtype=np.uint16)
+        for wildscan_id, raw in self.from_wildscan.items():
+            table[wildscan_id] = raw
+        return table
+
+    def map(self, wildscan_ids: np.ndarray) -> np.ndarray:
+        return self.lookup()[np.asarray(wildscan_ids, dtype=np.intp)]
+
+    def is_other(self, wildscan_id: int) -> bool:
+        """Whether this class has no counterpart in the scheme (it got the "other" id)."""
+        return wildscan_id in _NO_COUNTERPART.get(self.name, ())
+
+
+def _bgr(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
+    return rgb[2], rgb[1], rgb[0]
+
+
+def _identity(ids) -> dict[int, int]:
+    return {i: i for i in ids}
+
+
+# -- WildScan's own ids (classes.py); water only ever appears in a bird's-eye grid ---------------
+
+_WILDSCAN = LabelScheme(
+    name="wildscan",
+    title="WildScan (paper Table I)",
+    labels={c.id: c.name for c in ALL_ELEMENTS},
+    colors_bgr={c.id: _bgr(c.color) for c in ALL_ELEMENTS if c.id != WATER_ID} | {WATER_ID: (255, 128, 0)},
+    from_wildscan=_identity(BY_ID),
+    other=None,
+    learning_map={**_identity(c.id for c in CLASSES), 0: 0, WATER_ID: 0},
+    learning_map_inv={0: 0, **_identity(c.id for c in CLASSES)},
+    learning_ignore={0: True, **{c.id: False for c in CLASSES}},
+)
+
+# -- SemanticKITTI (semantic-kitti-api, config/semantic-kitti-all.yaml) ------------------------
+
+_SK_LABELS = {
+    0: "unlabeled", 1: "outlier", 10: "car", 11: "bicycle", 13: "bus", 15: "motorcycle", 16: "on-rails",
+    18: "truck", 20: "other-vehicle", 30: "person", 31: "bicyclist", 32: "motorcyclist", 40: "road",
+    44: "parking", 48: "sidewalk", 49: "other-ground", 50: "building", 51: "fence", 52: "other-structure",
+    60: "lane-marking", 70: "vegetation", 71: "trunk", 72: "terrain", 80: "pole", 81: "traffic-sign",
+    99: "other-object", 252: "moving-car", 253: "moving-bicyclist", 254: "moving-person",
+    255: "moving-motorcyclist", 256: "moving-on-rails", 257: "moving-bus", 258: "moving-truck",
+    259: "moving-other-vehicle",
+}  # fmt: skip
+_SK_COLORS = {
+    0: (0, 0, 0), 1: (0, 0, 255), 10: (245, 150, 100), 11: (245, 230, 100), 13: (250, 80, 100),
+    15: (150, 60, 30), 16: (255, 0, 0), 18: (180, 30, 80), 20: (255, 0, 0), 30: (30, 30, 255),
+    31: (200, 40, 255), 32: (90, 30, 150), 40: (255, 0, 255), 44: (255, 150, 255), 48: (75, 0, 75),
+    49: (75, 0, 175), 50: (0, 200, 255), 51: (50, 120, 255), 52: (0, 150, 255), 60: (170, 255, 150),
+    70: (0, 175, 0), 71: (0, 60, 135), 72: (80, 240, 150), 80: (150, 240, 255), 81: (0, 0, 255),
+    99: (255, 255, 50), 252: (245, 150, 100), 253: (200, 40, 255), 254: (30, 30, 255),
+    255: (90, 30, 150), 256: (255, 0, 0), 257: (250, 80, 100), 258: (180, 30, 80), 259: (255, 0, 0),
+}  # fmt: skip
+_SK_LEARNING_MAP = {
+    0: 0, 1: 0, 10: 1, 11: 2, 13: 5, 15: 3, 16: 5, 18: 4, 20: 5, 30: 6, 31: 7, 32: 8, 40: 9, 44: 10,
+    48: 11, 49: 12, 50: 13, 51: 14, 52: 0, 60: 9, 70: 15, 71: 16, 72: 17, 80: 18, 81: 19, 99: 0,
+    252: 1, 253: 7, 254: 6, 255: 8, 256: 5, 257: 5, 258: 4, 259: 5,
+}  # fmt: skip
+_SK_LEARNING_MAP_INV = {
+    0: 0, 1: 10, 2: 11, 3: 15, 4: 18, 5: 20, 6: 30, 7: 31, 8: 32, 9: 40, 10: 44, 11: 48, 12: 49,
+    13: 50, 14: 51, 15: 70, 16: 71, 17: 72, 18: 80, 19: 81,
+}  # fmt: skip
+
+_SEMANTICKITTI = LabelScheme(
+    name="semantickitti",
+    title="SemanticKITTI",
+    labels=_SK_LABELS,
+    colors_bgr=_SK_COLORS,
+    # unlabeled, terrain, trunk, treetop, table, bush, fence, bench, low grass, rock, high grass,
+    # wire, pole, water
+    from_wildscan=dict(enumerate((0, 72, 71, 70, 99, 70, 51, 99, 72, 99, 72, 99, 80, 99))),
+    other=99,
+    # the single-scan (19-class) learning map of semantic-kitti.yaml: moving objects as static
+    learning_map=_SK_LEARNING_MAP,
+    learning_map_inv=_SK_LEARNING_MAP_INV,
+    learning_ignore={k: k == 0 for k in _SK_LEARNING_MAP_INV},
+)
+
+# -- RELLIS-3D (benchmarks/.../config/labels/rellis.yaml) --------------------------------------
+
+_RELLIS_LABELS = {
+    0: "void", 1: "dirt", 3: "grass", 4: "tree", 5: "pole", 6: "water", 7: "sky", 8: "vehicle",
+    9: "object", 10: "asphalt", 12: "building", 15: "log", 17: "person", 18: "fence", 19: "bush",
+    23: "concrete", 27: "barrier", 31: "puddle", 33: "mud", 34: "rubble",
+}  # fmt: skip
+_RELLIS_COLORS = {
+    0: (0, 0, 0), 1: (108, 64, 20), 3: (0, 102, 0), 4: (0, 255, 0), 5: (0, 153, 153), 6: (0, 128, 255),
+    7: (0, 0, 255), 8: (255, 255, 0), 9: (255, 0, 127), 10: (64, 64, 64), 12: (255, 0, 0),
+    15: (102, 0, 0), 17: (204, 153, 255), 18: (102, 0, 204), 19: (255, 153, 204), 23: (170, 170, 170),
+    27: (41, 121, 255), 31: (134, 255, 239), 33: (99, 66, 34), 34: (110, 22, 138),
+}  # fmt: skip
+_RELLIS_LEARNING_MAP = {
+    0: 0, 1: 0, 3: 1, 4: 2, 5: 3, 6: 4, 7: 0, 8: 5, 9: 0, 10: 0, 12: 0, 15: 6, 17: 7, 18: 8, 19: 9,
+    23: 10, 27: 11, 31: 12, 33: 13, 34: 14,
+}  # fmt: skip
+# RELLIS-3D's labeled LiDAR points per class (the `content` of rellis.yaml): grass, bush and tree
+# are about 45 %, 29 % and 19 % of the labeled (non-void) points.
+RELLIS_POINT_COUNTS = {
+    "dirt": 0, "grass": 261005182, "tree": 107172982, "pole": 22852, "water": 224173, "sky": 0,
+    "vehicle": 111345, "object": 2, "asphalt": 479, "building": 10, "log": 554091, "person": 10626325,
+    "fence": 1588416, "bush": 168764964, "concrete": 10944799, "barrier": 3502156, "puddle": 1493276,
+    "mud": 5798200, "rubble": 3395458,
+}  # fmt: skip
+
+_RELLIS3D = LabelScheme(
+    name="rellis3d",
+    title="RELLIS-3D",
+    labels=_RELLIS_LABELS,
+    colors_bgr=_RELLIS_COLORS,
+    from_wildscan=dict(enumerate((0, 1, 4, 4, 9, 19, 18, 9, 3, 34, 3, 9, 5, 6))),
+    other=9,
+    learning_map=_RELLIS_LEARNING_MAP,
+    learning_map_inv={v: k for k, v in _RELLIS_LEARNING_MAP.items() if v or k == 0},
+    learning_ignore={v: v == 0 for v in sorted(set(_RELLIS_LEARNING_MAP.values()))},
+)
+
+# -- GOOSE (64 classes, goose_label_mapping.csv order) ------------------------------------------
+
+_GOOSE_NAMES = (
+    "undefined", "traffic_cone", "snow", "cobble", "obstacle", "leaves", "street_light", "bikeway",
+    "ego_vehicle", "pedestrian_crossing", "road_block", "road_marking", "car", "bicycle", "person", "bus",
+    "forest", "bush", "moss", "traffic_light", "motorcycle", "sidewalk", "curb", "asphalt", "gravel",
+    "boom_barrier", "rail_track", "tree_crown", "tree_trunk", "debris", "crops", "soil", "rider", "animal",
+    "truck", "on_rails", "caravan", "trailer", "building", "wall", "rock", "fence", "guard_rail", "bridge",
+    "tunnel", "pole", "traffic_sign", "misc_sign", "barrier_tape", "kick_scooter", "low_grass",
+    "high_grass", "scenery_vegetation", "sky", "water", "wire", "outlier", "heavy_machinery", "container",
+    "hedge", "barrel", "pipe", "tree_root", "military_vehicle",
+)  # fmt: skip
+_GOOSE_FROM_WILDSCAN = dict(enumerate((0, 31, 28, 27, 4, 17, 41, 4, 50, 40, 51, 55, 45, 54)))
+
+
+def _goose_colors() -> dict[int, tuple[int, int, int]]:
+    colors = {i: (160, 160, 160) for i in range(len(_GOOSE_NAMES))}
+    for wildscan_id, raw in _GOOSE_FROM_WILDSCAN.items():
+        if raw != 4:
+            colors[raw] = _WILDSCAN.colors_bgr[wildscan_id]
+    colors[0] = (0, 0, 0)
+    return colors
+
+
+_GOOSE = LabelScheme(
+    name="goose",
+    title="GOOSE",
+    labels=dict(enumerate(_GOOSE_NAMES)),
+    colors_bgr=_goose_colors(),
+    from_wildscan=_GOOSE_FROM_WILDSCAN,
+    other=4,
+    learning_map=_identity(range(len(_GOOSE_NAMES))),
+    learning_map_inv=_identity(range(len(_GOOSE_NAMES))),
+    learning_ignore={i: i == 0 for i in range(len(_GOOSE_NAMES))},
+)
+
+SCHEMES: dict[str, LabelScheme] = {s.name: s for s in (_WILDSCAN, _SEMANTICKITTI, _RELLIS3D, _GOOSE)}
+
+# WildScan classes that have no counterpart in a scheme, and so get its "other" id.
+_NO_COUNTERPART: dict[str, tuple[int, ...]] = {
+    "semantickitti": (4, 7, 9, 11, WATER_ID),  # table, bench, rock, wire, water
+    "rellis3d": (4, 7, 11),  # table, bench, wire
+    "goose": (4, 7),  # table, bench
+}
+
+
+def scheme(name: str) -> LabelScheme:
+    return SCHEMES[name]
+
+
+def mapping_table_rows() -> list[tuple[str, ...]]:
+    """(WildScan id and name, then per scheme "id name" with "(other)" where it has no counterpart),
+    one row per WildScan class: the README's mapping table."""
+    rows = []
+    for wildscan_id in sorted(BY_ID):
+        cells = [f"{wildscan_id} {BY_ID[wildscan_id].name}"]
+        for name in SCHEME_NAMES[1:]:
+            s = SCHEMES[name]
+            raw = s.from_wildscan[wildscan_id]
+            cells.append(f"{raw} {s.labels[raw]}" + (" (other)" if s.is_other(wildscan_id) else ""))
+        rows.append(tuple(cells))
+    return rows
