@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import detmath as dm
 from ..checks import one_of
 from .shapes.powerline import catenary_parameter
 from .shapes.primitives import icosphere
@@ -69,12 +70,12 @@ def model_errors(d: DetailLevel) -> dict[str, float]:
     reference sizes: a 3 m round crown (icosphere facets), a 0.3 m trunk (polygon sides),
     a 17 m wire span sagging 3 % (catenary chords). The terrain's is measured by fit_grid."""
     v, f = icosphere(d.sphere_subdivisions)
-    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    plane = np.abs(np.einsum("ij,ij->i", n / np.linalg.norm(n, axis=1, keepdims=True), v[f[:, 0]]))
+    n = dm.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    plane = np.abs(dm.dot3(n / dm.norm(n)[:, None], v[f[:, 0]]))
     a = catenary_parameter(17.0, 0.03 * 17.0)
     return {
         "crown_3m": float(3.0 * (1.0 - plane.min())),
-        "trunk_0.3m": 0.3 * (1.0 - math.cos(math.pi / d.trunk_sides)),
-        "wire_chord": d.wire_step**2 / (8.0 * a),
+        "trunk_0.3m": 0.3 * (1.0 - dm.cos(math.pi / d.trunk_sides)),
+        "wire_chord": d.wire_step * d.wire_step / (8.0 * a),
         "terrain_tolerance": d.terrain_tolerance,
     }
