@@ -44,6 +44,7 @@ import numpy as np
 
 from ..core import detmath as dm
 from ..core.hits import RayHits
+from .settle import settle
 
 
 @dataclass
@@ -363,17 +364,21 @@ def refine_distances(
 
 class RefiningBackend:
     """What the backends over extracted triangles share: each finds first hits its own
-    way (`_first_hits`, in float32 or float64), then every hit distance is recomputed
-    in float64 against the exact plane of the hit triangle and cut at max range."""
+    way (`_first_hits`, in float32 or float64), every hit the float32 answer could have
+    given to another triangle is settled in float64 (settle.py), then every hit distance
+    is recomputed in float64 against the exact plane of the hit triangle and cut at max
+    range."""
 
     geometry: SceneGeometry
+    _settler = None  # settle.Settler, made by the backend
 
     def _ready(self) -> bool:
         """Whether there is anything to hit (an empty crop casts nothing)."""
         raise NotImplementedError
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
-        """(hit triangle per ray, -1 for none; its approximate distance)."""
+        """(hit triangle per ray, -1 for none; its approximate distance (float64); the hit's
+        (u, v) on the uploaded triangle, or None)."""
         raise NotImplementedError
 
     def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
@@ -381,7 +386,9 @@ class RefiningBackend:
         count = len(dirs)
         if count == 0 or not self._ready():
             return RayHits.empty(count)
-        triangle, rough = self._first_hits(local, dirs, max_range)
+        triangle, rough, bary = self._first_hits(local, dirs, max_range)
+        if self._settler is not None:
+            triangle, rough = settle(self, self._settler, local, dirs, triangle, rough, bary, max_range)
         hit = triangle >= 0
         distance = np.full(count, np.inf)
         normal, d = self._planes
