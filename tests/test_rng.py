@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from wildscan.core.rng import Generator, ziggurat_normals, seeded, stage_rng
+from wildscan.core.rng import Generator, seeded, stage_rng, ziggurat_normals
 
 
 def numpy_generator(seed: int) -> np.random.Generator:
