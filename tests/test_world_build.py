@@ -151,9 +151,7 @@ def test_cave_entrance_scan_sees_under_the_flooring_cover(world):
     # the roof itself is seen from below (flooring, class terrain)
     roof_hits = under_roof & (np.abs(pts[:, 2] - (plan.cave_level - 0.15)) < 0.1)
     assert roof_hits.sum() > 1000
-    # under the cover it is all pit and flooring (out of the entrance a bush may show)
-    assert set(result.cloud.label[under_roof].tolist()) == {1}
-    assert result.cloud.class_counts()[1] >= 0.999 * len(result.cloud)
+    assert set(result.cloud.class_counts()) == {1}
 
 
 def test_no_cracks_vertical_rays_hit_everywhere(world):
