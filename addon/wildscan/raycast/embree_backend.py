@@ -62,7 +62,7 @@ class EmbreeBackend(RefiningBackend):
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
         """Embree's answer: hit triangle per ray (-1 for none), float32 distance, and the
-        hit's (u, v) on the uploaded triangle."""
+        hit's float32 (u, v) on the uploaded triangle."""
         far = np.full(len(dirs), max_range + _FAR_SLACK, dtype=np.float32)
         result = self._scene.run(
             np.ascontiguousarray(local, dtype=np.float32),
@@ -72,4 +72,4 @@ class EmbreeBackend(RefiningBackend):
         )
         triangle = result["primID"].astype(np.int64)
         triangle[result["geomID"] == -1] = -1
-        return triangle, result["tfar"].astype(np.float64), (result["u"], result["v"])
+        return triangle, result["tfar"], (result["u"], result["v"])

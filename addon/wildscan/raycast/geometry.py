@@ -377,8 +377,8 @@ class RefiningBackend:
         raise NotImplementedError
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
-        """(hit triangle per ray, -1 for none; its approximate distance (float64); the hit's
-        (u, v) on the uploaded triangle, or None)."""
+        """(hit triangle per ray, -1 for none; its approximate distance; the hit's (u, v) on
+        the uploaded triangle, or None)."""
         raise NotImplementedError
 
     def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:

@@ -158,6 +158,7 @@ def settle(backend, settler: Settler, local, dirs, triangle, rough, bary, max_ra
             t = (settler.d[beside] - dm.dot3(n, local[passed])) / dm.dot3(n, dirs[passed])
         t = np.where(np.isfinite(t), t, rough[passed]) + RECAST_STEP
         origin = local[passed] + t[:, None] * dirs[passed]
+        rough = rough.astype(np.float64)  # now holding distances from the first origin
         far = max_range - t
         again, again_rough, again_bary = backend._first_hits(origin, dirs[passed], max(float(far.max()), 0.0))
         again[(again >= 0) & (again_rough > far)] = -1
