@@ -8,8 +8,8 @@ stands for (model_errors; terrain: fit_grid at 100,000 random points, seed 0;
 | level   | terrain max / rms | 3 m crown | 0.3 m trunk | wire chord | tuft tris | world triangles |
 |---------|-------------------|-----------|-------------|------------|-----------|-----------------|
 | low     | 9.7 / 0.92 cm     | 19.8 cm   | 5.7 cm      | 2.8 cm     | 4         | ~97 k           |
-| default | 3.4 / 0.27 cm     | 5.3 cm    | 3.0 cm      | 0.7 cm     | 9         | ~256 k          |
-| high    | 1.8 / 0.12 cm     | 1.4 cm    | 1.5 cm      | 0.2 cm     | 16        | ~620 k          |
+| default | 3.4 / 0.27 cm     | 5.3 cm    | 3.0 cm      | 0.7 cm     | 9         | ~254 k          |
+| high    | 1.8 / 0.12 cm     | 1.4 cm    | 1.5 cm      | 0.2 cm     | 16        | ~612 k          |
 
 Terrain tolerances are 15, 5 and 2 cm (fit_grid keeps its sampled max within
 75 % of them, because random samples miss the worst spot between them):
