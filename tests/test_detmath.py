@@ -218,7 +218,8 @@ def test_numpy_and_glibc_really_differ_by_instruction_set_here():
     """The premise: without detmath each forced instruction set changes the bits (else the
     next test proves nothing): numpy's exp by its SIMD width, glibc's sin by FMA."""
     code = "import math, hashlib, numpy as np; x = np.random.default_rng(1).uniform(-40, 40, 100_000); "
-    code += "print(hashlib.sha256(np.exp(x).tobytes() + np.array([math.sin(a) for a in x]).tobytes()).hexdigest())"
+    code += "y = np.exp(x).tobytes() + np.array([math.sin(a) for a in x]).tobytes(); "
+    code += "print(hashlib.sha256(y).hexdigest())"
     native = run_probe(code, {})
     for name, env in INSTRUCTION_SETS.items():
         if env:
