@@ -172,9 +172,9 @@ class ScanRun:
         return self.result.placement.optical_centre
 
     def directions(self) -> np.ndarray:
-        from ..core.sensor import beam_directions
+        from ..core.sensor import rotated_beam_directions
 
-        return beam_directions(self.rh_deg)[0] @ self.result.placement.rotation.T
+        return rotated_beam_directions(self.result.placement.rotation, self.rh_deg)
 
     @property
     def beams(self) -> int:

@@ -11,10 +11,9 @@ dict a scan stores in its metadata (`Placement.to_dict()`, angles in degrees).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from . import detmath as dm
 from .checks import one_of
 from .leveling import rot_z, sensor_to_world_matrix
 
@@ -30,9 +29,9 @@ def _attitude(placement) -> tuple[np.ndarray, float, float, float]:
     if isinstance(placement, dict):
         return (
             np.asarray(placement["optical_centre"], dtype=np.float64),
-            math.radians(placement["roll_deg"]),
-            math.radians(placement["pitch_deg"]),
-            math.radians(placement["pose"]["yaw_deg"]),
+            dm.radians(placement["roll_deg"]),
+            dm.radians(placement["pitch_deg"]),
+            dm.radians(placement["pose"]["yaw_deg"]),
         )
     return placement.optical_centre, placement.roll_rad, placement.pitch_rad, placement.yaw_rad
 
@@ -53,7 +52,7 @@ def to_world(xyz: np.ndarray, frame: str, placement) -> np.ndarray:
     if check_frame(frame) == "world":
         return xyz.copy()
     centre, roll, pitch, yaw = _attitude(placement)
-    return centre + xyz @ rotation_to_world(frame, roll, pitch, yaw).T
+    return centre + dm.apply(rotation_to_world(frame, roll, pitch, yaw), xyz)
 
 
 def from_world(xyz: np.ndarray, frame: str, placement) -> np.ndarray:
@@ -62,8 +61,8 @@ def from_world(xyz: np.ndarray, frame: str, placement) -> np.ndarray:
     if check_frame(frame) == "world":
         return xyz.copy()
     centre, roll, pitch, yaw = _attitude(placement)
-    # Row vectors: (R^T · (p - c))^T = (p - c) · R
-    return (xyz - centre) @ rotation_to_world(frame, roll, pitch, yaw)
+    # R^T · (p - c), summed in a fixed order (dm.apply), not by BLAS
+    return dm.apply(rotation_to_world(frame, roll, pitch, yaw).T, xyz - centre)
 
 
 def convert(xyz: np.ndarray, source: str, target: str, placement) -> np.ndarray:

@@ -19,11 +19,11 @@ the first surface a ray straight down from above the world meets at the cell cen
 from __future__ import annotations
 
 import io
-import math
 from collections.abc import Callable
 
 import numpy as np
 
+from . import detmath as dm
 from .leveling import rot_z
 from .placement import Placement
 
@@ -38,7 +38,7 @@ Ground = Callable[[np.ndarray, np.ndarray], np.ndarray]
 
 def frame_to_world(placement: Placement, frame: str) -> tuple[np.ndarray, np.ndarray]:
     """(R (3,3), t (3,)) with world = R @ p + t for a point p of a scan in `frame`.
-    Leveled: Rz(yaw) about the optical centre (DESIGN.md's property); sensor: the tilted
+    Leveled: Rz(yaw) about the optical centre (docs/architecture.md "Frames"); sensor: the tilted
     structure's rotation; world: the identity."""
     if frame == "world":
         return np.eye(3), np.zeros(3)
@@ -56,7 +56,7 @@ def pose_matrix(placement: Placement, frame: str) -> np.ndarray:
 
 def world_points(xyz: np.ndarray, placement: Placement, frame: str) -> np.ndarray:
     rotation, translation = frame_to_world(placement, frame)
-    return np.asarray(xyz, dtype=np.float64) @ rotation.T + translation
+    return dm.apply(rotation, np.asarray(xyz, dtype=np.float64)) + translation
 
 
 def height_above_ground(world_xyz: np.ndarray, ground: Ground) -> np.ndarray:
@@ -84,7 +84,7 @@ def bev_grid(
     below each origin (0 for none); `z_range` is the lowest and highest height of any surface."""
     u = bev_cell_centres()
     uu, vv = np.meshgrid(u, u, indexing="ij")
-    c, s = math.cos(placement.yaw_rad), math.sin(placement.yaw_rad)
+    s, c = dm.sincos(placement.yaw_rad)
     ox, oy, oz = (float(v) for v in placement.optical_centre)
     x, y = ox + c * uu - s * vv, oy + s * uu + c * vv
     grid = np.zeros(uu.shape, dtype=BEV_DTYPE)

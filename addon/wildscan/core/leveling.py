@@ -15,35 +15,38 @@ without noise, every leveled point equals Rz(−yaw) · (p_world − optical_cen
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+
+from . import detmath as dm
+
+# All angles go through detmath (not `math`, whose glibc code differs by CPU) and the
+# products through dm.matmul/dm.apply (not @, whose BLAS kernel differs by CPU).
 
 
 def rot_x(t: float) -> np.ndarray:
-    c, s = math.cos(t), math.sin(t)
+    s, c = dm.sincos(t)
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
 def rot_z(t: float) -> np.ndarray:
-    c, s = math.cos(t), math.sin(t)
+    s, c = dm.sincos(t)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def paper_pitch_matrix(t: float) -> np.ndarray:
     """The pitch factor of Eq. (2) with its typo fixed (−sin in the top-right entry)."""
-    c, s = math.cos(t), math.sin(t)
+    s, c = dm.sincos(t)
     return np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
 
 
 def leveling_matrix(roll_rad: float, pitch_rad: float) -> np.ndarray:
     """Eq. (2): sensor-frame coordinates -> leveled-frame coordinates."""
-    return paper_pitch_matrix(-pitch_rad) @ rot_x(-roll_rad)
+    return dm.matmul(paper_pitch_matrix(-pitch_rad), rot_x(-roll_rad))
 
 
 def sensor_to_world_matrix(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.ndarray:
     """The sensor's axes in the world frame: heading rotation after leveling."""
-    return rot_z(yaw_rad) @ leveling_matrix(roll_rad, pitch_rad)
+    return dm.matmul(rot_z(yaw_rad), leveling_matrix(roll_rad, pitch_rad))
 
 
 def roll_pitch_from_slopes(slope_x: float, slope_y: float) -> tuple[float, float]:
@@ -52,15 +55,15 @@ def roll_pitch_from_slopes(slope_x: float, slope_y: float) -> tuple[float, float
 
     The structure's Z axis must be the plane normal (−slope_x, −slope_y, 1)/‖·‖.
     """
-    pitch = -math.atan(slope_x)
-    roll = math.atan(-slope_y * math.cos(pitch))
+    pitch = -dm.arctan(slope_x)
+    roll = dm.arctan(-slope_y * dm.cos(pitch))
     return roll, pitch
 
 
 def tilt_deg(roll_rad: float, pitch_rad: float) -> float:
     """Angle between the column and the vertical."""
-    return math.degrees(math.acos(max(-1.0, min(1.0, math.cos(roll_rad) * math.cos(pitch_rad)))))
+    return dm.degrees(dm.arccos(max(-1.0, min(1.0, dm.cos(roll_rad) * dm.cos(pitch_rad)))))
 
 
 def level_points(points_sensor: np.ndarray, roll_rad: float, pitch_rad: float) -> np.ndarray:
-    return points_sensor @ leveling_matrix(roll_rad, pitch_rad).T
+    return dm.apply(leveling_matrix(roll_rad, pitch_rad), points_sensor)

@@ -28,9 +28,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import detmath as dm
 from .classes import BY_ID, WATER_ID
 from .errors import PoseRejected, UserError
-from .leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
+from .leveling import roll_pitch_from_slopes, sensor_to_world_matrix, tilt_deg
 
 COLUMN_HEIGHT = 0.723  # m, optical centre above the ground (paper section II)
 ARM_X = 0.335  # m, half-length of the X arm (half of Andabata's ~0.67 m length)
@@ -120,15 +121,15 @@ class Placement:
 
     @property
     def yaw_rad(self) -> float:
-        return math.radians(self.pose.yaw_deg)
+        return dm.radians(self.pose.yaw_deg)
 
     @property
     def roll_deg(self) -> float:
-        return math.degrees(self.roll_rad)
+        return dm.degrees(self.roll_rad)
 
     @property
     def pitch_deg(self) -> float:
-        return math.degrees(self.pitch_rad)
+        return dm.degrees(self.pitch_rad)
 
     @property
     def tilt_deg(self) -> float:
@@ -166,9 +167,9 @@ def check_z_start(z_start: float | None) -> float | None:
 
 def laser_xy(pose: Pose) -> np.ndarray:
     """(4,2) horizontal positions of the arm tips."""
-    heading = rot_z(math.radians(pose.yaw_deg))[:2, :2]
-    offsets = np.array([[dx, dy] for _, dx, dy in LASERS])
-    return np.array([pose.x, pose.y]) + offsets @ heading.T
+    s, c = dm.sincos(dm.radians(pose.yaw_deg))
+    dx, dy = np.array([[dx, dy] for _, dx, dy in LASERS]).T
+    return np.column_stack([pose.x + (c * dx - s * dy), pose.y + (s * dx + c * dy)])
 
 
 def probe_ground_z(backend, x: float, y: float) -> float | None:
@@ -239,12 +240,12 @@ def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
     tilt = tilt_deg(roll, pitch)
     if tilt > MAX_TILT_DEG:
         raise PoseRejected(
-            f"{where} rejected: the ground tilts {tilt:.1f} deg (roll {math.degrees(roll):.1f}, pitch "
-            f"{math.degrees(pitch):.1f}); at most {MAX_TILT_DEG:g} deg"
+            f"{where} rejected: the ground tilts {tilt:.1f} deg (roll {dm.degrees(roll):.1f}, pitch "
+            f"{dm.degrees(pitch):.1f}); at most {MAX_TILT_DEG:g} deg"
         )
     ground_centre = np.array([pose.x, pose.y, (z_front + z_rear + z_left + z_right) / 4])
-    column = sensor_to_world_matrix(roll, pitch, math.radians(pose.yaw_deg)) @ np.array(
-        [0.0, 0.0, COLUMN_HEIGHT]
+    column = dm.apply(
+        sensor_to_world_matrix(roll, pitch, dm.radians(pose.yaw_deg)), [0.0, 0.0, COLUMN_HEIGHT]
     )
     return Placement(
         pose=pose,

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import detmath as dm
 from .placement import Pose
 from .rng import stage_rng
 from .world import EXTENT, ZONES, WorldPlan, footprint_ok
@@ -116,7 +117,7 @@ def _uniform_candidates(plan: WorldPlan) -> Iterator[ScanPose]:
 
 
 def _far_enough(c: ScanPose, kept: list[ScanPose], min_distance: float) -> bool:
-    return all(math.hypot(c.x - k.x, c.y - k.y) >= min_distance for k in kept)
+    return all(dm.hypot(c.x - k.x, c.y - k.y) >= min_distance for k in kept)
 
 
 def sample_poses(

@@ -13,11 +13,12 @@ import numpy as np
 
 from .. import __version__
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
-from .frames import check_frame, to_world
+from .frames import check_frame
 from .hits import RayHits
+from .leveling import leveling_matrix
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
-from .sensor import SensorConfig, beam_directions, range_noise
+from .sensor import SensorConfig, beam_directions, range_noise, rotated_beam_directions
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -51,16 +52,17 @@ def cast_in_chunks(
     return RayHits.joined(parts)
 
 
-def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str) -> np.ndarray:
-    """A scan's points in its output frame: leveled by Eq. 2 itself (the paper's leveling),
-    the world frame by the frame conversion every other user of frames shares."""
+def frame_directions(placement: Placement, frame: str, rh_deg: float, dirs_world: np.ndarray) -> np.ndarray:
+    """Every beam's direction in the output frame: Eq. 1's in the sensor frame, turned by
+    Eq. 2 (the paper's leveling) in the leveled frame, the cast directions in the world
+    frame. A point is then its range times its beam's direction (plus the optical centre in
+    the world frame): three products, in a fixed order, on every machine."""
     if frame == "sensor":
-        return points_sensor
+        return beam_directions(rh_deg)[0]
     if frame == "leveled":
-        from .leveling import level_points
-
-        return level_points(points_sensor, placement.roll_rad, placement.pitch_rad)
-    return to_world(points_sensor, "sensor", placement)
+        leveling = leveling_matrix(placement.roll_rad, placement.pitch_rad)
+        return rotated_beam_directions(leveling, rh_deg)
+    return dirs_world
 
 
 def run_scan(
@@ -76,7 +78,7 @@ def run_scan(
     placement = place(backend, pose, z_start)
 
     dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg)
-    dirs_world = dirs_sensor @ placement.rotation.T
+    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg)
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.noise_sigma
     hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress)
 
@@ -88,9 +90,11 @@ def run_scan(
     keep &= label != WATER_ID
 
     rho = measured[keep]
-    points_sensor = dirs_sensor[keep] * rho[:, None]
+    points = frame_directions(placement, frame, sensor.rh_deg, dirs_world)[keep] * rho[:, None]
+    if frame == "world":
+        points += placement.optical_centre
     cloud = PointCloud(
-        xyz=points_in_frame(points_sensor, placement, frame),
+        xyz=points,
         intensity=intensity[keep].astype(np.float32),
         label=label[keep].astype(np.uint16),
         instance=np.maximum(hits.instance[keep], 0).astype(np.uint32),

@@ -18,7 +18,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from . import detmath as dm
 from .errors import UserError
+from .rng import seeded
 
 BEAMS_PER_2D_SCAN = 1080
 R_V_DEG = 0.25
@@ -129,7 +131,7 @@ def sweep_count(rh_deg: float) -> int:
 def elevation_angles_rad() -> np.ndarray:
     """θn = n·r_v − 135°, the angle of beam n from the column (+Z), n = 0…1079."""
     n = np.arange(BEAMS_PER_2D_SCAN, dtype=np.float64)
-    return np.deg2rad(n * R_V_DEG + FIRST_BEAM_DEG)
+    return dm.deg2rad(n * R_V_DEG + FIRST_BEAM_DEG)
 
 
 def beam_directions(rh_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -143,13 +145,20 @@ def beam_directions(rh_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 @functools.lru_cache(maxsize=8)
+def _beam_angles(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(sin θn, cos θn, sin φm, cos φm), φm = m·r_h: detmath's, the same bits on every machine
+    (np.sin is the C library's, which differs by CPU)."""
+    sin_t, cos_t = dm.sincos(elevation_angles_rad())
+    sin_p, cos_p = dm.sincos(dm.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg))
+    return sin_t, cos_t, sin_p, cos_p
+
+
+@functools.lru_cache(maxsize=8)
 def _beam_directions(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    theta = elevation_angles_rad()
-    phi = np.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg)
-    sin_t, cos_t = np.sin(theta), np.cos(theta)
+    sin_t, cos_t, sin_p, cos_p = _beam_angles(rh_deg, m_count)
     dirs = np.empty((m_count, BEAMS_PER_2D_SCAN, 3))
-    dirs[:, :, 0] = np.cos(phi)[:, None] * sin_t[None, :]
-    dirs[:, :, 1] = np.sin(phi)[:, None] * sin_t[None, :]
+    dirs[:, :, 0] = cos_p[:, None] * sin_t[None, :]
+    dirs[:, :, 1] = sin_p[:, None] * sin_t[None, :]
     dirs[:, :, 2] = cos_t[None, :]
     ring = np.tile(np.arange(BEAMS_PER_2D_SCAN, dtype=np.uint16), m_count)
     sweep = np.repeat(np.arange(m_count, dtype=np.uint16), BEAMS_PER_2D_SCAN)
@@ -159,13 +168,40 @@ def _beam_directions(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarra
     return arrays
 
 
+def rotated_beam_directions(rotation: np.ndarray, rh_deg: float) -> np.ndarray:
+    """The beams of `beam_directions(rh_deg)` turned by `rotation` (3x3; the placement's sensor
+    -> world), (N, 3) float64 in the same order.
+
+    Beam (n, m) is R·Rz(φm)·(sin θn, 0, cos θn) = a_m sin θn + R[:, 2] cos θn with
+    a_m = R[:, 0] cos φm + R[:, 1] sin φm: three products a beam in a fixed order, where
+    R @ dirs would take nine and let the BLAS kernel (so the CPU) choose their order."""
+    m_count = sweep_count(rh_deg)
+    sin_t, cos_t, sin_p, cos_p = _beam_angles(float(rh_deg), m_count)
+    r = np.asarray(rotation, dtype=np.float64)
+    out = np.empty((m_count, BEAMS_PER_2D_SCAN, 3))
+    for i in range(3):
+        a = cos_p * r[i, 0] + sin_p * r[i, 1]
+        component = out[:, :, i]
+        np.multiply(a[:, None], sin_t[None, :], out=component)
+        component += r[i, 2] * cos_t
+    return out.reshape(-1, 3)
+
+
 def range_noise(sensor: SensorConfig, beam_count: int) -> np.ndarray:
     """Gaussian range noise per beam (zero bias, σ = noise_sigma) from the sensor's own seed.
 
     One draw per beam, hit or not, so a beam's noise depends only on the noise
-    seed and its (n, m) — not on what the scene happens to contain.
+    seed and its (n, m) — not on what the scene happens to contain. The draws are
+    core.rng's (Marsaglia's polar method on detmath), the same on every machine.
     """
     if sensor.noise_sigma == 0:
         return np.zeros(beam_count)
-    rng = np.random.Generator(np.random.PCG64(int(sensor.noise_seed)))
-    return rng.normal(0.0, sensor.noise_sigma, beam_count)
+    return sensor.noise_sigma * _standard_normals(int(sensor.noise_seed), beam_count)
+
+
+@functools.lru_cache(maxsize=4)
+def _standard_normals(seed: int, count: int) -> np.ndarray:
+    """The noise seed's draws, kept: scans with the same seed (the default 0) reuse them."""
+    z = seeded(seed).standard_normal(count)
+    z.flags.writeable = False
+    return z

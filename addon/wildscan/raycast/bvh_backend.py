@@ -16,6 +16,7 @@ import gc
 import numpy as np
 
 from .geometry import RefiningBackend, SceneGeometry
+from .settle import Settler
 
 _FAR_SLACK = 1e-3  # see embree_backend: cast a little long, cut in float64
 _CHUNK = 16384  # rays converted to Python floats at a time
@@ -42,16 +43,19 @@ class BVHBackend(RefiningBackend):
         self.geometry = geometry
         self.seal = seal
         self._tree = None
+        self._planes = geometry.local_planes()
+        self._settler = None  # unsealed (tests measuring why sealing is needed): the BVH's answer as is
+        if seal:
+            padded = geometry.padded_local_triangles(dtype=np.float64)
+            self._settler = Settler(geometry, padded, self._planes)
+            vertices = padded.reshape(-1, 3)
+            faces = np.arange(len(vertices)).reshape(-1, 3)
+        else:
+            vertices, faces = geometry.local_vertices(np.float64), geometry.faces
         if geometry.triangle_count:
-            if seal:
-                vertices = geometry.padded_local_triangles(dtype=np.float64).reshape(-1, 3)
-                faces = np.arange(len(vertices)).reshape(-1, 3)
-            else:
-                vertices, faces = geometry.local_vertices(np.float64), geometry.faces
             self._tree = BVHTree.FromPolygons(
                 vertices.tolist(), faces.tolist(), all_triangles=True, epsilon=epsilon
             )
-        self._planes = geometry.local_planes()
 
     def _ready(self) -> bool:
         return self._tree is not None
@@ -78,4 +82,4 @@ class BVHBackend(RefiningBackend):
         finally:
             if was_enabled:
                 gc.enable()
-        return triangle, rough
+        return triangle, rough, None  # no barycentrics: settle finds them in float64

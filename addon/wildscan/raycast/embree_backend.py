@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import RefiningBackend, SceneGeometry
+from .settle import Settler
 
 # Rays are cast a little past max range in float32, then cut in float64, so a
 # hit right at max range is decided by the float64 distance, not by rounding.
@@ -44,20 +45,24 @@ class EmbreeBackend(RefiningBackend):
         self.seal = seal
         self._scene = rtcore_scene.EmbreeScene(robust=robust)
         self._mesh = None
-        if geometry.triangle_count:
-            if seal:
-                self._mesh = mesh_construction.TriangleMesh(self._scene, geometry.padded_local_triangles())
-            else:
-                self._mesh = mesh_construction.TriangleMesh(
-                    self._scene, geometry.local_vertices(np.float32), geometry.faces
-                )
         self._planes = geometry.local_planes()
+        self._settler = None  # unsealed (tests measuring why sealing is needed): Embree's answer as is
+        if seal:
+            padded = geometry.padded_local_triangles(dtype=np.float64)
+            self._settler = Settler(geometry, padded, self._planes)
+            if geometry.triangle_count:
+                self._mesh = mesh_construction.TriangleMesh(self._scene, padded.astype(np.float32))
+        elif geometry.triangle_count:
+            self._mesh = mesh_construction.TriangleMesh(
+                self._scene, geometry.local_vertices(np.float32), geometry.faces
+            )
 
     def _ready(self) -> bool:
         return self._mesh is not None
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
-        """Embree's answer: hit triangle per ray (-1 for none) and float32 distance."""
+        """Embree's answer: hit triangle per ray (-1 for none), float32 distance, and the
+        hit's float32 (u, v) on the uploaded triangle."""
         far = np.full(len(dirs), max_range + _FAR_SLACK, dtype=np.float32)
         result = self._scene.run(
             np.ascontiguousarray(local, dtype=np.float32),
@@ -67,4 +72,4 @@ class EmbreeBackend(RefiningBackend):
         )
         triangle = result["primID"].astype(np.int64)
         triangle[result["geomID"] == -1] = -1
-        return triangle, result["tfar"]
+        return triangle, result["tfar"], (result["u"], result["v"])

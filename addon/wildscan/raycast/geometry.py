@@ -42,7 +42,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core import detmath as dm
 from ..core.hits import RayHits
+from .settle import settle
 
 
 @dataclass
@@ -112,10 +114,10 @@ class SceneGeometry:
         with n·x = d on the plane; degenerate triangles get a zero normal."""
         local = self.vertices - self.offset
         v0, v1, v2 = (local[self.faces[:, k]] for k in range(3))
-        normal = np.cross(v1 - v0, v2 - v0)
-        length = np.linalg.norm(normal, axis=1)
+        normal = dm.cross(v1 - v0, v2 - v0)  # detmath: summed in a fixed order on every CPU
+        length = dm.norm(normal)
         normal /= np.where(length > 0, length, 1.0)[:, None]
-        return normal, np.einsum("ij,ij->i", normal, v0)
+        return normal, dm.dot3(normal, v0)
 
     # -- cropping ------------------------------------------------------------------------
 
@@ -183,7 +185,7 @@ def triangles_near_xy(vertices: np.ndarray, faces: np.ndarray, center_xy, radius
     lo, hi = xy.min(axis=1), xy.max(axis=1)
     c = np.asarray(center_xy, dtype=np.float64)[:2]
     gap = np.clip(c, lo, hi) - c
-    return np.einsum("ij,ij->i", gap, gap) <= radius * radius
+    return gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= radius * radius
 
 
 def used_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
@@ -211,8 +213,8 @@ def local_origin(vertices: np.ndarray, faces: np.ndarray, center=None) -> np.nda
 def world_vertices(local: np.ndarray, matrix: np.ndarray) -> np.ndarray:
     """(V,3) float64 object-space vertices moved by a 4x4 world matrix, in float64. The one
     expression the Blender extraction and the Blender-free path both use, so the same
-    inputs give the same bits."""
-    return local @ matrix[:3, :3].T + matrix[:3, 3]
+    inputs give the same bits (summed in a fixed order by dm.apply, not by BLAS)."""
+    return dm.apply(matrix[:3, :3], local) + matrix[:3, 3]
 
 
 def concatenate(parts: list[SceneGeometry], object_names=None, offset=None) -> SceneGeometry:
@@ -288,11 +290,11 @@ def pad_triangles(tris: np.ndarray, pad: float) -> np.ndarray:
     """
     tris = np.asarray(tris, dtype=np.float64)
     v0, v1, v2 = tris[:, 0], tris[:, 1], tris[:, 2]
-    a = np.linalg.norm(v1 - v2, axis=1)  # side lengths opposite each vertex
-    b = np.linalg.norm(v2 - v0, axis=1)
-    c = np.linalg.norm(v0 - v1, axis=1)
+    a = dm.norm(v1 - v2)  # side lengths opposite each vertex
+    b = dm.norm(v2 - v0)
+    c = dm.norm(v0 - v1)
     perimeter = a + b + c
-    double_area = np.linalg.norm(np.cross(v1 - v0, v2 - v0), axis=1)
+    double_area = dm.norm(dm.cross(v1 - v0, v2 - v0))
     ok = (double_area > 0) & (perimeter > 0)
     safe_perimeter = np.where(ok, perimeter, 1.0)
     inradius = np.where(ok, double_area / safe_perimeter, 1.0)
@@ -300,7 +302,7 @@ def pad_triangles(tris: np.ndarray, pad: float) -> np.ndarray:
     out = tris.copy()
     for k in range(3):
         away = tris[:, k] - incentre
-        length = np.linalg.norm(away, axis=1)
+        length = dm.norm(away)
         shift = np.minimum(pad * length / inradius, _MAX_PAD_STRETCH * pad)
         scale = np.where(ok & (length > 0), shift / np.where(length > 0, length, 1.0), 0.0)
         out[:, k] += away * scale[:, None]
@@ -345,9 +347,13 @@ def refine_distances(
     triangle's plane is the rough value kept.
     """
     n = normal[triangle]
-    cos = np.einsum("ij,ij->i", n, directions)
+    cos = dm.dot3(n, directions)
+    if len(origins_local) > 1 and origins_local.strides[0] == 0:  # one origin (a scan): per triangle
+        gap = (d - dm.dot3(normal, origins_local[0]))[triangle]
+    else:
+        gap = d[triangle] - dm.dot3(n, origins_local)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = (d[triangle] - np.einsum("ij,ij->i", n, origins_local)) / cos
+        t = gap / cos
     bad = ~np.isfinite(t) | (np.abs(cos) < _PARALLEL_COS)
     t[bad] = rough[bad]
     return np.maximum(t, 0.0)
@@ -358,17 +364,21 @@ def refine_distances(
 
 class RefiningBackend:
     """What the backends over extracted triangles share: each finds first hits its own
-    way (`_first_hits`, in float32 or float64), then every hit distance is recomputed
-    in float64 against the exact plane of the hit triangle and cut at max range."""
+    way (`_first_hits`, in float32 or float64), every hit the float32 answer could have
+    given to another triangle is settled in float64 (settle.py), then every hit distance
+    is recomputed in float64 against the exact plane of the hit triangle and cut at max
+    range."""
 
     geometry: SceneGeometry
+    _settler = None  # settle.Settler, made by the backend
 
     def _ready(self) -> bool:
         """Whether there is anything to hit (an empty crop casts nothing)."""
         raise NotImplementedError
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
-        """(hit triangle per ray, -1 for none; its approximate distance)."""
+        """(hit triangle per ray, -1 for none; its approximate distance; the hit's (u, v) on
+        the uploaded triangle, or None)."""
         raise NotImplementedError
 
     def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
@@ -376,11 +386,14 @@ class RefiningBackend:
         count = len(dirs)
         if count == 0 or not self._ready():
             return RayHits.empty(count)
-        triangle, rough = self._first_hits(local, dirs, max_range)
+        triangle, rough, bary = self._first_hits(local, dirs, max_range)
+        if self._settler is not None:
+            triangle, rough = settle(self, self._settler, local, dirs, triangle, rough, bary, max_range)
         hit = triangle >= 0
         distance = np.full(count, np.inf)
         normal, d = self._planes
-        distance[hit] = refine_distances(normal, d, local[hit], dirs[hit], triangle[hit], rough[hit])
+        hit_origins = np.broadcast_to(local[0], (hit.sum(), 3)) if local.strides[0] == 0 else local[hit]
+        distance[hit] = refine_distances(normal, d, hit_origins, dirs[hit], triangle[hit], rough[hit])
         beyond = hit & (distance > max_range)
         triangle[beyond] = -1
         distance[beyond] = np.inf

@@ -8,11 +8,11 @@ Drawn from the plan, so it needs no Blender and no ray casting. Small elements
 
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np
 
+from ..core import detmath as dm
 from ..core.classes import CLASSES, class_by_name
 from . import require_matplotlib
 
@@ -43,10 +43,10 @@ def hillshade(z: np.ndarray, spacing: float) -> np.ndarray:
     """Lambert shading for light from the north-west, 45 deg up."""
     gy, gx = np.gradient(z, spacing)
     normal = np.stack([-gx, -gy, np.ones_like(z)], -1)
-    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    normal /= dm.norm(normal)[..., None]  # detmath: the same pixels on every machine
     light = np.array([-1.0, 1.0, 1.4])
-    light /= np.linalg.norm(light)
-    return np.clip(normal @ light, 0.0, 1.0)
+    light /= dm.norm(light)
+    return np.clip(dm.dot3(normal, light), 0.0, 1.0)
 
 
 def terrain_image(plan, spacing: float = 0.5) -> tuple[np.ndarray, tuple[float, float, float, float]]:
@@ -71,8 +71,9 @@ def _footprint_polygon(plan, el) -> np.ndarray:
     v = plan.prototypes[el.proto].vertices
     lo, hi = v[:, :2].min(0) * el.scale[:2], v[:, :2].max(0) * el.scale[:2]
     corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
-    c, s = math.cos(el.yaw), math.sin(el.yaw)
-    return corners @ np.array([[c, s], [-s, c]]) + np.asarray(el.location[:2])
+    s, c = dm.sincos(el.yaw)
+    x, y = corners[:, 0], corners[:, 1]
+    return np.column_stack([x * c - y * s, x * s + y * c]) + np.asarray(el.location[:2])
 
 
 def _wire_line(plan, el) -> np.ndarray:

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import detmath as dm
 from ..core.classes import BY_ID
 from ..core.errors import UserError
 from ..core.io.files import atomic_outputs
@@ -109,10 +110,10 @@ def view_axes(elevation_deg: float, azimuth_deg: float) -> np.ndarray:
     Screen right is always horizontal, so horizontal distances across the image
     are true lengths: that is what makes a scale bar honest in an oblique view.
     """
-    e, a = math.radians(elevation_deg), math.radians(azimuth_deg)
-    right = (-math.sin(a), math.cos(a), 0.0)
-    up = (-math.sin(e) * math.cos(a), -math.sin(e) * math.sin(a), math.cos(e))
-    toward = (math.cos(e) * math.cos(a), math.cos(e) * math.sin(a), math.sin(e))
+    (sin_e, cos_e), (sin_a, cos_a) = dm.sincos(dm.radians(elevation_deg)), dm.sincos(dm.radians(azimuth_deg))
+    right = (-sin_a, cos_a, 0.0)
+    up = (-sin_e * cos_a, -sin_e * sin_a, cos_e)
+    toward = (cos_e * cos_a, cos_e * sin_a, sin_e)
     return np.array([right, up, toward], dtype=np.float64)
 
 
@@ -171,7 +172,7 @@ def rasterize(
     image[:] = _BACKGROUND_U8
     if len(xyz) == 0:
         return image
-    proj = xyz @ axes.T
+    proj = dm.apply(axes, xyz)  # detmath: the same pixels on every machine
     x0, x1, y0, y1 = box
     col = np.floor((proj[:, 0] - x0) * (cols / (x1 - x0))).astype(np.int64)
     row = np.floor((y1 - proj[:, 1]) * (rows / (y1 - y0))).astype(np.int64)  # row 0 = top
@@ -241,7 +242,7 @@ def _build_figure(cloud: PointCloud, title: str, elev: float, azim: float, width
     plot_h = max(_MIN_PLOT_PX, height - _HEADER_PX - _FOOTER_PX - 2 * _PAD_PX)
 
     axes = view_axes(elev, azim)
-    box = _view_box(xyz @ axes[:2].T)
+    box = _view_box(dm.apply(axes, xyz)[:, :2])
     rows, cols = _raster_shape(box, plot_w, plot_h)
     splat = splat_size(len(xyz), rows * cols)
     image = rasterize(xyz, np.asarray(cloud.colors)[finite], axes, box, rows, cols, splat)
@@ -352,8 +353,8 @@ def _draw_axis_triad(ax, box: tuple[float, float, float, float], axes: np.ndarra
         ("Y", (0, 1, 0), "#27ae60"),
         ("Z", (0, 0, 1), "#2e5cb8"),
     ):
-        dx, dy = axes[0] @ world, axes[1] @ world
-        if math.hypot(dx, dy) < 0.15:  # pointing at the viewer: an arrow would be a dot
+        dx, dy = dm.dot3(axes[0], world), dm.dot3(axes[1], world)
+        if dm.hypot(dx, dy) < 0.15:  # pointing at the viewer: an arrow would be a dot
             continue
         ax.annotate(
             "",

@@ -57,12 +57,11 @@ class WorldContext:
     build_seconds: float
 
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
-        """Class of the first surface straight below each origin (0 for none). Only the
-        class matters here, so Embree's own hit is taken without the float64 range refinement."""
-        geometry = self.backend.geometry
+        """Class of the first surface straight below each origin (0 for none). Cast like
+        every other ray, so the float64 settling decides edge hits the same on every CPU."""
         down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), origins.shape)
-        triangle, _ = self.backend._first_hits(origins - geometry.offset, down, max_range)
-        return np.where(triangle >= 0, geometry.class_id[np.maximum(triangle, 0)], 0)
+        hits = self.backend.cast(origins, down, max_range)
+        return np.maximum(hits.class_id, 0)
 
 
 _worlds: OrderedDict[tuple, WorldContext] = OrderedDict()

@@ -8,8 +8,8 @@ stands for (model_errors; terrain: fit_grid at 100,000 random points, seed 0;
 | level   | terrain max / rms | 3 m crown | 0.3 m trunk | wire chord | tuft tris | world triangles |
 |---------|-------------------|-----------|-------------|------------|-----------|-----------------|
 | low     | 9.7 / 0.92 cm     | 19.8 cm   | 5.7 cm      | 2.8 cm     | 4         | ~97 k           |
-| default | 3.4 / 0.27 cm     | 5.3 cm    | 3.0 cm      | 0.7 cm     | 9         | ~256 k          |
-| high    | 1.8 / 0.12 cm     | 1.4 cm    | 1.5 cm      | 0.2 cm     | 16        | ~620 k          |
+| default | 3.4 / 0.27 cm     | 5.3 cm    | 3.0 cm      | 0.7 cm     | 9         | ~254 k          |
+| high    | 1.8 / 0.12 cm     | 1.4 cm    | 1.5 cm      | 0.2 cm     | 16        | ~612 k          |
 
 Terrain tolerances are 15, 5 and 2 cm (fit_grid keeps its sampled max within
 75 % of them, because random samples miss the worst spot between them):
@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import detmath as dm
 from ..checks import one_of
 from .shapes.powerline import catenary_parameter
 from .shapes.primitives import icosphere
@@ -69,12 +70,12 @@ def model_errors(d: DetailLevel) -> dict[str, float]:
     reference sizes: a 3 m round crown (icosphere facets), a 0.3 m trunk (polygon sides),
     a 17 m wire span sagging 3 % (catenary chords). The terrain's is measured by fit_grid."""
     v, f = icosphere(d.sphere_subdivisions)
-    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    plane = np.abs(np.einsum("ij,ij->i", n / np.linalg.norm(n, axis=1, keepdims=True), v[f[:, 0]]))
+    n = dm.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    plane = np.abs(dm.dot3(n / dm.norm(n)[:, None], v[f[:, 0]]))
     a = catenary_parameter(17.0, 0.03 * 17.0)
     return {
         "crown_3m": float(3.0 * (1.0 - plane.min())),
-        "trunk_0.3m": 0.3 * (1.0 - math.cos(math.pi / d.trunk_sides)),
-        "wire_chord": d.wire_step**2 / (8.0 * a),
+        "trunk_0.3m": 0.3 * (1.0 - dm.cos(math.pi / d.trunk_sides)),
+        "wire_chord": d.wire_step * d.wire_step / (8.0 * a),
         "terrain_tolerance": d.terrain_tolerance,
     }

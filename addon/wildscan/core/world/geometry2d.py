@@ -7,6 +7,8 @@ from typing import Callable
 
 import numpy as np
 
+from .. import detmath as dm
+
 Rect = tuple[float, float, float, float]  # xmin, xmax, ymin, ymax
 
 
@@ -15,20 +17,22 @@ Rect = tuple[float, float, float, float]  # xmin, xmax, ymin, ymax
 
 
 def polyline_length(path: np.ndarray) -> float:
-    return float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+    step = np.diff(path, axis=0)
+    return float(dm.hypot(step[:, 0], step[:, 1]).sum())
 
 
 def polyline_distance(path: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """Distance from each point (N,2) to the polyline (K,2)."""
     a, b = path[:-1], path[1:]
     ab = b - a
-    L2 = np.maximum((ab**2).sum(1), 1e-12)
+    L2 = np.maximum(ab[:, 0] * ab[:, 0] + ab[:, 1] * ab[:, 1], 1e-12)
     best = np.full(len(pts), np.inf)
     for start in range(0, len(a), 256):  # chunks keep memory small
         aa, dd, ll = a[start : start + 256], ab[start : start + 256], L2[start : start + 256]
-        t = np.clip(((pts[:, None, :] - aa[None]) * dd[None]).sum(-1) / ll[None], 0, 1)
-        proj = aa[None] + t[..., None] * dd[None]
-        best = np.minimum(best, np.sqrt(((pts[:, None, :] - proj) ** 2).sum(-1)).min(1))
+        rel = pts[:, None, :] - aa[None]
+        t = np.clip((rel[..., 0] * dd[None, :, 0] + rel[..., 1] * dd[None, :, 1]) / ll[None], 0, 1)
+        gap = pts[:, None, :] - (aa[None] + t[..., None] * dd[None])
+        best = np.minimum(best, dm.hypot(gap[..., 0], gap[..., 1]).min(1))
     return best
 
 
@@ -44,8 +48,8 @@ def catmull_rom(ctrl: np.ndarray, step: float) -> np.ndarray:
             * (
                 (2 * p1)
                 + (-p0 + p2) * t
-                + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t**2
-                + (-p0 + 3 * p1 - 3 * p2 + p3) * t**3
+                + (2 * p0 - 5 * p1 + 4 * p2 - p3) * (t * t)
+                + (-p0 + 3 * p1 - 3 * p2 + p3) * (t * t * t)
             )
         )
     pts.append(ctrl[-1:])
@@ -54,15 +58,24 @@ def catmull_rom(ctrl: np.ndarray, step: float) -> np.ndarray:
 
 
 def resample(path: np.ndarray, step: float) -> np.ndarray:
-    seg = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    """A polyline (K, 2) resampled at equal steps of about `step` metres along it."""
+    diff = np.diff(path, axis=0)
+    seg = dm.hypot(diff[:, 0], diff[:, 1])
     s = np.concatenate([[0], np.cumsum(seg)])
     n = max(2, int(math.ceil(s[-1] / step)) + 1)
     t = np.linspace(0, s[-1], n)
-    return np.column_stack([np.interp(t, s, path[:, k]) for k in range(path.shape[1])])
+    return np.column_stack([dm.interp(t, s, path[:, k]) for k in range(path.shape[1])])
 
 
 # ---------------------------------------------------------------------------------------
 # rectangles and headings
+
+
+def float_range(start: float, stop: float, step: float) -> np.ndarray:
+    """np.arange(start, stop, step) as numpy fills it (start + i * ((start + step) - start)),
+    but in separate ufuncs: numpy's C loop may be fused into FMAs by an arm64 compiler."""
+    count = max(int(math.ceil((stop - start) / step)), 0)
+    return start + np.arange(count) * ((start + step) - start)
 
 
 def cell_area(rect: Rect) -> float:
@@ -80,7 +93,7 @@ def long_axis(rect: Rect) -> int:
 
 def yaw_towards(x, y, tx, ty) -> float:
     """Heading in degrees (0-360, CCW from +X, 0.1 deg steps) from (x, y) to (tx, ty)."""
-    return round(math.degrees(math.atan2(ty - y, tx - x)) % 360.0, 1)
+    return round(dm.degrees(dm.arctan2(ty - y, tx - x)) % 360.0, 1)
 
 
 # ---------------------------------------------------------------------------------------
@@ -103,7 +116,7 @@ def darts(
             break
         ix, iy = int(x // cell), int(y // cell)
         near = [p for dx in (-1, 0, 1) for dy in (-1, 0, 1) for p in taken.get((ix + dx, iy + dy), ())]
-        if any((x - px) ** 2 + (y - py) ** 2 < min_dist**2 for px, py in near):
+        if any((x - px) * (x - px) + (y - py) * (y - py) < min_dist * min_dist for px, py in near):
             continue
         taken.setdefault((ix, iy), []).append((x, y))
         out.append((x, y))

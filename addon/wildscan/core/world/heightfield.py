@@ -20,6 +20,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from .. import detmath as dm
 from .shapes.primitives import grid_heightfield
 
 Field = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -46,7 +47,7 @@ class GradientNoise:
         perm = rng.permutation(256)
         self.perm = np.concatenate([perm, perm]).astype(np.int64)
         angles = rng.uniform(0.0, 2.0 * np.pi, 256)
-        self.gx, self.gy = np.cos(angles), np.sin(angles)
+        self.gy, self.gx = dm.sincos(angles)
 
     def _corner(self, i, j, dx, dy):
         g = self.perm[self.perm[i] + j]
@@ -84,13 +85,13 @@ class FractalNoise:
         self.gain = float(gain)
         self.layers = [GradientNoise(rng) for _ in range(self.octaves)]
         self.shifts = rng.uniform(0.0, 256.0, (self.octaves, 2))
-        amps = self.gain ** np.arange(self.octaves)
+        amps = np.cumprod(np.concatenate([[1.0], np.full(self.octaves - 1, self.gain)]))  # gain^k
         self.amps = amps / amps.sum()
 
     def __call__(self, x, y):
         out = np.zeros(np.broadcast(np.asarray(x), np.asarray(y)).shape)
         for k, (noise, shift, amp) in enumerate(zip(self.layers, self.shifts, self.amps)):
-            f = (2.0**k) / self.wavelength
+            f = math.ldexp(1.0, k) / self.wavelength
             out = out + amp * noise(np.asarray(x) * f + shift[0], np.asarray(y) * f + shift[1])
         return out
 
@@ -132,11 +133,11 @@ class Ellipse:
     def local(self, x, y):
         """Coordinates along and across the ellipse's axis, metres."""
         dx, dy = np.asarray(x) - self.cx, np.asarray(y) - self.cy
-        c, s = math.cos(self.angle), math.sin(self.angle)
+        s, c = dm.sincos(self.angle)
         return c * dx + s * dy, -s * dx + c * dy
 
     def to_world(self, u, v):
-        c, s = math.cos(self.angle), math.sin(self.angle)
+        s, c = dm.sincos(self.angle)
         return self.cx + c * np.asarray(u) - s * np.asarray(v), self.cy + s * np.asarray(u) + c * np.asarray(
             v
         )
@@ -144,7 +145,8 @@ class Ellipse:
     def radius(self, x, y):
         u, v = self.local(x, y)
         # sqrt smoothed at the centre (eps) keeps the field C2 there
-        return np.sqrt((u / self.a) ** 2 + (v / self.b) ** 2 + 1e-6)
+        ua, vb = u / self.a, v / self.b
+        return np.sqrt(ua * ua + vb * vb + 1e-6)
 
 
 @dataclass(frozen=True)
@@ -177,7 +179,8 @@ class Bumps:
     def apply(self, x, y, h):
         add = 0.0
         for (cx, cy), a, s in zip(self.centres, self.heights, self.sigmas):
-            add = add + a * np.exp(-((np.asarray(x) - cx) ** 2 + (np.asarray(y) - cy) ** 2) / (2.0 * s * s))
+            dx, dy = np.asarray(x) - cx, np.asarray(y) - cy
+            add = add + a * dm.exp(-(dx * dx + dy * dy) / (2.0 * s * s))
         return h + self.gain * add * self.window(x, y)
 
 
@@ -399,10 +402,10 @@ def curvature_profiles(field_fn: Field, extent: Sequence[float], probe: float = 
     z = field_fn(gx, gy)
     zxx = np.zeros_like(z)
     zyy = np.zeros_like(z)
-    zxx[:, 1:-1] = (z[:, 2:] - 2 * z[:, 1:-1] + z[:, :-2]) / probe**2
-    zyy[1:-1, :] = (z[2:, :] - 2 * z[1:-1, :] + z[:-2, :]) / probe**2
+    zxx[:, 1:-1] = (z[:, 2:] - 2 * z[:, 1:-1] + z[:, :-2]) / (probe * probe)
+    zyy[1:-1, :] = (z[2:, :] - 2 * z[1:-1, :] + z[:-2, :]) / (probe * probe)
     zxy = np.zeros_like(z)
-    zxy[1:-1, 1:-1] = (z[2:, 2:] - z[2:, :-2] - z[:-2, 2:] + z[:-2, :-2]) / (4 * probe**2)
+    zxy[1:-1, 1:-1] = (z[2:, 2:] - z[2:, :-2] - z[:-2, 2:] + z[:-2, :-2]) / (4 * (probe * probe))
     cx = (np.abs(zxx) + np.abs(zxy)).max(axis=0)
     cy = (np.abs(zyy) + np.abs(zxy)).max(axis=1)
     # a line must also suit its neighbours' curvature (the probe is coarse)

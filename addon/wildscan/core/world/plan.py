@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
 import numpy as np
 
+from .. import detmath as dm
 from ..checks import one_of, whole_number
 from ..placement import Pose
 from .detail import DetailLevel
@@ -128,7 +128,7 @@ class Site:
         return out
 
     def keep_out(self, plan: WorldPlan, x, y, need: Clearance) -> np.ndarray:
-        return np.hypot(x - self.x, y - self.y) < need.radius + SITE_CLEARANCE
+        return dm.hypot(x - self.x, y - self.y) < need.radius + SITE_CLEARANCE
 
 
 @dataclass(frozen=True)
@@ -177,10 +177,8 @@ class WorldPlan(ElementSet):
     def ground_under(self, x, y, radius: float):
         """Lowest terrain height under a disc, so nothing floats on a slope."""
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-        zs = [self.ground(x, y)] + [
-            self.ground(x + radius * math.cos(a), y + radius * math.sin(a))
-            for a in np.linspace(0, 2 * np.pi, 6, endpoint=False)
-        ]
+        sin, cos = dm.sincos(np.linspace(0, 2 * np.pi, 6, endpoint=False))
+        zs = [self.ground(x, y)] + [self.ground(x + radius * c, y + radius * s) for s, c in zip(sin, cos)]
         return np.min(zs, axis=0)
 
     def in_water(self, x, y, margin: float = 0.0):

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import detmath as dm
 from ..rng import stage_rng
 from .elements import Element, ElementSet, Prototype
 from .heightfield import TerrainGrid
@@ -104,20 +105,23 @@ def _terrain_heights(seed: int, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     steeper than MAX_SLOPE_DEG; z = 0 at the origin."""
     rng = stage_rng(seed, "testworld.terrain")
     gx, gy = np.meshgrid(xs, ys)
-    r = np.hypot(gx, gy)
+    r = dm.hypot(gx, gy)
     waves = np.zeros_like(gx)
     for _ in range(2):
         ang, phase = rng.uniform(0, 2 * np.pi, 2)
         wavelength, amp = rng.uniform(24.0, 36.0), rng.uniform(0.1, 0.2)
-        waves += amp * np.sin(2 * np.pi * (gx * np.cos(ang) + gy * np.sin(ang)) / wavelength + phase)
+        sin, cos = dm.sincos(ang)
+        waves += amp * dm.sin(2 * np.pi * (gx * cos + gy * sin) / wavelength + phase)
     relief = waves * (0.25 + 0.75 * _smoothstep(2.0, 12.0, r))
     for cx, cy, amp, sigma in _bumps(rng):
-        relief += amp * np.exp(-((gx - cx) ** 2 + (gy - cy) ** 2) / (2 * sigma**2))
-    rp = np.hypot(gx - POND_CENTER[0], gy - POND_CENTER[1]) / POND_RADIUS
+        dx, dy = gx - cx, gy - cy
+        relief += amp * dm.exp(-(dx * dx + dy * dy) / (2 * (sigma * sigma)))
+    rp = dm.hypot(gx - POND_CENTER[0], gy - POND_CENTER[1]) / POND_RADIUS
     depth = rng.uniform(1.0, 1.2)
-    z = relief - depth * np.clip(1.0 - rp**2, 0.0, None) ** 2
+    bowl = np.clip(1.0 - rp * rp, 0.0, None)
+    z = relief - depth * (bowl * bowl)
     slope = _max_slope(xs, ys, z)
-    limit = np.tan(np.radians(MAX_SLOPE_DEG))
+    limit = dm.tan(dm.radians(MAX_SLOPE_DEG))
     if slope > limit:
         z *= limit / slope
     origin = np.argmin(np.abs(ys)), np.argmin(np.abs(xs))
@@ -131,8 +135,8 @@ def _bumps(rng, count: int = 4):
     while len(bumps) < count:
         dist, ang = rng.uniform(14.0, 26.0), rng.uniform(0, 2 * np.pi)
         amp, sigma = rng.uniform(-0.6, 1.0), rng.uniform(6.0, 9.0)
-        cx, cy = dist * np.cos(ang), dist * np.sin(ang)
-        if np.hypot(cx - POND_CENTER[0], cy - POND_CENTER[1]) >= 14.0:
+        cx, cy = dist * dm.cos(ang), dist * dm.sin(ang)
+        if dm.hypot(cx - POND_CENTER[0], cy - POND_CENTER[1]) >= 14.0:
             bumps.append((cx, cy, amp, sigma))
     return bumps
 
@@ -141,8 +145,8 @@ def _max_slope(xs, ys, z) -> float:
     """Largest gradient magnitude over the mesh triangles."""
     dx, dy = xs[1] - xs[0], ys[1] - ys[0]
     z00, z10, z01, z11 = z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:]
-    lower = np.hypot((z10 - z00) / dx, (z11 - z10) / dy)
-    upper = np.hypot((z11 - z01) / dx, (z01 - z00) / dy)
+    lower = dm.hypot((z10 - z00) / dx, (z11 - z10) / dy)
+    upper = dm.hypot((z11 - z01) / dx, (z01 - z00) / dy)
     return float(max(lower.max(), upper.max()))
 
 
@@ -229,7 +233,7 @@ def _add_furniture(b: _Builder) -> None:
     yaw = rng.uniform(0, 2 * np.pi)
 
     def local(dx, dy):
-        c, s = np.cos(yaw), np.sin(yaw)
+        c, s = dm.cos(yaw), dm.sin(yaw)
         return cx + c * dx - s * dy, cy + s * dx + c * dy
 
     def furniture(parts_local):
@@ -283,14 +287,14 @@ def _tuft(rng, b: _Builder, x: float, y: float, height: float, width: float, bla
     ang = rng.uniform(0, 2 * np.pi, blades)
     h = height * rng.uniform(0.7, 1.1, blades)
     lean = h * rng.uniform(0.1, 0.35, blades)
-    bx, by = x + 0.03 * np.cos(ang), y + 0.03 * np.sin(ang)
+    bx, by = x + 0.03 * dm.cos(ang), y + 0.03 * dm.sin(ang)
     gz = b.ground(bx, by) - 0.02
-    px, py = -np.sin(ang) * width / 2, np.cos(ang) * width / 2  # across the blade
+    px, py = -dm.sin(ang) * width / 2, dm.cos(ang) * width / 2  # across the blade
     v = np.stack(
         [
             np.stack([bx - px, by - py, gz], -1),
             np.stack([bx + px, by + py, gz], -1),
-            np.stack([bx + lean * np.cos(ang), by + lean * np.sin(ang), gz + h], -1),
+            np.stack([bx + lean * dm.cos(ang), by + lean * dm.sin(ang), gz + h], -1),
         ],
         1,
     ).reshape(-1, 3)
@@ -310,7 +314,7 @@ def _add_grass(b: _Builder) -> None:
             rr = radius * np.sqrt(rng.uniform(0, 1, n_tufts))
             aa = rng.uniform(0, 2 * np.pi, n_tufts)
             tufts = [
-                _tuft(rng, b, cx + r * np.cos(a), cy + r * np.sin(a), height, width, 7)
+                _tuft(rng, b, cx + r * dm.cos(a), cy + r * dm.sin(a), height, width, 7)
                 for r, a in zip(rr, aa)
             ]
             b.add("grass", f"{prefix}_{k}", cls, merge(tufts))
@@ -319,8 +323,8 @@ def _add_grass(b: _Builder) -> None:
 def _wire_path(p0, p1, sag: float) -> np.ndarray:
     """The wire's catenary, its parameter from the parabola approximation a = L^2 / (8 sag)
     (so its lowest point hangs about, not exactly, `sag` below the chord's midpoint)."""
-    span = float(np.hypot(*np.subtract(p1, p0)[:2]))
-    return catenary_points(p0, p1, span**2 / (8.0 * sag), 48)
+    span = float(dm.hypot(*np.subtract(p1, p0)[:2]))
+    return catenary_points(p0, p1, span * span / (8.0 * sag), 48)
 
 
 def _add_poles_and_wire(b: _Builder) -> None:
@@ -342,7 +346,7 @@ def _add_water(b: _Builder) -> tuple[float, float]:
     water_radius = 0.95 * POND_RADIUS
     theta = np.linspace(0, 2 * np.pi, 96, endpoint=False)
     rim = b.ground(
-        POND_CENTER[0] + water_radius * np.cos(theta), POND_CENTER[1] + water_radius * np.sin(theta)
+        POND_CENTER[0] + water_radius * dm.cos(theta), POND_CENTER[1] + water_radius * dm.sin(theta)
     )
     water_z = float(rim.min()) - 0.05
     b.add("water", "water", "water", disc(water_radius, water_z, POND_CENTER))

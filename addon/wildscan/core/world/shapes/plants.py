@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ... import detmath as dm
 from .primitives import Mesh, drop_buried, icosphere, lumpy, scaled
 
 
@@ -27,7 +28,7 @@ def tuft(rng: np.random.Generator, height: float, spread: float, planes: int, bl
     n = 0
     for p in range(planes):
         angle = math.pi * p / planes + rng.uniform(-0.2, 0.2)
-        c, s = math.cos(angle), math.sin(angle)
+        s, c = dm.sincos(angle)
         base_u = np.linspace(-spread / 2, spread / 2, blades + 1)
         tips_u = 0.5 * (base_u[:-1] + base_u[1:]) + rng.uniform(-0.35, 0.35, blades) * spread / blades * 2
         tips_h = height * rng.uniform(0.6, 1.0, blades)

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ... import detmath as dm
 from .primitives import Mesh, box, lathe, merge, tube
 
 POLE_HEIGHT = 9.0
@@ -28,7 +29,7 @@ def catenary(p0, p1, sag: float, samples: int) -> np.ndarray:
     chord midpoint (for level ends). (samples, 3)."""
     p0 = np.asarray(p0, dtype=np.float64)
     p1 = np.asarray(p1, dtype=np.float64)
-    span = float(np.hypot(*(p1[:2] - p0[:2])))
+    span = float(dm.hypot(*(p1[:2] - p0[:2])))
     return catenary_points(p0, p1, catenary_parameter(span, sag), samples)
 
 
@@ -37,13 +38,13 @@ def catenary_points(p0, p1, a: float, samples: int) -> np.ndarray:
     distance from p0 and `a` (m) its parameter: the larger, the tauter. (samples, 3)."""
     p0 = np.asarray(p0, dtype=np.float64)
     p1 = np.asarray(p1, dtype=np.float64)
-    span = float(np.hypot(*(p1[:2] - p0[:2])))
-    dz = p1[2] - p0[2]
+    span = float(dm.hypot(*(p1[:2] - p0[:2])))
+    dz = float(p1[2] - p0[2])
     # cosh(u + L/a) - cosh(u) = dz / a  with u = -s0/a:  2 sinh(u + L/2a) sinh(L/2a) = dz / a
-    u = math.asinh(dz / (2 * a * math.sinh(span / (2 * a)))) - span / (2 * a)
-    c = p0[2] - a * math.cosh(u)
+    u = dm.arcsinh(dz / (2 * a * dm.sinh(span / (2 * a)))) - span / (2 * a)
+    c = float(p0[2]) - a * dm.cosh(u)
     s = np.linspace(0.0, span, samples)
-    z = a * np.cosh(u + s / a) + c
+    z = a * dm.cosh(u + s / a) + c
     t = s / span
     xy = p0[:2] + np.outer(t, p1[:2] - p0[:2])
     return np.column_stack([xy, z])
@@ -54,7 +55,7 @@ def catenary_parameter(span: float, sag: float) -> float:
     lo, hi = 1e-3, 1e6
     for _ in range(200):
         mid = math.sqrt(lo * hi)
-        if mid * (math.cosh(span / (2 * mid)) - 1.0) > sag:
+        if mid * (dm.cosh(span / (2 * mid)) - 1.0) > sag:
             lo = mid
         else:
             hi = mid

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from ... import detmath as dm
+
 Mesh = tuple[np.ndarray, np.ndarray]
 
 # ---------------------------------------------------------------------------------------
@@ -52,11 +54,11 @@ def _ring_frames(path: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Tangent and two normals per path point; the reference axis is world Z unless the
     path runs near-vertical, so a planar curve gets a twist-free frame."""
     tangent = np.gradient(path, axis=0)
-    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    tangent /= dm.norm(tangent)[:, None]
     ref = np.where(np.abs(tangent[:, 2:3]) > 0.9, [[1.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
-    normal = np.cross(ref, tangent)
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    binormal = np.cross(tangent, normal)
+    normal = dm.cross(ref, tangent)
+    normal /= dm.norm(normal)[:, None]
+    binormal = dm.cross(tangent, normal)
     return tangent, normal, binormal
 
 
@@ -66,10 +68,8 @@ def tube(path, radius: float, sides: int = 8, caps: bool = True, angle0: float =
     k = len(path)
     _, normal, binormal = _ring_frames(path)
     theta = angle0 + 2.0 * np.pi * np.arange(sides) / sides
-    ring = (
-        np.cos(theta)[None, :, None] * normal[:, None, :]
-        + np.sin(theta)[None, :, None] * binormal[:, None, :]
-    )
+    sin, cos = dm.sincos(theta)
+    ring = cos[None, :, None] * normal[:, None, :] + sin[None, :, None] * binormal[:, None, :]
     verts = (path[:, None, :] + radius * ring).reshape(-1, 3)
     s = np.arange(sides)
     a = np.arange(k - 1)[:, None] * sides + s[None, :]
@@ -99,8 +99,8 @@ def beam(p0, p1, width: float, sides: int = 4) -> Mesh:
 def cone(radius: float, height: float, sides: int = 12, base=(0.0, 0.0, 0.0)) -> Mesh:
     """Vertical cone with its base disc on `base`."""
     base = np.asarray(base, dtype=np.float64)
-    theta = 2.0 * np.pi * np.arange(sides) / sides
-    ring = base + np.stack([radius * np.cos(theta), radius * np.sin(theta), np.zeros(sides)], -1)
+    sin, cos = dm.sincos(2.0 * np.pi * np.arange(sides) / sides)
+    ring = base + np.stack([radius * cos, radius * sin, np.zeros(sides)], -1)
     verts = np.concatenate([ring, [base + [0.0, 0.0, height]], [base]])
     s = np.arange(sides)
     apex, centre = sides, sides + 1
@@ -111,13 +111,13 @@ def cone(radius: float, height: float, sides: int = 12, base=(0.0, 0.0, 0.0)) ->
 
 def uv_sphere(radius: float = 1.0, rings: int = 8, segments: int = 12, center=(0.0, 0.0, 0.0)) -> Mesh:
     """UV sphere with single pole vertices (so per-vertex noise keeps it closed)."""
-    phi = np.pi * np.arange(1, rings) / rings  # polar angle of the inner rings
-    theta = 2.0 * np.pi * np.arange(segments) / segments
+    sin_p, cos_p = dm.sincos(np.pi * np.arange(1, rings) / rings)  # polar angle of the inner rings
+    sin_t, cos_t = dm.sincos(2.0 * np.pi * np.arange(segments) / segments)
     ring_pts = np.stack(
         [
-            np.sin(phi)[:, None] * np.cos(theta)[None, :],
-            np.sin(phi)[:, None] * np.sin(theta)[None, :],
-            np.broadcast_to(np.cos(phi)[:, None], (rings - 1, segments)),
+            sin_p[:, None] * cos_t[None, :],
+            sin_p[:, None] * sin_t[None, :],
+            np.broadcast_to(cos_p[:, None], (rings - 1, segments)),
         ],
         -1,
     ).reshape(-1, 3)
@@ -152,10 +152,8 @@ def grid_heightfield(xs, ys, heights) -> Mesh:
 
 def disc(radius: float, z: float, center=(0.0, 0.0), sides: int = 48) -> Mesh:
     """Flat horizontal disc facing up."""
-    theta = 2.0 * np.pi * np.arange(sides) / sides
-    ring = np.stack(
-        [center[0] + radius * np.cos(theta), center[1] + radius * np.sin(theta), np.full(sides, z)], -1
-    )
+    sin, cos = dm.sincos(2.0 * np.pi * np.arange(sides) / sides)
+    ring = np.stack([center[0] + radius * cos, center[1] + radius * sin, np.full(sides, z)], -1)
     verts = np.concatenate([ring, [[center[0], center[1], z]]])
     s = np.arange(sides)
     return verts, np.stack([np.full(sides, sides), s, (s + 1) % sides], -1).astype(np.int32)
@@ -168,7 +166,7 @@ def lathe(
     single apex vertex, so cones and closed crowns need no cap."""
     radii = np.asarray(radii, dtype=np.float64)
     heights = np.asarray(heights, dtype=np.float64)
-    theta = phase + 2.0 * np.pi * np.arange(segments) / segments
+    sin, cos = dm.sincos(phase + 2.0 * np.pi * np.arange(segments) / segments)
     verts, faces = [], []
     ring_start = []
     n = 0
@@ -178,7 +176,7 @@ def lathe(
             verts.append([[0.0, 0.0, z]])
             n += 1
         else:
-            verts.append(np.stack([r * np.cos(theta), r * np.sin(theta), np.full(segments, z)], -1))
+            verts.append(np.stack([r * cos, r * sin, np.full(segments, z)], -1))
             n += segments
     s = np.arange(segments)
     s1 = (s + 1) % segments
@@ -266,13 +264,13 @@ def icosphere(subdivisions: int) -> Mesh:
         ],
         dtype=np.int64,
     )
-    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    v /= dm.norm(v)[:, None]
     for _ in range(subdivisions):
         edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
         uniq, inverse = np.unique(edges, axis=0, return_inverse=True)
         inverse = inverse.ravel()
         mid = v[uniq[:, 0]] + v[uniq[:, 1]]
-        mid /= np.linalg.norm(mid, axis=1, keepdims=True)
+        mid /= dm.norm(mid)[:, None]
         m = len(v) + inverse.reshape(3, -1)  # midpoints of edges 01, 12, 20 per face
         a, b, c = f[:, 0], f[:, 1], f[:, 2]
         f = np.concatenate(
@@ -295,14 +293,15 @@ def lumpy(mesh: Mesh, rng: np.random.Generator, amount: float, waves: int = 5) -
     """Displace a star-shaped mesh radially by a few smooth random waves (organic outlines
     without extra triangles)."""
     v = np.asarray(mesh[0], dtype=np.float64)
-    r = np.linalg.norm(v, axis=1, keepdims=True)
-    d = v / np.maximum(r, 1e-12)
+    d = v / np.maximum(dm.norm(v), 1e-12)[:, None]
     dirs = rng.normal(size=(waves, 3))
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    dirs /= dm.norm(dirs)[:, None]
     freq = rng.uniform(1.5, 3.5, waves)
     phase = rng.uniform(0, 2 * np.pi, waves)
-    wave = np.sin(d @ dirs.T * freq + phase).sum(axis=1) / math.sqrt(waves)
-    return v * (1.0 + amount * wave)[:, None], mesh[1]
+    wave = np.zeros(len(v))
+    for k in range(waves):  # one wave at a time, in order: the sum's order is fixed
+        wave += dm.sin(dm.dot3(d, dirs[k]) * freq[k] + phase[k])
+    return v * (1.0 + amount * (wave / math.sqrt(waves)))[:, None], mesh[1]
 
 
 def drop_buried(mesh: Mesh, z_ground: float = 0.0) -> Mesh:
@@ -323,7 +322,7 @@ def scaled(mesh: Mesh, sx: float, sy: float, sz: float, dz: float = 0.0) -> Mesh
 def transform(mesh: Mesh, location=(0.0, 0.0, 0.0), yaw: float = 0.0, scale=(1.0, 1.0, 1.0)) -> np.ndarray:
     """World vertices of `mesh` scaled, turned by yaw (radians, CCW) and moved."""
     v = np.asarray(mesh[0], dtype=np.float64) * np.asarray(scale, dtype=np.float64)
-    c, s = math.cos(yaw), math.sin(yaw)
+    s, c = dm.sincos(yaw)
     out = np.empty_like(v)
     out[:, 0] = c * v[:, 0] - s * v[:, 1] + location[0]
     out[:, 1] = s * v[:, 0] + c * v[:, 1] + location[1]
@@ -338,11 +337,11 @@ def triangle_count(mesh: Mesh) -> int:
 def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
     """Volume enclosed by a closed triangle mesh; positive when faces wind outward."""
     v = np.asarray(vertices, dtype=np.float64)[np.asarray(faces)]
-    return float(np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum() / 6.0)
+    return float(dm.dot3(v[:, 0], dm.cross(v[:, 1], v[:, 2])).sum() / 6.0)
 
 
 def rotate_z(vertices: np.ndarray, yaw: float, about=(0.0, 0.0)) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
+    s, c = dm.sincos(yaw)
     out = np.array(vertices, dtype=np.float64)
     x, y = out[:, 0] - about[0], out[:, 1] - about[1]
     out[:, 0], out[:, 1] = about[0] + c * x - s * y, about[1] + s * x + c * y

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import detmath as dm
 from .primitives import Mesh, icosphere, lathe, lumpy, merge, tapered_tube
 
 
@@ -27,7 +28,7 @@ def _ellipsoid_entry(p0, p1, centre, axes) -> float:
     """Parameter t in [0,1] where segment p0->p1 enters the ellipsoid (1 if it never does)."""
     a = (np.asarray(p1) - p0) / axes
     b = (np.asarray(p0) - centre) / axes
-    qa, qb, qc = a @ a, 2 * a @ b, b @ b - 1.0
+    qa, qb, qc = dm.dot3(a, a), 2 * dm.dot3(a, b), dm.dot3(b, b) - 1.0
     disc = qb * qb - 4 * qa * qc
     if disc < 0:
         return 1.0
@@ -82,9 +83,10 @@ def broadleaf(rng: np.random.Generator, d) -> TreeShape:
     for k in range(n_branches):
         a = 2 * math.pi * k / n_branches + rng.uniform(-0.4, 0.4)
         start = np.array([0.0, 0.0, fork - 0.2])
-        target = centre + np.array([0.6 * rx * math.cos(a), 0.6 * rx * math.sin(a), -0.2 * rz])
+        sin, cos = dm.sincos(a)
+        target = centre + np.array([0.6 * rx * cos, 0.6 * rx * sin, -0.2 * rz])
         t = _ellipsoid_entry(start, target, centre, axes * 0.98)
-        end = start + (target - start) * min(1.0, t + 0.3 / np.linalg.norm(target - start))
+        end = start + (target - start) * min(1.0, t + 0.3 / dm.norm(target - start))
         mid = 0.5 * (start + end) + [0.0, 0.0, 0.15]
         parts.append(
             tapered_tube([start, mid, end], [trunk_r * 0.45, trunk_r * 0.33, trunk_r * 0.22], d.branch_sides)
@@ -113,11 +115,12 @@ def birch(rng: np.random.Generator, d) -> TreeShape:
         z0 = rng.uniform(1.8, crown_base - 0.5)
         length = rng.uniform(0.7, 1.2)
         start = np.array([0.0, 0.0, z0])
-        end = start + length * np.array([math.cos(a) * 0.85, math.sin(a) * 0.85, 0.5])
+        sin, cos = dm.sincos(a)
+        end = start + length * np.array([cos * 0.85, sin * 0.85, 0.5])
         parts.append(tapered_tube([start, end], [0.045, 0.02], d.branch_sides))
     t = np.linspace(0.0, 1.0, d.crown_rings + 2)
-    r = radius * np.sin(np.pi * t) ** 0.8
-    r[0] = r[-1] = 0.0
+    r = radius * dm.exp(0.8 * dm.log(dm.sin(np.pi * t)[1:-1]))  # sin^0.8 (np.power is per CPU)
+    r = np.concatenate([[0.0], r, [0.0]])
     crown = lathe(r, crown_base + t * (height - crown_base), d.crown_sides, phase=rng.uniform(0, 1))
     crown = lumpy(((crown[0] - [0, 0, (crown_base + height) / 2]), crown[1]), rng, 0.08)
     crown = (crown[0] + [0, 0, (crown_base + height) / 2], crown[1])

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import detmath as dm
 from ..geometry2d import Rect, yaw_towards
 from ..heightfield import Ellipse, EllipseWindow, Flatten, Heightfield, Pit
 from ..plan import Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
@@ -49,7 +50,8 @@ class Cave(ZoneShape):
         radius = need.radius
         u, v = self.pit.local(x, y)
         a, b = self.pit.a + radius + 0.8, self.pit.b + radius + 0.8
-        bad = (u / a) ** 2 + (v / b) ** 2 < 1.0
+        ua, vb = u / a, v / b
+        bad = ua * ua + vb * vb < 1.0
         bad |= (u > 0) & (u < self.pit.a + self.ramp_length + radius) & (np.abs(v) < 3.5 + radius)
         bad |= self.under_roof(u, v, radius)
         return bad
@@ -66,7 +68,7 @@ class Cave(ZoneShape):
         return {
             "pit_centre": [rounded(e.cx), rounded(e.cy)],
             "pit_semi_axes": [rounded(e.a), rounded(e.b)],
-            "axis_deg": rounded(math.degrees(e.angle)),
+            "axis_deg": rounded(dm.degrees(e.angle)),
             "floor_z": rounded(self.floor_z(plan)),
             "roof_z": rounded(plan.cave_level),
         }
@@ -107,7 +109,7 @@ def pose_offers(plan: WorldPlan, rng: np.random.Generator):
     c = cave.pit
     floor = cave.floor_z(plan)
     u_in = cave.roof_u[1] - 1.3
-    back = (math.degrees(c.angle) % 360 + 180) % 360  # facing the back wall, under the roof
+    back = (dm.degrees(c.angle) % 360 + 180) % 360  # facing the back wall, under the roof
     for v in (0.0, 1.0, -1.0):
         x, y = c.to_world(u_in, v)
         yield SiteOffer(
@@ -124,7 +126,8 @@ def pose_offers(plan: WorldPlan, rng: np.random.Generator):
         x, y = c.to_world(cave.roof_u[1] + 1.5, v)
         yield SiteOffer("cave", float(x), float(y), back, "cave entrance", allow_pit=True, min_gap=0.9)
     for ang in np.linspace(0.6, 2 * np.pi - 0.6, 5):
-        x, y = c.to_world((c.a + 3.0) * math.cos(ang), (c.b + 3.0) * math.sin(ang))
+        sin, cos = dm.sincos(float(ang))
+        x, y = c.to_world((c.a + 3.0) * cos, (c.b + 3.0) * sin)
         yield SiteOffer("cave", float(x), float(y), yaw_towards(x, y, c.cx, c.cy), "cave rim", min_gap=4.0)
 
 

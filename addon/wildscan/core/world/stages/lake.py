@@ -7,8 +7,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import detmath as dm
 from ...classes import WATER
-from ..geometry2d import Rect, long_axis, yaw_towards
+from ..geometry2d import Rect, float_range, long_axis, yaw_towards
 from ..heightfield import Basin, Ellipse, EllipseWindow, Flatten, Heightfield
 from ..plan import Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
 
@@ -46,8 +47,8 @@ def draw(rng: np.random.Generator, cell: Rect) -> Lake:
     a, b = rng.uniform(12.0, 17.0), rng.uniform(8.0, 11.0)
     reach = 1.6  # normalised radius the lake's flattening reaches
     half_w, half_h = (cell[1] - cell[0]) / 2 - 1.0, (cell[3] - cell[2]) / 2 - 1.0
-    c, s = abs(math.cos(angle)), abs(math.sin(angle))
-    ex, ey = reach * math.hypot(a * c, b * s), reach * math.hypot(a * s, b * c)
+    s, c = (abs(v) for v in dm.sincos(angle))
+    ex, ey = reach * dm.hypot(a * c, b * s), reach * dm.hypot(a * s, b * c)
     shrink = min(1.0, half_w / ex, half_h / ey)
     a, b, ex, ey = a * shrink, b * shrink, ex * shrink, ey * shrink
     cx = rng.uniform(cell[0] + 1.0 + ex, cell[1] - 1.0 - ex) if half_w > ex else (cell[0] + cell[1]) / 2
@@ -66,11 +67,8 @@ def water_level(plan: WorldPlan, lake: Lake) -> float:
     """Water fills the basin up to just below the lowest point of its rim (on the terrain
     mesh, so no water spills over a low spot of the grid)."""
     e = lake.basin
-    angles = np.linspace(0, 2 * np.pi, 180, endpoint=False)
-    rim = [
-        plan.ground(*e.to_world(r * e.a * np.cos(angles), r * e.b * np.sin(angles)))
-        for r in (1.15, 1.25, 1.35)
-    ]
+    sin, cos = dm.sincos(np.linspace(0, 2 * np.pi, 180, endpoint=False))
+    rim = [plan.ground(*e.to_world(r * e.a * cos, r * e.b * sin)) for r in (1.15, 1.25, 1.35)]
     return float(np.min(rim)) - 0.15
 
 
@@ -78,10 +76,11 @@ def pose_offers(plan: WorldPlan, rng: np.random.Generator):
     """On the shore, a metre and a half from the water, facing it: one per direction."""
     e = plan.layout.lake.basin
     for ang in np.linspace(0, 2 * np.pi, 10, endpoint=False) + rng.uniform(0, 0.6):
+        sin, cos = dm.sincos(float(ang))
         for r in np.arange(0.0, 2.2, 0.02):  # from the middle outwards to the waterline
-            x, y = e.to_world(r * e.a * math.cos(ang), r * e.b * math.sin(ang))
+            x, y = e.to_world(r * e.a * cos, r * e.b * sin)
             if plan.ground(x, y) > plan.water_z + 0.25:
-                x, y = e.to_world((r * e.a + 1.5) * math.cos(ang), (r * e.b + 1.5) * math.sin(ang))
+                x, y = e.to_world((r * e.a + 1.5) * cos, (r * e.b + 1.5) * sin)
                 yield SiteOffer(
                     "lake", float(x), float(y), yaw_towards(x, y, e.cx, e.cy), "shore", min_gap=8.0
                 )
@@ -94,8 +93,8 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     e = plan.layout.lake.basin
     reach = 1.2 * max(e.a, e.b)
     cell = 2.0
-    xs = np.arange(e.cx - reach, e.cx + reach, cell)
-    ys = np.arange(e.cy - reach, e.cy + reach, cell)
+    xs = float_range(e.cx - reach, e.cx + reach, cell)
+    ys = float_range(e.cy - reach, e.cy + reach, cell)
     gx, gy = np.meshgrid(xs, ys)
     sub = np.linspace(0, cell, 4)
     low = np.zeros(gx.shape, dtype=bool)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import detmath as dm
 from ..geometry2d import Rect, yaw_towards
 from ..heightfield import Flatten, Heightfield, RectWindow
 from ..plan import SITE_CLEARANCE, Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
@@ -39,7 +40,7 @@ class Park(ZoneShape):
         edge = np.where(
             inside,
             np.minimum.reduce([x - x0, x1 - x, y - y0, y1 - y]),
-            np.hypot(np.maximum.reduce([x0 - x, x - x1, 0 * x]), np.maximum.reduce([y0 - y, y - y1, 0 * y])),
+            dm.hypot(np.maximum.reduce([x0 - x, x - x1, 0 * x]), np.maximum.reduce([y0 - y, y - y1, 0 * y])),
         )
         bad = edge < need.radius + 0.4  # the fence line
         if not need.park_interior:
@@ -118,10 +119,10 @@ def _fence(plan: WorldPlan, rng: np.random.Generator, counter: dict) -> None:
     gate_sides = set(rng.choice(4, size=min(p.gates, 4), replace=False).tolist())
     for side in range(4):
         a, b = np.array(corners[side]), np.array(corners[(side + 1) % 4])
-        length = float(np.linalg.norm(b - a))
+        length = float(dm.hypot(*(b - a)))
         n = int(length // p.fence_section)
         start = a + (b - a) / length * (length - n * p.fence_section) / 2
-        yaw = math.atan2(b[1] - a[1], b[0] - a[0])
+        yaw = dm.arctan2(b[1] - a[1], b[0] - a[0])
         gate = set(range(n // 2 - 1, n // 2 + 1)) if side in gate_sides else set()
         for k in range(n):
             pt = start + (b - a) / length * p.fence_section * k
@@ -137,9 +138,9 @@ def _free(plan: WorldPlan, inner: Rect, groups: list[np.ndarray], pt: np.ndarray
     """On the lawn, 6 m from other furniture and clear of the scan sites."""
     if not (inner[0] < pt[0] < inner[1] and inner[2] < pt[1] < inner[3]):
         return False
-    if any(np.hypot(*(pt - g)) < 6.0 for g in groups):
+    if any(dm.hypot(*(pt - g)) < 6.0 for g in groups):
         return False
-    return not any(math.hypot(s.x - pt[0], s.y - pt[1]) < r + SITE_CLEARANCE for s in plan.sites)
+    return not any(dm.hypot(s.x - pt[0], s.y - pt[1]) < r + SITE_CLEARANCE for s in plan.sites)
 
 
 def _inner(plan: WorldPlan) -> Rect:
@@ -160,13 +161,14 @@ def _picnic_tables(plan: WorldPlan, rng: np.random.Generator, counter: dict) -> 
                 pt = np.array([rng.uniform(inner[0], inner[1]), rng.uniform(inner[2], inner[3])])
             else:
                 ang = rng.uniform(0, 2 * math.pi)
-                pt = target + rng.uniform(4.0, 6.5) * np.array([math.cos(ang), math.sin(ang)])
+                sin, cos = dm.sincos(ang)
+                pt = target + rng.uniform(4.0, 6.5) * np.array([cos, sin])
             if _free(plan, inner, groups, pt, 2.2):
                 groups.append(pt)
                 break
     for g in groups:
         yaw = rng.uniform(0, math.pi)
-        c, s = math.cos(yaw), math.sin(yaw)
+        s, c = dm.sincos(yaw)
         _add(plan, counter, "table", "table", g, yaw, 1.0)
         for side, turn in ((1, math.pi), (-1, 0.0)):
             b = g + side * 0.95 * np.array([-s, c])
@@ -183,9 +185,9 @@ def _lone_benches(plan: WorldPlan, rng: np.random.Generator, counter: dict, grou
             side = int(rng.integers(4))
             t = rng.uniform(0.15, 0.85)
             a, b = np.array(corners[side]), np.array(corners[(side + 1) % 4])
-            inward = np.array([-(b - a)[1], (b - a)[0]]) / np.linalg.norm(b - a)
+            inward = np.array([-(b - a)[1], (b - a)[0]]) / dm.hypot(*(b - a))
             pt = a + t * (b - a) + inward * 5.5
             if _free(plan, inner, groups, pt, 1.0):
                 groups.append(pt)
-                _add(plan, counter, "bench", "bench", pt, math.atan2(b[1] - a[1], b[0] - a[0]), 0.8)
+                _add(plan, counter, "bench", "bench", pt, dm.arctan2(b[1] - a[1], b[0] - a[0]), 0.8)
                 break

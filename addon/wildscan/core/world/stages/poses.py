@@ -8,10 +8,9 @@ terrain (`footprint_ok`) and it is not too near another site of its zone.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from ... import detmath as dm
 from ...placement import ARM_X, ARM_Y, MAX_TILT_DEG, MAX_UNEVENNESS, Pose, laser_xy
 from ...rng import stage_rng
 from ..geometry2d import inset
@@ -37,7 +36,7 @@ def footprint_ok(
             return False
     unevenness = abs((z[0] + z[1]) - (z[2] + z[3])) / 2
     sx, sy = (z[0] - z[1]) / (2 * ARM_X), (z[2] - z[3]) / (2 * ARM_Y)
-    tilt = math.degrees(math.atan(math.hypot(sx, sy)))
+    tilt = dm.degrees(dm.arctan(dm.hypot(sx, sy)))
     return unevenness <= MAX_UNEVENNESS / 2 and tilt <= MAX_TILT_DEG - tilt_margin
 
 
@@ -91,7 +90,7 @@ def _reserve(plan: WorldPlan, sites: list[Site], offer: SiteOffer) -> bool:
     x, y, yaw = round(float(offer.x), 3), round(float(offer.y), 3), round(float(offer.yaw_deg) % 360.0, 1)
     if not footprint_ok(plan, x, y, yaw, allow_pit=offer.allow_pit):
         return False
-    if any(s.zone == offer.zone and math.hypot(s.x - x, s.y - y) < offer.min_gap for s in sites):
+    if any(s.zone == offer.zone and dm.hypot(s.x - x, s.y - y) < offer.min_gap for s in sites):
         return False
     sites.append(Site(offer.zone, float(x), float(y), float(yaw), offer.kind, offer.z_start))
     return True

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import detmath as dm
 from ..geometry2d import Rect, long_axis, polyline_distance
 from ..plan import Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
 from ..shapes.powerline import POLE_ATTACHMENTS, catenary, pole, wire
@@ -32,7 +33,7 @@ class PowerLine(ZoneShape):
     def keep_out(self, plan: WorldPlan, x, y, need: Clearance) -> np.ndarray:
         bad = np.zeros(np.broadcast(x, y).shape, dtype=bool)
         for px, py in self.poles:
-            bad |= np.hypot(x - px, y - py) < need.radius + 1.0
+            bad |= dm.hypot(x - px, y - py) < need.radius + 1.0
         return bad
 
     def features(self, plan: WorldPlan) -> dict:
@@ -65,10 +66,10 @@ def pose_offers(plan: WorldPlan, rng: np.random.Generator):
         a, b = poles[k], poles[k + 1]
         d = b - a
         t = rng.uniform(0.2, 0.8)
-        normal = np.array([-d[1], d[0]]) / np.linalg.norm(d)
+        normal = np.array([-d[1], d[0]]) / dm.hypot(d[0], d[1])
         pt = a + t * d + normal * rng.choice([-1, 1]) * rng.uniform(2.5, 5.5)
         yield SiteOffer(
-            "hills", pt[0], pt[1], math.degrees(math.atan2(d[1], d[0])) % 360, "near power line", min_gap=8.0
+            "hills", pt[0], pt[1], dm.degrees(dm.arctan2(d[1], d[0])) % 360, "near power line", min_gap=8.0
         )
 
 
@@ -80,12 +81,12 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     heading = np.gradient(poles, axis=0)
     tops = []
     for (x, y), h in zip(poles, heading):
-        yaw = math.atan2(h[1], h[0])
+        yaw = dm.arctan2(h[1], h[0])
         loc = (float(x), float(y), float(plan.ground_under(x, y, 0.15)))
         plan.add_element(STAGE, "hills", "pole", "pole", counter, location=loc, yaw=yaw, radius=0.15)
         tops.append(transform((POLE_ATTACHMENTS, None), loc, yaw))
     for k in range(len(poles) - 1):
-        span = float(np.hypot(*(poles[k + 1] - poles[k])))
+        span = float(dm.hypot(*(poles[k + 1] - poles[k])))
         sag = span * rng.uniform(*p.sag_ratio)
         samples = max(4, int(math.ceil(span / d.wire_step))) + 1
         for j in range(len(POLE_ATTACHMENTS)):

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import detmath as dm
 from ..plan import ZONES, Clearance, Density, WorldPlan, density_of
 from ..shapes.rocks import rock
 
@@ -35,12 +36,12 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
         mesh, radius = rock(rng, plan.detail)
         protos.append((plan.add_prototype(f"rock{v}", mesh), radius))
     counter: dict = {}
-    lo, hi = np.log(p.size[0]), np.log(p.size[1])
+    lo, hi = dm.log(p.size[0]), dm.log(p.size[1])
     for zone in ZONES:
         pts = plan.scatter(rng, zone, density_of(p.density, zone), p.min_spacing, Clearance(1.0))
         for x, y in pts:
             key, radius = protos[int(rng.integers(len(protos)))]
-            size = float(np.exp(rng.uniform(lo, hi)))
+            size = dm.exp(rng.uniform(lo, hi))
             sc = (size * rng.uniform(0.8, 1.2), size * rng.uniform(0.8, 1.2), size * rng.uniform(0.7, 1.1))
             z = float(plan.ground_under(x, y, 0.3 * size))
             plan.add_element(

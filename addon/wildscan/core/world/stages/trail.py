@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from ... import detmath as dm
 from ..geometry2d import Rect, catmull_rom, long_axis, polyline_distance, polyline_length, resample
 from ..plan import Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
 
@@ -60,7 +60,7 @@ def pose_offers(plan: WorldPlan, rng: np.random.Generator):
             "trail",
             path[i, 0],
             path[i, 1],
-            math.degrees(math.atan2(d[1], d[0])) % 360,
+            dm.degrees(dm.arctan2(d[1], d[0])) % 360,
             "on trail",
             min_gap=8.0,
         )
@@ -72,7 +72,7 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     trail, d = plan.layout.trail, plan.detail
     path = resample(trail.path, d.trail_step)
     tangent = np.gradient(path, axis=0)
-    tangent /= np.linalg.norm(tangent, axis=1, keepdims=True)
+    tangent /= dm.hypot(tangent[:, 0], tangent[:, 1])[:, None]
     normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
     across = np.linspace(-trail.width / 2, trail.width / 2, d.trail_across)
     xy = path[:, None, :] + across[None, :, None] * normal[:, None, :]  # (K, A, 2)

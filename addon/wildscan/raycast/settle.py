@@ -1,0 +1,170 @@
+"""Which triangle a ray hits, settled in float64 wherever the float32 caster could go either way.
+
+Why: the fast backends find first hits in float32 against triangles grown a little in their
+own plane (geometry.pad_triangles: neighbours overlap, so no ray slips between them). Where
+a ray lands in that overlap, two triangles are hit at (nearly) the same distance, and which
+one the caster reports depends on its arithmetic: Embree picks its code by CPU at run time
+(SSE2, AVX, AVX2, AVX-512; BVH4 or BVH8, with or without FMA). Measured on 79 scans of
+seeds 1-2, an AVX (Sandy Bridge) Embree reported another triangle than this AVX-512 one
+for 305 rays (3.9 a scan): the same object each time, but 127 of them then got a float64
+range that differed by up to 5.5 um (float32 PLY bytes differ), and one ray at a grown
+silhouette hit on one CPU and passed on the other.
+
+So the float64 geometry decides. A hit whose point lies well inside the unpadded triangle
+(its barycentric coordinates clear of every edge by the padding plus float32 noise: almost
+all of them) is kept as it is. For the rest, the triangle and every triangle sharing a
+vertex position with it are intersected in float64 (unpadded, grown by EDGE_TOLERANCE so
+float64 rounding cannot open a crack); the nearest hit wins, the lower triangle index on a
+tie. If none of them is hit, the ray passed beside the triangle's true edge: it is cast
+again from just beyond that triangle's plane. Every answer then follows from the float64
+geometry alone, whatever the caster's instruction set, for every ray whose float32 answer
+was ambiguous between triangles of one surface (all the differences measured). Two
+separate objects crossing at the very point a ray hits are not looked for (none measured).
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+
+from ..core import detmath as dm
+
+# Barycentric margin around the padding band: Embree's float32 u, v are good to ~1e-7.
+BAND_MARGIN = 1e-4
+EDGE_TOLERANCE = 1e-9  # m: the float64 test's unpadded triangles are grown by this
+RECAST_STEP = 1e-4  # m beyond a triangle's plane where a ray passing beside it restarts
+MAX_RECASTS = 4
+_PARALLEL_COS = 1e-9  # as geometry.refine_distances: a ray in a triangle's plane misses it
+
+
+class Settler:
+    """The float64 data about one geometry's triangles the settling needs, made when needed."""
+
+    def __init__(self, geometry, padded: np.ndarray, planes: tuple[np.ndarray, np.ndarray]):
+        self.geometry = geometry
+        self.padded = padded  # (T, 3, 3) offset-local float64, as uploaded (before float32)
+        self.normal, self.d = planes
+
+    @cached_property
+    def corners(self) -> np.ndarray:
+        """(T, 3, 3) offset-local float64 corners of the unpadded triangles."""
+        return (self.geometry.vertices - self.geometry.offset)[self.geometry.faces]
+
+    @cached_property
+    def band(self) -> np.ndarray:
+        """(T,) float32: a hit whose smallest barycentric coordinate on the padded triangle is
+        below this may lie outside the unpadded triangle (the widest of its three edges'
+        bands: the unpadded edge is at most the largest corner shift inside the padded one)."""
+        padded, corners = self.padded, self.corners
+        shift = np.max(dm.norm(padded - corners), axis=1)
+        double_area = dm.norm(dm.cross(padded[:, 1] - padded[:, 0], padded[:, 2] - padded[:, 0]))
+        longest = np.max([dm.norm(padded[:, k] - padded[:, k - 1]) for k in range(3)], axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            band = 2.0 * shift * longest / double_area + BAND_MARGIN  # 2 shift / the lowest altitude
+        return np.where(double_area > 0, band, np.inf).astype(np.float32)
+
+    @cached_property
+    def neighbours(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(position id of each corner (T, 3), CSR offsets, triangles) over vertex positions:
+        triangles of different objects or meshes meeting at one point are neighbours too."""
+        _, position = np.unique(self.geometry.vertices, axis=0, return_inverse=True)
+        corner_pos = position.reshape(-1)[self.geometry.faces]
+        order = np.argsort(corner_pos.ravel(), kind="stable")
+        triangles = order // 3
+        starts = np.searchsorted(corner_pos.ravel()[order], np.arange(position.max() + 2))
+        return corner_pos, starts, triangles
+
+    def in_band(self, triangle, bary, local, dirs, rough) -> np.ndarray:
+        """Hits (triangle >= 0) whose point may be outside their unpadded triangle. `bary` is
+        the caster's (u, v) on the padded triangle, or None: then found in float64 from the
+        caster's distance."""
+        hit = triangle >= 0
+        if bary is None:
+            u, v = np.ones(len(triangle)), np.ones(len(triangle))
+            u[hit], v[hit] = _barycentrics(
+                self.padded[triangle[hit]], local[hit] + rough[hit, None] * dirs[hit]
+            )
+        else:
+            u, v = bary
+        smallest = np.minimum(np.minimum(u, v), (1.0 - u) - v)
+        return hit & (smallest < self.band[triangle])
+
+    def decide(self, local, dirs, triangle, start) -> np.ndarray:
+        """For rays (local origins, dirs) that hit `triangle` in its band: the triangle among it
+        and its neighbours hit first in float64 beyond distance `start` (ties: lowest index),
+        or -1 where none is."""
+        corner_pos, starts, owners = self.neighbours
+        pos = corner_pos[triangle].ravel()
+        counts = starts[pos + 1] - starts[pos]
+        ray = np.repeat(np.repeat(np.arange(len(triangle)), 3), counts)
+        first = np.repeat(starts[pos] - np.cumsum(counts) + counts, counts)
+        cand = owners[first + np.arange(counts.sum())]
+        size = len(self.normal)
+        pairs = np.unique(ray * size + cand)  # each (ray, candidate) once, in that order
+        ray, cand = pairs // size, pairs % size
+        o, d = local[ray], dirs[ray]
+        n = self.normal[cand]
+        cos = dm.dot3(n, d)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (self.d[cand] - dm.dot3(n, o)) / cos
+        ok = np.isfinite(t) & (np.abs(cos) >= _PARALLEL_COS) & (t >= start[ray])
+        t = np.where(ok, t, 0.0)
+        point = o + t[:, None] * d
+        corners = self.corners[cand]
+        for k in range(3):
+            edge = corners[:, (k + 1) % 3] - corners[:, k]
+            inward = dm.cross(n, edge)
+            length = dm.norm(inward)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ok &= dm.dot3(point - corners[:, k], inward) >= -EDGE_TOLERANCE * length
+        ray, cand, t = ray[ok], cand[ok], t[ok]
+        order = np.lexsort((cand, t, ray))
+        ray, cand = ray[order], cand[order]
+        winner = np.full(len(triangle), -1, dtype=np.int64)
+        firsts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]]) if len(ray) else np.zeros(0, int)
+        winner[ray[firsts]] = cand[firsts]
+        return winner
+
+
+def _barycentrics(tris: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(u, v) of points in triangles (weights of corners 1 and 2), float64."""
+    e1, e2, p = tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0], points - tris[:, 0]
+    d11, d12, d22 = dm.dot3(e1, e1), dm.dot3(e1, e2), dm.dot3(e2, e2)
+    p1, p2 = dm.dot3(p, e1), dm.dot3(p, e2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        det = d11 * d22 - d12 * d12
+        return (d22 * p1 - d12 * p2) / det, (d11 * p2 - d12 * p1) / det
+
+
+def settle(backend, settler: Settler, local, dirs, triangle, rough, bary, max_range):
+    """The backend's first hits (triangle, rough distance) with every ambiguous one decided
+    by `Settler.decide`, re-casting the rays that pass beside their triangle. In place."""
+    start = np.zeros(len(triangle))
+    todo = np.flatnonzero(settler.in_band(triangle, bary, local, dirs, rough))
+    for _ in range(MAX_RECASTS):
+        if not len(todo):
+            break
+        winner = settler.decide(local[todo], dirs[todo], triangle[todo], start[todo])
+        decided = winner >= 0
+        triangle[todo[decided]] = winner[decided]
+        passed = todo[~decided]
+        if not len(passed):
+            break
+        # beyond the plane of the triangle it passed beside, then cast again from there
+        beside = triangle[passed]
+        n = settler.normal[beside]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (settler.d[beside] - dm.dot3(n, local[passed])) / dm.dot3(n, dirs[passed])
+        t = np.where(np.isfinite(t), t, rough[passed]) + RECAST_STEP
+        origin = local[passed] + t[:, None] * dirs[passed]
+        rough = rough.astype(np.float64)  # now holding distances from the first origin
+        far = max_range - t
+        again, again_rough, again_bary = backend._first_hits(origin, dirs[passed], max(float(far.max()), 0.0))
+        again[(again >= 0) & (again_rough > far)] = -1
+        triangle[passed] = again
+        rough[passed] = t + again_rough
+        start[passed] = t
+        band = settler.in_band(again, again_bary, origin, dirs[passed], again_rough)
+        todo = passed[band]
+    return triangle, rough
