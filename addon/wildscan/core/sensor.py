@@ -144,19 +144,30 @@ def beam_directions(rh_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 @functools.lru_cache(maxsize=8)
 def _beam_directions(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    theta = elevation_angles_rad()
     phi = np.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg)
-    sin_t, cos_t = np.sin(theta), np.cos(theta)
-    dirs = np.empty((m_count, BEAMS_PER_2D_SCAN, 3))
-    dirs[:, :, 0] = np.cos(phi)[:, None] * sin_t[None, :]
-    dirs[:, :, 1] = np.sin(phi)[:, None] * sin_t[None, :]
-    dirs[:, :, 2] = cos_t[None, :]
+    dirs = directions_at(phi)
     ring = np.tile(np.arange(BEAMS_PER_2D_SCAN, dtype=np.uint16), m_count)
     sweep = np.repeat(np.arange(m_count, dtype=np.uint16), BEAMS_PER_2D_SCAN)
     arrays = (dirs.reshape(-1, 3), ring, sweep)
     for a in arrays:
         a.flags.writeable = False
     return arrays
+
+
+def directions_at(head_rad: np.ndarray) -> np.ndarray:
+    """Eq. 1 beam directions (sensor frame, unit) for head angles `head_rad`: (K,) one angle a
+    2D scan (the stepped head of Eq. 1) or (K, 1080) one a beam (a head that turns while the
+    mirror sweeps). Returns (K, 1080, 3)."""
+    phi = np.asarray(head_rad, dtype=np.float64)
+    if phi.ndim == 1:
+        phi = phi[:, None]
+    theta = elevation_angles_rad()
+    sin_t, cos_t = np.sin(theta), np.cos(theta)
+    dirs = np.empty((len(phi), BEAMS_PER_2D_SCAN, 3))
+    dirs[:, :, 0] = np.cos(phi) * sin_t[None, :]
+    dirs[:, :, 1] = np.sin(phi) * sin_t[None, :]
+    dirs[:, :, 2] = cos_t[None, :]
+    return dirs
 
 
 def range_noise(sensor: SensorConfig, beam_count: int) -> np.ndarray:
