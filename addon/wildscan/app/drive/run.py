@@ -131,20 +131,17 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
 def _backend(request: DriveRequest, cropped, say):
     from ...raycast.select import make_backend
 
-    backend = make_backend(request.backend, geometry=cropped, notify=say)
-    if request.wind > 0:
-        from ...core.motion.wind import Wind, swaying_scene
+    if request.wind == 0:
+        return make_backend(request.backend, geometry=cropped, notify=say)
+    from ...core.motion.wind import Wind
+    from .wind import swaying_scene
 
-        backend = swaying_scene(
-            backend, cropped, Wind(request.wind, request.wind_seed), _scene_factory(request)
-        )
-    return backend
+    name = make_backend(request.backend, geometry=cropped.subset(np.zeros(0, dtype=int)), notify=say).name
 
+    def make(geometry):
+        return make_backend(name, geometry=geometry, notify=None)
 
-def _scene_factory(request: DriveRequest):
-    from ...raycast.select import make_backend
-
-    return lambda geometry: make_backend(request.backend, geometry=geometry, notify=None)
+    return swaying_scene(cropped, Wind(request.wind, request.wind_seed), make, request.sensor.rh_deg)
 
 
 def _groups(scans_2d: int, sweeps: int) -> list[tuple[int, int]]:
