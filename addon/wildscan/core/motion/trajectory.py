@@ -1,10 +1,11 @@
 """The path the robot drives and where it is along it at each instant (numpy only).
 
 A path is a polyline in the world's xy plane (metres), driven from its first point at
-constant speed, heading along it. The heading at a vertex is halfway between its two
-segments' directions and turns linearly with distance in between, so it has no jumps
-on a smoothly sampled curve (the trail, every 0.5 m) and turns across the two half-segments
-around a sharp corner of a waypoint list. A straight path keeps the yaw it was given.
+constant speed, heading along it: along each segment in its direction, turning linearly
+with distance from one segment's direction to the next within TURN (0.5 m) of the vertex
+between them (within half a segment where segments are shorter, as on the trail, sampled
+every 0.5 m: there the heading turns smoothly all along). A straight path keeps the yaw
+it was given.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ MAX_SPEED = 10.0  # m/s; a skid-steer robot like Andabata drives about 1 m/s
 DEFAULT_SPEED = 1.0  # m/s
 MAX_SCAN_COUNT = 100_000  # 2D scans a drive may take: 41 minutes of driving
 _SAME_POINT = 1e-9  # m: consecutive waypoints closer than this are one
+TURN = 0.5  # m: the heading turns from one segment's direction to the next within this of a vertex
 
 
 @dataclass(frozen=True)
@@ -50,15 +52,26 @@ class Path:
         xy = np.column_stack([np.interp(s, arc, self.points[:, 0]), np.interp(s, arc, self.points[:, 1])])
         if self.yaw_deg is not None:
             return xy, np.full(len(s), float(self.yaw_deg))
-        return xy, np.degrees(np.interp(s, arc, vertex_headings(self.points)))
+        knots, headings = heading_knots(self.points, arc)
+        return xy, np.degrees(np.interp(s, knots, headings))
 
 
-def vertex_headings(points: np.ndarray) -> np.ndarray:
-    """(n,) heading (radians, unwrapped along the path) at each vertex: its segment's at the
-    ends, halfway between the two segments' inside."""
+def heading_knots(points: np.ndarray, arc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(distance, heading in radians, unwrapped) knots of the heading along a polyline: each
+    segment's own direction along it, turning linearly from one to the next within TURN of
+    each inner vertex (at most half of either segment beside it)."""
     d = np.diff(points, axis=0)
     segment = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
-    return np.concatenate([[segment[0]], (segment[:-1] + segment[1:]) / 2, [segment[-1]]])
+    lengths = np.diff(arc)
+    turn = np.minimum(TURN, np.minimum(lengths[:-1], lengths[1:]) / 2)  # one per inner vertex
+    s = [[arc[0]]]
+    h = [[segment[0]]]
+    for i, r in enumerate(turn, start=1):
+        s.append([arc[i] - r, arc[i] + r])
+        h.append([segment[i - 1], segment[i]])
+    s.append([arc[-1]])
+    h.append([segment[-1]])
+    return np.concatenate(s), np.concatenate(h)
 
 
 def straight_path(x: float, y: float, yaw_deg: float, distance: float) -> Path:
