@@ -103,7 +103,8 @@ out = {}
 for topic, msg, t in bag.read_messages():
     counts[topic] += 1
     if topic == "/laser2D":
-        out["scan"] = [msg.header.frame_id, len(msg.ranges), len(msg.intensities), msg.angle_min, msg.scan_time]
+        sizes = [len(msg.ranges), len(msg.intensities)]
+        out["scan"] = [msg.header.frame_id] + sizes + [msg.angle_min, msg.scan_time]
     if topic == "/points":
         fields = [f.name for f in msg.fields]
         stamps = [msg.header.stamp.to_sec(), t.to_sec()]
