@@ -11,7 +11,7 @@ import pytest
 
 from wildscan.app.drive import DriveRequest, Interrupted, run_drive
 from wildscan.app.drive import bags as bag_module
-from wildscan.app.drive import run as run_module
+from wildscan.app.interrupts import Terminated
 from wildscan.core.io.ply import read_ply
 from wildscan.core.sensor import SensorConfig
 
@@ -204,6 +204,15 @@ def test_user_mistakes_exit_2_with_one_line(tmp_path, args, says):
     assert not out.exists() or not any(out.iterdir())  # nothing written
 
 
+def drive_cli(tmp_path, *args: str):
+    """`wildscan drive ARGS --rh 10 --bag none --quiet --out TMP/d`, which must succeed."""
+    proc = run(
+        [WILDSCAN, "drive", *args, "--rh", "10", "--bag", "none", "--quiet", "--out", str(tmp_path / "d")]
+    )
+    assert proc.returncode == 0, proc.stderr
+    return tmp_path / "d"
+
+
 def test_trail_of_a_blend_without_one_is_a_user_mistake(tmp_path):
     blend = tmp_path / "plane.blend"
     script = (
@@ -218,34 +227,13 @@ def test_trail_of_a_blend_without_one_is_a_user_mistake(tmp_path):
     proc = run([WILDSCAN, "drive", "--world", str(blend), "--trail", "--out", str(tmp_path / "d")])
     assert proc.returncode == 2
     assert "--trail needs a WildScan world with a trail" in user_error_line(proc)
-    proc = run(
-        [
-            WILDSCAN,
-            "drive",
-            "--world",
-            str(blend),
-            "--from",
-            "0",
-            "0",
-            "0",
-            "--distance",
-            "3",
-            "--speed",
-            "0.5",
-            "--rh",
-            "10",
-            "--bag",
-            "none",
-            "--quiet",
-            "--out",
-            str(tmp_path / "d"),
-        ]
+    out = drive_cli(
+        tmp_path, "--world", str(blend), "--from", "0", "0", "0", "--distance", "3", "--speed", "0.5"
     )
-    assert proc.returncode == 0, proc.stderr
-    assert (tmp_path / "d" / "raw" / "000000.ply").exists()
+    assert (out / "raw" / "000000.ply").exists()
 
 
-@pytest.mark.parametrize("stop, code", [(KeyboardInterrupt, None), (run_module.Terminated, 143)])
+@pytest.mark.parametrize("stop, code", [(KeyboardInterrupt, None), (Terminated, 143)])
 def test_an_interrupted_drive_leaves_nothing(tmp_path, monkeypatch, stop, code):
     def interrupt(self, result):
         raise stop()
@@ -311,24 +299,6 @@ def test_drive_along_the_trail_of_a_saved_world(tmp_path):
         ).returncode
         == 0
     )
-    proc = run(
-        [
-            WILDSCAN,
-            "drive",
-            "--world",
-            str(blend),
-            "--trail",
-            "--scans",
-            "1",
-            "--rh",
-            "10",
-            "--bag",
-            "none",
-            "--quiet",
-            "--out",
-            str(tmp_path / "d"),
-        ]
-    )
-    assert proc.returncode == 0, proc.stderr
-    summary = json.loads((tmp_path / "d" / "drive.json").read_text())
+    out = drive_cli(tmp_path, "--world", str(blend), "--trail", "--scans", "1")
+    summary = json.loads((out / "drive.json").read_text())
     assert summary["world"]["seed"] == SEED and summary["path"]["kind"] == "trail"

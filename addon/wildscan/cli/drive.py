@@ -101,25 +101,12 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from ..app.drive import DriveRequest, Interrupted, run_drive
     from .output import Progress
 
+    same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
+    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed")
     request = DriveRequest(
-        out=args.out,
-        world=args.world,
-        seed=args.seed,
-        detail=args.detail,
-        trail=args.trail,
-        waypoints=args.waypoints,
+        **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,
-        distance=args.distance,
-        speed=args.speed,
-        scans=args.scans,
-        head=args.head,
         sensor=options.sensor_of(args),
-        frame=args.frame,
-        backend=args.backend,
-        bag=args.bag,
-        ros2_storage=args.ros2_storage,
-        wind=args.wind,
-        wind_seed=args.wind_seed,
     )
     try:
         report = run_drive(request, progress=Progress("driving", args.quiet), say=print)

@@ -8,9 +8,8 @@ over 2D scans.
 
 from __future__ import annotations
 
-import signal
 import time
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -27,21 +26,12 @@ from ...core.motion.sweep import Sweep, sweep
 from ...core.motion.trajectory import instants, schedule
 from ...core.scan import points_in_frame
 from ...core.sensor import BEAMS_PER_2D_SCAN
+from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
 from . import files
 from .bags import BagFeed, open_bags
 from .request import DriveRequest
 from .world import crop_along, drive_path, drive_world
-
-
-class Terminated(BaseException):
-    """SIGTERM, raised where the drive is so it stops as on Ctrl-C."""
-
-
-class Interrupted(Exception):
-    def __init__(self, message: str, code: int):
-        super().__init__(message)
-        self.code = code
 
 
 @dataclass
@@ -66,7 +56,7 @@ def run_drive(request: DriveRequest, progress=None, say=print) -> DriveReport:
     `progress(done, total)` hears of the rays cast; `say` gets one-line news. SIGTERM ends it
     as Ctrl-C does, with Interrupted (code 143); either way nothing is left in the folder."""
     try:
-        with _sigterm_raises():
+        with sigterm_raises():
             return _drive(request, progress, say)
     except Terminated:
         raise Interrupted("terminated; nothing written", 143) from None
@@ -291,19 +281,3 @@ class _Clock:
         now = time.perf_counter()
         self.laps[stage] = self.laps.get(stage, 0.0) + now - self.t
         self.t = now
-
-
-@contextmanager
-def _sigterm_raises():
-    def handler(signum, frame):
-        raise Terminated()
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread: leave SIGTERM as it is
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
