@@ -184,3 +184,27 @@ def test_schedule_counts_2d_and_3d_scans():
     assert (plan.scans_2d, plan.scans_3d) == (2400, 13)
     assert trajectory.schedule(path, 0.0, 180).scans_2d == 180
     assert trajectory.schedule(path, 1.0, 180, 2).scans_2d == 360
+
+
+@pytest.mark.parametrize("head", ["stepped", "continuous"])
+def test_deskewing_holds_while_the_robot_turns(head):
+    """Around bends the attitude turns during every 2D scan: the deskewed pole still stands
+    where it is (1e-4 m), the raw one does not."""
+    geometry, (x0, y0, a, h) = pole_world()
+    backend = make_backend("auto", geometry=geometry, notify=None)
+    sensor = SensorConfig(rh_deg=4.0, noise_sigma=0.0)
+    path = trajectory.polyline_path([[0, 0], [0.6, 0.1], [0.9, 0.6], [0.8, 1.2]], "waypoints", "waypoints")
+    plan = trajectory.schedule(path, 1.0, sensor.sweeps, 1)
+    times, xy, yaw = trajectory.instants(path, 1.0, plan.scans_2d + 1)
+    motion = placements.place_all(backend, times, xy, yaw, times)
+    assert np.ptp(yaw) > 60 and np.count_nonzero(np.any(motion.step != 0, axis=1)) > 20
+    noise = np.zeros(plan.scans_2d * 1080)
+    result = sweep.sweep(backend, motion, 0, plan.scans_2d, sensor, head, noise, "world")
+    pole = result.deskewed.label == 12
+    assert pole.sum() > 50
+    p = result.deskewed.xyz[pole]
+    assert np.abs(np.maximum(np.abs(p[:, 0] - x0), np.abs(p[:, 1] - y0)) - a).max() < 1e-4
+    ground = result.deskewed.label == 1
+    assert np.abs(result.deskewed.xyz[ground, 2]).max() < 1e-4  # the ground is flat where it is
+    q = result.raw.xyz[pole]
+    assert np.abs(np.maximum(np.abs(q[:, 0] - x0), np.abs(q[:, 1] - y0)) - a).max() > 0.05

@@ -302,3 +302,28 @@ def test_drive_along_the_trail_of_a_saved_world(tmp_path):
     out = drive_cli(tmp_path, "--world", str(blend), "--trail", "--scans", "1")
     summary = json.loads((out / "drive.json").read_text())
     assert summary["world"]["seed"] == SEED and summary["path"]["kind"] == "trail"
+
+
+@pytest.mark.parametrize(
+    "signum, code, says", [(2, 130, "interrupted; nothing written"), (15, 143, "terminated; nothing written")]
+)
+def test_a_signal_mid_drive_ends_it_and_leaves_nothing(tmp_path, signum, code, says):
+    import os
+    import time
+
+    out = tmp_path / "out"
+    proc = subprocess.Popen(
+        [WILDSCAN, "drive", "--seed", str(SEED), "--detail", "low", "--trail", "--quiet", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not (out.exists() and any(out.iterdir())) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    time.sleep(0.3)  # well inside the sweeps
+    os.kill(proc.pid, signum)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == code, err
+    assert err.strip().splitlines()[-1].endswith(says) and "Traceback" not in err
+    assert list(out.iterdir()) == []
