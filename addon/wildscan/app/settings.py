@@ -40,6 +40,18 @@ SETTINGS: dict[str, Setting] = {
     "noise_seed": Setting("--noise-seed", "Noise seed"),
     "frame": Setting("--frame", "Frame"),
     "backend": Setting("--backend", "Ray caster"),
+    # a drive (wildscan drive)
+    "trail": Setting("--trail"),
+    "waypoints": Setting("--waypoints"),
+    "from": Setting("--from"),
+    "distance": Setting("--distance"),
+    "speed": Setting("--speed"),
+    "scans": Setting("--scans"),
+    "head": Setting("--head"),
+    "wind": Setting("--wind"),
+    "wind_seed": Setting("--wind-seed"),
+    "bag": Setting("--bag"),
+    "ros2_storage": Setting("--ros2-storage"),
     # outputs
     "out": Setting("--out", "File"),
     # the benchmark

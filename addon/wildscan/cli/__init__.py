@@ -20,7 +20,7 @@ from typing import NamedTuple
 from .. import __version__
 from ..app.settings import command_line_message
 from ..core.errors import UserError
-from . import bench, dataset, demo, extract, options, poses, scan, world
+from . import bench, dataset, demo, drive, extract, options, poses, scan, world
 from .options import EXIT_USER_ERROR, ArgumentParser
 
 EXIT_INTERRUPTED = 130
@@ -43,6 +43,7 @@ COMMANDS: dict[str, Command] = {
     "bench-world": Command(
         bench.WORLD_HELP, bench.WORLD_DESCRIPTION, bench.add_world_arguments, bench.run_world
     ),
+    "drive": Command(drive.HELP, drive.DESCRIPTION, drive.add_arguments, drive.run),
     "dataset": Command(dataset.HELP, dataset.DESCRIPTION, dataset.add_arguments, dataset.run),
     "bench-dataset": Command(
         dataset.BENCH_HELP, dataset.BENCH_DESCRIPTION, dataset.add_bench_arguments, dataset.run_bench

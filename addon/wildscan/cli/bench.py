@@ -1,4 +1,4 @@
-"""`wildscan bench [--suite backends|world]` and `wildscan bench-world` (= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive]` and `wildscan bench-world` (= `bench --suite world`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world")
+SUITES = ("backends", "world", "drive")
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
@@ -53,7 +53,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         default="backends",
         help="backends: every ray backend on the test world, analytic primitives, the default world per "
         "detail level and scaling (default); world: the world built at each detail level, as "
-        "`wildscan bench-world`",
+        "`wildscan bench-world`; drive: a 60 s drive along the trail with both ROS bags on the "
+        "--seed world's trail, stepped and continuous head",
     )
     options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
     options.add(
@@ -96,6 +97,12 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
 
 
 def run(args: argparse.Namespace, in_blender: bool = False) -> int:
+    if args.suite == "drive":
+        from ..bench.drive import bench_drive
+
+        _only_for_backends(args)
+        bench_drive(args.seed)
+        return 0
     if args.suite == "world":
         from ..bench.config import check_details
 

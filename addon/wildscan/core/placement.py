@@ -174,31 +174,65 @@ def laser_xy(pose: Pose) -> np.ndarray:
 
 def probe_ground_z(backend, x: float, y: float) -> float | None:
     """Height of the first terrain or water surface straight below (x, y), seen from above."""
-    down = np.array([[0.0, 0.0, -1.0]])
-    z = PROBE_TOP_Z
+    z = probe_ground_z_many(backend, np.array([[x, y]]))[0]
+    return float(z) if np.isfinite(z) else None
+
+
+def probe_ground_z_many(backend, xy: np.ndarray) -> np.ndarray:
+    """`probe_ground_z` for many points (K, 2) at once: (K,) heights, NaN where there is no
+    terrain or water below. Each layer is one batch of rays over the points still probing,
+    so K points cost as many casts as the deepest of them passes surfaces."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    ground = np.full(len(xy), np.nan)
+    z = np.full(len(xy), PROBE_TOP_Z)
+    probing = np.arange(len(xy))
     for _ in range(PROBE_MAX_LAYERS):
-        hits = backend.cast(np.array([[x, y, z]]), down, 2 * PROBE_TOP_Z)
-        if not np.isfinite(hits.distance[0]):
-            return None
-        z_hit = z - float(hits.distance[0])
-        if int(hits.class_id[0]) in (TERRAIN_ID, WATER_ID):
-            return z_hit
-        z = z_hit - PROBE_STEP
-    return None
+        if not len(probing):
+            break
+        origins = np.column_stack([xy[probing], z[probing]])
+        hits = backend.cast(origins, np.tile([0.0, 0.0, -1.0], (len(probing), 1)), 2 * PROBE_TOP_Z)
+        z_hit = z[probing] - hits.distance
+        found = np.isin(hits.class_id, (TERRAIN_ID, WATER_ID)) & np.isfinite(hits.distance)
+        ground[probing[found]] = z_hit[found]
+        go_on = ~found & np.isfinite(hits.distance)
+        z[probing[go_on]] = z_hit[go_on] - PROBE_STEP
+        probing = probing[go_on]
+    return ground
 
 
 def cast_lasers(backend, pose: Pose, z_start: float) -> tuple[LaserHit, ...]:
-    xy = laser_xy(pose)
-    origins = np.column_stack([xy, np.full(4, z_start)])
-    down = np.tile([0.0, 0.0, -1.0], (4, 1))
+    return lasers_of(pose, cast_lasers_many(backend, [pose], np.array([z_start]))[0])
+
+
+def cast_lasers_many(backend, poses, z_starts: np.ndarray):
+    """The four lasers of many poses in one batch of rays: RayHits of (K, 4) rays, one row a
+    pose (`lasers_of` turns a row into LaserHits)."""
+    xy = np.concatenate([laser_xy(pose) for pose in poses]) if len(poses) else np.zeros((0, 2))
+    origins = np.column_stack([xy, np.repeat(np.asarray(z_starts, dtype=np.float64), len(LASERS))])
+    down = np.tile([0.0, 0.0, -1.0], (len(origins), 1))
     hits = backend.cast(origins, down, 2 * PROBE_TOP_Z)
+    count = len(LASERS)
+    return [
+        (
+            origins[i : i + count],
+            hits.distance[i : i + count],
+            hits.class_id[i : i + count],
+            hits.instance[i : i + count],
+        )
+        for i in range(0, len(origins), count)
+    ]
+
+
+def lasers_of(pose: Pose, row) -> tuple[LaserHit, ...]:
+    """The LaserHits of one pose from its row of `cast_lasers_many`."""
+    origins, distance, class_id, instance = row
     return tuple(
         LaserHit(
             name=name,
             origin=tuple(float(v) for v in origins[i]),
-            distance=float(hits.distance[i]),
-            class_id=int(hits.class_id[i]),
-            instance=int(hits.instance[i]),
+            distance=float(distance[i]),
+            class_id=int(class_id[i]),
+            instance=int(instance[i]),
         )
         for i, (name, _, _) in enumerate(LASERS)
     )
@@ -207,16 +241,24 @@ def cast_lasers(backend, pose: Pose, z_start: float) -> tuple[LaserHit, ...]:
 def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
     """Stand the structure at `pose`; raise PoseRejected naming each laser that says no."""
     pose.validate()
-    where = f"pose ({pose.x:g}, {pose.y:g}, yaw {pose.yaw_deg:g})"
     if z_start is None:
         ground = probe_ground_z(backend, pose.x, pose.y)
         if ground is None:
-            raise PoseRejected(f"{where} is off the world: there is no terrain below it")
+            raise PoseRejected(f"{describe_pose(pose)} is off the world: there is no terrain below it")
         z_start = ground + LASER_CLEARANCE
     else:
         check_z_start(z_start)
+    return stand(pose, z_start, cast_lasers(backend, pose, z_start))
 
-    lasers = cast_lasers(backend, pose, z_start)
+
+def describe_pose(pose: Pose) -> str:
+    return f"pose ({pose.x:g}, {pose.y:g}, yaw {pose.yaw_deg:g})"
+
+
+def stand(pose: Pose, z_start: float, lasers: tuple[LaserHit, ...]) -> Placement:
+    """The placement the four laser hits give (cast from `z_start`), or PoseRejected saying why
+    the robot cannot stand there. Many poses share it: `place` casts for one, a drive for all."""
+    where = describe_pose(pose)
     bad = [laser for laser in lasers if laser.class_id != TERRAIN_ID]
     if bad:
         if all(laser.class_id < 0 for laser in lasers):

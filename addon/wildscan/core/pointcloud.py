@@ -31,6 +31,7 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
 # has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract.
 OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
     ("hag", "<f4"),  # height above the true terrain surface under the point, metres (datasets)
+    ("time", "<f8"),  # when the point was measured, seconds after its 3D scan's first beam (drives)
 )
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from .. import __version__
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
-from .frames import check_frame
+from .frames import check_frame, to_world
 from .hits import RayHits
 from .leveling import leveling_matrix
 from .placement import Placement, Pose, place
@@ -52,6 +52,58 @@ def cast_in_chunks(
     return RayHits.joined(parts)
 
 
+@dataclass
+class Returns:
+    """What the rangefinder reports for each beam: whether it returned a point, the measured
+    range (noise included), and the reflectivity, class and instance of what it hit."""
+
+    keep: np.ndarray  # bool (N,)
+    range: np.ndarray  # float64 (N,) metres
+    intensity: np.ndarray  # (N,) reflectivity (0 where no point)
+    label: np.ndarray  # (N,) class id read back from the reflectivity
+    instance: np.ndarray  # (N,) instance of the element hit (-1 for none)
+
+    def cloud(self, xyz: np.ndarray, ring: np.ndarray, sweep: np.ndarray, frame: str, **extra) -> PointCloud:
+        """The labeled cloud of the kept beams, at `xyz` (one row per kept beam); ring and
+        sweep are per beam, `extra` per beam too (PointCloud.extra fields)."""
+        keep = self.keep
+        return PointCloud(
+            xyz=xyz,
+            intensity=self.intensity[keep].astype(np.float32),
+            label=self.label[keep].astype(np.uint16),
+            instance=np.maximum(self.instance[keep], 0).astype(np.uint32),
+            ring=ring[keep],
+            sweep=sweep[keep],
+            range=self.range[keep].astype(np.float32),
+            frame=frame,
+            extra={name: values[keep] for name, values in extra.items()},
+        )
+
+
+def measure(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
+    """Ranges, limits and labels of a batch of beams: the hit distance plus noise, kept inside
+    the range window; the label read from the reflectivity of what was hit (paper IV-C)."""
+    measured = hits.distance + noise
+    keep = hits.hit & (measured >= sensor.min_range) & (measured <= sensor.max_range)
+    intensity = reflectivity_of(np.where(keep, hits.class_id, 0))
+    label = label_from_reflectivity(intensity)
+    # A beam whose first hit is water returns nothing (the paper drops them).
+    keep &= label != WATER_ID
+    return Returns(keep, measured, intensity, label, hits.instance)
+
+
+def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str) -> np.ndarray:
+    """A scan's points in its output frame: leveled by Eq. 2 itself (the paper's leveling),
+    the world frame by the frame conversion every other user of frames shares."""
+    if frame == "sensor":
+        return points_sensor
+    if frame == "leveled":
+        from .leveling import level_points
+
+        return level_points(points_sensor, placement.roll_rad, placement.pitch_rad)
+    return to_world(points_sensor, "sensor", placement)
+
+
 def frame_directions(placement: Placement, frame: str, rh_deg: float, dirs_world: np.ndarray) -> np.ndarray:
     """Every beam's direction in the output frame: Eq. 1's in the sensor frame, turned by
     Eq. 2 (the paper's leveling) in the leveled frame, the cast directions in the world
@@ -82,27 +134,12 @@ def run_scan(
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.noise_sigma
     hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress)
 
-    measured = hits.distance + range_noise(sensor, len(dirs_sensor))
-    keep = hits.hit & (measured >= sensor.min_range) & (measured <= sensor.max_range)
-    intensity = reflectivity_of(np.where(keep, hits.class_id, 0))
-    label = label_from_reflectivity(intensity)
-    # A beam whose first hit is water returns nothing (the paper drops them).
-    keep &= label != WATER_ID
-
-    rho = measured[keep]
+    returns = measure(hits, range_noise(sensor, len(dirs_sensor)), sensor)
+    keep, rho = returns.keep, returns.range[returns.keep]
     points = frame_directions(placement, frame, sensor.rh_deg, dirs_world)[keep] * rho[:, None]
     if frame == "world":
         points += placement.optical_centre
-    cloud = PointCloud(
-        xyz=points,
-        intensity=intensity[keep].astype(np.float32),
-        label=label[keep].astype(np.uint16),
-        instance=np.maximum(hits.instance[keep], 0).astype(np.uint32),
-        ring=ring[keep],
-        sweep=sweep[keep],
-        range=rho.astype(np.float32),
-        frame=frame,
-    )
+    cloud = returns.cloud(points, ring, sweep, frame)
     metadata = {
         "wildscan_version": __version__,
         "pose": pose.to_dict(),

@@ -187,6 +187,22 @@ def rotated_beam_directions(rotation: np.ndarray, rh_deg: float) -> np.ndarray:
     return out.reshape(-1, 3)
 
 
+def directions_at(head_rad: np.ndarray) -> np.ndarray:
+    """Eq. 1 beam directions (sensor frame, unit) for head angles `head_rad`: (K,) one angle a
+    2D scan (the stepped head of Eq. 1) or (K, 1080) one a beam (a head that turns while the
+    mirror sweeps). Returns (K, 1080, 3)."""
+    phi = np.asarray(head_rad, dtype=np.float64)
+    if phi.ndim == 1:
+        phi = phi[:, None]
+    sin_t, cos_t = dm.sincos(elevation_angles_rad())
+    sin_p, cos_p = dm.sincos(phi)
+    dirs = np.empty((len(phi), BEAMS_PER_2D_SCAN, 3))
+    dirs[:, :, 0] = cos_p * sin_t[None, :]
+    dirs[:, :, 1] = sin_p * sin_t[None, :]
+    dirs[:, :, 2] = cos_t[None, :]
+    return dirs
+
+
 def range_noise(sensor: SensorConfig, beam_count: int) -> np.ndarray:
     """Gaussian range noise per beam (zero bias, σ = noise_sigma) from the sensor's own seed.
 

@@ -22,22 +22,13 @@ from ...core.errors import UserError
 from ...core.io import semantickitti as sk
 from ...core.io.files import atomic_outputs, output_directory, write_durably
 from ...core.label_schemes import scheme
+from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
 from .engine import Batch, Engine, RunFailed, make_batches
 from .layout import LABELS_YAML, LOCK, remove_temp_files, sequence_files
 from .manifest import Manifest, broken_rows, check_files
 from .progress import ScanProgress
 from .spec import DatasetSpec
-
-
-class Terminated(BaseException):
-    """SIGTERM, turned into an exception so the run stops as on Ctrl-C."""
-
-
-class Interrupted(Exception):
-    def __init__(self, message: str, code: int):
-        super().__init__(message)
-        self.code = code
 
 
 @dataclass
@@ -242,7 +233,7 @@ def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunRe
         progress.update(len(state.manifest.rows) + ticking)
 
     stop: tuple[str, int] | None = None
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         engine.start()
         batches = make_batches(pending, engine.worker_count())
@@ -274,10 +265,6 @@ def _stop_engine(engine: Engine, progress: ScanProgress, state: _State, previous
     progress.close()
     signal.signal(signal.SIGTERM, previous)
     remove_temp_files(state.root)  # the local workers are gone: any temporary file is debris
-
-
-def _raise_terminated(signum, frame):
-    raise Terminated()
 
 
 def _written_text(state: _State, report: RunReport) -> str:

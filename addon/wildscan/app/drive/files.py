@@ -1,0 +1,159 @@
+"""The files of a drive, staged in a hidden folder inside DIR and moved into place together.
+
+    DIR/drive.json                       what was asked, what came out (every file listed)
+    DIR/trajectory.tum                   the sensor's true pose at the start of every 2D scan
+    DIR/raw/NNNNNN.ply, .json            per 3D scan: the raw cloud and its sidecar
+    DIR/deskewed/NNNNNN.ply, .json       per 3D scan: the deskewed cloud and its sidecar
+    DIR/sequences/00/velodyne/NNNNNN.bin SemanticKITTI: the deskewed scans, their labels,
+                    labels/NNNNNN.label   poses.txt (points -> world), calib.txt, times.txt
+    DIR/labels.yaml                      SemanticKITTI's label config
+    DIR/drive.bag, DIR/drive_ros2/       the ROS bags (bags.py)
+
+Nothing appears in DIR until the drive is complete: every file is written (and synced)
+under DIR/.wildscan-drive.tmp-PID/, then each is renamed into place. An error, Ctrl-C or
+SIGTERM removes the staging folder; a staging folder a killed run left is removed by the
+next drive into DIR. Files a previous drive into DIR listed in its drive.json that this
+one does not write are removed, so DIR holds one drive.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from ...core.errors import UserError
+from ...core.io import semantickitti as sk
+from ...core.io.files import fsync_dir, write_durably
+
+DRIVE_JSON = "drive.json"
+TRAJECTORY = "trajectory.tum"
+SEQUENCE = "sequences/00"
+STAGING = re.compile(r"^\.wildscan-drive\.tmp-(\d+)$")
+
+
+def scan_files(index: int) -> dict[str, str]:
+    """kind -> path in DIR of the files of 3D scan `index`."""
+    name = f"{index:06d}"
+    return {
+        "raw": f"raw/{name}.ply",
+        "raw_sidecar": f"raw/{name}.json",
+        "deskewed": f"deskewed/{name}.ply",
+        "deskewed_sidecar": f"deskewed/{name}.json",
+        "velodyne": f"{SEQUENCE}/velodyne/{name}.bin",
+        "labels": f"{SEQUENCE}/labels/{name}.label",
+    }
+
+
+class Staging:
+    """A hidden folder in `root` holding this run's files until `commit` moves them in."""
+
+    def __init__(self, root: Path):
+        self.root = root
+        remove_stale_staging(root)
+        self.dir = root / f".wildscan-drive.tmp-{os.getpid()}"
+        shutil.rmtree(self.dir, ignore_errors=True)
+        self.dir.mkdir()
+
+    def path(self, relative: str) -> Path:
+        """Where to write `relative` now (its folders made)."""
+        target = self.dir / relative
+        target.parent.mkdir(parents=True, exist_ok=True)
+        return target
+
+    def write(self, relative: str, data: bytes) -> None:
+        write_durably(self.path(relative), lambda f: f.write(data))
+
+    def files(self) -> list[str]:
+        """Every file staged so far, relative to the root, sorted."""
+        return sorted(str(p.relative_to(self.dir)) for p in self.dir.rglob("*") if p.is_file())
+
+    def commit(self) -> list[str]:
+        """Move every staged file into place; remove what the previous drive wrote and this one
+        did not. Returns the files in place."""
+        previous = previous_files(self.root)
+        written = self.files()
+        folders = set()
+        for relative in written:
+            final = self.root / relative
+            final.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(self.dir / relative, final)
+            folders.add(final.parent)
+        for relative in sorted(set(previous) - set(written)):
+            try:
+                os.unlink(self.root / relative)
+            except OSError:
+                pass
+        for folder in folders:
+            fsync_dir(folder)
+        shutil.rmtree(self.dir, ignore_errors=True)
+        return written
+
+    def discard(self) -> None:
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def remove_stale_staging(root: Path) -> None:
+    """Staging folders of drives into `root` that were killed (their process is gone)."""
+    for entry in root.iterdir():
+        match = STAGING.match(entry.name)
+        if match and entry.is_dir() and not _alive(int(match.group(1))):
+            shutil.rmtree(entry, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def previous_files(root: Path) -> list[str]:
+    """The files the drive last written into `root` listed (none when there was none);
+    only plain paths inside `root` are trusted."""
+    try:
+        listed = json.loads((root / DRIVE_JSON).read_text()).get("files", [])
+    except (OSError, ValueError, AttributeError):
+        return []
+    safe = []
+    for name in listed if isinstance(listed, list) else []:
+        if isinstance(name, str) and name and not Path(name).is_absolute() and ".." not in Path(name).parts:
+            safe.append(name)
+    return safe
+
+
+def check_out_dir(text) -> Path:
+    """The output folder as given, refused early if it names a file (it is made later)."""
+    if not str(text).strip():
+        raise UserError("needs a directory name, got an empty one", setting="out")
+    out = Path(str(text)).expanduser().resolve()
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{out}: it is a file; give a directory", setting="out")
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# SemanticKITTI
+
+
+def kitti_scan(stage: Staging, index: int, cloud, mapped_labels: np.ndarray, ranks: np.ndarray) -> None:
+    paths = scan_files(index)
+    stage.write(paths["velodyne"], sk.scan_bytes(cloud.xyz, cloud.intensity))
+    stage.write(paths["labels"], sk.label_bytes(mapped_labels, ranks))
+
+
+def kitti_sequence(stage: Staging, pose_matrices: list[np.ndarray], start_times: list[float]) -> None:
+    stage.write(f"{SEQUENCE}/poses.txt", sk.poses_text(pose_matrices).encode())
+    stage.write(f"{SEQUENCE}/calib.txt", sk.calib_text().encode())
+    stage.write(f"{SEQUENCE}/times.txt", "".join(f"{t:.6e}\n" for t in start_times).encode())
+
+
+def json_bytes(data: dict) -> bytes:
+    return (json.dumps(data, indent=2, sort_keys=True) + "\n").encode()

@@ -1,0 +1,99 @@
+"""What a drive asks for, checked whole before a world is opened or built."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ...core.checks import one_of
+from ...core.errors import UserError
+from ...core.frames import check_frame
+from ...core.motion.timing import check_head
+from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
+from ...core.sensor import SensorConfig
+
+BAGS = ("both", "ros1", "ros2", "none")
+ROS2_STORAGES = ("mcap", "sqlite3")
+DRIVE_BACKENDS = ("auto", "embree", "bvh")  # they cast against triangles: one crop for the whole path
+MAX_WIND_DEG = 10.0
+MAX_SCANS_3D = 10_000
+
+
+@dataclass(frozen=True)
+class DriveRequest:
+    out: str
+    world: str | None = None  # a .blend file
+    seed: int | None = None  # or a seed's world, planned without Blender
+    detail: str = "default"
+    trail: bool = False  # the path: the world's trail,
+    waypoints: str | None = None  # a CSV of x,y,
+    start: tuple[float, float, float] | None = None  # or straight ahead from (x, y, yaw)
+    distance: float | None = None  # ... for this many metres
+    speed: float = DEFAULT_SPEED
+    scans: int | None = None  # 3D scans to take (default: as many as the path allows)
+    head: str = "stepped"
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    frame: str = "sensor"
+    backend: str = "auto"
+    bag: str = "both"
+    ros2_storage: str = "mcap"
+    wind: float = 0.0  # peak sway of the treetops, degrees (0: no wind)
+    wind_seed: int = 0
+
+    @property
+    def bags(self) -> tuple[str, ...]:
+        return {"both": ("ros1", "ros2"), "none": ()}.get(self.bag, (self.bag,))
+
+    def check(self) -> "DriveRequest":
+        """UserError naming the first setting that is wrong."""
+        if (self.world is None) == (self.seed is None):
+            raise UserError("give exactly one of {world} FILE.blend or {seed} S", related=("world", "seed"))
+        kinds = [self.trail, self.waypoints is not None, self.start is not None]
+        if sum(kinds) != 1:
+            raise UserError(
+                "give exactly one path: {trail}, {waypoints} PATH.csv or {from} X Y YAW {distance} M",
+                related=("trail", "waypoints", "from", "distance"),
+            )
+        if (self.start is not None) != (self.distance is not None):
+            raise UserError("{from} X Y YAW and {distance} M go together", related=("from", "distance"))
+        check_speed(self.speed)
+        if self.scans is not None and not 1 <= self.scans <= MAX_SCANS_3D:
+            raise UserError(f"must be from 1 to {MAX_SCANS_3D:,}, got {self.scans}", setting="scans")
+        check_head(self.head)
+        self.sensor.validate()
+        check_frame(self.frame)
+        one_of(self.backend, "backend", DRIVE_BACKENDS)
+        one_of(self.bag, "bag", BAGS)
+        one_of(self.ros2_storage, "ros2_storage", ROS2_STORAGES)
+        if not math.isfinite(self.wind) or not 0 <= self.wind <= MAX_WIND_DEG:
+            raise UserError(
+                f"must be from 0 (no wind) to {MAX_WIND_DEG:g} degrees, got {self.wind:g}",
+                setting="wind",
+                allowed=(0, MAX_WIND_DEG),
+            )
+        if self.bags:
+            from ...core.io.rosbag import require_rosbags
+
+            require_rosbags()
+        return self
+
+    def to_dict(self) -> dict:
+        return {
+            "world": self.world,
+            "seed": self.seed,
+            "detail": self.detail if self.seed is not None else None,
+            "path": "trail" if self.trail else "waypoints" if self.waypoints is not None else "straight",
+            "waypoints": self.waypoints,
+            "from": list(self.start) if self.start is not None else None,
+            "distance": self.distance,
+            "speed": self.speed,
+            "scans": self.scans,
+            "head": self.head,
+            "sensor": self.sensor.to_dict(),
+            "frame": self.frame,
+            "backend": self.backend,
+            "bag": self.bag,
+            "ros2_storage": self.ros2_storage,
+            "wind": self.wind,
+            "wind_seed": self.wind_seed,
+        }

@@ -1,0 +1,282 @@
+"""`wildscan drive`: place the robot at every 2D scan of its path, sweep, write.
+
+The work is batched: one crop of the world around the whole path and one ray caster over
+it, the placements of every 2D scan in a few batches of rays, and the beams of each 3D
+scan in large casts (sweep.py); Python loops only over 3D scans and, to write the bags,
+over 2D scans.
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import ExitStack
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ... import __version__
+from ...core.classes import class_table_dict
+from ...core.groundtruth import pose_matrix
+from ...core.io.ply import scan_file_bytes
+from ...core.io.tum import tum_text
+from ...core.label_schemes import scheme
+from ...core.motion.placements import Motion, place_all
+from ...core.motion.sweep import Sweep, sweep
+from ...core.motion.trajectory import instants, schedule
+from ...core.rng import seeded
+from ...core.scan import points_in_frame
+from ...core.sensor import BEAMS_PER_2D_SCAN
+from ..interrupts import Interrupted, Terminated, sigterm_raises
+from ..scan import crop_radius
+from . import files
+from .bags import BagFeed, open_bags
+from .request import DriveRequest
+from .world import crop_along, drive_path, drive_world
+
+
+@dataclass
+class DriveReport:
+    out: Path
+    files: list[str]
+    scans_2d: int
+    scans_3d: int
+    duration: float  # s of driving
+    distance: float  # m driven
+    points: list[int]  # per 3D scan
+    bag_counts: dict[str, dict[str, int]]
+    seconds: dict[str, float] = field(default_factory=dict)  # stage -> wall time
+
+    @property
+    def total_seconds(self) -> float:
+        return sum(self.seconds.values())
+
+
+def run_drive(request: DriveRequest, progress=None, say=print) -> DriveReport:
+    """Drive as `request` says and write its files into `request.out` (README "Scans in motion").
+    `progress(done, total)` hears of the rays cast; `say` gets one-line news. SIGTERM ends it
+    as Ctrl-C does, with Interrupted (code 143); either way nothing is left in the folder."""
+    try:
+        with sigterm_raises():
+            return _drive(request, progress, say)
+    except Terminated:
+        raise Interrupted("terminated; nothing written", 143) from None
+
+
+def _drive(request: DriveRequest, progress, say) -> DriveReport:
+    clock = _Clock()
+    request.check()
+    files.check_out_dir(request.out)
+    path = None if request.trail else drive_path(request, None)  # a bad CSV is found before the world
+    geometry, provenance, trail = drive_world(request)
+    path = path or drive_path(request, trail)
+    sensor = request.sensor
+    plan = schedule(path, request.speed, sensor.sweeps, request.scans)
+    clock.lap("world")
+
+    times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1)
+    backend = _backend(request, crop_along(geometry, xy, crop_radius(sensor)), say)
+    clock.lap("crop")
+    motion = place_all(backend, times, xy, yaw, request.speed * times)
+    clock.lap("placement")
+
+    from ...core.io.files import output_directory
+
+    context = _Context(request, provenance, motion, geometry.instance, backend)
+    stage = files.Staging(output_directory(request.out))
+    try:
+        with ExitStack() as bags:
+            feed = BagFeed(open_bags(bags, stage, request.bags, request.ros2_storage), motion, sensor)
+            feed.static()
+            counter = _Rays(progress, plan.scans_2d * BEAMS_PER_2D_SCAN)
+            points = []
+            for k0, k1 in _groups(plan.scans_2d, plan.sweeps):
+                noise = context.noise(k1 - k0)
+                result = sweep(backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter)
+                clock.lap("sweep")
+                whole = k1 - k0 == plan.sweeps
+                if whole:
+                    points.append(context.write_scan(stage, k0 // plan.sweeps, result))
+                feed.scans(result)
+                if whole:
+                    feed.clouds(result)
+                clock.lap("write")
+        context.finish(stage, plan, path, feed.counts())
+        written = stage.commit()
+        clock.lap("write")
+    finally:
+        stage.discard()  # after a commit there is nothing left to discard
+    return DriveReport(
+        out=stage.root,
+        files=written,
+        scans_2d=plan.scans_2d,
+        scans_3d=plan.scans_3d,
+        duration=plan.duration,
+        distance=float(motion.distance[-1]),
+        points=points,
+        bag_counts=feed.counts(),
+        seconds=clock.laps,
+    )
+
+
+def _backend(request: DriveRequest, cropped, say):
+    from ...raycast.select import make_backend
+
+    if request.wind == 0:
+        return make_backend(request.backend, geometry=cropped, notify=say)
+    from ...core.motion.wind import Wind
+    from .wind import swaying_scene
+
+    name = make_backend(request.backend, geometry=cropped.subset(np.zeros(0, dtype=int)), notify=say).name
+
+    def make(geometry):
+        return make_backend(name, geometry=geometry, notify=None)
+
+    return swaying_scene(cropped, Wind(request.wind, request.wind_seed), make, request.sensor.rh_deg)
+
+
+def _groups(scans_2d: int, sweeps: int) -> list[tuple[int, int]]:
+    """The 3D scans' runs of 2D scans, then the 2D scans after the last whole 3D scan."""
+    edges = list(range(0, scans_2d, sweeps)) + [scans_2d]
+    return [(a, b) for a, b in zip(edges[:-1], edges[1:])]
+
+
+class _Context:
+    """What every file of one drive shares, and writing them."""
+
+    def __init__(self, request: DriveRequest, provenance: dict, motion: Motion, instances, backend):
+        self.request = request
+        self.provenance = provenance
+        self.motion = motion
+        self.world_instances = np.unique(np.asarray(instances))
+        self.backend_name = getattr(backend, "name", type(backend).__name__)
+        self.labels = scheme("semantickitti")
+        sigma = request.sensor.noise_sigma
+        # one generator for the drive: the first 3D scan draws what a static scan draws
+        self._rng = seeded(int(request.sensor.noise_seed)) if sigma > 0 else None
+        self.pose_matrices: list[np.ndarray] = []
+        self.start_times: list[float] = []
+        self.scans: list[dict] = []
+        self.class_points = np.zeros(max(self.labels.labels) + 1)
+
+    def noise(self, scans_2d: int) -> np.ndarray:
+        count = scans_2d * BEAMS_PER_2D_SCAN
+        if self._rng is None:
+            return np.zeros(count)
+        return self.request.sensor.noise_sigma * self._rng.standard_normal(count)
+
+    def metadata(self, index: int, result: Sweep, cloud: str) -> dict:
+        start = self.motion.placements[result.k0]
+        request = self.request
+        return {
+            "wildscan_version": __version__,
+            "seed": self.provenance["seed"],
+            "world": self.provenance["world"],
+            "pose": start.pose.to_dict(),
+            "frame": request.frame,
+            "sensor": request.sensor.to_dict(),
+            "backend": self.backend_name,
+            "placement": start.to_dict(),
+            "drive": {
+                "cloud": cloud,
+                "scan": index,
+                "first_2d_scan": result.k0,
+                "start_time": float(self.motion.times[result.k0]),
+                "end_time": float(self.motion.times[result.k1]),
+                "speed": request.speed,
+                "head": request.head,
+                "wind": request.wind,
+            },
+            "classes": class_table_dict(),
+        }
+
+    def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:
+        """The raw and deskewed PLY files of 3D scan `index` and its SemanticKITTI files."""
+        start = self.motion.placements[result.k0]
+        paths = files.scan_files(index)
+        frame = self.request.frame
+        clouds = {}
+        for kind, cloud in (("raw", result.raw), ("deskewed", result.deskewed)):
+            clouds[kind] = replace(cloud, xyz=points_in_frame(cloud.xyz, start, frame), frame=frame)
+            ply, sidecar = scan_file_bytes(
+                stage.dir / paths[kind], clouds[kind], self.metadata(index, result, kind)
+            )
+            stage.write(paths[kind], ply)
+            stage.write(paths[f"{kind}_sidecar"], sidecar)
+        deskewed = clouds["deskewed"]
+        mapped = self.labels.map(deskewed.label)
+        files.kitti_scan(stage, index, deskewed, mapped, _ranks(self.world_instances, deskewed.instance))
+        np.add.at(self.class_points, mapped, 1)
+        self.pose_matrices.append(pose_matrix(start, frame))
+        self.start_times.append(float(self.motion.times[result.k0]))
+        self.scans.append(
+            {
+                "scan": index,
+                "first_2d_scan": result.k0,
+                "start_time": float(self.motion.times[result.k0]),
+                "points": len(deskewed),
+                "files": paths,
+            }
+        )
+        return len(deskewed)
+
+    def finish(self, stage: files.Staging, plan, path, bag_counts: dict) -> None:
+        """The files about the whole drive: trajectory, SemanticKITTI sequence files, drive.json."""
+        from ...core.io.semantickitti import label_config_yaml
+
+        motion = self.motion
+        count = plan.scans_2d
+        comment = "WildScan drive: the sensor (optical centre, sensor frame) in the world frame, per 2D scan"
+        tum = tum_text(motion.times[:count], motion.centre[:count], motion.rotation[:count], comment)
+        stage.write(files.TRAJECTORY, tum.encode())
+        files.kitti_sequence(stage, self.pose_matrices, self.start_times)
+        total = self.class_points.sum()
+        content = {k: float(self.class_points[k] / total) if total else 0.0 for k in self.labels.labels}
+        splits = {"train": [0], "valid": [], "test": []}
+        stage.write("labels.yaml", label_config_yaml(self.labels, content, splits, "WildScan drive").encode())
+        listed = stage.files() + [files.DRIVE_JSON]
+        summary = {
+            "wildscan_version": __version__,
+            "request": self.request.to_dict(),
+            "world": self.provenance,
+            "backend": self.backend_name,
+            "path": {"kind": path.kind, "length": path.length},
+            "scans_2d": count,
+            "scans_3d": plan.scans_3d,
+            "sweeps_per_3d_scan": plan.sweeps,
+            "duration": plan.duration,
+            "distance": float(motion.distance[-1]),
+            "scans": self.scans,
+            "bags": bag_counts,
+            "files": sorted(listed),
+        }
+        stage.write(files.DRIVE_JSON, files.json_bytes(summary))
+
+
+def _ranks(world_instances: np.ndarray, instances: np.ndarray) -> np.ndarray:
+    from ...core.io.semantickitti import instance_ranks
+
+    return instance_ranks(world_instances, instances)
+
+
+class _Rays:
+    """Progress in rays cast over the whole drive."""
+
+    def __init__(self, progress, total: int):
+        self.progress, self.total, self.done = progress, total, 0
+
+    def __call__(self, rays: int) -> None:
+        self.done += rays
+        if self.progress is not None:
+            self.progress(self.done, self.total)
+
+
+class _Clock:
+    def __init__(self):
+        self.laps: dict[str, float] = {}
+        self.t = time.perf_counter()
+
+    def lap(self, stage: str) -> None:
+        now = time.perf_counter()
+        self.laps[stage] = self.laps.get(stage, 0.0) + now - self.t
+        self.t = now

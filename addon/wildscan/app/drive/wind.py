@@ -1,0 +1,114 @@
+"""A scene whose foliage sways (core/motion/wind.py) behind the ray-caster interface.
+
+Everything that stands still is one ray caster built once. Swaying objects are posed anew
+for every 2D scan, at its start time, and only those a 2D scan can reach are posed: the
+objects whose bounding sphere comes near the plane its beams sweep and within its range.
+Each 2D scan's rays are cast at both and the nearer hit wins.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...core.hits import RayHits
+from ...core.motion.timing import SCAN_PERIOD
+from ...core.motion.wind import SWAYING_IDS, Sway, Wind, pivots_of
+from ...core.sensor import BEAMS_PER_2D_SCAN
+from ...raycast.geometry import SceneGeometry
+
+# How far a swaying object may be from a 2D scan's plane at its start and still be reached:
+# the robot moves, turns and the head turns a little during the 18.75 ms of a sweep.
+PLANE_SLACK = 0.3  # m
+
+
+class SwayingScene:
+    """Static triangles in `static`, swaying ones rebuilt per 2D scan with `make(geometry)`."""
+
+    def __init__(self, static, swaying: SceneGeometry, sway: Sway, make, rh_deg: float):
+        self.name = f"{static.name}+wind"
+        self.static = static
+        self.swaying = swaying
+        self.sway = sway
+        self.make = make
+        self.rh = math.radians(rh_deg)
+        corners = swaying.vertices[swaying.faces]
+        objects = len(sway.pivots)
+        self.face_object = swaying.object_index
+        reach = np.zeros(objects)
+        far = np.linalg.norm(corners - sway.pivots[self.face_object][:, None, :], axis=2).max(axis=1)
+        np.maximum.at(reach, self.face_object, far)
+        self.reach = reach  # every vertex stays within this of the pivot, whatever the tilt
+        self.rest = make(swaying) if swaying.triangle_count else None
+
+    def cast(self, origins, directions, max_range) -> RayHits:
+        """Rays at no particular time (the placement lasers): foliage at rest."""
+        hits = self.static.cast(origins, directions, max_range)
+        return hits if self.rest is None else nearer(hits, self.rest.cast(origins, directions, max_range))
+
+    def cast_scans(self, origins, directions, max_range, ks) -> RayHits:
+        """The rays of 2D scans `ks` (1080 each, in order), each at its 2D scan's time."""
+        hits = self.static.cast(origins, directions, max_range)
+        if self.rest is None:
+            return hits
+        origins = np.broadcast_to(np.asarray(origins, dtype=np.float64), np.shape(directions))
+        for row, k in enumerate(ks):
+            rays = slice(row * BEAMS_PER_2D_SCAN, (row + 1) * BEAMS_PER_2D_SCAN)
+            part = self._posed_near(origins[rays], directions[rays], max_range, k * SCAN_PERIOD)
+            if part is not None:
+                scan_hits = part.cast(origins[rays], directions[rays], max_range)
+                merged = nearer(_rows(hits, rays), scan_hits)
+                hits.distance[rays], hits.class_id[rays], hits.instance[rays] = (
+                    merged.distance,
+                    merged.class_id,
+                    merged.instance,
+                )
+        return hits
+
+    def _posed_near(self, origins, dirs, max_range, t):
+        centre = origins[0]
+        normal = np.cross(dirs[0], dirs[len(dirs) // 2])
+        normal /= np.linalg.norm(normal)
+        offset = self.sway.pivots - centre
+        slack = self.reach + PLANE_SLACK + max_range * math.sin(self.rh)
+        near = (np.abs(offset @ normal) <= slack) & (np.linalg.norm(offset, axis=1) <= max_range + self.reach)
+        if not np.any(near):
+            return None
+        faces = near[self.face_object]
+        part = self.swaying.subset(faces)
+        used = np.unique(self.swaying.faces[faces])
+        vertex_object = np.zeros(len(self.swaying.vertices), dtype=np.int64)
+        vertex_object[self.swaying.faces.ravel()] = np.repeat(self.face_object, 3)
+        part.vertices = self.sway.posed(self.swaying.vertices[used], vertex_object[used], t)
+        return self.make(part)
+
+
+def nearer(a: RayHits, b: RayHits) -> RayHits:
+    """Per ray, the nearer of two answers."""
+    take = b.distance < a.distance
+    return RayHits(
+        distance=np.where(take, b.distance, a.distance),
+        class_id=np.where(take, b.class_id, a.class_id),
+        instance=np.where(take, b.instance, a.instance),
+        untagged_objects=a.untagged_objects | b.untagged_objects,
+    )
+
+
+def _rows(hits: RayHits, rows: slice) -> RayHits:
+    return RayHits(hits.distance[rows], hits.class_id[rows], hits.instance[rows])
+
+
+def swaying_scene(static_geometry: SceneGeometry, wind: Wind, make, rh_deg: float):
+    """The scene of `static_geometry` with its treetops, bushes and grass swaying in `wind`."""
+    moving = np.isin(static_geometry.class_id, SWAYING_IDS)
+    still = static_geometry.subset(~moving)
+    still.offset = static_geometry.offset
+    swaying = static_geometry.subset(moving)
+    swaying.offset = static_geometry.offset
+    # one sway object per element: renumber the swaying objects 0..E-1 in their first order
+    objects, first, face_object = np.unique(swaying.object_index, return_index=True, return_inverse=True)
+    swaying.object_index = face_object.astype(np.int32)
+    class_ids = swaying.class_id[first]
+    pivots = pivots_of(swaying.vertices, swaying.faces, swaying.object_index, len(objects))
+    return SwayingScene(make(still), swaying, Sway(wind, class_ids, pivots), make, rh_deg)

@@ -1,0 +1,118 @@
+"""The world a drive sees, the path through it, and one crop of its triangles around the path.
+
+A seed's world is planned and turned into triangles without Blender (raycast/from_plan.py);
+a .blend file is opened and extracted (bpy). Its trail is the one the seed's layout drew
+(recorded on the world's collection): the layout is the same at every detail level.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...core.errors import UserError
+from ...core.motion.trajectory import Path, polyline_path, straight_path
+from ...raycast.geometry import SceneGeometry, local_origin
+from .request import DriveRequest
+
+TRAIL_STAGE = "trail"
+CROP_STEP = 1.0  # m between the path's points whose neighbourhoods make the crop
+
+
+def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray | None]:
+    """(the world's triangles, where they came from, the trail's centre line or None)."""
+    if request.seed is not None:
+        from ...core.world import plan_world
+        from ...raycast.from_plan import plan_geometry
+
+        plan = plan_world(request.seed, request.detail)
+        provenance = {"seed": request.seed, "detail": request.detail, "world": None}
+        return plan_geometry(plan), provenance, plan.layout.trail.path
+    from ...blender.scene_io import open_world, scene_provenance
+    from ...raycast.extract import extract_scene
+
+    open_world(request.world)
+    seed, blend = scene_provenance()
+    geometry = extract_scene()
+    provenance = {"seed": seed, "detail": None, "world": blend}
+    return geometry, provenance, _trail_of_blend(seed, geometry)
+
+
+def _trail_of_blend(seed: int | None, geometry: SceneGeometry) -> np.ndarray | None:
+    """The trail of a WildScan world saved as .blend: drawn by its seed's layout, if the
+    file still holds the trail's flooring."""
+    if seed is None or not any(name.startswith(f"{TRAIL_STAGE}.") for name in geometry.object_names):
+        return None
+    return layout_of(seed).trail.path
+
+
+def layout_of(seed: int):
+    """The zone layout of a seed's world (its first stage only: the trail, the zones' cells)."""
+    from ...core.rng import stage_rng
+    from ...core.world.detail import detail_level
+    from ...core.world.pipeline import WorldParams
+    from ...core.world.plan import WorldPlan
+    from ...core.world.stages import layout
+
+    plan = WorldPlan(seed, detail_level("default"), WorldParams())
+    layout.run(plan, stage_rng(seed, f"world.{layout.STAGE}"))
+    return plan.layout
+
+
+def drive_path(request: DriveRequest, trail: np.ndarray | None) -> Path:
+    """The path the request names."""
+    if request.trail:
+        if trail is None:
+            where = request.world if request.world is not None else f"seed {request.seed}"
+            raise UserError(
+                f"needs a WildScan world with a trail; {where} has none (use {{waypoints}} or {{from}})",
+                setting="trail",
+                related=("waypoints", "from"),
+            )
+        return polyline_path(trail, "trail", "trail")
+    if request.waypoints is not None:
+        from ...core.io.waypoints import read_waypoints
+
+        return polyline_path(read_waypoints(request.waypoints), "waypoints", "waypoints")
+    x, y, yaw = request.start
+    return straight_path(x, y, yaw, request.distance)
+
+
+def crop_along(geometry: SceneGeometry, xy: np.ndarray, radius: float) -> SceneGeometry:
+    """The triangles a sensor anywhere on the polyline `xy` (n, 2) can reach: those whose xy
+    bounding box comes within `radius` of it. A single point crops as `SceneGeometry.cropped`
+    does (the same triangles and local origin as a static scan there)."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if np.all(xy == xy[0]):
+        return geometry.cropped(xy[0], radius)
+    samples = _samples(_thinned(xy, CROP_STEP / 2), CROP_STEP)
+    corners = geometry.vertices[:, :2][geometry.faces]
+    lo, hi = corners.min(axis=1), corners.max(axis=1)
+    reach = radius + CROP_STEP / 2  # every point of the path is within half a step of a sample
+    near = np.all((lo <= samples.max(axis=0) + reach) & (hi >= samples.min(axis=0) - reach), axis=1)
+    candidates = np.flatnonzero(near)
+    keep = np.zeros(geometry.triangle_count, dtype=bool)
+    lo_c, hi_c = lo[candidates], hi[candidates]
+    for point in samples:
+        gap = np.clip(point, lo_c, hi_c) - point
+        keep[candidates[np.einsum("ij,ij->i", gap, gap) <= reach * reach]] = True
+    part = geometry.subset(keep)
+    centre = 0.5 * (samples.min(axis=0) + samples.max(axis=0))
+    part.offset = local_origin(part.vertices, part.faces, centre)
+    return part
+
+
+def _thinned(xy: np.ndarray, step: float) -> np.ndarray:
+    """Points of the polyline about `step` apart along it (the robot's positions are a few cm
+    apart: the crop needs far fewer), its first and last included."""
+    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+    picks = np.searchsorted(along, np.arange(0.0, along[-1], step))
+    return xy[np.unique(np.concatenate([picks, [len(xy) - 1]]))]
+
+
+def _samples(xy: np.ndarray, step: float) -> np.ndarray:
+    """Points along the polyline no more than `step` apart, its vertices included."""
+    out = [xy[:1]]
+    for a, b in zip(xy[:-1], xy[1:]):
+        count = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        out.append(a + np.outer(np.arange(1, count + 1) / count, b - a))
+    return np.concatenate(out)

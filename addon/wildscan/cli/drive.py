@@ -1,0 +1,125 @@
+"""`wildscan drive`: argument parsing only (the work is in app/drive)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..core.motion.timing import HEAD_MODES
+from ..core.motion.trajectory import DEFAULT_SPEED, MAX_SPEED
+from . import options
+from .options import ArgumentParser, finite_float, non_negative_int
+
+HELP = (
+    "drive the robot along a path while the head turns: timed raw and deskewed clouds, trajectory, ROS bags"
+)
+DESCRIPTION = (
+    "Drive the robot at constant speed along the world's trail, through waypoints or straight ahead, "
+    "standing on the ground at every 2D scan as the four placement lasers say, while the 2D scanner sweeps "
+    "every 25 ms and the head turns r_h per 2D scan. Every beam has its own time and pose. Writes into DIR, "
+    "per 3D scan, the raw cloud (as a driver gives it) and the deskewed cloud (every point where it is) as "
+    "PLY with a per-point time, a SemanticKITTI sequence of the deskewed scans, the ground-truth trajectory "
+    "(TUM) and ROS 1 / ROS 2 bags (README 'Scans in motion')."
+)
+
+
+def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument("--world", metavar="FILE.blend", help="drive in this saved world (needs bpy)")
+    options.add(p, "seed", group=source, help="drive in the world of this seed, planned without Blender")
+    options.add(p, "detail", help="detail level of the --seed world: low | default | high (default: default)")
+    route = p.add_mutually_exclusive_group(required=True)
+    route.add_argument("--trail", action="store_true", help="drive along the world's trail, from its start")
+    route.add_argument(
+        "--waypoints", metavar="PATH.csv", help="drive through these waypoints: one `x,y` a line, metres"
+    )
+    route.add_argument(
+        "--from",
+        dest="start",
+        nargs=3,
+        type=finite_float,
+        metavar=("X", "Y", "YAW"),
+        help="drive straight ahead from X, Y (metres) heading YAW (degrees CCW from +X); with --distance",
+    )
+    p.add_argument("--distance", type=finite_float, metavar="M", help="how far to drive from --from, metres")
+    p.add_argument(
+        "--speed",
+        type=finite_float,
+        default=DEFAULT_SPEED,
+        metavar="M/S",
+        help=f"constant speed, 0 (standing still) to {MAX_SPEED:g} m/s (default {DEFAULT_SPEED:g})",
+    )
+    p.add_argument(
+        "--scans",
+        type=non_negative_int,
+        metavar="N",
+        help="3D scans to take (default: as many as fit along the path; 1 standing still)",
+    )
+    p.add_argument(
+        "--head",
+        choices=HEAD_MODES,
+        default="stepped",
+        help="stepped: the head stands still during each 2D scan and steps r_h between them, as Eq. 1 "
+        "(default); continuous: it turns steadily, each beam at the head angle of its own time",
+    )
+    for name in options.SENSOR_OPTIONS:
+        options.add(p, name)
+    options.add(
+        p,
+        "frame",
+        default="sensor",
+        help="frame of both clouds of a 3D scan, at its start: sensor (default; as a driver gives the raw "
+        "cloud), leveled or world",
+    )
+    options.add(p, "backend", choices=("auto", "embree", "bvh"), help="ray caster (default auto)")
+    p.add_argument(
+        "--wind",
+        type=finite_float,
+        default=0.0,
+        metavar="DEG",
+        help="wind: treetops sway up to DEG degrees about their base, bushes and grass more (0, the "
+        "default, is still air)",
+    )
+    p.add_argument("--wind-seed", type=non_negative_int, default=0, metavar="N", help="seed of the sway (0)")
+    options.add(p, "out", metavar="DIR", help="folder to write into (created if missing)")
+    p.add_argument(
+        "--bag",
+        choices=("both", "ros1", "ros2", "none"),
+        default="both",
+        help="ROS bags to write: ros1 (DIR/drive.bag), ros2 (DIR/drive_ros2/), both (default) or none",
+    )
+    p.add_argument(
+        "--ros2-storage",
+        choices=("mcap", "sqlite3"),
+        default="mcap",
+        help="storage of the ROS 2 bag (default mcap)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
+
+
+def run(args: argparse.Namespace, in_blender: bool = False) -> int:
+    from ..app.drive import DriveRequest, Interrupted, run_drive
+    from .output import Progress
+
+    same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
+    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed")
+    request = DriveRequest(
+        **{name: getattr(args, name) for name in same},
+        start=tuple(args.start) if args.start is not None else None,
+        sensor=options.sensor_of(args),
+    )
+    try:
+        report = run_drive(request, progress=Progress("driving", args.quiet), say=print)
+    except Interrupted as e:
+        sys.stderr.write(f"wildscan drive: {e}\n")
+        return e.code
+    points = sum(report.points)
+    print(
+        f"drove {report.distance:.2f} m in {report.duration:.2f} s: {report.scans_2d:,} 2D scans, "
+        f"{report.scans_3d} 3D scans ({points:,} points); wrote {len(report.files)} files into {report.out} "
+        f"in {report.total_seconds:.1f} s"
+    )
+    for flavour, counts in report.bag_counts.items():
+        topics = ", ".join(f"{topic} {n:,}" for topic, n in counts.items())
+        print(f"  {flavour} bag: {topics}")
+    return 0

@@ -1,0 +1,251 @@
+"""ROS bags of a drive, ROS 1 (`.bag`) and ROS 2 (rosbag2: mcap or sqlite3), written with the
+`rosbags` library: no ROS installation needed (imported lazily; the `drive` extra).
+
+Topics (README "Scans in motion" documents them for users):
+
+    /laser2D          sensor_msgs/LaserScan   every 2D scan, frame `laser`
+    /points           sensor_msgs/PointCloud2 every 3D scan, the raw cloud, frame `sensor`
+    /points_deskewed  sensor_msgs/PointCloud2 every 3D scan, the deskewed cloud, frame `sensor`
+    /tf               tf2_msgs/TFMessage      every 2D scan: odom -> base_link, base_link -> laser
+    /tf_static        tf2_msgs/TFMessage      once: base_link -> sensor (latched)
+    /odom             nav_msgs/Odometry       every 2D scan: base_link in odom, its velocity
+
+Every stamp is the simulation clock (the drive starts at 0 s). A cloud is stamped at its
+3D scan's first beam and recorded in the bag when its last 2D scan ends, as a driver
+publishes it; its per-point `time` is seconds after the stamp.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+
+FLAVOURS = ("ros1", "ros2")
+ROS2_STORAGES = ("mcap", "sqlite3")
+ODOM, BASE_LINK, SENSOR, LASER = "odom", "base_link", "sensor", "laser"
+
+# sensor_msgs/PointField datatypes
+_UINT16, _UINT32, _FLOAT32 = 4, 6, 7
+# (name, offset, PointField datatype, numpy type): 32 bytes a point, every field aligned
+POINT_FIELDS = (
+    ("x", 0, _FLOAT32, "<f4"),
+    ("y", 4, _FLOAT32, "<f4"),
+    ("z", 8, _FLOAT32, "<f4"),
+    ("intensity", 12, _FLOAT32, "<f4"),
+    ("ring", 16, _UINT16, "<u2"),
+    ("time", 20, _FLOAT32, "<f4"),
+    ("label", 24, _UINT16, "<u2"),
+    ("instance", 28, _UINT32, "<u4"),
+)
+POINT_STEP = 32
+POINT_DTYPE = np.dtype(
+    {
+        "names": [f[0] for f in POINT_FIELDS],
+        "formats": [f[3] for f in POINT_FIELDS],
+        "offsets": [f[1] for f in POINT_FIELDS],
+        "itemsize": POINT_STEP,
+    }
+)
+# tf2_msgs is not in rosbags' ROS 1 type store: its definition as ROS 1 has it
+_TF_MESSAGE_ROS1 = "geometry_msgs/TransformStamped[] transforms\n"
+
+
+def require_rosbags(setting: str = "bag") -> None:
+    """UserError when the rosbags library is missing (before any work is done)."""
+    try:
+        import rosbags  # noqa: F401
+    except ImportError:
+        raise UserError(
+            "needs the rosbags library (pip install rosbags, or the `drive` extra); or give {bag} none",
+            setting=setting,
+            related=("bag",),
+        ) from None
+
+
+def point_records(xyz, intensity, ring, time, label, instance) -> np.ndarray:
+    """A cloud's PointCloud2 data as records of POINT_DTYPE (the padding bytes zero)."""
+    out = np.zeros(len(xyz), dtype=POINT_DTYPE)
+    xyz = np.asarray(xyz, dtype=np.float32)
+    out["x"], out["y"], out["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    out["intensity"], out["ring"], out["time"] = intensity, ring, time
+    out["label"], out["instance"] = label, instance
+    return out
+
+
+def nanoseconds(seconds: float) -> int:
+    return int(round(seconds * 1e9))
+
+
+class DriveBag:
+    """One bag being written: `with DriveBag(path, "ros2") as bag: bag.laser_scan(...)`.
+    `path` must not exist yet (a ROS 2 bag is a folder)."""
+
+    def __init__(self, path: str | os.PathLike, flavour: str, storage: str = "mcap"):
+        from rosbags.typesys import Stores, get_typestore
+
+        self.path = Path(path)
+        self.flavour = flavour
+        self.ros1 = flavour == "ros1"
+        if self.ros1:
+            from rosbags.rosbag1 import Writer
+            from rosbags.typesys import get_types_from_msg
+
+            self.store = get_typestore(Stores.ROS1_NOETIC)
+            self.store.register(get_types_from_msg(_TF_MESSAGE_ROS1, "tf2_msgs/msg/TFMessage"))
+            self.writer = Writer(self.path)
+        else:
+            from rosbags.rosbag2 import StoragePlugin, Writer
+
+            self.store = get_typestore(Stores.ROS2_JAZZY)
+            plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+            self.writer = Writer(self.path, version=Writer.VERSION_LATEST, storage_plugin=plugin)
+        self.types = self.store.types
+        self.connections: dict[str, object] = {}
+        self.counts: dict[str, int] = {}
+
+    # -- opening and closing ------------------------------------------------------------------
+
+    def __enter__(self) -> "DriveBag":
+        self.writer.open()
+        for topic, msgtype in (
+            ("/tf_static", "tf2_msgs/msg/TFMessage"),
+            ("/tf", "tf2_msgs/msg/TFMessage"),
+            ("/odom", "nav_msgs/msg/Odometry"),
+            ("/laser2D", "sensor_msgs/msg/LaserScan"),
+            ("/points", "sensor_msgs/msg/PointCloud2"),
+            ("/points_deskewed", "sensor_msgs/msg/PointCloud2"),
+        ):
+            self._connect(topic, msgtype, latched=topic == "/tf_static")
+        return self
+
+    def __exit__(self, kind, value, trace) -> None:
+        self.writer.close()
+
+    def _connect(self, topic: str, msgtype: str, latched: bool) -> None:
+        if self.ros1:
+            extra = {"latching": 1} if latched else {}
+            conn = self.writer.add_connection(
+                topic, msgtype, typestore=self.store, callerid="/wildscan", **extra
+            )
+        else:
+            extra = {"offered_qos_profiles": _latched_qos()} if latched else {}
+            conn = self.writer.add_connection(topic, msgtype, typestore=self.store, **extra)
+        self.connections[topic] = conn
+        self.counts[topic] = 0
+
+    def _write(self, topic: str, message, bag_ns: int) -> None:
+        msgtype = message.__msgtype__
+        data = (
+            self.store.serialize_ros1(message, msgtype)
+            if self.ros1
+            else self.store.serialize_cdr(message, msgtype)
+        )
+        self.writer.write(self.connections[topic], bag_ns, data)
+        self.counts[topic] += 1
+
+    # -- message parts ------------------------------------------------------------------------
+
+    def _header(self, topic: str, stamp_ns: int, frame: str):
+        time = self.types["builtin_interfaces/msg/Time"](sec=stamp_ns // 10**9, nanosec=stamp_ns % 10**9)
+        extra = {"seq": self.counts[topic]} if self.ros1 else {}
+        return self.types["std_msgs/msg/Header"](stamp=time, frame_id=frame, **extra)
+
+    def _vector(self, v):
+        return self.types["geometry_msgs/msg/Vector3"](x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+    def _quaternion(self, q):
+        return self.types["geometry_msgs/msg/Quaternion"](
+            x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3])
+        )
+
+    def _transform(self, topic: str, stamp_ns: int, parent: str, child: str, translation, quaternion):
+        transform = self.types["geometry_msgs/msg/Transform"](
+            translation=self._vector(translation), rotation=self._quaternion(quaternion)
+        )
+        return self.types["geometry_msgs/msg/TransformStamped"](
+            header=self._header(topic, stamp_ns, parent), child_frame_id=child, transform=transform
+        )
+
+    # -- messages -----------------------------------------------------------------------------
+
+    def tf(self, stamp_ns: int, transforms, static: bool = False) -> None:
+        """transforms: (parent, child, translation (3,), quaternion (x, y, z, w))."""
+        topic = "/tf_static" if static else "/tf"
+        stamped = [self._transform(topic, stamp_ns, *t) for t in transforms]
+        self._write(topic, self.types["tf2_msgs/msg/TFMessage"](transforms=stamped), stamp_ns)
+
+    def odometry(self, stamp_ns: int, position, quaternion, linear, angular) -> None:
+        """base_link in odom (position, quaternion) and its velocity in base_link."""
+        t = self.types
+        zeros = np.zeros(36)
+        pose = t["geometry_msgs/msg/PoseWithCovariance"](
+            pose=t["geometry_msgs/msg/Pose"](
+                position=t["geometry_msgs/msg/Point"](
+                    x=float(position[0]), y=float(position[1]), z=float(position[2])
+                ),
+                orientation=self._quaternion(quaternion),
+            ),
+            covariance=zeros,
+        )
+        twist = t["geometry_msgs/msg/TwistWithCovariance"](
+            twist=t["geometry_msgs/msg/Twist"](linear=self._vector(linear), angular=self._vector(angular)),
+            covariance=zeros,
+        )
+        message = t["nav_msgs/msg/Odometry"](
+            header=self._header("/odom", stamp_ns, ODOM), child_frame_id=BASE_LINK, pose=pose, twist=twist
+        )
+        self._write("/odom", message, stamp_ns)
+
+    def laser_scan(self, stamp_ns: int, geometry: dict, ranges: np.ndarray, intensities: np.ndarray) -> None:
+        """One 2D scan; `geometry` holds angle_min ... range_max (LaserScan's own field names)."""
+        message = self.types["sensor_msgs/msg/LaserScan"](
+            header=self._header("/laser2D", stamp_ns, LASER),
+            ranges=np.asarray(ranges, dtype=np.float32),
+            intensities=np.asarray(intensities, dtype=np.float32),
+            **geometry,
+        )
+        self._write("/laser2D", message, stamp_ns)
+
+    def points(self, topic: str, stamp_ns: int, bag_ns: int, records: np.ndarray) -> None:
+        """One 3D scan's PointCloud2 (records of POINT_DTYPE) in frame `sensor`."""
+        t = self.types
+        fields = [
+            t["sensor_msgs/msg/PointField"](name=name, offset=offset, datatype=datatype, count=1)
+            for name, offset, datatype, _ in POINT_FIELDS
+        ]
+        message = t["sensor_msgs/msg/PointCloud2"](
+            header=self._header(topic, stamp_ns, SENSOR),
+            height=1,
+            width=len(records),
+            fields=fields,
+            is_bigendian=False,
+            point_step=POINT_STEP,
+            row_step=POINT_STEP * len(records),
+            data=np.frombuffer(records.tobytes(), dtype=np.uint8),
+            is_dense=True,
+        )
+        self._write(topic, message, bag_ns)
+
+
+def _latched_qos():
+    """ROS 2's latching: a transient-local publisher (what /tf_static uses)."""
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    forever = QosTime(2147483647, 4294967295)
+    return [
+        Qos(
+            QosHistory.KEEP_LAST,
+            1,
+            QosReliability.RELIABLE,
+            QosDurability.TRANSIENT_LOCAL,
+            forever,
+            forever,
+            QosLiveliness.AUTOMATIC,
+            forever,
+            False,
+        )
+    ]

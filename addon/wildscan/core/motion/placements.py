@@ -1,0 +1,92 @@
+"""The robot standing on the ground at every 2D scan of a drive (numpy only).
+
+Each instant is placed exactly as `core.placement.place` places one pose (the probe from
+above, the four downward lasers, the same checks and the same arithmetic, so a drive
+standing still is placed as a static scan is), but the rays of all instants go to the
+ray caster in a few large batches: one per probe layer, one for all the lasers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import PoseRejected
+from ..placement import (
+    LASER_CLEARANCE,
+    Placement,
+    Pose,
+    cast_lasers_many,
+    describe_pose,
+    lasers_of,
+    probe_ground_z_many,
+    stand,
+)
+from .rotations import log_map
+
+
+@dataclass
+class Motion:
+    """The robot's pose at the start of every 2D scan of a drive and at its very end."""
+
+    placements: list[Placement]  # K + 1: at the start of 2D scans 0 ... K-1, then the end
+    times: np.ndarray  # (K + 1,) seconds from the drive's start
+    distance: np.ndarray  # (K + 1,) metres driven along the path
+    centre: np.ndarray  # (K + 1, 3) optical centre, world metres
+    ground: np.ndarray  # (K + 1, 3) where the column meets the ground (base_link)
+    rotation: np.ndarray  # (K + 1, 3, 3) sensor frame -> world frame
+    step: np.ndarray  # (K, 3) rotation vector from the attitude at k to that at k + 1 (frame at k)
+
+    @property
+    def still(self) -> np.ndarray:
+        """(K,) whether the pose at k + 1 is exactly the pose at k (standing still)."""
+        same_c = np.all(self.centre[1:] == self.centre[:-1], axis=1)
+        same_r = np.all(self.rotation[1:] == self.rotation[:-1], axis=(1, 2))
+        return same_c & same_r
+
+
+def place_all(
+    backend, times: np.ndarray, xy: np.ndarray, yaw_deg: np.ndarray, distance: np.ndarray
+) -> Motion:
+    """Stand the robot at every instant; PoseRejected naming where and when it cannot."""
+    poses = [Pose(float(x), float(y), float(yaw)).validate() for (x, y), yaw in zip(xy, yaw_deg)]
+    ground = probe_ground_z_many(backend, xy)
+    off = np.flatnonzero(~np.isfinite(ground))
+    if len(off):
+        i = int(off[0])
+        _reject(
+            i, times, distance, f"{describe_pose(poses[i])} is off the world: there is no terrain below it"
+        )
+    z_start = ground + LASER_CLEARANCE
+    rows = cast_lasers_many(backend, poses, z_start)
+    placements = []
+    for i, (pose, row) in enumerate(zip(poses, rows)):
+        try:
+            placements.append(stand(pose, float(z_start[i]), lasers_of(pose, row)))
+        except PoseRejected as e:
+            _reject(i, times, distance, e.message)
+    return motion_of(placements, times, distance)
+
+
+def motion_of(placements: list[Placement], times: np.ndarray, distance: np.ndarray) -> Motion:
+    rotation = np.stack([p.rotation for p in placements])
+    relative = np.einsum("kji,kjl->kil", rotation[:-1], rotation[1:])  # R_k^T R_{k+1}
+    step = log_map(relative)
+    same = np.all(rotation[1:] == rotation[:-1], axis=(1, 2))
+    step[same] = 0.0  # exactly: a robot standing still does not turn by rounding
+    return Motion(
+        placements=placements,
+        times=np.asarray(times, dtype=np.float64),
+        distance=np.asarray(distance, dtype=np.float64),
+        centre=np.stack([p.optical_centre for p in placements]),
+        ground=np.stack([p.ground_centre for p in placements]),
+        rotation=rotation,
+        step=step,
+    )
+
+
+def _reject(i: int, times: np.ndarray, distance: np.ndarray, why: str) -> None:
+    raise PoseRejected(
+        f"the drive stops at t = {times[i]:.3f} s (2D scan {i}, {distance[i]:.2f} m along the path): {why}"
+    )

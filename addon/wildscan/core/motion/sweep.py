@@ -1,0 +1,170 @@
+"""The beams of a run of 2D scans in motion: their rays, their returns, and the raw and the
+deskewed cloud they make (numpy only).
+
+Beam n of 2D scan k is measured at its own time (timing.py), from where the sensor is then:
+the pose at the start of 2D scan k moved on by the fraction n/1440 of the step to the pose
+at k + 1 (the optical centre along a straight line, the attitude turning about one axis).
+Its direction is Eq. (1)'s for the head angle of that beam, turned with the sensor.
+
+raw       what a driver that knows nothing of the motion makes of the ranges: range times
+          the beam's Eq. (1) direction, in the sensor frame at the 3D scan's start.
+deskewed  every point where it truly is, expressed in the same frame: range times the
+          beam's true direction from the sensor's true position at the beam's time.
+
+A drive standing still takes the same rays as a static scan, bit for bit: rays of 2D
+scans that share one attitude are turned by one matrix product (as run_scan turns them),
+and a motion of exactly zero is never applied, so even the sign of a zero is the same.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..pointcloud import PointCloud
+from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame
+from ..sensor import BEAMS_PER_2D_SCAN, SensorConfig, directions_at
+from .placements import Motion
+from .rotations import rotate
+from .timing import beam_fractions, beam_times, head_angles_rad
+
+CAST_CHUNK = 64_800  # rays per cast and progress report (60 2D scans)
+
+
+@dataclass
+class Sweep:
+    """The 2D scans k0 ... k1 - 1 of a drive (a 3D scan when k1 - k0 = M)."""
+
+    k0: int
+    k1: int
+    returns: Returns  # per beam, (k1 - k0) * 1080 of them, scan-major
+    raw: PointCloud  # in `frame` at the start of 2D scan k0
+    deskewed: PointCloud
+    times: np.ndarray  # (N,) beam times, seconds after the start of 2D scan k0
+
+
+def sweep(
+    backend,
+    motion: Motion,
+    k0: int,
+    k1: int,
+    sensor: SensorConfig,
+    head: str,
+    noise: np.ndarray,
+    frame: str = "sensor",
+    progress=None,
+) -> Sweep:
+    """Cast the beams of 2D scans k0 ... k1 - 1 and make their clouds. `noise` (N,) is the
+    range noise of each beam; `progress(rays)` hears of each chunk cast."""
+    ks = np.arange(k0, k1)
+    fraction = beam_fractions()
+    believed = directions_at(head_angles_rad(ks, sensor.rh_deg, head))  # (K, 1080, 3), Eq. 1
+    true_local = _turned_during_scan(believed, motion.step[k0:k1], fraction)
+    dirs_world = _by_attitude(true_local, motion.rotation[k0:k1])
+    origins = _origins(motion, k0, k1, fraction)
+    cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.noise_sigma
+    hits = cast_in_chunks(backend, origins, dirs_world, cast_range, ks, progress)
+
+    returns = measure(hits, noise, sensor)
+    keep, rho = returns.keep, returns.range[returns.keep]
+    raw_sensor = believed.reshape(-1, 3)[keep] * rho[:, None]
+    true_sensor = _deskewed(motion, k0, k1, true_local.reshape(-1, 3)[keep] * rho[:, None], keep, fraction)
+
+    times = beam_times(ks, since=k0).ravel()
+    ring = np.tile(np.arange(BEAMS_PER_2D_SCAN, dtype=np.uint16), len(ks))
+    sweep_index = np.repeat(np.arange(len(ks), dtype=np.uint16), BEAMS_PER_2D_SCAN)
+    start = motion.placements[k0]
+    raw = returns.cloud(points_in_frame(raw_sensor, start, frame), ring, sweep_index, frame, time=times)
+    deskewed = returns.cloud(points_in_frame(true_sensor, start, frame), ring, sweep_index, frame, time=times)
+    return Sweep(k0, k1, returns, raw, deskewed, times)
+
+
+def cast_in_chunks(backend, origins, dirs, max_range, ks, progress):
+    """All rays, in chunks of whole 2D scans. A backend with `cast_scans` (a scene that moves
+    with time: wind.py) is told which 2D scan each chunk's rows belong to."""
+    from ..hits import RayHits
+
+    per_chunk = max(1, CAST_CHUNK // BEAMS_PER_2D_SCAN) * BEAMS_PER_2D_SCAN
+    timed = getattr(backend, "cast_scans", None)
+    parts = []
+    for start in range(0, len(dirs), per_chunk):
+        stop = min(start + per_chunk, len(dirs))
+        o = origins if origins.ndim == 1 else origins[start:stop]
+        if timed is not None:
+            parts.append(
+                timed(
+                    o, dirs[start:stop], max_range, ks[start // BEAMS_PER_2D_SCAN : stop // BEAMS_PER_2D_SCAN]
+                )
+            )
+        else:
+            parts.append(backend.cast(o, dirs[start:stop], max_range))
+        if progress is not None:
+            progress(stop - start)
+    return RayHits.joined(parts) if len(parts) != 1 else parts[0]
+
+
+def _turned_during_scan(dirs: np.ndarray, step: np.ndarray, fraction: np.ndarray) -> np.ndarray:
+    """Beam directions in the sensor frame at the start of their 2D scan, turned by the part
+    of the attitude step done by the beam's time (2D scans that do not turn are left as they are)."""
+    turning = np.flatnonzero(np.any(step != 0, axis=1))
+    if not len(turning):
+        return dirs
+    out = dirs.copy()
+    rotvec = fraction[None, :, None] * step[turning][:, None, :]
+    out[turning] = rotate(dirs[turning].reshape(-1, 3), rotvec.reshape(-1, 3)).reshape(
+        -1, BEAMS_PER_2D_SCAN, 3
+    )
+    return out
+
+
+def _runs(matrices: np.ndarray):
+    """(start, stop) of the runs of consecutive identical matrices."""
+    if not len(matrices):
+        return []
+    change = np.flatnonzero(np.any(matrices[1:] != matrices[:-1], axis=(1, 2))) + 1
+    edges = [0, *change.tolist(), len(matrices)]
+    return list(zip(edges[:-1], edges[1:]))
+
+
+def _by_attitude(local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """(K, 1080, 3) directions in each 2D scan's sensor frame -> (K * 1080, 3) world directions,
+    2D scans sharing one attitude turned by one product."""
+    out = np.empty((local.shape[0] * BEAMS_PER_2D_SCAN, 3))
+    for a, b in _runs(rotation):
+        out[a * BEAMS_PER_2D_SCAN : b * BEAMS_PER_2D_SCAN] = local[a:b].reshape(-1, 3) @ rotation[a].T
+    return out
+
+
+def _origins(motion: Motion, k0: int, k1: int, fraction: np.ndarray) -> np.ndarray:
+    """The optical centre at every beam's time: (3,) when it does not move, else (N, 3)."""
+    centre = motion.centre[k0 : k1 + 1]
+    if np.all(centre == centre[0]):
+        return centre[0]
+    step = centre[1:] - centre[:-1]
+    return (centre[:-1, None, :] + fraction[None, :, None] * step[:, None, :]).reshape(-1, 3)
+
+
+def _deskewed(
+    motion: Motion, k0: int, k1: int, vectors: np.ndarray, keep: np.ndarray, fraction
+) -> np.ndarray:
+    """Points measured from the true pose at their time (`vectors`: range times the true
+    direction in the sensor frame at the start of the point's 2D scan), in the sensor frame
+    at the start of 2D scan k0."""
+    scan_of = np.repeat(np.arange(k1 - k0), BEAMS_PER_2D_SCAN)[keep]
+    frac = np.tile(fraction, k1 - k0)[keep]
+    rotation, centre = motion.rotation, motion.centre
+    start_r, start_c = rotation[k0], centre[k0]
+    out = vectors.copy()
+    relative = np.einsum("ji,kjl->kil", start_r, rotation[k0:k1])  # R_k0^T R_k
+    relative[np.all(rotation[k0:k1] == start_r, axis=(1, 2))] = np.eye(3)
+    for a, b in _runs(relative):
+        if np.array_equal(relative[a], np.eye(3)):
+            continue
+        rows = (scan_of >= a) & (scan_of < b)
+        out[rows] = vectors[rows] @ relative[a].T
+    offset = (centre[k0:k1] - start_c) @ start_r  # R_k0^T (c_k - c_k0), one row a 2D scan
+    step = (centre[k0 + 1 : k1 + 1] - centre[k0:k1]) @ start_r
+    if np.any(offset != 0) or np.any(step != 0):
+        out += offset[scan_of] + frac[:, None] * step[scan_of]
+    return out

@@ -1,0 +1,62 @@
+"""When each beam is measured and where the head points then (numpy only).
+
+The Hokuyo UTM-30LX-EW turns its mirror at 40 Hz: one 2D scan every SCAN_PERIOD (25 ms),
+1440 steps of 0.25 deg a turn, of which the 1080 beams of the 270 deg field take
+1080/1440 of the period (18.75 ms; the rest of the turn faces the scanner's housing). So
+beam n of 2D scan k, counting 2D scans from the start of the drive, is measured at
+
+    t = k * SCAN_PERIOD + n * BEAM_INTERVAL,     BEAM_INTERVAL = SCAN_PERIOD / 1440 (17.4 us)
+
+The head (the column that turns the 2D scanner about its vertical axis) advances r_h per
+2D scan, in one of two ways:
+
+    stepped     as Eq. (1): still at k * r_h while 2D scan k sweeps, stepping between scans
+    continuous  turning steadily at r_h per period: beam n of 2D scan k is at r_h * (k + n/1440)
+
+A 3D scan is one half-turn of the head, M = 180 / r_h consecutive 2D scans: 3D scan j is
+2D scans jM ... jM + M - 1. The head keeps turning the same way (as Andabata's does), so
+3D scan j starts at j * 180 deg; for j = 0 every beam is exactly Eq. (1)'s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..checks import one_of
+from ..sensor import BEAMS_PER_2D_SCAN
+
+SCAN_PERIOD = 0.025  # s, one 2D scan (40 Hz)
+STEPS_PER_TURN = 1440  # mirror steps in one turn (0.25 deg each)
+BEAM_INTERVAL = SCAN_PERIOD / STEPS_PER_TURN  # s between neighbouring beams
+FIELD_SWEEP_TIME = BEAMS_PER_2D_SCAN * BEAM_INTERVAL  # 18.75 ms: the 270 deg field
+HEAD_MODES = ("stepped", "continuous")
+
+
+def check_head(mode: str) -> str:
+    return one_of(mode, "head", HEAD_MODES)
+
+
+def beam_fractions() -> np.ndarray:
+    """(1080,) how far into its 2D scan's period each beam is measured (0 ... 0.749)."""
+    return np.arange(BEAMS_PER_2D_SCAN, dtype=np.float64) / STEPS_PER_TURN
+
+
+def scan_times(k: np.ndarray) -> np.ndarray:
+    """Start time (s) of 2D scans k: its first beam."""
+    return np.asarray(k, dtype=np.float64) * SCAN_PERIOD
+
+
+def beam_times(k: np.ndarray, since: int = 0) -> np.ndarray:
+    """(K, 1080) time of every beam of 2D scans k, in seconds after the start of 2D scan
+    `since` (the drive's start by default, a 3D scan's first 2D scan for its points)."""
+    steps = (np.asarray(k, dtype=np.int64) - since)[:, None] * STEPS_PER_TURN
+    return (steps + np.arange(BEAMS_PER_2D_SCAN)) * BEAM_INTERVAL
+
+
+def head_angles_rad(k: np.ndarray, rh_deg: float, mode: str) -> np.ndarray:
+    """Head angle of 2D scans k: (K,) for the stepped head (Eq. 1's m * r_h, counted on from
+    the drive's start), (K, 1080) one per beam for the continuous head."""
+    k = np.asarray(k, dtype=np.float64)
+    if check_head(mode) == "stepped":
+        return np.deg2rad(k * rh_deg)
+    return np.deg2rad((k[:, None] + beam_fractions()[None, :]) * rh_deg)
