@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,6 +27,18 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
     ("scalar_label", "<f4"),
 )
 
+# Optional per-point fields, in file order after `scalar_label`: a cloud carries those it
+# has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract (so a
+# paper-model scan's bytes never change). The realistic sensor model (core/echoes.py) adds
+# the four echo fields.
+OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
+    ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest (realistic model)
+    ("echoes", "u1"),  # how many echoes its beam returned, 1..3 (realistic model)
+    ("label_purity", "<f4"),  # share of the echo's energy from the labeled class, 0..1 (realistic)
+    ("mixed", "u1"),  # 1 where the point lies on no single surface: a mixed pixel (realistic)
+)
+OPTIONAL_FIELD_NAMES = frozenset(name for name, _ in OPTIONAL_FIELDS)
+
 
 @dataclass
 class PointCloud:
@@ -40,6 +52,7 @@ class PointCloud:
     sweep: np.ndarray  # uint16 (N,) 2D scan index m (0..M-1)
     range: np.ndarray  # float32 (N,) measured range in metres (noise included)
     frame: str = "leveled"
+    extra: dict[str, np.ndarray] = field(default_factory=dict)  # OPTIONAL_FIELDS name -> (N,) array
 
     def __len__(self) -> int:
         return len(self.label)
@@ -48,9 +61,16 @@ class PointCloud:
     def colors(self) -> np.ndarray:
         return colors_of(self.label)
 
+    def fields(self) -> tuple[tuple[str, str], ...]:
+        """PLY_FIELDS, then the OPTIONAL_FIELDS this cloud carries, in registry order."""
+        unknown = set(self.extra) - OPTIONAL_FIELD_NAMES
+        if unknown:
+            raise ValueError(f"unknown optional point fields {sorted(unknown)}; see OPTIONAL_FIELDS")
+        return PLY_FIELDS + tuple((name, code) for name, code in OPTIONAL_FIELDS if name in self.extra)
+
     def to_structured(self) -> np.ndarray:
-        """The PLY vertex records (PLY_FIELDS order, little-endian)."""
-        out = np.empty(len(self), dtype=list(PLY_FIELDS))
+        """The PLY vertex records (`fields()` order, little-endian)."""
+        out = np.empty(len(self), dtype=list(self.fields()))
         xyz = np.asarray(self.xyz, dtype=np.float32)
         out["x"], out["y"], out["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
         out["intensity"] = self.intensity
@@ -62,6 +82,8 @@ class PointCloud:
         out["sweep"] = self.sweep
         out["range"] = self.range
         out["scalar_label"] = self.label
+        for name, values in self.extra.items():
+            out[name] = values
         return out
 
     def class_counts(self) -> dict[int, int]:

@@ -1,7 +1,8 @@
 """PLY + JSON sidecar writer (and a small reader) for WildScan point clouds.
 
 Numpy only. The files are a contract with users (DESIGN.md "PLY"): the vertex
-fields and their order come from `pointcloud.PLY_FIELDS`, the header comments
+fields and their order come from `pointcloud.PLY_FIELDS` (plus the optional fields the
+cloud carries, `pointcloud.OPTIONAL_FIELDS`, after them), the header comments
 carry the tool version, the scan metadata and the class table.
 
 Writes are atomic: a scan either leaves both `scan.ply` and `scan.json` or
@@ -21,7 +22,7 @@ import numpy as np
 from ... import __version__
 from ..classes import BY_ID, class_table_dict, class_table_lines
 from ..errors import UserError
-from ..pointcloud import PLY_FIELDS, PointCloud
+from ..pointcloud import PointCloud
 from . import files
 from .files import atomic_outputs, write_durably
 
@@ -134,16 +135,12 @@ def _metadata_comments(metadata: dict) -> list[str]:
     return lines
 
 
-def _vertex_dtype() -> np.dtype:
-    return np.dtype(list(PLY_FIELDS))
-
-
-def _ply_header(count: int, comments: list[str], ascii: bool) -> bytes:
+def _ply_header(count: int, comments: list[str], ascii: bool, fields) -> bytes:
     fmt = "ascii" if ascii else "binary_little_endian"
     lines = ["ply", f"format {fmt} 1.0"]
     lines += [f"comment {c}" for c in comments]
     lines.append(f"element vertex {count}")
-    for name, code in PLY_FIELDS:
+    for name, code in fields:
         np_code = np.dtype(code).str[1:]  # '<f4' -> 'f4', '|u1' -> 'u1'
         lines.append(f"property {_PLY_TYPE_BY_CODE[np_code]} {name}")
     lines.append("end_header")
@@ -152,9 +149,9 @@ def _ply_header(count: int, comments: list[str], ascii: bool) -> bytes:
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
-def _ascii_formats() -> list[str]:
+def _ascii_formats(dtype: np.dtype) -> list[str]:
     # '%.9g' round-trips float32 exactly; integers print as integers.
-    return ["%.9g" if np.dtype(code).kind == "f" else "%d" for _, code in PLY_FIELDS]
+    return ["%.9g" if dtype[name].kind == "f" else "%d" for name in dtype.names]
 
 
 def header_comments(cloud: PointCloud, metadata: dict) -> list[str]:
@@ -223,7 +220,7 @@ _ASCII_CHUNK = 65536  # rows formatted at a time: bounds memory on big scans
 def _write_ascii_rows(f, records: np.ndarray) -> None:
     # Column-wise tolist + one %-format per row is about twice as fast as
     # np.savetxt, which builds a tuple from every structured record.
-    row_format = " ".join(_ascii_formats()) + "\n"
+    row_format = " ".join(_ascii_formats(records.dtype)) + "\n"
     for start in range(0, len(records), _ASCII_CHUNK):
         chunk = records[start : start + _ASCII_CHUNK]
         columns = [chunk[name].tolist() for name in chunk.dtype.names]
@@ -231,7 +228,6 @@ def _write_ascii_rows(f, records: np.ndarray) -> None:
 
 
 def _write_vertices(f, records: np.ndarray, ascii: bool) -> None:
-    records = records.astype(_vertex_dtype(), copy=False)
     if ascii:
         _write_ascii_rows(f, records)
     else:
@@ -250,7 +246,7 @@ def write_scan_files(
     json_path = sidecar_path(ply_path)
     # Build everything that can fail on bad input before touching the disk.
     records = cloud.to_structured()
-    header = _ply_header(len(records), header_comments(cloud, metadata), ascii)
+    header = _ply_header(len(records), header_comments(cloud, metadata), ascii, cloud.fields())
     sidecar = _sidecar_bytes(ply_path, cloud, metadata, ascii)
 
     with atomic_outputs(ply_path, json_path) as (tmp_ply, tmp_json):
