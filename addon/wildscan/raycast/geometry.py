@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.hits import RayHits
+from ..core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
 
 
 @dataclass
@@ -147,16 +147,22 @@ class SceneGeometry:
 
     # -- turning triangle hits into RayHits ---------------------------------------------
 
-    def hits(self, triangle: np.ndarray, distance: np.ndarray) -> RayHits:
-        """RayHits from per-ray hit triangle index (-1 for a miss) and distance."""
+    def hits(self, triangle: np.ndarray, distance: np.ndarray, normals: np.ndarray | None = None) -> RayHits:
+        """RayHits from per-ray hit triangle index (-1 for a miss) and distance (inf for a
+        miss); with the per-triangle unit `normals` (local_planes) given, each hit's normal."""
         triangle = np.asarray(triangle, dtype=np.int64)
-        out = RayHits.empty(len(triangle))
         hit = triangle >= 0
-        tri = triangle[hit]
-        out.distance[hit] = distance[hit]
-        out.class_id[hit] = self.class_id[tri]
-        out.instance[hit] = self.instance[tri]
-        out.untagged_objects = self.untagged_names(tri)
+        # Gathers through a safe index beat boolean-mask copies on big batches (the realistic
+        # model casts millions of sub-rays).
+        safe = np.where(hit, triangle, 0)
+        out = RayHits(
+            distance=np.where(hit, distance, np.inf),
+            class_id=np.where(hit, self.class_id.take(safe), MISS_CLASS).astype(np.int16),
+            instance=np.where(hit, self.instance.take(safe), MISS_INSTANCE).astype(np.int32),
+            untagged_objects=self.untagged_names(triangle[hit]),
+        )
+        if normals is not None:
+            out.normal = np.where(hit[:, None], normals.take(safe, axis=0), 0.0)
         return out
 
     def untagged_names(self, triangles: np.ndarray) -> frozenset[str]:
@@ -371,11 +377,18 @@ class RefiningBackend:
         """(hit triangle per ray, -1 for none; its approximate distance)."""
         raise NotImplementedError
 
-    def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
+    supports_normals = True  # cast(..., normals=True) gives each hit's triangle normal
+
+    def cast(
+        self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
+    ) -> RayHits:
         local, dirs = prepare_rays(origins, directions, self.geometry.offset)
         count = len(dirs)
         if count == 0 or not self._ready():
-            return RayHits.empty(count)
+            out = RayHits.empty(count)
+            if normals:
+                out.normal = np.zeros((count, 3))
+            return out
         triangle, rough = self._first_hits(local, dirs, max_range)
         hit = triangle >= 0
         distance = np.full(count, np.inf)
@@ -384,4 +397,4 @@ class RefiningBackend:
         beyond = hit & (distance > max_range)
         triangle[beyond] = -1
         distance[beyond] = np.inf
-        return self.geometry.hits(triangle, distance)
+        return self.geometry.hits(triangle, distance, normal if normals else None)
