@@ -50,12 +50,14 @@ def beam_points(backend, direction, e_u, e_v, sensor, origin=(0.0, 0.0, 0.0), ca
 def test_the_footprint_pattern_is_the_documented_one():
     dirs = S.beam_directions(1.0)[0]
     sub = subray_directions(1.0, 4.4)
-    assert sub.shape == (len(dirs), SUBRAYS, 3)
-    assert np.array_equal(sub[:, 0], dirs)  # the axis is the paper's ray, bit for bit
+    assert sub.shape == (SUBRAYS, len(dirs), 3)
+    assert np.array_equal(sub[0], dirs)  # the axis is the paper's ray, bit for bit
     assert np.allclose(np.linalg.norm(sub, axis=2), 1.0)
-    off_axis = np.arccos(np.clip(np.einsum("nk,nsk->ns", dirs, sub[:, 1:]), -1, 1))
+    off_axis = np.arccos(np.clip(np.einsum("nk,snk->sn", dirs, sub[1:]), -1, 1))
     assert np.allclose(off_axis, 0.5 * 4.4e-3 * ring_radius_fraction(), rtol=1e-6)
-    assert subray_directions(1.0, 0.0).shape == (len(dirs), 1, 3)
+    # the ring's sub-rays lie along +u, +v, -u, -v: opposite pairs straddle the axis
+    assert np.allclose(sub[1] + sub[3], 2 * np.cos(off_axis[0])[:, None] * dirs)
+    assert subray_directions(1.0, 0.0).shape == (1, len(dirs), 3)
 
 
 def test_realistic_with_a_thin_beam_and_one_echo_gives_the_papers_points_and_labels():

@@ -41,9 +41,11 @@ from .classes import NUM_IDS, REFLECTIVITY_BY_ID, UNLABELED, WATER_ID
 R_REF = 10.0  # m: a surface filling the beam head-on at this range reads its Table I reflectivity
 ECHO_REFLECTIVITY_UNLABELED = 50.0  # an untagged mesh: a mid grey
 COS_FLOOR = 1e-3  # a grazing return keeps this much of its energy (its echo still forms)
-# A sub-ray's return is moved to the axis along its own plane only while the plane faces
-# the axis about as it faces the sub-ray; past that (grazing) its own range is kept.
-_PROJECTION_LIMITS = (0.5, 2.0)
+# A sub-ray's return is moved to the axis along its own plane only while that plane faces
+# the axis within 72 deg (tan <= 3: the move is then at most 3x the footprint's radius);
+# a more grazing plane would be extrapolated far past the piece the sub-ray met, so its
+# return keeps its own range.
+MIN_AXIS_COS = 0.3
 
 
 def _echo_reflectivity() -> np.ndarray:
@@ -65,12 +67,13 @@ def return_energy(weight, class_id, cos_incidence, distance) -> np.ndarray:
 
 @dataclass
 class SubrayReturns:
-    """Per beam and sub-ray (N, S): what each sub-ray hit."""
+    """Per sub-ray and beam (S, N; sub-ray 0 the axis): what each sub-ray hit."""
 
     distance: np.ndarray  # float64 range along the sub-ray (inf: nothing)
     class_id: np.ndarray  # int16
     instance: np.ndarray  # int32
     cos_incidence: np.ndarray  # float64 |n · d| of the hit surface
+    axis_cos: np.ndarray  # float64 |n · d_axis|: how squarely the hit plane faces the beam axis
     axis_ratio: np.ndarray  # float64 (n · d_sub) / (n · d_axis): the plane met along the axis
 
 
@@ -94,19 +97,17 @@ class Echoes:
 
 def axis_ranges(returns: SubrayReturns) -> np.ndarray:
     """Each return's range where the beam axis meets the plane it hit (its own range for a
-    miss or a plane seen much more obliquely from the axis)."""
-    lo, hi = _PROJECTION_LIMITS
-    ratio = returns.axis_ratio
-    ok = (ratio >= lo) & (ratio <= hi)
-    return np.where(ok, returns.distance * np.where(ok, ratio, 1.0), returns.distance)
+    miss or a plane grazing the axis, see MIN_AXIS_COS)."""
+    ok = (returns.axis_cos >= MIN_AXIS_COS) & np.isfinite(returns.axis_ratio)
+    return np.where(ok, returns.distance * np.where(ok, returns.axis_ratio, 1.0), returns.distance)
 
 
 def form_echoes(returns: SubrayReturns, weights: np.ndarray, separation: float, max_echoes: int) -> Echoes:
     """The echoes of every beam (see the module docstring), at most `max_echoes` a beam."""
-    n, s = returns.distance.shape
+    s, n = returns.distance.shape
     valid = np.isfinite(returns.distance) & (returns.class_id >= 0) & (returns.class_id != WATER_ID)
     t = np.where(valid, returns.distance, np.inf)
-    energy = return_energy(weights[None, :], returns.class_id, returns.cos_incidence, np.where(valid, t, 1.0))
+    energy = return_energy(weights[:, None], returns.class_id, returns.cos_incidence, np.where(valid, t, 1.0))
     columns = {
         "t": t,
         "t_axis": axis_ranges(returns),
@@ -114,38 +115,41 @@ def form_echoes(returns: SubrayReturns, weights: np.ndarray, separation: float, 
         "inst": returns.instance,
         "energy": np.where(valid, energy, 0.0),
     }
-    # Most beams land whole on one element: one echo, nothing to sort or group.
-    whole = valid.all(axis=1)
+    # Most beams land whole on one element: one echo, nothing to sort or group. (Rows are
+    # sub-rays: reducing over them is elementwise work on contiguous rows.)
+    whole = np.logical_and.reduce(valid, axis=0)
     if s > 1:
         with np.errstate(invalid="ignore"):  # inf - inf where a sub-ray met nothing
-            whole &= t.max(axis=1) - t.min(axis=1) <= separation
-        whole &= (columns["cls"] == columns["cls"][:, :1]).all(axis=1)
-        whole &= (columns["inst"] == columns["inst"][:, :1]).all(axis=1)
+            whole &= np.maximum.reduce(t, axis=0) - np.minimum.reduce(t, axis=0) <= separation
+        for k in range(1, s):
+            whole &= (columns["cls"][k] == columns["cls"][0]) & (columns["inst"][k] == columns["inst"][0])
     simple = _whole_beam_echoes(np.flatnonzero(whole), columns)
-    rest = np.flatnonzero(~whole & valid.any(axis=1))
-    grouped = _grouped_echoes(rest, {k: v[rest] for k, v in columns.items()}, valid[rest], separation)
+    rest = np.flatnonzero(~whole & np.logical_or.reduce(valid, axis=0))
+    grouped = _grouped_echoes(
+        rest, {k: v[:, rest].T for k, v in columns.items()}, valid[:, rest].T, separation
+    )
     return _strongest(_merged(simple, grouped), max_echoes)
 
 
 def _whole_beam_echoes(beams: np.ndarray, columns: dict) -> Echoes:
     """One echo for each beam whose sub-rays all met one element within the separation."""
-    energy = columns["energy"][beams]
-    t_axis = columns["t_axis"][beams]
-    total = energy.sum(axis=1)
-    first = t_axis[:, 0]
+    energy = columns["energy"][:, beams]
+    t_axis = columns["t_axis"][:, beams]
+    total = np.add.reduce(energy, axis=0)
+    first = t_axis[0]
     return Echoes(
         beam=beams.astype(np.int64),
-        range=first + (energy * (t_axis - first[:, None])).sum(axis=1) / total,
+        range=first + np.add.reduce(energy * (t_axis - first), axis=0) / total,
         intensity=total,
-        label=columns["cls"][beams, 0].astype(np.int16),
+        label=columns["cls"][0, beams].astype(np.int16),
         purity=np.ones(len(beams)),
-        instance=columns["inst"][beams, 0].astype(np.int32),
+        instance=columns["inst"][0, beams].astype(np.int32),
     )
 
 
 def _grouped_echoes(beams: np.ndarray, columns: dict, valid: np.ndarray, separation: float) -> Echoes:
     """The other beams: their returns sorted by range and split where the gap exceeds the
-    separation; `columns` and `valid` hold these beams' rows."""
+    separation; `columns` and `valid` hold these beams' rows (beam-major, (M, S))."""
     if not len(beams):
         return _no_echoes()
     order = np.argsort(columns["t"], axis=1, kind="stable")
@@ -167,9 +171,9 @@ def _grouped_echoes(beams: np.ndarray, columns: dict, valid: np.ndarray, separat
 
 
 def _merged(a: Echoes, b: Echoes) -> Echoes:
-    """Two sets of echoes of different beams as one, ordered by beam (then range)."""
+    """Two sets of echoes of different beams as one, ordered by beam, then range."""
     both = Echoes(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in Echoes.__dataclass_fields__))
-    return both.subset(np.argsort(both.beam, kind="stable"))
+    return both.subset(np.lexsort((both.range, both.beam)))
 
 
 def _no_echoes() -> Echoes:

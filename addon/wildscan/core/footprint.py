@@ -96,9 +96,10 @@ def _beam_frames(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def subray_directions(rh_deg: float, divergence_mrad: float) -> np.ndarray:
-    """(N, S, 3) unit directions of every beam's sub-rays in the sensor frame, in the order
-    of sensor.beam_directions(rh_deg); sub-ray 0 is the axis, that beam's direction bit
-    for bit. Cached (a few scans share them) and read-only."""
+    """(S, N, 3) unit directions of every beam's sub-rays in the sensor frame, sub-ray-major
+    (all axes, then every beam's first ring sub-ray...), beams in the order of
+    sensor.beam_directions(rh_deg); sub-ray 0 is the axis, that beam's direction bit for
+    bit. Cached (a few scans share them) and read-only."""
     return _subray_directions(float(rh_deg), sweep_count(rh_deg), float(divergence_mrad))
 
 
@@ -106,7 +107,7 @@ def subray_directions(rh_deg: float, divergence_mrad: float) -> np.ndarray:
 def _subray_directions(rh_deg: float, m_count: int, divergence_mrad: float) -> np.ndarray:
     dirs = beam_directions(rh_deg)[0]
     if subray_count(divergence_mrad) == 1:
-        out = dirs[:, None, :].copy()
+        out = dirs[None].copy()
     else:
         out = subrays_around(dirs, *_beam_frames(rh_deg, m_count), divergence_mrad)
     out.flags.writeable = False
@@ -114,16 +115,18 @@ def _subray_directions(rh_deg: float, m_count: int, divergence_mrad: float) -> n
 
 
 def subrays_around(dirs: np.ndarray, e_u: np.ndarray, e_v: np.ndarray, divergence_mrad: float) -> np.ndarray:
-    """(N, S, 3) sub-ray directions around beams `dirs` (N, 3) whose footprints' u and v axes
-    are the unit vectors e_u, e_v (N, 3), all three orthonormal; sub-ray 0 is `dirs`."""
+    """(S, N, 3) sub-ray directions around beams `dirs` (N, 3) whose footprints' u and v axes
+    are the unit vectors e_u, e_v (N, 3), all three orthonormal; sub-ray 0 is `dirs`.
+    Sub-ray-major: each sub-ray's beams are contiguous, so per-beam sums over sub-rays are
+    sums of rows."""
     dirs = np.asarray(dirs, dtype=np.float64)
     if subray_count(divergence_mrad) == 1:
-        return dirs[:, None, :].copy()
+        return dirs[None].copy()
     cos_a, sin_a, cos_b, sin_b = _ring_layout(divergence_mrad)
-    out = np.empty((len(dirs), SUBRAYS, 3))
-    out[:, 0] = dirs
-    across = cos_b[None, :, None] * e_u[:, None, :] + sin_b[None, :, None] * e_v[:, None, :]
-    out[:, 1:] = cos_a * dirs[:, None, :] + sin_a * across
+    out = np.empty((SUBRAYS, len(dirs), 3))
+    out[0] = dirs
+    for k in range(RING):
+        out[1 + k] = cos_a * dirs + sin_a * (cos_b[k] * e_u + sin_b[k] * e_v)
     return out
 
 

@@ -60,18 +60,19 @@ def check_backend(backend) -> None:
 
 
 def subray_returns(hits: RayHits, sub_world: np.ndarray) -> SubrayReturns:
-    """Per (beam, sub-ray) what was hit, with the incidence cosine and the axis ratio."""
-    n, s, _ = sub_world.shape
-    normal = hits.normal.reshape(n, s, 3)
-    along_sub = np.einsum("nsk,nsk->ns", normal, sub_world)
-    along_axis = np.einsum("nsk,nk->ns", normal, sub_world[:, 0])
+    """Per (sub-ray, beam) what was hit, with the incidence cosine and the axis ratio."""
+    s, n, _ = sub_world.shape
+    normal = hits.normal.reshape(s, n, 3)
+    along_sub = np.einsum("snk,snk->sn", normal, sub_world)
+    along_axis = np.einsum("snk,nk->sn", normal, sub_world[0])
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(along_axis != 0, along_sub / along_axis, np.inf)
     return SubrayReturns(
-        distance=hits.distance.reshape(n, s),
-        class_id=hits.class_id.reshape(n, s),
-        instance=hits.instance.reshape(n, s),
+        distance=hits.distance.reshape(s, n),
+        class_id=hits.class_id.reshape(s, n),
+        instance=hits.instance.reshape(s, n),
         cos_incidence=np.abs(along_sub),
+        axis_cos=np.abs(along_axis),
         axis_ratio=ratio,
     )
 
@@ -87,14 +88,13 @@ def realistic_points(
     order). `cast(origins, dirs_world, max_range, normals)` is the backend's cast (maybe
     reporting progress); `rotation` turns the sensor frame to the world's."""
     sub = subray_directions(sensor.rh_deg, sensor.divergence_mrad)
-    n, s, _ = sub.shape
-    return echo_points(cast, origin, (sub.reshape(-1, 3) @ rotation.T).reshape(n, s, 3), sensor, cast_range)
+    return echo_points(cast, origin, (sub.reshape(-1, 3) @ rotation.T).reshape(sub.shape), sensor, cast_range)
 
 
 def echo_points(cast, origin: np.ndarray, sub_world: np.ndarray, sensor: SensorConfig, cast_range: float):
-    """The points of beams whose sub-rays (N, S, 3; sub-ray 0 the axis) leave `origin` in
+    """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
     world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's."""
-    n, s, _ = sub_world.shape
+    s, n, _ = sub_world.shape
     returns = subray_returns(cast(origin, sub_world.reshape(-1, 3), cast_range, True), sub_world)
     weights = subray_weights(s)
     echoes = form_echoes(returns, weights, sensor.echo_separation, sensor.echoes)
@@ -102,7 +102,7 @@ def echo_points(cast, origin: np.ndarray, sub_world: np.ndarray, sensor: SensorC
     keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
     echoes, measured = echoes.subset(keep), measured[keep]
     number, count = _numbers(echoes.beam, n)
-    axis = AxisHits(returns, sub_world[:, 0], origin, cast_range)
+    axis = AxisHits(returns, sub_world[0], origin, cast_range)
     on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False))
     per_beam = np.bincount(echoes.beam, minlength=n)
     stats = {
@@ -157,8 +157,8 @@ class AxisHits:
         self.axis = axis_world
         self.origin = np.asarray(origin, dtype=np.float64)
         self.cast_range = cast_range
-        self.last = returns.distance[:, 0].copy()  # the farthest axis hit found so far
-        self.first = (self.last, returns.class_id[:, 0], returns.instance[:, 0])
+        self.last = returns.distance[0].copy()  # the farthest axis hit found so far
+        self.first = (self.last.copy(), returns.class_id[0], returns.instance[0])
 
     def settle(self, echoes: Echoes, cast) -> tuple[np.ndarray, np.ndarray]:
         """(on its labeled surface, that surface's instance) for each echo."""
