@@ -28,16 +28,15 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
 )
 
 # Optional per-point fields, in file order after `scalar_label`: a cloud carries those it
-# has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract (so a
-# paper-model scan's bytes never change). The realistic sensor model (core/echoes.py) adds
-# the four echo fields.
+# has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract.
 OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
-    ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest (realistic model)
-    ("echoes", "u1"),  # how many echoes its beam returned, 1..3 (realistic model)
-    ("label_purity", "<f4"),  # share of the echo's energy from the labeled class, 0..1 (realistic)
-    ("mixed", "u1"),  # 1 where the point lies on no single surface: a mixed pixel (realistic)
+    ("hag", "<f4"),  # height above the true terrain surface under the point, metres (datasets)
+    # the realistic sensor model's (core/echoes.py); a paper-model scan has none of them
+    ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest
+    ("echoes", "u1"),  # how many echoes its beam returned, 1..3
+    ("label_purity", "<f4"),  # share of the echo's energy from the labeled class, 0..1
+    ("mixed", "u1"),  # 1 where the point lies on no single surface: a mixed pixel
 )
-OPTIONAL_FIELD_NAMES = frozenset(name for name, _ in OPTIONAL_FIELDS)
 
 
 @dataclass
@@ -63,7 +62,7 @@ class PointCloud:
 
     def fields(self) -> tuple[tuple[str, str], ...]:
         """PLY_FIELDS, then the OPTIONAL_FIELDS this cloud carries, in registry order."""
-        unknown = set(self.extra) - OPTIONAL_FIELD_NAMES
+        unknown = set(self.extra) - {name for name, _ in OPTIONAL_FIELDS}
         if unknown:
             raise ValueError(f"unknown optional point fields {sorted(unknown)}; see OPTIONAL_FIELDS")
         return PLY_FIELDS + tuple((name, code) for name, code in OPTIONAL_FIELDS if name in self.extra)
@@ -82,8 +81,8 @@ class PointCloud:
         out["sweep"] = self.sweep
         out["range"] = self.range
         out["scalar_label"] = self.label
-        for name, values in self.extra.items():
-            out[name] = values
+        for name in self.extra:
+            out[name] = self.extra[name]
         return out
 
     def class_counts(self) -> dict[int, int]:

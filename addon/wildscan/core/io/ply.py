@@ -1,8 +1,8 @@
 """PLY + JSON sidecar writer (and a small reader) for WildScan point clouds.
 
 Numpy only. The files are a contract with users (DESIGN.md "PLY"): the vertex
-fields and their order come from `pointcloud.PLY_FIELDS` (plus the optional fields the
-cloud carries, `pointcloud.OPTIONAL_FIELDS`, after them), the header comments
+fields and their order come from `pointcloud.PLY_FIELDS` (plus the cloud's optional
+fields, `pointcloud.OPTIONAL_FIELDS`, when it carries any), the header comments
 carry the tool version, the scan metadata and the class table.
 
 Writes are atomic: a scan either leaves both `scan.ply` and `scan.json` or
