@@ -74,7 +74,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         f"roll {p.roll_deg:.2f} deg, pitch {p.pitch_deg:.2f} deg",
     )
     print(f"wrote {ply} ({len(result.cloud):,} points of {result.beams:,} beams, frame {args.frame})")
-    if sensor.realistic:
+    if sensor.realistic and not args.quiet:
         print_echo_summary(result.metadata["echoes"], len(result.cloud))
     print(f"wrote {sidecar}")
     if not args.quiet:
