@@ -140,3 +140,17 @@ def test_high_grass_is_separate_blades_and_bushes_are_not_closed(porous):
 def test_the_forest_stands_closed_with_porous_vegetation(porous, solid):
     trees = [len(p.elements_of("trunk", zone="forest")) for p in (porous, solid)]
     assert trees[0] > 2 * trees[1]
+
+
+def test_a_pose_right_at_a_trunk_is_rejected_the_sensor_would_stand_inside_it():
+    """The four placement lasers land around a trunk; the column would run up inside it."""
+    from wildscan.app.poses import plan_backend
+    from wildscan.core.errors import PoseRejected
+    from wildscan.core.placement import Pose, place
+
+    plan = plan_world(0, "low")
+    backend = plan_backend(plan)
+    trunk = min(plan.elements_of("trunk", zone="forest"), key=lambda e: e.radius)
+    x, y, _ = trunk.location
+    with pytest.raises(PoseRejected, match="inside a trunk"):
+        place(backend, Pose(x, y, 30.0))

@@ -167,8 +167,8 @@ _SHARED = (
         None,
         "SIGMA",
         f"standard deviation of the Gaussian range noise, metres, 0 (off) to {S.MAX_NOISE_SIGMA:g} "
-        f"(default: the model's own, {S.DEFAULT_NOISE_SIGMA:g} for paper; for realistic the datasheet's "
-        "accuracy, +-30 mm to 10 m and +-50 mm beyond, read as 2 sigma: 0.015 and 0.025)",
+        f"(default {S.DEFAULT_NOISE_SIGMA:g} with the paper model; with the realistic model the "
+        "datasheet's accuracy, +-30 mm to 10 m and +-50 mm beyond, read as 2 sigma: 0.015 and 0.025)",
     ),
     Option(
         "noise_seed",

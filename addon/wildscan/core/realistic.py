@@ -55,7 +55,6 @@ def check_backend(backend) -> None:
             f"{name} cannot give surface normals, which the realistic model needs; use embree or bvh "
             "(or auto)",
             setting="backend",
-            related=("model",),
         )
 
 
