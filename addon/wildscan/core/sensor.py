@@ -30,9 +30,10 @@ paper's 1.5 cm, which its authors took for the same sensor) and σ = 25 mm beyon
 
 Beam divergence: the datasheet states none. The default, 4.4 mrad (0.25°, full angle
 at 1/e²), is an estimate: scanners of this class size the spot to cover one angular
-step so that consecutive footprints leave no gap (SICK's LMS1xx manual states that rule;
-its LMS1xx diverges 15 mrad and its TiM series 8.6 mrad), and the UTM-30LX-EW's step is
-0.25°. It is a setting: 0 gives the paper's thin ray.
+step so that consecutive footprints leave no gap (SICK's LMS1xx operating instructions
+state that rule and give 15 mrad for the LMS1xx, section 3.6.2; the TiM4xx instructions
+give 8.6 mrad, section 3.6.4), and the UTM-30LX-EW's step is 0.25°. It is a setting: 0
+gives the paper's thin ray.
 
 Echo separation: the multi-echo receiver separates two returns whose ranges differ by
 more than the pulse can resolve, about c·τ/2 for a pulse of width τ; the datasheet gives
