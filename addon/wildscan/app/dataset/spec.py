@@ -21,7 +21,7 @@ from ...core.frames import FRAMES
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
 from ...core.rng import stage_rng, stage_seed
-from ...core.world import DETAILS, MAX_SEED, ZONES
+from ...core.world import DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 
 FORMATS = ("semantickitti", "las", "ply")
 SPLITS = ("train", "val", "test")
@@ -43,9 +43,14 @@ class SensorSpec:
     rh: Value = S.DEFAULT_RH_DEG
     min_range: Value = S.DEFAULT_MIN_RANGE
     max_range: Value = S.DEFAULT_MAX_RANGE
-    noise: Value = S.DEFAULT_NOISE_SIGMA
+    noise: Value | None = None  # None: the model's own (paper 0.015 m; realistic the datasheet's)
     noise_seed: int | tuple[int, int] | None = None  # None: a seed of its own per scan
     frame: str = "leveled"
+    model: str = S.DEFAULT_MODEL
+    # the realistic model's own settings (as `wildscan scan`: a mistake with model "paper")
+    divergence: Value = S.DEFAULT_DIVERGENCE_MRAD
+    echoes: int | tuple[int, int] = S.MAX_ECHOES
+    echo_separation: Value = S.DEFAULT_ECHO_SEPARATION
 
 
 @dataclass(frozen=True)
@@ -59,6 +64,7 @@ class PoseSpec:
 class DatasetSpec:
     seeds: tuple[int, ...] = (0, 1, 2)
     detail: str = "default"
+    vegetation: str = DEFAULT_VEGETATION
     scans_per_world: int = 50
     formats: tuple[str, ...] = FORMATS
     label_scheme: str = "wildscan"
@@ -120,12 +126,23 @@ def load_spec(path) -> DatasetSpec:
 
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
     top = _Table(data, "", where)
-    top.only("seeds", "detail", "scans_per_world", "formats", "label_scheme", "split", "poses", "sensor")
+    top.only(
+        "seeds",
+        "detail",
+        "vegetation",
+        "scans_per_world",
+        "formats",
+        "label_scheme",
+        "split",
+        "poses",
+        "sensor",
+    )
     d = DatasetSpec()
     spec = replace(
         d,
         seeds=_seeds(top),
         detail=top.choice("detail", d.detail, tuple(DETAILS)),
+        vegetation=top.choice("vegetation", d.vegetation, VEGETATION),
         scans_per_world=top.integer("scans_per_world", d.scans_per_world, 1, MAX_SCANS_PER_WORLD),
         formats=_formats(top),
         label_scheme=top.choice("label_scheme", d.label_scheme, SCHEME_NAMES),
@@ -257,13 +274,40 @@ _SENSOR_LIMITS = {
     "min_range": (0.0, S.MAX_RANGE_LIMIT, "m"),
     "max_range": (0.0, S.MAX_RANGE_LIMIT, "m"),
     "noise": (0.0, S.MAX_NOISE_SIGMA, "m"),
+    "divergence": (0.0, S.MAX_DIVERGENCE_MRAD, "mrad"),
+    "echo_separation": (0.0, S.MAX_ECHO_SEPARATION, "m"),
 }
+# the keys of [sensor]: the sensor options of `wildscan scan` (cli/options.py SENSOR_OPTIONS)
+# and the frame, in the order the README lists them
+SENSOR_KEYS = (
+    "rh",
+    "min_range",
+    "max_range",
+    "noise",
+    "noise_seed",
+    "model",
+    "divergence",
+    "echoes",
+    "echo_separation",
+    "frame",
+)
+REALISTIC_ONLY = ("divergence", "echoes", "echo_separation")
 
 
 def _sensor(t: _Table) -> SensorSpec:
-    t.only("rh", "min_range", "max_range", "noise", "noise_seed", "frame")
+    t.only(*SENSOR_KEYS)
     d = SensorSpec()
-    values = {key: _sensor_value(t, key, getattr(d, key)) for key in _SENSOR_LIMITS}
+    model = t.choice("model", d.model, S.MODELS)
+    for key in REALISTIC_ONLY:
+        if key in t.data and model != "realistic":
+            raise UserError(
+                f'{t.where}: {t.name(key)} applies to model = "realistic" only (sensor.model is "{model}")'
+            )
+    values = {
+        key: _sensor_value(t, key, getattr(d, key))
+        for key in _SENSOR_LIMITS
+        if key != "noise" or t.get(key, None) is not None
+    }
     if not any(True for _ in rh_choices(values["rh"])):
         raise t.fail(
             "rh", "a value (or range) holding an r_h that divides 180 into whole 2D scans", t.get("rh", None)
@@ -278,7 +322,19 @@ def _sensor(t: _Table) -> SensorSpec:
             f"above 0 and at most {S.MAX_RANGE_LIMIT:g} m (or a range of such)",
             t.get("max_range", None),
         )
-    return SensorSpec(**values, noise_seed=_noise_seed(t), frame=t.choice("frame", d.frame, FRAMES))
+    if _lo(values["echo_separation"]) <= 0:
+        raise t.fail(
+            "echo_separation",
+            f"above 0 and at most {S.MAX_ECHO_SEPARATION:g} m (or a range of such)",
+            t.get("echo_separation", None),
+        )
+    return SensorSpec(
+        **values,
+        noise_seed=_whole_value(t, "noise_seed", 0, 2**63 - 1, None),
+        frame=t.choice("frame", d.frame, FRAMES),
+        model=model,
+        echoes=_whole_value(t, "echoes", 1, S.MAX_ECHOES, d.echoes),
+    )
 
 
 def _lo(v: Value) -> float:
@@ -306,18 +362,18 @@ def _sensor_value(t: _Table, key: str, default: float) -> Value:
     return float(value)
 
 
-def _noise_seed(t: _Table) -> int | tuple[int, int] | None:
-    value = t.get("noise_seed", None)
+def _whole_value(t: _Table, key: str, low: int, high: int, default):
+    """A whole number from low to high, or a range [lo, hi] of such (drawn per scan)."""
+    value = t.get(key, default)
     if value is None:
         return None
-    top = 2**63 - 1
-    allowed = f"a whole number from 0 to {top}, or a range [lo, hi] of such"
+    allowed = f"a whole number from {low} to {high}, or a range [lo, hi] of such"
     if isinstance(value, list):
-        if len(value) != 2 or not all(_is_int(v) and 0 <= v <= top for v in value) or value[0] > value[1]:
-            raise t.fail("noise_seed", allowed, value)
+        if len(value) != 2 or not all(_is_int(v) and low <= v <= high for v in value) or value[0] > value[1]:
+            raise t.fail(key, allowed, value)
         return (value[0], value[1])
-    if not _is_int(value) or not 0 <= value <= top:
-        raise t.fail("noise_seed", allowed, value)
+    if not _is_int(value) or not low <= value <= high:
+        raise t.fail(key, allowed, value)
     return value
 
 
@@ -340,7 +396,7 @@ def _draw(value, seed: int, index: int, key: str):
     if not isinstance(value, tuple):
         return value
     rng = stage_rng(seed, f"dataset.sensor.{key}.{index}")
-    if key == "noise_seed":
+    if key in ("noise_seed", "echoes"):
         return int(rng.integers(value[0], value[1], endpoint=True))
     if key == "rh":
         choices = list(rh_choices(value))
@@ -363,6 +419,10 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
         max_range=_draw(spec.max_range, seed, index, "max_range"),
         noise_sigma=_draw(spec.noise, seed, index, "noise"),
         noise_seed=noise_seed,
+        model=spec.model,
+        divergence_mrad=_draw(spec.divergence, seed, index, "divergence"),
+        echoes=_draw(spec.echoes, seed, index, "echoes"),
+        echo_separation=_draw(spec.echo_separation, seed, index, "echo_separation"),
     ).validate()
 
 
@@ -376,6 +436,7 @@ def spec_from_json(data: dict) -> DatasetSpec:
     return DatasetSpec(
         seeds=tuple(data["seeds"]),
         detail=data["detail"],
+        vegetation=data["vegetation"],
         scans_per_world=data["scans_per_world"],
         formats=tuple(data["formats"]),
         label_scheme=data["label_scheme"],

@@ -69,7 +69,7 @@ _worlds: OrderedDict[tuple, WorldContext] = OrderedDict()
 
 def world_context(spec: DatasetSpec, seed: int) -> WorldContext:
     _keep_freed_memory()
-    key = (seed, spec.detail, spec.scans_per_world, spec.poses)
+    key = (seed, spec.detail, spec.vegetation, spec.scans_per_world, spec.poses)
     if key in _worlds:
         _worlds.move_to_end(key)
         return _worlds[key]
@@ -102,7 +102,7 @@ def build_world(spec: DatasetSpec, seed: int) -> WorldContext:
     from ...raycast.from_plan import plan_geometry
 
     t0 = time.perf_counter()
-    plan = plan_world(seed, spec.detail)
+    plan = plan_world(seed, spec.detail, vegetation=spec.vegetation)
     geometry = plan_geometry(plan)
     backend = _embree(geometry)
 
@@ -217,14 +217,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
     row.update(zone=choice.zone, pose=choice.to_dict())
     sensor = draw_sensor(spec.sensor, context.seed, index)
     frame = spec.sensor.frame
-    row["sensor"] = {
-        "rh": sensor.rh_deg,
-        "min_range": sensor.min_range,
-        "max_range": sensor.max_range,
-        "noise": sensor.noise_sigma,
-        "noise_seed": sensor.noise_seed,
-        "frame": frame,
-    }
+    row["sensor"] = sensor_row(sensor, frame)
     try:
         result = run_scan(context.backend, choice.pose, sensor, frame, choice.z_start)
     except PoseRejected as e:
@@ -248,6 +241,28 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         files=written,
     )
     row["seconds"] = time.perf_counter() - t0
+    return row
+
+
+def sensor_row(sensor, frame: str) -> dict:
+    """The sensor values of one scan as the manifest records them, in SPEC.toml's names. A
+    paper-model row says what it said before the realistic model existed; `noise` null is
+    the realistic model's datasheet noise (its sigma depends on the range)."""
+    row = {
+        "rh": sensor.rh_deg,
+        "min_range": sensor.min_range,
+        "max_range": sensor.max_range,
+        "noise": sensor.fixed_noise,
+        "noise_seed": sensor.noise_seed,
+        "frame": frame,
+    }
+    if sensor.realistic:
+        row.update(
+            model=sensor.model,
+            divergence=sensor.divergence_mrad,
+            echoes=sensor.echoes,
+            echo_separation=sensor.echo_separation,
+        )
     return row
 
 
@@ -289,6 +304,7 @@ def _las(cloud, mapped, hag, placement, frame) -> bytes:
         "sweep": cloud.sweep,
         "range": cloud.range,
         "hag": hag,
+        **cloud.extra,  # the realistic model's echo, echoes, label_purity, mixed
     }
     offsets = np.round(placement.optical_centre) if frame == "world" else np.zeros(3)
     return las_bytes(cloud.xyz, cloud.intensity, cloud.label, mapped, fields, __version__, offsets)
@@ -313,7 +329,7 @@ def _ply(paths, cloud, hag, row, metadata) -> dict[str, bytes]:
             "zone": row["zone"],
         },
     )
-    with_hag = replace(cloud, extra={"hag": hag})
+    with_hag = replace(cloud, extra={**cloud.extra, "hag": hag})  # keeps the realistic model's fields
     ply, sidecar = scan_file_bytes(Path(paths["ply"]), with_hag, meta)
     return {paths["ply"]: ply, paths["ply_sidecar"]: sidecar}
 

@@ -4,8 +4,14 @@ Classification is an ASPRS code (LAS 1.4 R15, table 17); WildScan classes withou
 ASPRS class get user codes from 64 up. The file carries the table itself in a
 Classification Lookup VLR, and extra dimensions (LAS "extra bytes") keep what ASPRS
 codes lose: `wildscan_label`, `label` (the dataset's label scheme), `instance`, `ring`,
-`sweep`, `range` and `hag` (height above the true terrain). Intensity is the element's
-reflectivity (Table I, 15..100); colours are the class colours (16-bit).
+`sweep`, `range` and `hag` (height above the true terrain). Intensity is the scan's
+(paper model: the element's Table I reflectivity, 15..100); colours are the class colours
+(16-bit).
+
+Echoes: a realistic-model scan's `echo` (1..3) and `echoes` (how many its beam returned)
+are LAS's own return_number and number_of_returns, and its `label_purity` and `mixed`
+become two more extra dimensions (REALISTIC_DIMENSIONS). A paper-model scan has one
+return per beam (1 of 1) and no such dimensions: its bytes are what they were before.
 
 Determinism: laspy stamps today's date into the header; it is fixed here so the same
 scan always gives the same bytes. laspy is imported lazily (only LAS output needs it).
@@ -63,6 +69,11 @@ EXTRA_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
     ("range", np.float32, "measured range, m"),
     ("hag", np.float32, "height above terrain, m"),
 )
+# extra dimensions of a realistic-model scan only (core/pointcloud.py OPTIONAL_FIELDS)
+REALISTIC_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
+    ("label_purity", np.float32, "share of echo energy from label"),
+    ("mixed", np.uint8, "1: a mixed pixel on no surface"),
+)
 
 
 def asprs_codes(wildscan_labels: np.ndarray) -> np.ndarray:
@@ -72,7 +83,7 @@ def asprs_codes(wildscan_labels: np.ndarray) -> np.ndarray:
     return table[np.asarray(wildscan_labels, dtype=np.intp)]
 
 
-def _header(version: str, offsets: np.ndarray):
+def _header(version: str, offsets: np.ndarray, dimensions):
     import laspy
     from laspy.vlrs.known import ClassificationLookupVlr
 
@@ -83,7 +94,7 @@ def _header(version: str, offsets: np.ndarray):
     header.scales = np.full(3, SCALE)
     header.offsets = np.asarray(offsets, dtype=np.float64)
     header.add_extra_dims(
-        [laspy.ExtraBytesParams(name=n, type=t, description=d) for n, t, d in EXTRA_DIMENSIONS]
+        [laspy.ExtraBytesParams(name=n, type=t, description=d) for n, t, d in dimensions]
     )
     lookup = ClassificationLookupVlr()
     for code, name in ASPRS_NAMES.items():
@@ -101,21 +112,25 @@ def las_bytes(
     version: str,
     offsets=(0.0, 0.0, 0.0),
 ) -> bytes:
-    """One scan as LAS 1.4 bytes. `fields` holds instance, ring, sweep, range and hag."""
+    """One scan as LAS 1.4 bytes. `fields` holds instance, ring, sweep, range and hag, and
+    for a realistic-model scan echo, echoes, label_purity and mixed."""
     import laspy
 
-    las = laspy.LasData(_header(version, np.asarray(offsets)))
+    realistic = "echo" in fields
+    dimensions = EXTRA_DIMENSIONS + (REALISTIC_DIMENSIONS if realistic else ())
+    las = laspy.LasData(_header(version, np.asarray(offsets), dimensions))
     xyz = np.asarray(xyz, dtype=np.float64)
     las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
     las.intensity = np.rint(np.asarray(intensity, dtype=np.float64)).astype(np.uint16)
-    las.return_number = np.ones(len(xyz), dtype=np.uint8)
-    las.number_of_returns = np.ones(len(xyz), dtype=np.uint8)
+    one = np.ones(len(xyz), dtype=np.uint8)
+    las.return_number = np.asarray(fields["echo"], dtype=np.uint8) if realistic else one
+    las.number_of_returns = np.asarray(fields["echoes"], dtype=np.uint8) if realistic else one
     las.classification = asprs_codes(wildscan_label)
     rgb = COLOR_BY_ID[np.asarray(wildscan_label, dtype=np.intp)].astype(np.uint16) * 257
     las.red, las.green, las.blue = rgb[:, 0], rgb[:, 1], rgb[:, 2]
     las.wildscan_label = np.asarray(wildscan_label, dtype=np.uint16)
     las.label = np.asarray(scheme_label, dtype=np.uint16)
-    for name, _, _ in EXTRA_DIMENSIONS[2:]:
+    for name, _, _ in dimensions[2:]:
         setattr(las, name, fields[name])
     out = io.BytesIO()
     las.write(out)
