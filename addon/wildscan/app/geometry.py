@@ -14,18 +14,26 @@ import os
 from pathlib import Path
 
 from ..core.errors import UserError
+from ..core.world import DEFAULT_VEGETATION
 
 # Backends that cast against SceneGeometry; scene.ray_cast needs the Blender scene itself.
 GEOMETRY_BACKENDS = ("auto", "embree", "bvh")
 
 
-def world_geometry_of(world: str | None = None, seed: int | None = None, detail: str = "default"):
-    """(SceneGeometry, metadata) of a world: the world of `seed` at `detail` planned
-    without Blender, the .blend file `world`, or (neither) the scene Blender has open."""
+def world_geometry_of(
+    world: str | None = None,
+    seed: int | None = None,
+    detail: str = "default",
+    vegetation: str = DEFAULT_VEGETATION,
+):
+    """(SceneGeometry, metadata) of a world: the world of `seed` at `detail` with
+    `vegetation` planned without Blender, the .blend file `world`, or (neither) the scene
+    Blender has open."""
     if seed is not None:
         from ..raycast.from_plan import world_geometry
 
-        return world_geometry(seed, detail), {"seed": seed, "detail": detail, "world": None}
+        metadata = {"seed": seed, "detail": detail, "vegetation": vegetation, "world": None}
+        return world_geometry(seed, detail, vegetation), metadata
     from ..blender.scene_io import open_world, scene_provenance
     from ..raycast.extract import extract_scene
 
@@ -36,7 +44,11 @@ def world_geometry_of(world: str | None = None, seed: int | None = None, detail:
 
 
 def extract(
-    out: str | os.PathLike, world: str | None = None, seed: int | None = None, detail: str = "default"
+    out: str | os.PathLike,
+    world: str | None = None,
+    seed: int | None = None,
+    detail: str = "default",
+    vegetation: str = DEFAULT_VEGETATION,
 ):
     """Save the geometry of a world (see world_geometry_of) to `out` (.npz); returns
     (path, geometry, metadata). The output path is checked before any work."""
@@ -44,7 +56,7 @@ def extract(
     from ..raycast.scene_file import SUFFIX, save_geometry
 
     check_output_path(out, SUFFIX)
-    geometry, metadata = world_geometry_of(world, seed, detail)
+    geometry, metadata = world_geometry_of(world, seed, detail, vegetation)
     return save_geometry(geometry, out, metadata), geometry, metadata
 
 

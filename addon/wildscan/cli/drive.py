@@ -23,11 +23,22 @@ DESCRIPTION = (
 )
 
 
+# A drive emulates the paper model only (app/drive/request.py check_paper_model says why).
+DRIVE_OVERRIDES = {
+    "model": dict(
+        help="sensor model: paper only (default). A drive emulates the paper model: one thin ray a beam, "
+        "cast at the beam's own time and pose; realistic (footprint, echoes) is refused with exit 2, "
+        "use `wildscan scan` or `wildscan dataset` for it"
+    ),
+}
+
+
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument("--world", metavar="FILE.blend", help="drive in this saved world (needs bpy)")
     options.add(p, "seed", group=source, help="drive in the world of this seed, planned without Blender")
     options.add(p, "detail", help="detail level of the --seed world: low | default | high (default: default)")
+    options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
     route = p.add_mutually_exclusive_group(required=True)
     route.add_argument("--trail", action="store_true", help="drive along the world's trail, from its start")
     route.add_argument(
@@ -63,7 +74,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "(default); continuous: it turns steadily, each beam at the head angle of its own time",
     )
     for name in options.SENSOR_OPTIONS:
-        options.add(p, name)
+        if name not in options.REALISTIC_ONLY:
+            options.add(p, name, **DRIVE_OVERRIDES.get(name, {}))
     options.add(
         p,
         "frame",
@@ -107,6 +119,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,
         sensor=options.sensor_of(args),
+        vegetation=options.vegetation_of(args),
     )
     try:
         report = run_drive(request, progress=Progress("driving", args.quiet), say=print)

@@ -267,6 +267,14 @@ def apply_checks(parser: ArgumentParser, args: argparse.Namespace) -> argparse.N
     return args
 
 
+def vegetation_of(args: argparse.Namespace) -> str:
+    """The vegetation of the --seed world (default porous); a mistake without --seed (a saved
+    world or geometry file has the vegetation it was built with)."""
+    if args.vegetation is not None and args.seed is None:
+        raise UserError("applies to a world built from {seed} only", setting="vegetation", related=("seed",))
+    return args.vegetation or DEFAULT_VEGETATION
+
+
 def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
     """The sensor the sensor options describe (validated where it is used); the realistic
     model's own options are a mistake with the paper model."""

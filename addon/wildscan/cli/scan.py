@@ -50,11 +50,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
     from ..core.placement import Pose
     from .output import Progress, StageProgress, print_class_counts, print_echo_summary, say
 
-    pose, sensor = Pose(*args.pose), options.sensor_of(args)
-    if args.vegetation is not None and args.seed is None:
-        from ..core.errors import UserError
-
-        raise UserError("applies to a world built from {seed} only", setting="vegetation", related=("seed",))
+    pose, sensor, vegetation = Pose(*args.pose), options.sensor_of(args), options.vegetation_of(args)
     out = check_scan(pose, sensor, args.z_start, args.out)
     geometry, provenance = None, {}
     if args.geometry is not None:
@@ -63,7 +59,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         say(args, f"building the world of seed {args.seed}")
     if geometry is None:
         open_scan_world(
-            args.world, args.seed, progress=StageProgress(args.quiet), vegetation=args.vegetation or "porous"
+            args.world, args.seed, progress=StageProgress(args.quiet), vegetation=vegetation
         )
     result = scan_current_scene(
         pose,

@@ -11,6 +11,7 @@ from ...core.frames import check_frame
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
 from ...core.sensor import SensorConfig
+from ...core.world import DEFAULT_VEGETATION, check_vegetation
 
 BAGS = ("both", "ros1", "ros2", "none")
 ROS2_STORAGES = ("mcap", "sqlite3")
@@ -25,6 +26,7 @@ class DriveRequest:
     world: str | None = None  # a .blend file
     seed: int | None = None  # or a seed's world, planned without Blender
     detail: str = "default"
+    vegetation: str = DEFAULT_VEGETATION  # of the seed's world (a .blend has its own)
     trail: bool = False  # the path: the world's trail,
     waypoints: str | None = None  # a CSV of x,y,
     start: tuple[float, float, float] | None = None  # or straight ahead from (x, y, yaw)
@@ -61,6 +63,8 @@ class DriveRequest:
             raise UserError(f"must be from 1 to {MAX_SCANS_3D:,}, got {self.scans}", setting="scans")
         check_head(self.head)
         self.sensor.validate()
+        check_paper_model(self.sensor)
+        check_vegetation(self.vegetation)
         check_frame(self.frame)
         one_of(self.backend, "backend", DRIVE_BACKENDS)
         one_of(self.bag, "bag", BAGS)
@@ -82,6 +86,7 @@ class DriveRequest:
             "world": self.world,
             "seed": self.seed,
             "detail": self.detail if self.seed is not None else None,
+            "vegetation": self.vegetation if self.seed is not None else None,
             "path": "trail" if self.trail else "waypoints" if self.waypoints is not None else "straight",
             "waypoints": self.waypoints,
             "from": list(self.start) if self.start is not None else None,
@@ -97,3 +102,16 @@ class DriveRequest:
             "wind": self.wind,
             "wind_seed": self.wind_seed,
         }
+
+
+def check_paper_model(sensor: SensorConfig) -> None:
+    """A drive emulates the paper model only: its sweep (core/motion/sweep.py) casts one thin
+    ray a beam at the beam's own time and pose, and the realistic model's footprint and
+    echoes are not worked out for a moving head."""
+    if sensor.realistic:
+        raise UserError(
+            "must be paper: a drive emulates the paper sensor model only (one thin ray a beam, one "
+            "echo); for echoes use `wildscan scan --model realistic` or `wildscan dataset`",
+            setting="model",
+            allowed=("paper",),
+        )

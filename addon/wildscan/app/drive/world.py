@@ -24,8 +24,13 @@ def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray 
         from ...core.world import plan_world
         from ...raycast.from_plan import plan_geometry
 
-        plan = plan_world(request.seed, request.detail)
-        provenance = {"seed": request.seed, "detail": request.detail, "world": None}
+        plan = plan_world(request.seed, request.detail, vegetation=request.vegetation)
+        provenance = {
+            "seed": request.seed,
+            "detail": request.detail,
+            "vegetation": request.vegetation,
+            "world": None,
+        }
         return plan_geometry(plan), provenance, plan.layout.trail.path
     from ...blender.scene_io import open_world, scene_provenance
     from ...raycast.extract import extract_scene
@@ -33,7 +38,7 @@ def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray 
     open_world(request.world)
     seed, blend = scene_provenance()
     geometry = extract_scene()
-    provenance = {"seed": seed, "detail": None, "world": blend}
+    provenance = {"seed": seed, "detail": None, "vegetation": None, "world": blend}
     return geometry, provenance, _trail_of_blend(seed, geometry)
 
 
