@@ -45,7 +45,8 @@ def test_an_empty_spec_takes_every_documented_default():
     assert dict(spec.split) == {"train": 0.8, "val": 0.1, "test": 0.1}
     assert spec.poses.strategy == "zones" and spec.poses.min_distance == 2.0
     assert dict(spec.poses.zones) == {"hills": 1, "forest": 2, "park": 1, "lake": 1, "cave": 1, "trail": 1}
-    assert (spec.sensor.rh, spec.sensor.max_range, spec.sensor.noise) == (1.0, 15.0, 0.015)
+    assert (spec.sensor.rh, spec.sensor.max_range, spec.sensor.model) == (1.0, 15.0, "paper")
+    assert spec.sensor.noise is None  # the model's own: 0.015 m with the paper model
 
 
 @pytest.mark.parametrize(

@@ -93,9 +93,7 @@ def _header(version: str, offsets: np.ndarray, dimensions):
     header.system_identifier = "WildScan synthetic scan"
     header.scales = np.full(3, SCALE)
     header.offsets = np.asarray(offsets, dtype=np.float64)
-    header.add_extra_dims(
-        [laspy.ExtraBytesParams(name=n, type=t, description=d) for n, t, d in dimensions]
-    )
+    header.add_extra_dims([laspy.ExtraBytesParams(name=n, type=t, description=d) for n, t, d in dimensions])
     lookup = ClassificationLookupVlr()
     for code, name in ASPRS_NAMES.items():
         lookup[code] = name[:15]

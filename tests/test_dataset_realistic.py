@@ -1,0 +1,175 @@
+"""`wildscan dataset` speaks the options `wildscan scan` and `wildscan world` have: a
+top-level `vegetation`, and in [sensor] the realistic model with its divergence, echoes and
+echo separation (ranges drawn per scan). A tiny realistic dataset on solid vegetation is
+read back with laspy (echoes as LAS return numbers), our PLY reader and plyfile, and with
+the SemanticKITTI layout (x y z remission, no echo fields); it resumes and verifies."""
+
+from __future__ import annotations
+
+import json
+
+import laspy
+import numpy as np
+import plyfile
+import pytest
+from dataset_helpers import manifest_rows, read_kitti_scan, wildscan
+
+from wildscan.app.dataset.spec import draw_sensor, load_spec, spec_from_dict
+from wildscan.core.errors import UserError
+from wildscan.core.io.ply import read_ply
+
+TINY_REALISTIC = """\
+seeds = [1]
+detail = "low"
+vegetation = "solid"
+scans_per_world = 2
+split = { train = 1.0, val = 0.0, test = 0.0 }
+
+[poses]
+zones = { forest = 1 }
+
+[sensor]
+rh = 6.0
+model = "realistic"
+divergence = [3.0, 6.0]
+echoes = 3
+echo_separation = 0.25
+"""
+ECHO_FIELDS = ("echo", "echoes", "label_purity", "mixed")
+
+# --------------------------------------------------------------------------- the spec
+
+
+def test_the_new_keys_default_as_scan_and_world_do():
+    spec = spec_from_dict({})
+    assert spec.vegetation == "porous"
+    s = spec.sensor
+    assert (s.model, s.divergence, s.echoes, s.echo_separation) == ("paper", 4.4, 3, 0.3)
+    assert s.noise is None  # the model's own noise, as `wildscan scan` without --noise
+    sensor = draw_sensor(s, 0, 0)
+    assert sensor.model == "paper" and sensor.fixed_noise == 0.015  # the paper scans of before
+
+
+@pytest.mark.parametrize(
+    "data, words",
+    [
+        ({"vegetation": "leafy"}, ["vegetation must be one of", '"porous"', '"solid"']),
+        ({"sensor": {"model": "lidar"}}, ["sensor.model must be one of", '"realistic"']),
+        ({"sensor": {"divergence": 3.0}}, ["sensor.divergence applies to model", '"realistic" only']),
+        ({"sensor": {"echoes": 2}}, ["sensor.echoes applies to model"]),
+        ({"sensor": {"model": "realistic", "echoes": 4}}, ["sensor.echoes must be a whole number", "1 to 3"]),
+        ({"sensor": {"model": "realistic", "echoes": [3, 1]}}, ["sensor.echoes", "range"]),
+        ({"sensor": {"model": "realistic", "echoes": 2.5}}, ["sensor.echoes must be a whole number"]),
+        ({"sensor": {"model": "realistic", "divergence": 80}}, ["sensor.divergence must be", "0 to 50 mrad"]),
+        ({"sensor": {"model": "realistic", "echo_separation": 0}}, ["sensor.echo_separation", "above 0"]),
+        ({"sensor": {"model": "realistic", "echo-separation": 1}}, ["unknown key", "echo_separation"]),
+    ],
+)
+def test_a_bad_new_key_or_value_names_the_key_and_what_is_allowed(data, words):
+    with pytest.raises(UserError) as e:
+        spec_from_dict(data)
+    message = str(e.value)
+    assert "\n" not in message
+    for word in words:
+        assert word in message, message
+
+
+def test_realistic_ranges_draw_per_scan_and_change_the_config_hash():
+    spec = spec_from_dict(
+        {"sensor": {"model": "realistic", "echoes": [1, 3], "divergence": [1.0, 5.0], "echo_separation": 0.5}}
+    )
+    draws = [draw_sensor(spec.sensor, 7, k) for k in range(30)]
+    assert draws == [draw_sensor(spec.sensor, 7, k) for k in range(30)]
+    assert {d.echoes for d in draws} == {1, 2, 3} and all(isinstance(d.echoes, int) for d in draws)
+    assert all(1.0 <= d.divergence_mrad <= 5.0 and d.echo_separation == 0.5 for d in draws)
+    assert all(d.realistic and d.fixed_noise is None for d in draws)  # the datasheet's noise
+    base = spec_from_dict({}).config_hash()
+    for change in ({"vegetation": "solid"}, {"sensor": {"model": "realistic"}}):
+        assert spec_from_dict(change).config_hash() != base
+
+
+def test_a_bad_sensor_value_exits_2_with_one_line_and_writes_nothing(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[sensor]\nmodel = "realistic"\nechoes = 5\n')
+    result = wildscan("dataset", str(spec), "--out", str(tmp_path / "out"))
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and "sensor.echoes" in result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+# --------------------------------------------------------------------------- a tiny realistic dataset
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    root = tmp_path_factory.mktemp("realistic")
+    (root / "spec.toml").write_text(TINY_REALISTIC)
+    result = wildscan("dataset", str(root / "spec.toml"), "--out", str(root / "out"), "--workers", "1")
+    assert result.returncode == 0, result.stderr
+    assert "complete: 2 of 2 scans" in result.stdout
+    return root / "out"
+
+
+def scan_files(root, kind: str, suffix: str):
+    return sorted((root / "sequences" / "00" / kind).glob(f"*.{suffix}"))
+
+
+def test_the_manifest_records_the_model_and_the_draws(dataset):
+    rows = manifest_rows(dataset)
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    for row in rows:
+        s = row["sensor"]
+        assert s["model"] == "realistic" and s["echoes"] == 3 and s["echo_separation"] == 0.25
+        assert 3.0 <= s["divergence"] <= 6.0 and s["noise"] is None
+    assert rows[0]["sensor"]["divergence"] != rows[1]["sensor"]["divergence"]
+    spec = json.loads((dataset / "dataset.json").read_text())["spec"]
+    assert spec["vegetation"] == "solid" and spec["sensor"]["model"] == "realistic"
+
+
+def test_the_worker_scans_the_solid_world_with_the_realistic_model(dataset):
+    from wildscan.app.dataset.worker import build_world
+    from wildscan.core.scan import run_scan
+
+    spec = load_spec(dataset.parent / "spec.toml")
+    context = build_world(spec, 1)
+    assert context.plan.vegetation == "solid"
+    choice = context.poses[0]
+    result = run_scan(context.backend, choice.pose, draw_sensor(spec.sensor, 1, 0), "leveled", choice.z_start)
+    records, _ = read_ply(scan_files(dataset, "ply", "ply")[0])
+    np.testing.assert_array_equal(records["x"], result.cloud.xyz[:, 0].astype(np.float32))
+    np.testing.assert_array_equal(records["echo"], result.cloud.extra["echo"])
+
+
+def test_ply_and_las_carry_the_echo_fields_and_kitti_stays_xyz_remission(dataset):
+    for ply, las_path, bin_path in zip(
+        scan_files(dataset, "ply", "ply"),
+        scan_files(dataset, "las", "las"),
+        scan_files(dataset, "velodyne", "bin"),
+        strict=True,
+    ):
+        records, _ = read_ply(ply)
+        names = list(plyfile.PlyData.read(str(ply))["vertex"].data.dtype.names)
+        assert names[-5:] == ["hag", *ECHO_FIELDS]
+        assert set(np.unique(records["echo"])) == {1, 2, 3}  # a forest returns several echoes a beam
+        assert np.all(records["echo"] <= records["echoes"])
+        las = laspy.read(las_path)
+        np.testing.assert_array_equal(las.return_number, records["echo"])
+        np.testing.assert_array_equal(las.number_of_returns, records["echoes"])
+        np.testing.assert_array_equal(las.label_purity, records["label_purity"])
+        np.testing.assert_array_equal(las.mixed, records["mixed"])
+        assert records["mixed"].any() and (records["label_purity"] < 1).any()
+        xyz, remission = read_kitti_scan(bin_path)
+        assert len(xyz) == len(records) and bin_path.stat().st_size == 16 * len(records)
+
+
+def test_a_rerun_resumes_and_verify_checks_every_file(dataset, tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(TINY_REALISTIC)
+    again = wildscan("dataset", str(spec), "--out", str(dataset), "--workers", "1")
+    assert again.returncode == 0 and "wrote 0 scans" in again.stdout, again.stderr
+    verify = wildscan("dataset", "--verify", str(dataset))
+    assert verify.returncode == 0 and "match the manifest" in verify.stdout, verify.stderr
+    other = tmp_path / "porous.toml"
+    other.write_text(TINY_REALISTIC.replace('"solid"', '"porous"'))
+    changed = wildscan("dataset", str(other), "--out", str(dataset), "--workers", "1")
+    assert changed.returncode == 2  # another spec: a different config hash
