@@ -208,3 +208,16 @@ def test_deskewing_holds_while_the_robot_turns(head):
     assert np.abs(result.deskewed.xyz[ground, 2]).max() < 1e-4  # the ground is flat where it is
     q = result.raw.xyz[pole]
     assert np.abs(np.maximum(np.abs(q[:, 0] - x0), np.abs(q[:, 1] - y0)) - a).max() > 0.05
+
+
+def test_a_seeds_drive_world_has_the_vegetation_asked_for(world):
+    from wildscan.app.drive.world import drive_world
+
+    plan, porous = world
+    solid, provenance, trail = drive_world(
+        DriveRequest(out="-", seed=SEED, detail=DETAIL, vegetation="solid")
+    )
+    assert provenance == {"seed": SEED, "detail": DETAIL, "vegetation": "solid", "world": None}
+    assert solid.triangle_count == plan_geometry(plan_world(SEED, DETAIL, vegetation="solid")).triangle_count
+    assert solid.triangle_count != porous.triangle_count
+    np.testing.assert_array_equal(trail, plan.layout.trail.path)  # the layout does not depend on it

@@ -69,6 +69,26 @@ def test_geometry_mistakes_exit_2_in_one_line(tmp_path, args, message):
     assert not (tmp_path / "x.ply").exists()
 
 
+def test_extract_builds_the_vegetation_asked_for_and_records_it(tmp_path):
+    from wildscan.raycast.from_plan import world_geometry
+    from wildscan.raycast.scene_file import load_geometry_file
+
+    scene = tmp_path / "solid.npz"
+    proc = without_bpy(
+        "extract", "--seed", "2", "--detail", "low", "--vegetation", "solid", "--out", str(scene)
+    )
+    assert proc.returncode == 0, proc.stderr
+    geometry, header = load_geometry_file(scene)
+    assert header["metadata"]["vegetation"] == "solid"
+    solid = world_geometry(2, "low", "solid")
+    assert geometry.triangle_count == solid.triangle_count != world_geometry(2, "low").triangle_count
+    blend = without_bpy(
+        "extract", "--world", "x.blend", "--vegetation", "solid", "--out", str(tmp_path / "b.npz")
+    )
+    assert blend.returncode == 2
+    assert "--vegetation applies to a world built from --seed only" in user_error_line(blend)
+
+
 def test_extract_refuses_a_wrong_suffix_before_any_work(tmp_path):
     proc = without_bpy("extract", "--seed", "1", "--out", str(tmp_path / "scene.txt"))
     assert proc.returncode == 2
