@@ -122,8 +122,12 @@ def test_the_manifest_records_the_model_and_the_draws(dataset):
         assert s["model"] == "realistic" and s["echoes"] == 3 and s["echo_separation"] == 0.25
         assert 3.0 <= s["divergence"] <= 6.0 and s["noise"] is None
     assert rows[0]["sensor"]["divergence"] != rows[1]["sensor"]["divergence"]
+        assert sum(row["echo_counts"]) == row["points"] and 0 < row["mixed_points"] < row["points"]
     spec = json.loads((dataset / "dataset.json").read_text())["spec"]
     assert spec["vegetation"] == "solid" and spec["sensor"]["model"] == "realistic"
+    card = (dataset / "CARD.md").read_text()
+    assert "solid vegetation" in card and "realistic sensor model" in card
+    assert "Echoes (realistic model): " in card and "mixed pixels" in card
 
 
 def test_the_worker_scans_the_solid_world_with_the_realistic_model(dataset):

@@ -66,7 +66,17 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
         "scans_by_zone_and_split": dict(sorted(zones.items())),
         "scan_seconds": sum(r.get("seconds", 0.0) for r in rows),
         "failures": sorted({r["reason"] for r in rows if r["status"] != "ok"}),
+        **_echo_totals(ok),
     }
+
+
+def _echo_totals(ok: list[dict]) -> dict:
+    """Points by echo and mixed pixels over the realistic scans (none: no such keys)."""
+    realistic = [r for r in ok if "echo_counts" in r]
+    if not realistic:
+        return {}
+    by_echo = [sum(r["echo_counts"][k] for r in realistic) for k in range(3)]
+    return {"echo_counts": by_echo, "mixed_points": sum(r["mixed_points"] for r in realistic)}
 
 
 def category_shares(class_points: dict[str, int]) -> dict[str, tuple[float, float]]:
@@ -123,16 +133,30 @@ def _pct(x: float) -> str:
     return f"{100 * x:.1f} %"
 
 
+def _echo_lines(t: dict) -> list[str]:
+    if "echo_counts" not in t:
+        return []
+    first, second, third = t["echo_counts"]
+    total = max(1, first + second + third)
+    return [
+        f"Echoes (realistic model): {_pct(first / total)} of points are a beam's first echo, "
+        f"{_pct(second / total)} its second, {_pct(third / total)} its third; "
+        f"{_pct(t['mixed_points'] / total)} are mixed pixels."
+    ]
+
+
 def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]]) -> str:
     t = data["totals"]
     lines = [
         f"# WildScan dataset ({'complete' if data['complete'] else 'incomplete: rerun the same command'})",
         "",
-        f"{len(spec.seeds)} worlds (detail {spec.detail}) x {spec.scans_per_world} scans; formats "
+        f"{len(spec.seeds)} worlds (detail {spec.detail}, {spec.vegetation} vegetation) x "
+        f"{spec.scans_per_world} scans, {spec.sensor.model} sensor model; formats "
         f"{', '.join(spec.formats)}; label ids: {spec.label_scheme}; "
         f"config hash `{data['config_hash'][:16]}`.",
         f"Scans written: {t['scans_ok']:,} of {t['scans_planned']:,} "
         f"({t['scans_failed']:,} without a valid pose); {t['points']:,} points; {t['bytes'] / 1e9:.2f} GB.",
+        *_echo_lines(t),
         "",
         "## Classes",
         "",

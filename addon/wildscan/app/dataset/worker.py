@@ -239,6 +239,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             np.minimum((cloud.range / RANGE_BIN).astype(np.int64), RANGE_BINS - 1), minlength=RANGE_BINS
         ).tolist(),
         files=written,
+        **_echo_counts(cloud),
     )
     row["seconds"] = time.perf_counter() - t0
     return row
@@ -264,6 +265,14 @@ def sensor_row(sensor, frame: str) -> dict:
             echo_separation=sensor.echo_separation,
         )
     return row
+
+
+def _echo_counts(cloud) -> dict:
+    """A realistic scan's points by echo (1st, 2nd, 3rd) and its mixed pixels (dataset card)."""
+    if "echo" not in cloud.extra:
+        return {}
+    by_echo = np.bincount(cloud.extra["echo"], minlength=4)[1:4]
+    return {"echo_counts": by_echo.tolist(), "mixed_points": int(np.count_nonzero(cloud.extra["mixed"]))}
 
 
 def _class_counts(labels: np.ndarray) -> dict[str, int]:
