@@ -121,8 +121,8 @@ def test_the_manifest_records_the_model_and_the_draws(dataset):
         s = row["sensor"]
         assert s["model"] == "realistic" and s["echoes"] == 3 and s["echo_separation"] == 0.25
         assert 3.0 <= s["divergence"] <= 6.0 and s["noise"] is None
-    assert rows[0]["sensor"]["divergence"] != rows[1]["sensor"]["divergence"]
         assert sum(row["echo_counts"]) == row["points"] and 0 < row["mixed_points"] < row["points"]
+    assert rows[0]["sensor"]["divergence"] != rows[1]["sensor"]["divergence"]
     spec = json.loads((dataset / "dataset.json").read_text())["spec"]
     assert spec["vegetation"] == "solid" and spec["sensor"]["model"] == "realistic"
     card = (dataset / "CARD.md").read_text()
