@@ -50,6 +50,15 @@ def test_the_new_keys_default_as_scan_and_world_do():
     assert sensor.model == "paper" and sensor.fixed_noise == 0.015  # the paper scans of before
 
 
+def test_sensor_takes_every_sensor_option_of_scan():
+    from wildscan.app.dataset.spec import SENSOR_KEYS
+    from wildscan.cli.options import SENSOR_OPTIONS
+
+    assert set(SENSOR_KEYS) == {*SENSOR_OPTIONS, "frame"}
+    spec = spec_from_dict({"sensor": {"model": "realistic", **{key: 1 for key in ("noise_seed", "echoes")}}})
+    assert (spec.sensor.noise_seed, spec.sensor.echoes) == (1, 1)
+
+
 @pytest.mark.parametrize(
     "data, words",
     [

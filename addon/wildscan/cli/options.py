@@ -246,7 +246,7 @@ SENSOR_OPTIONS = (
     "echoes",
     "echo_separation",
 )
-REALISTIC_ONLY = ("divergence", "echoes", "echo_separation")
+REALISTIC_ONLY = S.REALISTIC_SETTINGS
 
 
 def add(parser: ArgumentParser, option: str | Option, group=None, **overrides) -> None:

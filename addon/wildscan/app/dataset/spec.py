@@ -291,14 +291,13 @@ SENSOR_KEYS = (
     "echo_separation",
     "frame",
 )
-REALISTIC_ONLY = ("divergence", "echoes", "echo_separation")
 
 
 def _sensor(t: _Table) -> SensorSpec:
     t.only(*SENSOR_KEYS)
     d = SensorSpec()
     model = t.choice("model", d.model, S.MODELS)
-    for key in REALISTIC_ONLY:
+    for key in S.REALISTIC_SETTINGS:
         if key in t.data and model != "realistic":
             raise UserError(
                 f'{t.where}: {t.name(key)} applies to model = "realistic" only (sensor.model is "{model}")'
