@@ -68,6 +68,16 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"scans_per_world": 0}, ["scans_per_world must be a whole number"]),
         ({"scans_per_world": True}, ["scans_per_world"]),
         ({"poses": {"strategy": "grid"}}, ["poses.strategy", '"uniform"']),
+        ({"vegetation": "leafy"}, ["vegetation must be one of", '"porous"', '"solid"']),
+        ({"sensor": {"model": "lidar"}}, ["sensor.model must be one of", '"realistic"']),
+        ({"sensor": {"divergence": 3.0}}, ["sensor.divergence applies to model", '"realistic" only']),
+        ({"sensor": {"echoes": 2}}, ["sensor.echoes applies to model"]),
+        ({"sensor": {"model": "realistic", "echoes": 4}}, ["sensor.echoes must be a whole number", "1 to 3"]),
+        ({"sensor": {"model": "realistic", "echoes": [3, 1]}}, ["sensor.echoes", "range"]),
+        ({"sensor": {"model": "realistic", "echoes": 2.5}}, ["sensor.echoes must be a whole number"]),
+        ({"sensor": {"model": "realistic", "divergence": 80}}, ["sensor.divergence must be", "0 to 50 mrad"]),
+        ({"sensor": {"model": "realistic", "echo_separation": 0}}, ["sensor.echo_separation", "above 0"]),
+        ({"sensor": {"model": "realistic", "echo-separation": 1}}, ["unknown key", "echo_separation"]),
     ],
 )
 def test_a_bad_key_or_value_names_the_key_and_what_is_allowed(data, words):
@@ -79,12 +89,19 @@ def test_a_bad_key_or_value_names_the_key_and_what_is_allowed(data, words):
         assert word in message
 
 
-def test_the_command_exits_2_with_one_line_and_writes_nothing(tmp_path):
+@pytest.mark.parametrize(
+    "text, key",
+    [
+        ("scans_per_worlds = 3\n", "scans_per_worlds"),
+        ('[sensor]\nmodel = "realistic"\nechoes = 5\n', "sensor.echoes"),
+    ],
+)
+def test_the_command_exits_2_with_one_line_and_writes_nothing(tmp_path, text, key):
     spec = tmp_path / "spec.toml"
-    spec.write_text("scans_per_worlds = 3\n")
+    spec.write_text(text)
     result = wildscan("dataset", str(spec), "--out", str(tmp_path / "out"))
     assert result.returncode == 2
-    assert result.stderr.count("\n") == 1 and "scans_per_worlds" in result.stderr
+    assert result.stderr.count("\n") == 1 and key in result.stderr
     assert not (tmp_path / "out").exists()
     spec.write_text("seeds = [1\n")
     result = wildscan("dataset", str(spec), "--out", str(tmp_path / "out"))

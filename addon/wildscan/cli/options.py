@@ -235,17 +235,7 @@ _SHARED = (
     Option("out", dict(required=True)),
 )
 OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
-SENSOR_OPTIONS = (
-    "rh",
-    "min_range",
-    "max_range",
-    "noise",
-    "noise_seed",
-    "model",
-    "divergence",
-    "echoes",
-    "echo_separation",
-)
+SENSOR_OPTIONS = S.SENSOR_SETTINGS
 REALISTIC_ONLY = S.REALISTIC_SETTINGS
 
 

@@ -78,6 +78,8 @@ DEFAULT_ECHO_SEPARATION = 0.3  # m, ~ c * 2 ns / 2 (module docstring)
 MAX_ECHO_SEPARATION = 10.0  # m
 # the settings of the realistic model alone: giving one with the paper model is a mistake
 REALISTIC_SETTINGS = ("divergence", "echoes", "echo_separation")
+# every setting of the sensor, as `wildscan scan` and a dataset spec's [sensor] name them
+SENSOR_SETTINGS = ("rh", "min_range", "max_range", "noise", "noise_seed", "model", *REALISTIC_SETTINGS)
 # The datasheet's range accuracy: (up to this range in m, +- metres), read as 2 sigma.
 DATASHEET_ACCURACY = ((10.0, 0.030), (MAX_RANGE_LIMIT, 0.050))
 ACCURACY_SIGMAS = 2.0

@@ -277,20 +277,8 @@ _SENSOR_LIMITS = {
     "divergence": (0.0, S.MAX_DIVERGENCE_MRAD, "mrad"),
     "echo_separation": (0.0, S.MAX_ECHO_SEPARATION, "m"),
 }
-# the keys of [sensor]: the sensor options of `wildscan scan` (cli/options.py SENSOR_OPTIONS)
-# and the frame, in the order the README lists them
-SENSOR_KEYS = (
-    "rh",
-    "min_range",
-    "max_range",
-    "noise",
-    "noise_seed",
-    "model",
-    "divergence",
-    "echoes",
-    "echo_separation",
-    "frame",
-)
+# the keys of [sensor]: the sensor settings of `wildscan scan` and the frame
+SENSOR_KEYS = (*S.SENSOR_SETTINGS, "frame")
 
 
 def _sensor(t: _Table) -> SensorSpec:
