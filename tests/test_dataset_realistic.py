@@ -1,8 +1,9 @@
 """`wildscan dataset` speaks the options `wildscan scan` and `wildscan world` have: a
 top-level `vegetation`, and in [sensor] the realistic model with its divergence, echoes and
-echo separation (ranges drawn per scan; bad values are in test_dataset.py). A tiny realistic dataset on solid vegetation is
-read back with laspy (echoes as LAS return numbers), our PLY reader and plyfile, and with
-the SemanticKITTI layout (x y z remission, no echo fields); it resumes and verifies."""
+echo separation (ranges drawn per scan; the bad values are in test_dataset.py's table). A
+tiny realistic dataset on solid vegetation is read back with laspy (echoes as LAS return
+numbers), our PLY reader and plyfile, and with the SemanticKITTI layout (x y z remission,
+no echo fields); it resumes and verifies."""
 
 from __future__ import annotations
 
