@@ -1,0 +1,103 @@
+"""Run the readers users open our PLY files with -- CloudCompare (Debian's binary) and
+Open3D (both of its readers) -- and return what they loaded.
+
+Both abort the whole process on a header they cannot take (RPly's fixed line buffer:
+"buffer overflow detected"), so each runs in a child process: a crash fails the test
+that asked, never pytest itself.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+TOOL_TIMEOUT_S = 60
+OPEN3D_PROBE = Path(__file__).with_name("open3d_probe.py")
+
+
+def require_tool(name: str, apt_package: str) -> str:
+    exe = shutil.which(name)
+    assert exe, f"{name} not found: install the Debian package {apt_package}"
+    return exe
+
+
+def run_tool(args: list[str], cwd: Path, env: dict | None = None) -> subprocess.CompletedProcess:
+    proc = subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True, timeout=TOOL_TIMEOUT_S)
+    assert proc.returncode == 0, f"{args[0]} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
+    return proc
+
+
+# --------------------------------------------------------------------------- CloudCompare
+
+
+def cloudcompare_env(work: Path) -> dict[str, str]:
+    # Qt's offscreen platform needs no X server (CI has no display); a private
+    # HOME keeps CloudCompare's settings out of the user's home.
+    home = work / "cc_home"
+    home.mkdir(exist_ok=True)
+    runtime = home / "runtime"
+    runtime.mkdir(mode=0o700, exist_ok=True)
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env.update(QT_QPA_PLATFORM="offscreen", HOME=str(home), XDG_RUNTIME_DIR=str(runtime))
+    return env
+
+
+def parse_cloudcompare_asc(path: Path) -> dict[str, np.ndarray]:
+    lines = path.read_text().splitlines()
+    assert lines[0].startswith("//"), lines[0]
+    names = lines[0][2:].split()
+    table = np.array([row.split() for row in lines[1:]], dtype=np.float64).reshape(-1, len(names))
+    return {name: table[:, j] for j, name in enumerate(names)}
+
+
+def cloudcompare_export(ply: Path, work: Path) -> subprocess.CompletedProcess:
+    """Open `ply` in CloudCompare's command-line mode and save what it loaded as
+    `work/<name>.asc` (a header line naming the columns); the finished process."""
+    exe = require_tool("CloudCompare", "cloudcompare")
+    out = work / (ply.stem + ".asc")
+    args = [exe, "-SILENT", "-O", str(ply), "-C_EXPORT_FMT", "ASC", "-ADD_HEADER", "-SEP", "SPACE"]
+    args += ["-NO_TIMESTAMP", "-SAVE_CLOUDS", "FILE", str(out)]
+    env = cloudcompare_env(work)
+    return subprocess.run(args, cwd=work, env=env, capture_output=True, text=True, timeout=TOOL_TIMEOUT_S)
+
+
+def cloudcompare_columns(ply: Path, work: Path) -> dict[str, np.ndarray] | str:
+    """The columns CloudCompare loaded from `ply`, or why it loaded nothing."""
+    proc = cloudcompare_export(ply, work)
+    out = work / (ply.stem + ".asc")
+    if proc.returncode != 0 or not out.exists():
+        tail = (proc.stdout + proc.stderr).strip().splitlines()[-3:]
+        return f"CloudCompare exit {proc.returncode}, wrote {'a' if out.exists() else 'no'} file: {tail}"
+    return parse_cloudcompare_asc(out)
+
+
+# --------------------------------------------------------------------------- Open3D
+
+
+def open3d_read(plys: list[Path], work: Path) -> dict[Path, dict[str, np.ndarray] | str]:
+    """What Open3D's tensor and legacy readers load from each file (open3d_probe.py's
+    arrays), or why they loaded nothing. One child process reads the files in turn; when
+    one kills it, that file is reported and the next child goes on after it."""
+    results: dict[Path, dict[str, np.ndarray] | str] = {}
+    pending = list(enumerate(plys))
+    while pending:
+        args = [sys.executable, str(OPEN3D_PROBE), str(work)]
+        for i, ply in pending:
+            args += [str(i), str(ply)]
+        proc = subprocess.run(args, capture_output=True, text=True, timeout=TOOL_TIMEOUT_S * len(pending))
+        done = {int(line.split()[1]) for line in proc.stdout.splitlines() if line.startswith("read ")}
+        for i, ply in pending:
+            if i in done:
+                with np.load(work / f"open3d-{i}.npz") as arrays:
+                    results[ply] = dict(arrays)
+        left = [(i, ply) for i, ply in pending if i not in done]
+        if left:
+            tail = proc.stderr.strip().splitlines()[-2:]
+            results[left[0][1]] = f"Open3D's process died reading it (exit {proc.returncode}): {tail}"
+        pending = left[1:]
+    return results
