@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from wildscan.core.pointcloud import PointCloud
+
 TOOL_TIMEOUT_S = 60
 OPEN3D_PROBE = Path(__file__).with_name("open3d_probe.py")
 
@@ -30,6 +32,46 @@ def run_tool(args: list[str], cwd: Path, env: dict | None = None) -> subprocess.
     proc = subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True, timeout=TOOL_TIMEOUT_S)
     assert proc.returncode == 0, f"{args[0]} failed ({proc.returncode}):\n{proc.stdout}\n{proc.stderr}"
     return proc
+
+
+# --------------------------------------------------------------------------- clouds to read
+
+
+def make_cloud(n: int = 200, seed: int = 0) -> PointCloud:
+    """A random cloud with every PLY label (0..12) in it."""
+    rng = np.random.default_rng(seed)
+    label = rng.integers(0, 13, n).astype(np.uint16)  # 0..12: every PLY label, never water
+    if n >= 13:
+        label[:13] = np.arange(13)
+    return PointCloud(
+        xyz=rng.normal(scale=20.0, size=(n, 3)),
+        intensity=rng.uniform(0, 120, n).astype(np.float32),
+        label=label,
+        instance=rng.integers(0, 5000, n).astype(np.uint32),
+        ring=rng.integers(0, 1080, n).astype(np.uint16),
+        sweep=rng.integers(0, 180, n).astype(np.uint16),
+        range=rng.uniform(0.1, 30, n).astype(np.float32),
+    )
+
+
+# A world path as users have them, long and not ASCII (each character JSON-escapes to 6).
+LONG_WORLD = "/home/ana/" + "/".join(["Wälder und Hügel – 森林と丘の世界 ⛰"] * 12) + "/my world.blend"
+
+
+def extreme_metadata() -> dict:
+    """Metadata whose naive header lines run to thousands of characters."""
+    laser = {"name": "front (+X)", "class": "terrain", "origin": [29.1974103, -58.66613236, 19.86786016]}
+    return {
+        "seed": 2147483647,
+        "pose": {"x": -51.293, "y": -59.568, "yaw_deg": 73.5},
+        "sensor": {f"setting_{i:02d}": i / 7 for i in range(40)},  # too many pairs for one line
+        "world": LONG_WORLD,
+        "untagged_objects_hit": [f"Objekt ünïcödé {i:04d}" for i in range(3000)],
+        "placement": {"roll_deg": -17.244513357210916, "lasers": [laser] * 4},
+        "notes": "ü" * 5000,
+        "x" * 500: 1,
+        "many": list(range(2000)),
+    }
 
 
 # --------------------------------------------------------------------------- CloudCompare

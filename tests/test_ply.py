@@ -20,9 +20,16 @@ from wildscan.core.classes import COLOR_BY_ID, class_table_dict, class_table_lin
 from wildscan.core.errors import UserError
 from wildscan.core.io import ply
 from wildscan.core.io.ply import check_output_path, read_ply, sidecar_path, write_scan_files
-from wildscan.core.pointcloud import PLY_FIELDS, PointCloud
+from wildscan.core.pointcloud import PLY_FIELDS
 
-from reader_helpers import cloudcompare_columns, require_tool, run_tool
+from reader_helpers import (
+    LONG_WORLD,
+    cloudcompare_columns,
+    extreme_metadata,
+    make_cloud,
+    require_tool,
+    run_tool,
+)
 
 FIELD_NAMES = [name for name, _ in PLY_FIELDS]
 EXPECTED_PROPERTY_LINES = [
@@ -47,22 +54,6 @@ METADATA = {
     "sensor": {"rh": 1.0, "min_range": 0.1, "max_range": 30.0, "noise": {"sigma": 0.01, "seed": 7}},
     "backend": "embree",
 }
-
-
-def make_cloud(n: int = 200, seed: int = 0) -> PointCloud:
-    rng = np.random.default_rng(seed)
-    label = rng.integers(0, 13, n).astype(np.uint16)  # 0..12: every PLY label, never water
-    if n >= 13:
-        label[:13] = np.arange(13)
-    return PointCloud(
-        xyz=rng.normal(scale=20.0, size=(n, 3)),
-        intensity=rng.uniform(0, 120, n).astype(np.float32),
-        label=label,
-        instance=rng.integers(0, 5000, n).astype(np.uint32),
-        ring=rng.integers(0, 1080, n).astype(np.uint16),
-        sweep=rng.integers(0, 180, n).astype(np.uint16),
-        range=rng.uniform(0.1, 30, n).astype(np.float32),
-    )
 
 
 def header_lines(path: Path) -> list[str]:
@@ -182,26 +173,6 @@ def test_awkward_metadata_stays_one_ascii_line_per_key(tmp_path):
     sidecar = json.loads(json_path.read_text())
     assert sidecar["seed"] == 9 and sidecar["pose"] == [0.5, 2, -30]
     assert sidecar["odd key\n"]["e"] == [0, 1, 2]
-
-
-# A world path as users have them, long and not ASCII (each character JSON-escapes to 6).
-LONG_WORLD = "/home/ana/" + "/".join(["Wälder und Hügel – 森林と丘の世界 ⛰"] * 12) + "/my world.blend"
-
-
-def extreme_metadata() -> dict:
-    """Metadata whose naive header lines run to thousands of characters."""
-    laser = {"name": "front (+X)", "class": "terrain", "origin": [29.1974103, -58.66613236, 19.86786016]}
-    return {
-        "seed": 2147483647,
-        "pose": {"x": -51.293, "y": -59.568, "yaw_deg": 73.5},
-        "sensor": {f"setting_{i:02d}": i / 7 for i in range(40)},  # too many pairs for one line
-        "world": LONG_WORLD,
-        "untagged_objects_hit": [f"Objekt ünïcödé {i:04d}" for i in range(3000)],
-        "placement": {"roll_deg": -17.244513357210916, "lasers": [laser] * 4},
-        "notes": "ü" * 5000,
-        "x" * 500: 1,
-        "many": list(range(2000)),
-    }
 
 
 def pairs_of(comments: list[str], key: str) -> dict[str, str]:
