@@ -1,5 +1,5 @@
-"""Run the readers users open our PLY files with -- CloudCompare (Debian's binary) and
-Open3D (both of its readers) -- and return what they loaded.
+"""Run the readers users open our PLY files with -- PCL's pcl_ply2pcd and CloudCompare
+(Debian's binaries), Open3D (both of its readers) -- and return what they loaded.
 
 Both abort the whole process on a header they cannot take (RPly's fixed line buffer:
 "buffer overflow detected"), so each runs in a child process: a crash fails the test
@@ -72,6 +72,33 @@ def extreme_metadata() -> dict:
         "x" * 500: 1,
         "many": list(range(2000)),
     }
+
+
+# --------------------------------------------------------------------------- PCL
+
+
+def parse_ascii_pcd(path: Path) -> tuple[dict[str, list[str]], dict[str, np.ndarray]]:
+    lines = path.read_text().splitlines()
+    header: dict[str, list[str]] = {}
+    for i, line in enumerate(lines):
+        if line.startswith("#"):
+            continue
+        key, *values = line.split()
+        header[key] = values
+        if key == "DATA":
+            body = lines[i + 1 :]
+            break
+    assert header["DATA"] == ["ascii"], header
+    table = np.array([row.split() for row in body], dtype=np.float64).reshape(-1, len(header["FIELDS"]))
+    return header, {name: table[:, j] for j, name in enumerate(header["FIELDS"])}
+
+
+def pcl_columns(ply: Path, work: Path) -> tuple[dict[str, list[str]], dict[str, np.ndarray]]:
+    """The header and columns of the PCD that PCL's `pcl_ply2pcd` makes of `ply`."""
+    exe = require_tool("pcl_ply2pcd", "pcl-tools")
+    pcd = work / (ply.stem + ".pcd")
+    run_tool([exe, "-format", "0", str(ply), str(pcd)], cwd=work)
+    return parse_ascii_pcd(pcd)
 
 
 # --------------------------------------------------------------------------- CloudCompare

@@ -22,14 +22,7 @@ from wildscan.core.io import ply
 from wildscan.core.io.ply import check_output_path, read_ply, sidecar_path, write_scan_files
 from wildscan.core.pointcloud import PLY_FIELDS
 
-from reader_helpers import (
-    LONG_WORLD,
-    cloudcompare_columns,
-    extreme_metadata,
-    make_cloud,
-    require_tool,
-    run_tool,
-)
+from reader_helpers import LONG_WORLD, cloudcompare_columns, extreme_metadata, make_cloud, pcl_columns
 
 FIELD_NAMES = [name for name, _ in PLY_FIELDS]
 EXPECTED_PROPERTY_LINES = [
@@ -432,31 +425,12 @@ def test_read_ply_rejects_other_files(tmp_path):
 # --------------------------------------------------------------------------- PCL (pcl-tools)
 
 
-def parse_ascii_pcd(path: Path) -> tuple[dict[str, list[str]], dict[str, np.ndarray]]:
-    lines = path.read_text().splitlines()
-    header: dict[str, list[str]] = {}
-    for i, line in enumerate(lines):
-        if line.startswith("#"):
-            continue
-        key, *values = line.split()
-        header[key] = values
-        if key == "DATA":
-            body = lines[i + 1 :]
-            break
-    assert header["DATA"] == ["ascii"], header
-    table = np.array([row.split() for row in body], dtype=np.float64).reshape(-1, len(header["FIELDS"]))
-    return header, {name: table[:, j] for j, name in enumerate(header["FIELDS"])}
-
-
 @pytest.mark.external
 @pytest.mark.parametrize("ascii", [False, True])
 def test_pcl_ply2pcd_loads_labels(tmp_path, ascii):
-    exe = require_tool("pcl_ply2pcd", "pcl-tools")
     cloud = make_cloud(150, seed=11)
     ply_path, _ = write_scan_files(tmp_path / "scan.ply", cloud, METADATA, ascii=ascii)
-    run_tool([exe, "-format", "0", str(ply_path), str(tmp_path / "scan.pcd")], cwd=tmp_path)
-
-    header, columns = parse_ascii_pcd(tmp_path / "scan.pcd")
+    header, columns = pcl_columns(ply_path, tmp_path)
     fields = header["FIELDS"]
     # PCL keeps every property; red/green/blue are packed into one `rgb` field.
     assert fields == [

@@ -1,11 +1,11 @@
 """Real scans from every zone of two seeds, made by `wildscan scan` and by Debian's Blender
 (`blender -b -P blender_scripts/scan.py`), opened with the readers users have:
-CloudCompare's command line and Open3D's tensor and legacy readers. Each must load every
-point with its class visible -- CloudCompare as the `label` scalar field (our
-`scalar_label`), Open3D's tensor reader as `scalar_label`, both (and Open3D's legacy
-reader) as the class colours.
+CloudCompare's command line, Open3D's tensor and legacy readers, and PCL's pcl_ply2pcd.
+Each must load every point with its class visible -- CloudCompare as the `label` scalar
+field (our `scalar_label`), Open3D's tensor reader as `scalar_label`, PCL as `label`
+(uint32, PointXYZL's), and all but PCL as the class colours.
 
-Both readers kept a 1,024-byte line buffer and aborted on the placement comment of most
+CloudCompare and Open3D kept a 1,024-byte line buffer and aborted on the placement comment of most
 real scans; a scan of a small synthetic cloud never showed it. A coarse r_h keeps this
 quick: the header, which broke them, does not depend on it.
 """
@@ -22,13 +22,14 @@ from wildscan.core.classes import COLOR_BY_ID
 from wildscan.core.io.ply import MAX_HEADER_LINE, read_ply, write_scan_files
 from wildscan.core.world.plan import ZONES
 
-from reader_helpers import cloudcompare_columns, extreme_metadata, make_cloud, open3d_read
+from reader_helpers import cloudcompare_columns, extreme_metadata, make_cloud, open3d_read, pcl_columns
 from scene_helpers import BLENDER, WILDSCAN, blender_scan, run
 
 SEEDS = (1, 2)
 RH_DEG = "6"
-# A user's folder: long, and not ASCII (each character JSON-escapes to 6 in a header).
-USER_FOLDER = ("Wälder und Hügel – 森林と丘 ⛰",) * 6
+# A user's folder: long, and not ASCII; JSON-escaped (as a header would quote it) the
+# path of a world in it runs past the 1,031 characters that break the readers.
+USER_FOLDER = ("Wälder und Hügel – 森林と丘 ⛰",) * 16
 # What Open3D's tensor reader keeps of our fields (measured, 0.20): it takes uchar, uint16,
 # int, float and double properties, and drops uint (`label`, `instance`) and ushort
 # (`ring`, `sweep`); x y z become `positions`, red green blue `colors`.
@@ -137,6 +138,15 @@ def check_cloudcompare(ply: Path, records: np.ndarray, work: Path) -> None:
     np.testing.assert_allclose(columns["Z"], records["z"], rtol=1e-6, atol=1e-5)
 
 
+def check_pcl(ply: Path, records: np.ndarray, work: Path) -> None:
+    header, columns = pcl_columns(ply, work)
+    fields = dict(zip(header["FIELDS"], zip(header["TYPE"], header["SIZE"], strict=True), strict=True))
+    assert fields["label"] == ("U", "4")  # PointXYZL's uint32 label
+    assert header["POINTS"] == [str(len(records))]
+    np.testing.assert_array_equal(columns["label"], records["label"])
+    np.testing.assert_array_equal(columns["instance"], records["instance"])
+
+
 def check_open3d(loaded: dict[str, np.ndarray] | str, records: np.ndarray) -> None:
     assert not isinstance(loaded, str), loaded
     kept = {name.removeprefix("tensor.") for name in loaded if name.startswith("tensor.")}
@@ -155,6 +165,11 @@ def check_open3d(loaded: dict[str, np.ndarray] | str, records: np.ndarray) -> No
 @pytest.mark.external
 def test_cloudcompare_loads_every_zone_with_its_classes(real_scans, tmp_path):
     check_all(real_scans, lambda ply, records: check_cloudcompare(ply, records, tmp_path))
+
+
+@pytest.mark.external
+def test_pcl_loads_every_zone_with_its_labels(real_scans, tmp_path):
+    check_all(real_scans, lambda ply, records: check_pcl(ply, records, tmp_path))
 
 
 def test_open3d_loads_every_zone_with_its_classes(real_scans, tmp_path):
