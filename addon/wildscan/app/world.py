@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.errors import UserError
-from ..core.io.files import atomic_outputs, check_output_path
+from ..core.io.files import atomic_outputs, check_output_path, remove_quietly, writing_to
 from ..core.io.ply import sidecar_path
 from ..core.world import ZONES, WorldPlan, check_seed, detail_level
 from .poses import DEFAULT_POSES_PER_ZONE, plan_backend, valid_poses
@@ -181,25 +181,24 @@ def make_world(
     stage("valid poses", time.perf_counter() - t0)
 
     finals = (blend, sidecar, png) if png is not None else (blend, sidecar)
-    try:
-        with atomic_outputs(*finals) as temps:
-            t0 = time.perf_counter()
-            save_blend(temps[0], blend)
-            stage("save .blend", time.perf_counter() - t0)
-            if png is not None:
-                from ..core.world import Site
-                from ..viz.aerial_map import render_map
+    with atomic_outputs(*finals) as temps:
+        t0 = time.perf_counter()
+        save_blend(temps[0], blend)
+        stage("save .blend", time.perf_counter() - t0)
+        if png is not None:
+            from ..core.world import Site
+            from ..viz.aerial_map import render_map
 
-                t0 = time.perf_counter()
-                crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]
+            t0 = time.perf_counter()
+            crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]
+            with writing_to(png):  # matplotlib's errors often name no file: say which one failed
                 render_map(plan, str(temps[2]), poses=crosses)
-                stage("aerial map", time.perf_counter() - t0)
-            description = plan.describe(poses)
-            description["blend"] = str(blend)
-            description["map"] = str(png) if png else None
+            stage("aerial map", time.perf_counter() - t0)
+        description = plan.describe(poses)
+        description["blend"] = str(blend)
+        description["map"] = str(png) if png else None
+        with writing_to(sidecar):
             temps[1].write_text(json.dumps(description, indent=1) + "\n")
-    except OSError as e:
-        raise UserError(f"cannot write the world files: {e.strerror or e}") from None
     return SavedWorld(plan, poses, blend, sidecar, png, time.perf_counter() - t_start)
 
 
@@ -218,12 +217,25 @@ def quiet_stdout():
 
 
 def save_blend(tmp: Path, final: Path) -> None:
-    """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError."""
+    """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError.
+
+    Blender writes `tmp@` and renames it to `tmp`: that file goes too when the save fails
+    or a signal stops the run, and Blender's message is reworded to name `final`."""
     import bpy
 
     try:
         with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
             bpy.ops.wm.save_as_mainfile(filepath=str(tmp), check_existing=False, copy=True, compress=True)
     except RuntimeError as e:
-        reason = str(e).strip().splitlines()[0] if str(e).strip() else "Blender could not save it"
-        raise UserError(f"cannot write {final}: {reason.replace(str(tmp), str(final))}") from None
+        raise UserError(f"cannot write {final}: {blender_save_reason(e, tmp)}") from None
+    finally:
+        remove_quietly([Path(f"{tmp}@")])
+
+
+def blender_save_reason(error: RuntimeError, tmp: Path) -> str:
+    """Why Blender could not save, without its temporary names or its "Error:" prefix."""
+    lines = [line.strip() for line in str(error).strip().splitlines() if line.strip()]
+    reason = (lines[0] if lines else "").removeprefix("Error:").strip()
+    if str(tmp) in reason:  # "Cannot open file TMP@ for writing: REASON": keep the reason
+        reason = reason.rsplit(":", 1)[-1].strip() if ":" in reason.split(str(tmp))[-1] else ""
+    return reason or "Blender could not save it"

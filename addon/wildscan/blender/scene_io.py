@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import os
-
 from ..core.errors import UserError
+from ..core.io.files import check_input_file
 from . import WORLD_COLLECTION
 
 # First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
@@ -12,13 +11,7 @@ BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
 
 
 def check_blend_file(path: str) -> str:
-    if not str(path).strip():
-        raise UserError("needs a .blend file name, got an empty one", setting="world")
-    path = os.path.abspath(path)
-    if os.path.isdir(path):
-        raise UserError(f"{path}: is a directory, not a .blend file", setting="world")
-    if not os.path.isfile(path):
-        raise UserError(f"{path}: no such file", setting="world")
+    path = str(check_input_file(path, (".blend",), "world"))
     try:
         with open(path, "rb") as f:
             head = f.read(8)

@@ -21,6 +21,7 @@ from ..core import sensor as S
 from ..core.checks import whole_number
 from ..core.errors import UserError
 from ..core.frames import FRAMES
+from ..core.io.files import check_input_file, check_output_path
 from ..core.world import ZONES, check_seed, check_zone, detail_level
 from ..raycast.select import BACKEND_NAMES
 
@@ -73,6 +74,23 @@ class Option(NamedTuple):
     setting: str  # its name in app/settings.py, which gives the flag
     kwargs: dict  # for add_argument; a command may override any of them
     check: Callable[[Any], Any] | None = None  # the parsed value -> the checked value
+
+
+def input_file(setting: str, suffix: str) -> Callable[[str], str]:
+    """The check of a path option naming a file to read: core/io/files.user_path reads it
+    (`~` expanded, name lengths checked) and the file must exist and be readable."""
+    return lambda text: str(check_input_file(text, (suffix,), setting))
+
+
+def output_file(setting: str, suffix: str) -> Callable[[str], str]:
+    """The check of a path option naming a file to write, the same one the app repeats."""
+    return lambda text: str(check_output_path(text, suffix, setting))
+
+
+def add_path(parser: ArgumentParser, setting: str, check: Callable[[str], str], group=None, **kwargs) -> None:
+    """A command's own path option, checked up front like every other path option."""
+    (group or parser).add_argument(flag(setting), **kwargs)
+    parser.checks.append((setting, check))
 
 
 def detail_name(name: str) -> str:

@@ -16,8 +16,13 @@ DESCRIPTION = (
 
 def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     source = p.add_mutually_exclusive_group(required=not in_blender)
-    source.add_argument(
-        "--world", metavar="FILE.blend", help="scan this saved world (or any .blend with tagged objects)"
+    options.add_path(
+        p,
+        "world",
+        options.input_file("world", ".blend"),
+        group=source,
+        metavar="FILE.blend",
+        help="scan this saved world (or any .blend with tagged objects)",
     )
     options.add(
         p,
@@ -25,8 +30,11 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         group=source,
         help="build the world from this seed (integer from 0 to 2147483647) and scan it",
     )
-    source.add_argument(
-        "--geometry",
+    options.add_path(
+        p,
+        "geometry",
+        options.input_file("geometry", ".npz"),
+        group=source,
         metavar="SCENE.npz",
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )

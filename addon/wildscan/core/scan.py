@@ -16,6 +16,7 @@ from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflec
 from .frames import check_frame, to_world
 from .hits import RayHits
 from .leveling import leveling_matrix
+from .pause import pause_here
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
 from .sensor import SensorConfig, beam_directions, range_noise, rotated_beam_directions
@@ -42,6 +43,7 @@ def cast_in_chunks(
     backend, origin: np.ndarray, dirs: np.ndarray, max_range: float, progress: Progress | None
 ):
     """Cast all rays, reporting progress between chunks when asked."""
+    pause_here("casting")
     if progress is None:
         return backend.cast(origin, dirs, max_range)
     parts = []

@@ -34,7 +34,7 @@ import numpy as np
 
 from .. import __version__
 from ..core.errors import UserError
-from ..core.io.files import atomic_outputs, check_output_path, write_durably
+from ..core.io.files import atomic_outputs, check_input_file, check_output_path, write_durably
 from .geometry import SceneGeometry
 
 FORMAT = "wildscan-scene-geometry"
@@ -105,13 +105,11 @@ def load_geometry(path, setting: str = "geometry") -> SceneGeometry:
 def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, dict]:
     """(geometry, header) of the file at `path`; the header holds `metadata`,
     `object_names`, `wildscan_version` (of the writer), `format` and `version`."""
-    path = Path(str(path)).expanduser().resolve()
+    path = check_input_file(path, (SUFFIX,), setting)
 
     def fail(why: str) -> UserError:
         return UserError(f"{path}: {why}", setting=setting)
 
-    if not path.is_file():
-        raise fail("no such file" if not path.exists() else "not a file")
     try:
         with zipfile.ZipFile(path) as zf:
             header = _read_header(zf, fail)
