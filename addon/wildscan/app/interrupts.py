@@ -52,7 +52,13 @@ def sigterm_raises():
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        _restore(signal.SIGTERM, previous)
+
+
+def _restore(signum: int, previous) -> None:
+    """Put back the handler from before; one installed from C (Blender's own) reads as None
+    and cannot be put back: the default takes its place."""
+    signal.signal(signum, signal.SIG_DFL if previous is None else previous)
 
 
 # ---------------------------------------------------------------------------------------
@@ -123,7 +129,7 @@ def stopping_on_signals():
     finally:
         sys.meta_path.remove(finder)
         for s, handler in previous.items():
-            signal.signal(s, handler)
+            _restore(s, handler)
         _pending.clear()
 
 
