@@ -12,6 +12,7 @@ import os
 import re
 import signal
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -163,3 +164,52 @@ def test_a_signal_while_signals_are_deferred_is_raised_when_the_moment_is_over()
                 os.kill(os.getpid(), signal.SIGTERM)
                 reached.append("end of the deferred block")
     assert reached == ["end of the deferred block"]
+
+
+# Without the test hook: the process signals itself from inside the work, the way a user's
+# Ctrl-C or a scheduler's SIGTERM lands mid-write or mid-cast.
+SELF_SIGNAL = """
+import os, runpy, signal, sys
+sys.path.insert(0, {addon!r})
+from wildscan.core import scan
+from wildscan.core.io import ply
+
+def write_then_signal(path, write, _real=ply.write_durably):
+    _real(path, write)
+    os.kill(os.getpid(), signal.{sig})
+
+def cast_then_signal(*args, _real=scan.cast_in_chunks):
+    os.kill(os.getpid(), signal.{sig})
+    return _real(*args)
+
+ply.write_durably = write_then_signal
+scan.cast_in_chunks = cast_then_signal
+{run}
+"""
+
+
+def test_sigterm_after_the_ply_is_written_removes_it_and_exits_143(tmp_path, worlds):
+    args = ["scan", "--geometry", str(worlds / "w.npz"), *SCAN, "--out", "s.ply"]
+    code = SELF_SIGNAL.format(
+        addon=str(REPO / "addon"),
+        sig="SIGTERM",
+        run=f"from wildscan.cli import main; sys.exit(main({args!r}))",
+    )
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True)
+    assert (done.returncode, done.stderr) == (143, "wildscan scan: terminated; nothing written\n")
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.blender_binary
+def test_one_ctrl_c_in_a_real_blender_stops_the_scan_with_130(tmp_path, blender_world):
+    """Blender's own handler ignores the first Ctrl-C: the scan would finish and exit 0."""
+    script = str(REPO / "blender_scripts" / "scan.py")
+    wrapper = tmp_path / "wrapper.py"
+    wrapper.write_text(
+        SELF_SIGNAL.format(addon=str(REPO / "addon"), sig="SIGINT", run=f"runpy.run_path({script!r})")
+    )
+    args = [*SCAN, "--backend", "bvh", "--out", str(tmp_path / "s.ply")]
+    cmd = [BLENDER, "-b", str(blender_world), "--factory-startup", "-P", str(wrapper), "--", *args]
+    done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stderr) == (130, "blender_scripts/scan.py: interrupted; nothing written\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["wrapper.py"]

@@ -11,9 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from scene_helpers import WILDSCAN, run, user_error_line
 from wildscan.core.errors import UserError
 from wildscan.core.io import files
+
+from scene_helpers import WILDSCAN, run, user_error_line
 
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose
 TOO_LONG = "n" * 300  # over NAME_MAX (255 bytes) on every file system we write to
@@ -79,9 +80,10 @@ def test_every_path_option_takes_a_tilde_the_same_way(tmp_path, worlds):
 
 def test_a_full_disk_while_writing_the_map_names_the_map(tmp_path, monkeypatch):
     """matplotlib's write error names no file: the world's files must not take the blame."""
-    from scene_helpers import fresh_scene
     from wildscan.app.world import make_world
     from wildscan.viz import aerial_map
+
+    from scene_helpers import fresh_scene
 
     def full_disk(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
