@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from scene_helpers import BLENDER, REPO, WILDSCAN
+from scene_helpers import BLENDER, REPO, WILDSCAN, save_seed_2_low
 
 CODES = {signal.SIGINT: (130, "interrupted"), signal.SIGTERM: (143, "terminated")}
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose
@@ -71,10 +71,7 @@ def assert_stopped_truly(code, lines, sig, where, folder: Path, before: set[str]
 @pytest.fixture(scope="module")
 def worlds(tmp_path_factory):
     """Seed 2 at low detail, saved by the wheel (a .blend and a geometry file)."""
-    d = tmp_path_factory.mktemp("worlds")
-    for cmd in (["world", "--out", "w.blend"], ["extract", "--out", "w.npz"]):
-        subprocess.run([WILDSCAN, *cmd, "--seed", "2", "--detail", "low", "--quiet"], cwd=d, check=True)
-    return d
+    return save_seed_2_low(tmp_path_factory.mktemp("worlds"))
 
 
 WHEEL_CASES = [

@@ -14,7 +14,7 @@ import pytest
 from wildscan.core.errors import UserError
 from wildscan.core.io import files
 
-from scene_helpers import WILDSCAN, run, user_error_line
+from scene_helpers import WILDSCAN, run, save_seed_2_low, user_error_line
 
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose
 TOO_LONG = "n" * 300  # over NAME_MAX (255 bytes) on every file system we write to
@@ -22,10 +22,7 @@ TOO_LONG = "n" * 300  # over NAME_MAX (255 bytes) on every file system we write 
 
 @pytest.fixture(scope="module")
 def worlds(tmp_path_factory):
-    d = tmp_path_factory.mktemp("worlds")
-    for cmd in (["world", "--out", "w.blend"], ["extract", "--out", "w.npz"]):
-        subprocess.run([WILDSCAN, *cmd, "--seed", "2", "--detail", "low", "--quiet"], cwd=d, check=True)
-    return d
+    return save_seed_2_low(tmp_path_factory.mktemp("worlds"))
 
 
 def test_a_legal_long_name_is_written_though_its_temporary_name_would_be_too_long(tmp_path, worlds):

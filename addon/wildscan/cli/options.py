@@ -87,12 +87,6 @@ def output_file(setting: str, suffix: str) -> Callable[[str], str]:
     return lambda text: str(check_output_path(text, suffix, setting))
 
 
-def add_path(parser: ArgumentParser, setting: str, check: Callable[[str], str], group=None, **kwargs) -> None:
-    """A command's own path option, checked up front like every other path option."""
-    (group or parser).add_argument(flag(setting), **kwargs)
-    parser.checks.append((setting, check))
-
-
 def detail_name(name: str) -> str:
     detail_level(name)
     return name
@@ -208,6 +202,10 @@ _SHARED = (
         ),
     ),
     Option("out", dict(required=True)),
+    # files read or written besides --out: checked up front like every path option
+    Option("world", dict(metavar="FILE.blend"), input_file("world", ".blend")),
+    Option("geometry", dict(metavar="SCENE.npz"), input_file("geometry", ".npz")),
+    Option("map", dict(metavar="MAP.png"), output_file("map", ".png")),
 )
 OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
 SENSOR_OPTIONS = ("rh", "min_range", "max_range", "noise", "noise_seed")

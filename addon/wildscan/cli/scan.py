@@ -16,12 +16,10 @@ DESCRIPTION = (
 
 def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     source = p.add_mutually_exclusive_group(required=not in_blender)
-    options.add_path(
+    options.add(
         p,
         "world",
-        options.input_file("world", ".blend"),
         group=source,
-        metavar="FILE.blend",
         help="scan this saved world (or any .blend with tagged objects)",
     )
     options.add(
@@ -30,12 +28,10 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         group=source,
         help="build the world from this seed (integer from 0 to 2147483647) and scan it",
     )
-    options.add_path(
+    options.add(
         p,
         "geometry",
-        options.input_file("geometry", ".npz"),
         group=source,
-        metavar="SCENE.npz",
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )
     for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):

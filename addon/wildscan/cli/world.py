@@ -34,11 +34,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         metavar="WORLD.blend",
         help="the Blender file to write; zones and scan poses go beside it as WORLD.json",
     )
-    options.add_path(
+    options.add(
         p,
         "map",
-        options.output_file("map", ".png"),
-        metavar="MAP.png",
         help="also write an aerial map (classes in colour, zones, poses); "
         "needs matplotlib, which the bpy wheel's venv has and Debian's Blender does not",
     )
