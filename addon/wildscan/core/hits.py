@@ -23,6 +23,22 @@ class RayHits:
     class_id: np.ndarray  # int16 (N,) internal class id (classes.BY_ID; WATER_ID for water, 0 untagged)
     instance: np.ndarray  # int32 (N,) the hit object's `wildscan_instance` (0 when untagged)
     untagged_objects: frozenset[str] = frozenset()  # names of untagged objects that were hit
+    # float32 (N,) the hit object's `wildscan_reflectivity` override, nan where the class's
+    # applies; None: no override on any ray (the paper's case, the common one)
+    reflectivity: np.ndarray | None = None
+
+    def overrides(self) -> np.ndarray:
+        """float32 (N,) reflectivity overrides, nan where none."""
+        if self.reflectivity is None:
+            return np.full(len(self.distance), np.nan, dtype=np.float32)
+        return self.reflectivity
+
+    def rows(self, index) -> "RayHits":
+        """The hits of the rays `index` selects (a slice, mask or index array)."""
+        refl = None if self.reflectivity is None else self.reflectivity[index]
+        return RayHits(
+            self.distance[index], self.class_id[index], self.instance[index], self.untagged_objects, refl
+        )
 
     @property
     def hit(self) -> np.ndarray:
@@ -44,4 +60,7 @@ class RayHits:
             class_id=np.concatenate([p.class_id for p in parts]),
             instance=np.concatenate([p.instance for p in parts]),
             untagged_objects=frozenset().union(*(p.untagged_objects for p in parts)),
+            reflectivity=None
+            if all(p.reflectivity is None for p in parts)
+            else np.concatenate([p.overrides() for p in parts]),
         )

@@ -21,6 +21,7 @@ import numpy as np
 from ..core.classes import UNLABELED
 from ..core.hits import RayHits
 from .base import broadcast_origins, tags_from
+from .extract import check_scene_tags
 
 PROGRESS_EVERY = 10_000
 
@@ -34,12 +35,12 @@ def _original(obj):
     return obj.original if obj.original is not None else obj
 
 
-def _object_tags(obj, instancer=None) -> tuple[int, int, str | None]:
-    """(class id, instance, name if untagged) of the hit object, read from the original
-    objects (evaluated copies may not carry custom properties)."""
+def _object_tags(obj, instancer=None) -> tuple[int, int, float, str | None]:
+    """(class id, instance, reflectivity override (nan: none), name if untagged) of the hit
+    object, read from the original objects (evaluated copies may not carry custom properties)."""
     sources = [_original(obj)] + ([_original(instancer)] if instancer is not None else [])
-    class_id, instance = tags_from(sources)
-    return class_id, instance, sources[0].name if class_id == UNLABELED.id else None
+    class_id, instance, reflectivity = tags_from(sources)
+    return class_id, instance, reflectivity, sources[0].name if class_id == UNLABELED.id else None
 
 
 def scene_depsgraph(scene):
@@ -215,6 +216,8 @@ class BlenderRayCastBackend:
             raise ValueError(f"origins {origins.shape} do not match directions {directions.shape}")
         if self._own_depsgraph:
             self.depsgraph = self._evaluated_depsgraph()
+        # every visible object's tags, hit or not: the fast backends refuse the same scenes
+        check_scene_tags(self.depsgraph)
         copies = InstanceCopies(self.depsgraph)
         # The loop allocates several objects per ray; with generational GC on, each
         # collection walks the growing lists below, which costs ~30% of the run.
@@ -306,6 +309,7 @@ class BlenderRayCastBackend:
         tags: dict = {}
         class_ids = np.empty(len(keep), dtype=np.int16)
         instances = np.empty(len(keep), dtype=np.int32)
+        reflectivity = np.empty(len(keep), dtype=np.float32)
         instancers: dict = {}
         for j, k in enumerate(keep.tolist()):
             obj = hit_obj[k]
@@ -320,9 +324,12 @@ class BlenderRayCastBackend:
             tag = tags.get(key)
             if tag is None:
                 tag = tags[key] = _object_tags(obj, key[1] if isinstance(key, tuple) else None)
-            class_ids[j], instances[j] = tag[0], tag[1]
+            class_ids[j], instances[j], reflectivity[j] = tag[0], tag[1], tag[2]
         idx = idx[keep]
         hits.distance[idx] = dist[keep]
         hits.class_id[idx] = class_ids
         hits.instance[idx] = instances
-        hits.untagged_objects = frozenset(t[2] for t in tags.values() if t[2] is not None)
+        if not np.isnan(reflectivity).all():
+            hits.reflectivity = np.full(len(hits.distance), np.nan, dtype=np.float32)
+            hits.reflectivity[idx] = reflectivity
+        hits.untagged_objects = frozenset(t[3] for t in tags.values() if t[3] is not None)

@@ -92,11 +92,14 @@ def nearer(a: RayHits, b: RayHits) -> RayHits:
         class_id=np.where(take, b.class_id, a.class_id),
         instance=np.where(take, b.instance, a.instance),
         untagged_objects=a.untagged_objects | b.untagged_objects,
+        reflectivity=None
+        if a.reflectivity is None and b.reflectivity is None
+        else np.where(take, b.overrides(), a.overrides()),
     )
 
 
 def _rows(hits: RayHits, rows: slice) -> RayHits:
-    return RayHits(hits.distance[rows], hits.class_id[rows], hits.instance[rows])
+    return hits.rows(rows)
 
 
 def swaying_scene(static_geometry: SceneGeometry, wind: Wind, make, rh_deg: float):
