@@ -197,3 +197,46 @@ def test_wildscan_reflectivity_sets_the_intensity_and_keeps_the_label(backend):
     returns = measure(hits, np.zeros(2), SensorConfig(noise_sigma=0.0))
     assert returns.label.tolist() == [ROCK, ROCK]
     assert returns.intensity.tolist() == [40.0, 55.5]
+
+
+# -- the Tag section -------------------------------------------------------------------------
+
+
+def test_the_tag_section_tags_selection_and_collection_with_unique_instances():
+    import wildscan
+    from wildscan.ui.tag import tag_text, untagged_meshes
+
+    fresh_scene()
+    wildscan.register()
+    try:
+        scene = bpy.context.scene
+        tagged = _box("tagged", 0.0, "rock", 5)
+        a, b = _box("a", 3.0, None), _box("b", 6.0, None)
+        clash = _box("clash", 9.0, None)
+        clash["wildscan_instance"] = 5  # the same id as `tagged`: must get its own
+        hidden = _box("hidden", 12.0, None)
+        hidden.hide_set(True)
+        assert [o.name for o in untagged_meshes(scene)] == ["a", "b", "clash"]  # a scan does not see `hidden`
+
+        for obj in (a, b):
+            obj.select_set(True)
+        assert bpy.ops.wildscan.tag(class_name="bush", target="SELECTED") == {"FINISHED"}
+        coll = bpy.data.collections.new("mine")
+        scene.collection.children.link(coll)
+        coll.objects.link(clash)
+        with bpy.context.temp_override(collection=coll):
+            assert bpy.ops.wildscan.tag(class_name="low grass", target="COLLECTION") == {"FINISHED"}
+
+        assert (a["wildscan_class"], b["wildscan_class"], clash["wildscan_class"]) == (
+            "bush",
+            "bush",
+            "low grass",
+        )
+        ids = [o["wildscan_instance"] for o in (tagged, a, b, clash)]
+        assert ids[0] == 5 and len(set(ids)) == 4
+        assert [o.name for o in untagged_meshes(scene)] == []
+        assert tag_text(a).startswith("a: bush, instance ")
+        hits = _down("embree", [3.0, 6.0, 9.0])
+        assert hits.class_id.tolist() == [class_by_name("bush").id] * 2 + [class_by_name("low grass").id]
+    finally:
+        wildscan.unregister()

@@ -19,6 +19,7 @@ from bpy.types import PropertyGroup
 from ..app.settings import label
 from ..blender.generate import DETAILS
 from ..core import sensor as S
+from ..core.classes import TAG_NAMES
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 
@@ -224,6 +225,12 @@ class WildScanSettings(PropertyGroup):
         "them to look at the cloud alone. Display only: a scan still sees them",
         get=_get_show_world,
         set=_set_show_world,
+    )
+    tag_class: EnumProperty(
+        name="Class",
+        description="The class the Tag buttons give objects (the wildscan_class property)",
+        items=[(n, n.capitalize(), f"Tag as {n}") for n in TAG_NAMES],
+        default="rock",
     )
     points_in_front: BoolProperty(
         name="In front", description="Draw the cloud's points over the world's surfaces", default=True
