@@ -240,3 +240,17 @@ def test_the_tag_section_tags_selection_and_collection_with_unique_instances():
         assert hits.class_id.tolist() == [class_by_name("bush").id] * 2 + [class_by_name("low grass").id]
     finally:
         wildscan.unregister()
+
+
+def test_reflectivity_overrides_survive_a_geometry_file(tmp_path):
+    from wildscan.raycast.extract import extract_scene
+    from wildscan.raycast.scene_file import geometry_file_bytes, load_geometry, save_geometry
+
+    fresh_scene()
+    _box("plain_rock", 0.0, "rock", 1)
+    plain = extract_scene()
+    assert b'"version": 1' in geometry_file_bytes(plain)  # no override: the same file as before
+    bpy.data.objects["plain_rock"]["wildscan_reflectivity"] = 12.5
+    geometry = extract_scene()
+    loaded = load_geometry(save_geometry(geometry, tmp_path / "g.npz"))
+    assert loaded.reflectivity.tolist() == [12.5] * loaded.triangle_count
