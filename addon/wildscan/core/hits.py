@@ -23,6 +23,10 @@ class RayHits:
     class_id: np.ndarray  # int16 (N,) internal class id (classes.BY_ID; WATER_ID for water, 0 untagged)
     instance: np.ndarray  # int32 (N,) the hit object's `wildscan_instance` (0 when untagged)
     untagged_objects: frozenset[str] = frozenset()  # names of untagged objects that were hit
+    # float64 (N,3) unit normal of the hit triangle (zeros on a miss; its sign is the
+    # triangle's winding, not the ray's side). Only when asked for (`cast(..., normals=True)`):
+    # the realistic sensor model needs each hit's incidence angle.
+    normal: np.ndarray | None = None
     # float32 (N,) the hit object's `wildscan_reflectivity` override, nan where the class's
     # applies; None: no override on any ray (the paper's case, the common one)
     reflectivity: np.ndarray | None = None
@@ -35,9 +39,13 @@ class RayHits:
 
     def rows(self, index) -> "RayHits":
         """The hits of the rays `index` selects (a slice, mask or index array)."""
-        refl = None if self.reflectivity is None else self.reflectivity[index]
         return RayHits(
-            self.distance[index], self.class_id[index], self.instance[index], self.untagged_objects, refl
+            self.distance[index],
+            self.class_id[index],
+            self.instance[index],
+            self.untagged_objects,
+            normal=None if self.normal is None else self.normal[index],
+            reflectivity=None if self.reflectivity is None else self.reflectivity[index],
         )
 
     @property
@@ -55,11 +63,13 @@ class RayHits:
     @staticmethod
     def joined(parts: list["RayHits"]) -> "RayHits":
         """The hits of several consecutive batches of rays, in order."""
+        normals = [p.normal for p in parts]
         return RayHits(
             distance=np.concatenate([p.distance for p in parts]),
             class_id=np.concatenate([p.class_id for p in parts]),
             instance=np.concatenate([p.instance for p in parts]),
             untagged_objects=frozenset().union(*(p.untagged_objects for p in parts)),
+            normal=None if any(n is None for n in normals) else np.concatenate(normals),
             reflectivity=None
             if all(p.reflectivity is None for p in parts)
             else np.concatenate([p.overrides() for p in parts]),
