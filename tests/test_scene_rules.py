@@ -254,3 +254,21 @@ def test_reflectivity_overrides_survive_a_geometry_file(tmp_path):
     geometry = extract_scene()
     loaded = load_geometry(save_geometry(geometry, tmp_path / "g.npz"))
     assert loaded.reflectivity.tolist() == [12.5] * loaded.triangle_count
+
+
+@pytest.mark.parametrize("model", ["paper", "realistic"])
+def test_a_whole_scan_with_an_overridden_terrain_keeps_its_labels(model):
+    from wildscan.core.placement import Pose
+    from wildscan.core.scan import run_scan
+    from wildscan.core.sensor import SensorConfig
+
+    fresh_scene()
+    v, f = primitives.box((0.0, 0.0, -0.5), (60.0, 60.0, 1.0))
+    ground = mesh_object("ground", v, f, wildscan_collection(), "terrain", 1)
+    sensor = SensorConfig(rh_deg=10.0, noise_sigma=0.0, model=model)
+    before = run_scan(make_backend("embree", notify=None), Pose(0, 0, 0), sensor).cloud
+    ground["wildscan_reflectivity"] = 25.0
+    after = run_scan(make_backend("embree", notify=None), Pose(0, 0, 0), sensor).cloud
+    assert len(after) == len(before) > 100
+    np.testing.assert_array_equal(after.label, before.label)
+    np.testing.assert_allclose(after.intensity, before.intensity * 0.25, rtol=1e-6)
