@@ -64,8 +64,9 @@ def extract_scene(depsgraph=None, center=None, radius=None) -> SceneGeometry:
     names: dict[str, int] = {}
     parts: list[SceneGeometry] = []
     mesh_cache: dict = {}
+    view_layer = depsgraph.view_layer
     for inst in depsgraph.object_instances:
-        part = _instance_part(inst, crop, names, mesh_cache)
+        part = _instance_part(inst, view_layer, crop, names, mesh_cache)
         if part is not None:
             parts.append(part)
 
@@ -74,10 +75,10 @@ def extract_scene(depsgraph=None, center=None, radius=None) -> SceneGeometry:
     return geometry
 
 
-def _instance_part(inst, crop, names: dict[str, int], mesh_cache: dict) -> SceneGeometry | None:
+def _instance_part(inst, view_layer, crop, names: dict[str, int], mesh_cache: dict) -> SceneGeometry | None:
     """The triangles one depsgraph instance contributes (None when it has none in reach)."""
     obj = inst.object
-    if obj is None or obj.type not in MESH_TYPES or not scanned(inst):
+    if obj is None or obj.type not in MESH_TYPES or not scanned(inst, view_layer):
         return None
     # Copy now: an instance's matrix and object are only valid during this iteration step.
     matrix = np.array(inst.matrix_world, dtype=np.float64)
@@ -102,12 +103,13 @@ def _instance_part(inst, crop, names: dict[str, int], mesh_cache: dict) -> Scene
     return part if keep is None or keep.all() else part.subset(keep)
 
 
-def scanned(inst) -> bool:
+def scanned(inst, view_layer) -> bool:
     """Whether the laser sees this depsgraph instance: the object (for a copy made by
-    instancing, its instancer) is visible in the viewport's view layer."""
+    instancing, its instancer) is visible in the depsgraph's view layer (which need not be
+    the context's: a scene outside any window has its own)."""
     source = inst.parent if inst.is_instance and inst.parent is not None else inst.object
     original = source.original if source.original is not None else source
-    return bool(original.visible_get())
+    return bool(original.visible_get(view_layer=view_layer))
 
 
 def singular(matrix) -> bool:
@@ -122,7 +124,7 @@ def check_scene_tags(depsgraph) -> None:
     checks the whole scene up front, so none refuses a scene another accepts)."""
     for inst in depsgraph.object_instances:
         obj = inst.object
-        if obj is not None and obj.type in MESH_TYPES and scanned(inst):
+        if obj is not None and obj.type in MESH_TYPES and scanned(inst, depsgraph.view_layer):
             _tags(inst)
 
 
