@@ -1,0 +1,141 @@
+"""`wildscan bench --suite far`: how far from the world origin every backend and frame still
+meets 1e-4 m (issue 9, fault 7).
+
+A small scene (a flat terrain quad, one rock box, and one very large single face: a wall
+`WALL_LENGTH` long) is built in Blender at each offset along x and y, scanned from one pose
+by every backend in every frame with the noise off, and every point as the PLY stores it
+(float32) is compared with the exact float64 hit of its beam on the same triangles
+(raycast/reference.py, brute force) from the same placement. All vertices are whole metres
+and every offset is a whole number below 2^24, so the float32 mesh Blender holds is exactly
+the float64 geometry the truth is computed on: what is measured is the ray casting and the
+frames, not the scene's own rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+OFFSETS = (0.0, 1e2, 1e3, 2e3, 4e3, 1e4, 1e5, 1e6)
+QUICK_OFFSETS = (0.0, 1e3, 1e4, 1e6)
+FRAMES = ("sensor", "leveled", "world")
+TOLERANCE = 1e-4  # m, what every point must meet
+RH_DEG = 5.0  # 36 2D scans of 1080 beams: enough beams on every surface, quick with scene.ray_cast
+POSE_SHIFT = (0.37, 0.61, 30.0)  # pose = offset + this (x, y) and yaw in degrees: off the axes
+GROUND_HALF = 40  # m, the terrain quad
+WALL_LENGTH = 100_000  # m, one face: scene.ray_cast's float32 test is at its worst on faces this big
+
+
+def far_scene_parts(offset: float) -> list[tuple[str, np.ndarray, np.ndarray, str]]:
+    """(name, world vertices, faces, class) of the scene at `offset` (whole metres)."""
+    from ..core.world.shapes import primitives
+
+    o = float(offset)
+    g = GROUND_HALF
+    ground = np.array([[o - g, o - g, 0], [o + g, o - g, 0], [o + g, o + g, 0], [o - g, o + g, 0]], float)
+    box = primitives.box((o + 4.0, o + 3.0, 1.0), (2.0, 2.0, 2.0))
+    half = WALL_LENGTH // 2
+    wall = np.array(
+        [[o - half, o - 7, 0], [o + half, o - 7, 0], [o + half, o - 7, 12], [o - half, o - 7, 12]], float
+    )
+    quad = np.array([[0, 1, 2, 3]])
+    return [
+        ("far_ground", ground, quad, "terrain"),
+        ("far_rock", np.asarray(box.vertices, float), np.asarray(box.faces), "rock"),
+        ("far_wall", wall, quad, "rock"),
+    ]
+
+
+def build_far_scene(offset: float) -> None:
+    """The scene at `offset` in Blender's current (emptied) scene: object-space vertices
+    around 0 and the offset as each object's location, as a user's far-away scene has."""
+    from ..blender.mesh import mesh_object, wildscan_collection
+    from ..blender.scene_io import empty_scene
+
+    empty_scene()
+    shift = np.array([offset, offset, 0.0])
+    for name, vertices, faces, cls in far_scene_parts(offset):
+        obj = mesh_object(name, vertices - shift, faces, wildscan_collection(), cls, 1)
+        obj.location = tuple(shift.tolist())
+
+
+def point_errors(result, geometry, rh_deg: float, frame: str) -> np.ndarray:
+    """(N,) distance of each point as stored (float32) from the exact hit of its beam."""
+    from ..core.frames import from_world
+    from ..core.sensor import rotated_beam_directions
+    from ..raycast.reference import reference_hits
+
+    placement, cloud = result.placement, result.cloud
+    dirs = rotated_beam_directions(placement.rotation, rh_deg)
+    beam = cloud.sweep.astype(np.int64) * 1080 + cloud.ring.astype(np.int64)
+    truth = reference_hits(geometry, placement.optical_centre, dirs[beam], 1e3)["distance"]
+    exact_world = placement.optical_centre + dirs[beam] * truth[:, None]
+    exact = from_world(exact_world, frame, placement)
+    stored = np.asarray(cloud.xyz, dtype=np.float32).astype(np.float64)
+    gap = stored - exact
+    return np.sqrt(gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] + gap[:, 2] * gap[:, 2])
+
+
+def measure_offset(offset: float, backends, frames=FRAMES, rh_deg: float = RH_DEG) -> list[dict]:
+    """One row per backend and frame at `offset`: points, max and median error (m)."""
+    import bpy
+
+    from ..core.placement import Pose
+    from ..core.scan import run_scan
+    from ..core.sensor import SensorConfig
+    from ..raycast.extract import extract_scene
+    from ..raycast.select import make_backend
+
+    build_far_scene(offset)
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    geometry = extract_scene(depsgraph)
+    pose = Pose(offset + POSE_SHIFT[0], offset + POSE_SHIFT[1], POSE_SHIFT[2])
+    sensor = SensorConfig(rh_deg=rh_deg, noise_sigma=0.0)
+    rows = []
+    for name in backends:
+        backend = make_backend(name, depsgraph=depsgraph, geometry=geometry, notify=None)
+        for frame in frames:
+            result = run_scan(backend, pose, sensor, frame=frame)
+            errors = point_errors(result, geometry, rh_deg, frame)
+            rows.append(
+                {
+                    "offset": offset,
+                    "backend": name,
+                    "frame": frame,
+                    "points": len(errors),
+                    "max_error": float(errors.max()) if len(errors) else 0.0,
+                    "median_error": float(np.median(errors)) if len(errors) else 0.0,
+                }
+            )
+    return rows
+
+
+def bench_far(offsets=OFFSETS, backends=None, say=print) -> list[dict]:
+    from ..raycast.select import available_backends
+
+    backends = list(backends or available_backends())
+    rows = []
+    for offset in offsets:
+        rows += measure_offset(offset, backends)
+    say(far_table(rows, backends))
+    return rows
+
+
+def far_table(rows: list[dict], backends) -> str:
+    """Offset down, backend x frame across: the largest point error, in mm (x: over TOLERANCE)."""
+    from .report import text_table
+
+    columns = [(b, f) for b in backends for f in FRAMES]
+    headers = ["offset m"] + [f"{b} {f}" for b, f in columns]
+    table = []
+    for offset in sorted({r["offset"] for r in rows}):
+        cells = [f"{offset:g}"]
+        for b, f in columns:
+            row = next((r for r in rows if r["offset"] == offset and r["backend"] == b and r["frame"] == f), None)
+            cells.append("-" if row is None else _mm(row["max_error"]))
+        table.append(cells)
+    return text_table(headers, table)
+
+
+def _mm(error: float) -> str:
+    mark = "" if error <= TOLERANCE else " x"
+    return f"{error * 1e3:.4f}{mark}"
