@@ -18,6 +18,7 @@ from .hits import RayHits
 from .leveling import leveling_matrix
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
+from .reach import check_reach
 from .sensor import SensorConfig, beam_directions, range_noise, rotated_beam_directions
 
 # Rays are cast a little past max range so a true range just beyond it can
@@ -128,6 +129,7 @@ def run_scan(
     sensor.validate()
     check_frame(frame)
     placement = place(backend, pose, z_start)
+    check_reach(placement.optical_centre, sensor.max_range, frame, getattr(backend, "name", ""))
 
     dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg)
     dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg)
