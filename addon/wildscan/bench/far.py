@@ -18,6 +18,7 @@ import numpy as np
 OFFSETS = (0.0, 1e2, 1e3, 2e3, 4e3, 1e4, 1e5, 999_000.0)
 QUICK_OFFSETS = (0.0, 1e3, 1e4, 999_000.0)
 FRAMES = ("sensor", "leveled", "world")
+BACKENDS = ("embree", "bvh", "blender")
 TOLERANCE = 1e-4  # m, what every point must meet
 EDGE_BAND = 1e-3  # m: beams this close to an edge are counted apart (face choice, not precision)
 RH_DEG = 5.0  # 36 2D scans of 1080 beams: enough beams on every surface, quick with scene.ray_cast
@@ -166,9 +167,10 @@ def measure_offset(
 def bench_far(offsets=OFFSETS, backends=None, say=print) -> list[dict]:
     """The range table (every offset, a 100 m wall) and the large-face table (a 100 km wall
     at the origin); returns every row (`table` says which)."""
+    from ..core.checks import one_of
     from ..raycast.select import available_backends
 
-    backends = list(backends or available_backends())
+    backends = [one_of(name, "backends", BACKENDS) for name in backends or available_backends()]
     rows = []
     for offset in offsets:
         rows += [dict(r, table="range") for r in measure_offset(offset, backends)]
