@@ -70,7 +70,11 @@ def test_scene_ray_cast_on_a_100_km_single_face_gives_the_float64_distance():
     yaw = np.radians(np.linspace(-170.0, -10.0, 161))
     elev = np.radians(np.linspace(-3.0, 40.0, 44))
     dirs = np.stack(
-        [np.outer(np.cos(elev), np.cos(yaw)), np.outer(np.cos(elev), np.sin(yaw)), np.outer(np.sin(elev), 1 + 0 * yaw)],
+        [
+            np.outer(np.cos(elev), np.cos(yaw)),
+            np.outer(np.cos(elev), np.sin(yaw)),
+            np.outer(np.sin(elev), 1 + 0 * yaw),
+        ],
         axis=-1,
     ).reshape(-1, 3)
     exact = (-7.0 - origin[1]) / dirs[:, 1]

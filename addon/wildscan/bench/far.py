@@ -28,7 +28,9 @@ WALL_LENGTH = 100  # m, the wall of the range table: one quad
 LARGE_FACE = 100_000  # m, the wall of the large-face table: float32 ray tests are at their worst here
 
 
-def far_scene_parts(offset: float, wall_length: int = WALL_LENGTH) -> list[tuple[str, np.ndarray, np.ndarray, str]]:
+def far_scene_parts(
+    offset: float, wall_length: int = WALL_LENGTH
+) -> list[tuple[str, np.ndarray, np.ndarray, str]]:
     """(name, world vertices, faces, class) of the scene at `offset` (whole metres)."""
     from ..core.world.shapes import primitives
 
@@ -192,7 +194,9 @@ def far_table(rows: list[dict], backends) -> str:
     for offset in sorted({r["offset"] for r in rows}):
         cells = [f"{offset:g}"]
         for b, f in columns:
-            row = next((r for r in rows if r["offset"] == offset and r["backend"] == b and r["frame"] == f), None)
+            row = next(
+                (r for r in rows if r["offset"] == offset and r["backend"] == b and r["frame"] == f), None
+            )
             cells.append("-" if row is None else _cell(row))
         table.append(cells)
     return text_table(headers, table)
@@ -203,7 +207,13 @@ def large_face_table(rows: list[dict]) -> str:
 
     headers = ["backend", "points", "missing", "max error mm", "median mm"]
     table = [
-        [r["backend"], r["points"], r["missing"], f"{r['max_error'] * 1e3:.4f}", f"{r['median_error'] * 1e3:.6f}"]
+        [
+            r["backend"],
+            r["points"],
+            r["missing"],
+            f"{r['max_error'] * 1e3:.4f}",
+            f"{r['median_error'] * 1e3:.6f}",
+        ]
         for r in rows
     ]
     return text_table(headers, table, right=[False, True, True, True, True])
