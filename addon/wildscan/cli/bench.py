@@ -1,4 +1,4 @@
-"""`wildscan bench [--suite backends|world|drive|far]` and `wildscan bench-world` (= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive|far]`, `wildscan bench-world` (= `--suite world`)."""
 
 from __future__ import annotations
 
