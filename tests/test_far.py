@@ -85,3 +85,29 @@ def test_scene_ray_cast_on_a_100_km_single_face_gives_the_float64_distance():
     seen = on_wall & (np.abs(hits.distance - exact) < 0.5)
     assert seen.sum() > 0.95 * on_wall.sum() > 3000
     assert np.abs(hits.distance[seen] - exact[seen]).max() < 1e-6
+
+
+def test_bench_far_prints_the_range_table_with_its_refusals(capsys):
+    from wildscan import cli
+
+    assert cli.main(["bench", "--suite", "far", "--quick", "--backends", "embree"]) == 0
+    out = capsys.readouterr().out
+    rows = {line.split()[0]: line for line in out.splitlines() if line[:1].isdigit()}
+    assert set(rows) >= {"0", "1000", "10000", "999000"}
+    assert "refused" not in rows["1000"] and rows["10000"].count("refused") == 1  # the world frame
+    assert "100 km single face" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--backends", "auto"], "--backends must be one of embree, bvh, blender"),
+        (["--runs", "3"], "--runs applies to --suite backends only"),
+    ],
+)
+def test_bench_far_refuses_what_it_does_not_use(argv, message, capsys):
+    from wildscan import cli
+
+    assert cli.main(["bench", "--suite", "far", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
