@@ -62,6 +62,10 @@ def test_the_range_counts_the_sensor_reach_and_height():
         with pytest.raises(UserError):
             check_reach(centre, 30.0, "world", "embree")
     check_reach([5e5, 5e5, 5e3], 30.0, "leveled", "embree")  # local frame, float64-refined backend
+    drive = np.array([[0.0, 0.0, 1.0], [-2030.0, 5.0, 1.0], [10.0, 10.0, 1.0]])  # every optical centre
+    check_reach(drive, 15.0, "world", "embree")
+    with pytest.raises(UserError, match="x = -2030 m"):
+        check_reach(drive, 30.0, "world", "embree")
 
 
 def test_scene_ray_cast_on_a_100_km_single_face_gives_the_float64_distance():

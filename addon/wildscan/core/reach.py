@@ -28,17 +28,21 @@ FLOAT32_Z_REACH = 1024.0  # m: |z| below this (steps <= 61 um), so x, y, z toget
 
 
 def float32_reach_exceeded(centre, max_range: float) -> str | None:
-    """Which coordinate of the reach (centre +- max_range) leaves the float32 box, said in
-    words (None when all stay inside)."""
-    centre = np.asarray(centre, dtype=np.float64).ravel()
-    for axis, value, limit in zip("xyz", centre, (FLOAT32_XY_REACH, FLOAT32_XY_REACH, FLOAT32_Z_REACH)):
+    """Which coordinate of the reach (centre +- max_range; centre (3,) or many (N, 3), as a
+    drive's) leaves the float32 box, said in words (None when all stay inside)."""
+    centres = np.asarray(centre, dtype=np.float64).reshape(-1, 3)
+    if not len(centres):
+        return None
+    farthest = centres[np.argmax(np.abs(centres), axis=0), [0, 1, 2]]  # signed, per axis
+    for axis, value, limit in zip("xyz", farthest, (FLOAT32_XY_REACH, FLOAT32_XY_REACH, FLOAT32_Z_REACH)):
         if abs(float(value)) + max_range >= limit:
             return f"{axis} = {float(value):g} m (+- {max_range:g} m range) reaches past +-{limit:g} m"
     return None
 
 
 def check_reach(centre, max_range: float, frame: str, backend: str) -> None:
-    """Refuse a scan whose numbers would not meet 1e-4 m this far from the origin."""
+    """Refuse a scan (or a drive: every optical centre (N, 3)) whose numbers would not meet
+    1e-4 m this far from the origin."""
     beyond = float32_reach_exceeded(centre, max_range)
     if beyond is None:
         return
