@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core import detmath as dm
 from ...core.errors import UserError
 from ...core.motion.trajectory import Path, polyline_path, step_lengths, straight_path
 from ...raycast.geometry import SceneGeometry, local_origin
@@ -95,7 +94,7 @@ def crop_along(geometry: SceneGeometry, xy: np.ndarray, radius: float) -> SceneG
     lo_c, hi_c = lo[candidates], hi[candidates]
     for point in samples:
         gap = np.clip(point, lo_c, hi_c) - point
-        keep[candidates[dm.dot3(gap, gap) <= reach * reach]] = True
+        keep[candidates[gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= reach * reach]] = True
     part = geometry.subset(keep)
     centre = 0.5 * (samples.min(axis=0) + samples.max(axis=0))
     part.offset = local_origin(part.vertices, part.faces, centre)
