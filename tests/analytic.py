@@ -28,14 +28,17 @@ def slope_plane(z0: float, slope_x: float, slope_y: float, **kw) -> Patch:
 
 class AnalyticBackend:
     name = "analytic"
+    supports_normals = True
 
     def __init__(self, patches: list[Patch]):
         self.patches = patches
 
-    def cast(self, origins, directions, max_range) -> RayHits:
+    def cast(self, origins, directions, max_range, normals: bool = False) -> RayHits:
         d = np.asarray(directions, dtype=np.float64)
         o = broadcast_origins(origins, len(d))
         out = RayHits.empty(len(d))
+        if normals:
+            out.normal = np.zeros((len(d), 3))
         for patch in self.patches:
             n = np.asarray(patch.normal, dtype=np.float64)
             denom = d @ n
@@ -49,4 +52,6 @@ class AnalyticBackend:
             out.distance[ok] = t[ok]
             out.class_id[ok] = patch.class_id
             out.instance[ok] = patch.instance
+            if normals:
+                out.normal[ok] = n / np.linalg.norm(n)
         return out

@@ -1,11 +1,14 @@
 """The golden guards: world content hashes and scan checksums that a refactor must not move.
 
 `tests/golden/worlds.json` holds the content hash (`plan_hash`, the `hash` of world.json)
-of seeds 0-3 at every detail level; `tests/golden/scans.json` the SHA-256 of PLY files
-scanned through the Blender path (the first valid pose of each zone of seed 1, and the
-test world with every ray backend). Each scan stores two checksums: of the whole file,
-and of its vertex records alone, so a deliberate header change (which moves the first)
-still proves the points themselves did not move.
+of seeds 0-3 at every detail level, with porous vegetation (the default, "seed/detail") and
+solid ("seed/detail/solid", the worlds from before porous vegetation existed);
+`tests/golden/scans.json` the SHA-256 of PLY files scanned through the Blender path (the
+first valid pose of each zone of seed 1 with porous and with solid vegetation, the forest's
+also with the realistic sensor model, and the test world with every ray backend). Each
+scan stores two checksums: of the whole file, and of its vertex records alone, so a
+deliberate header change (which moves the first) still proves the points themselves did
+not move.
 
 Only a deliberate behaviour change may rewrite them, in a commit of its own that says why:
 
@@ -23,6 +26,7 @@ from pathlib import Path
 GOLDEN = Path(__file__).parent / "golden"
 WORLD_SEEDS = (0, 1, 2, 3)
 DETAILS = ("low", "default", "high")
+VEGETATION = ("porous", "solid")  # porous is the default: its keys carry no suffix
 SCAN_SEED = 1
 TEST_WORLD_SEED = 7
 TEST_WORLD_POSE = (0.0, 0.0, 20.0)
@@ -34,11 +38,18 @@ def sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+def suffix(vegetation: str) -> str:
+    return "" if vegetation == "porous" else f"/{vegetation}"
+
+
 def world_hashes() -> dict[str, str]:
     from wildscan.core.world import plan_hash, plan_world
 
     return {
-        f"{seed}/{detail}": plan_hash(plan_world(seed, detail)) for seed in WORLD_SEEDS for detail in DETAILS
+        f"{seed}/{detail}{suffix(veg)}": plan_hash(plan_world(seed, detail, vegetation=veg))
+        for veg in VEGETATION
+        for seed in WORLD_SEEDS
+        for detail in DETAILS
     }
 
 
@@ -55,8 +66,9 @@ def scan_checksums(result, seed, directory: Path, name: str) -> dict:
     }
 
 
-def zone_scans(directory: Path) -> dict[str, dict]:
-    """Seed 1 built in Blender, the first valid pose of each zone scanned with embree."""
+def zone_scans(directory: Path, vegetation: str) -> dict[str, dict]:
+    """Seed 1 built in Blender, the first valid pose of each zone scanned with embree (the
+    forest's also with the realistic sensor model, with porous vegetation)."""
     from wildscan.app.poses import plan_backend, valid_poses
     from wildscan.app.scan import scan_current_scene
     from wildscan.blender.builder import build_world
@@ -66,18 +78,24 @@ def zone_scans(directory: Path) -> dict[str, dict]:
     from wildscan.raycast.extract import extract_scene
 
     empty_scene()
-    plan = build_world(SCAN_SEED)
+    plan = build_world(SCAN_SEED, vegetation=vegetation)
     poses = valid_poses(plan, plan_backend(plan), 1)
     geometry = extract_scene()
+    sensors = {"": SensorConfig()}
     out = {}
     for zone, (p,) in poses.items():
         pose = Pose(p["x"], p["y"], p["yaw"])
-        result = scan_current_scene(
-            pose, SensorConfig(), "leveled", p.get("z_start"), "embree", geometry=geometry
-        )
-        entry = {"pose": [p["x"], p["y"], p["yaw"], p.get("z_start")]}
-        entry.update(scan_checksums(result, SCAN_SEED, directory, f"seed{SCAN_SEED}_{zone}"))
-        out[f"seed{SCAN_SEED}/{zone}"] = entry
+        if zone == "forest" and vegetation == "porous":
+            sensors["/realistic"] = SensorConfig(model="realistic")
+        for model, sensor in sensors.items():
+            result = scan_current_scene(
+                pose, sensor, "leveled", p.get("z_start"), "embree", geometry=geometry
+            )
+            entry = {"pose": [p["x"], p["y"], p["yaw"], p.get("z_start")]}
+            name = f"seed{SCAN_SEED}_{zone}_{vegetation}{model.replace('/', '_')}"
+            entry.update(scan_checksums(result, SCAN_SEED, directory, name))
+            out[f"seed{SCAN_SEED}/{zone}{suffix(vegetation)}{model}"] = entry
+        sensors.pop("/realistic", None)
     return out
 
 
@@ -107,7 +125,8 @@ test_world_scans.__test__ = False  # a helper, not a pytest test
 
 def all_scans() -> dict[str, dict]:
     with tempfile.TemporaryDirectory() as tmp:
-        return {**zone_scans(Path(tmp)), **test_world_scans(Path(tmp))}
+        scans = {k: v for veg in VEGETATION for k, v in zone_scans(Path(tmp), veg).items()}
+        return {**scans, **test_world_scans(Path(tmp))}
 
 
 def load(name: str) -> dict:

@@ -494,7 +494,7 @@ def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatc
     coll.objects.link(mine)
     before = snapshot(exclude_generated=False)
 
-    def half_then_crash(seed, detail="default", progress=None):
+    def half_then_crash(seed, detail="default", progress=None, **kw):
         build_test_world(seed + 1)  # builds a whole other world...
         raise MemoryError("out of memory")  # ...and then fails
 
@@ -503,7 +503,7 @@ def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatc
         bpy.ops.wildscan.generate_world()
     assert snapshot(exclude_generated=False) == before
 
-    def user_mistake(seed, detail="default", progress=None):
+    def user_mistake(seed, detail="default", progress=None, **kw):
         raise UserError("must be one of low, default, high", setting="detail")
 
     monkeypatch.setattr(builder_module, "build_world", user_mistake)

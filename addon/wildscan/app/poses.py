@@ -5,7 +5,7 @@ lists them in the world's sidecar, the demo and the benchmark scan from them."""
 from __future__ import annotations
 
 from ..core.errors import PoseRejected
-from ..core.world import ZONES, WorldPlan, candidate_sites, plan_world
+from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, candidate_sites, plan_world
 
 DEFAULT_POSES_PER_ZONE = 5
 MAX_POSE_COUNT = 1000
@@ -53,8 +53,12 @@ def valid_poses(
 
 
 def poses_of_seed(
-    seed: int, detail: str = "default", count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
+    seed: int,
+    detail: str = "default",
+    count: int = DEFAULT_POSES_PER_ZONE,
+    zones=ZONES,
+    vegetation: str = DEFAULT_VEGETATION,
 ) -> dict[str, list[dict]]:
     """Valid poses of the world of `seed`, planned (not built): `wildscan poses`."""
-    plan = plan_world(seed, detail)
+    plan = plan_world(seed, detail, vegetation=vegetation)
     return valid_poses(plan, plan_backend(plan), count, zones)

@@ -34,7 +34,7 @@ def make_scene_backend(
 def crop_radius(sensor: SensorConfig) -> float:
     """How far from the pose (in xy) a scan can reach: rays are cast past max range by
     the noise margin (core.scan), from an optical centre up to a column height off the pose."""
-    return sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.noise_sigma + COLUMN_HEIGHT + CROP_MARGIN
+    return sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma + COLUMN_HEIGHT + CROP_MARGIN
 
 
 def scan_current_scene(
@@ -64,9 +64,12 @@ def check_scan(pose: Pose, sensor: SensorConfig, z_start: float | None, out: str
     return check_output_path(out)
 
 
-def open_scan_world(world: str | None = None, seed: int | None = None, progress=None) -> None:
+def open_scan_world(
+    world: str | None = None, seed: int | None = None, progress=None, vegetation: str = "porous"
+) -> None:
     """The scene a scan sees: the .blend file `world`, or the world of `seed` built in an
-    empty scene; with neither, the scene already open (a Blender started with a file)."""
+    empty scene (with `vegetation`); with neither, the scene already open (a Blender started
+    with a file)."""
     if world is not None:
         from ..blender.scene_io import open_world
 
@@ -74,7 +77,7 @@ def open_scan_world(world: str | None = None, seed: int | None = None, progress=
     elif seed is not None:
         from .world import build_in_scene
 
-        build_in_scene(seed, progress=progress, fresh=True)
+        build_in_scene(seed, progress=progress, fresh=True, vegetation=vegetation)
 
 
 def write_scan(

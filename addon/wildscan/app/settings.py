@@ -23,6 +23,7 @@ SETTINGS: dict[str, Setting] = {
     # the world
     "seed": Setting("--seed", "Seed"),
     "detail": Setting("--detail", "Detail"),
+    "vegetation": Setting("--vegetation", "Vegetation"),
     "zone": Setting("--zone"),
     "world": Setting("--world"),
     "geometry": Setting("--geometry"),
@@ -38,6 +39,10 @@ SETTINGS: dict[str, Setting] = {
     "max_range": Setting("--max-range", "Max range"),
     "noise": Setting("--noise", "Noise"),
     "noise_seed": Setting("--noise-seed", "Noise seed"),
+    "model": Setting("--model", "Model"),
+    "divergence": Setting("--divergence", "Divergence"),
+    "echoes": Setting("--echoes", "Echoes"),
+    "echo_separation": Setting("--echo-separation", "Echo separation"),
     "frame": Setting("--frame", "Frame"),
     "backend": Setting("--backend", "Ray caster"),
     # a drive (wildscan drive)

@@ -19,7 +19,7 @@ from pathlib import Path
 from ..core.errors import UserError
 from ..core.io.files import atomic_outputs, check_output_path
 from ..core.io.ply import sidecar_path
-from ..core.world import ZONES, WorldPlan, check_seed, detail_level
+from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, check_seed, check_vegetation, detail_level
 from .poses import DEFAULT_POSES_PER_ZONE, plan_backend, valid_poses
 
 StageProgress = Callable[[str, float], None]  # (stage, seconds) after each stage
@@ -30,13 +30,18 @@ StageProgress = Callable[[str, float], None]  # (stage, seconds) after each stag
 
 
 def build_in_scene(
-    seed: int, detail: str = "default", progress: StageProgress | None = None, fresh: bool = False
+    seed: int,
+    detail: str = "default",
+    progress: StageProgress | None = None,
+    fresh: bool = False,
+    vegetation: str = DEFAULT_VEGETATION,
 ) -> WorldPlan:
     """Build the world of `seed` in the current scene, replacing only what WildScan built
     before (the user's own objects stay); if the build fails, the previous world is left
     exactly as it was. `fresh` starts from an empty factory scene (the command line)."""
     check_seed(seed)
     detail_level(detail)
+    check_vegetation(vegetation)
     if fresh:
         from ..blender.scene_io import empty_scene
 
@@ -45,7 +50,7 @@ def build_in_scene(
     def build() -> WorldPlan:
         from ..blender.builder import build_world
 
-        return build_world(seed, detail, progress=progress)
+        return build_world(seed, detail, progress=progress, vegetation=vegetation)
 
     return replacing_generated(build)
 
@@ -164,18 +169,20 @@ def make_world(
     poses_per_zone: int = DEFAULT_POSES_PER_ZONE,
     progress: StageProgress | None = None,
     fresh: bool = True,
+    vegetation: str = DEFAULT_VEGETATION,
 ) -> SavedWorld:
     """Build the world of `seed` and save it as a .blend, with its JSON sidecar (zones,
     extents, features, up to `poses_per_zone` valid scan poses a zone) and optionally an
     aerial map: all of them or none."""
     check_seed(seed)
     detail_level(detail)
+    check_vegetation(vegetation)
     blend, png = check_world_outputs(out, map_path)
     sidecar = sidecar_path(blend)
     stage = progress or (lambda _stage, _seconds: None)
 
     t_start = time.perf_counter()
-    plan = build_in_scene(seed, detail, progress, fresh)
+    plan = build_in_scene(seed, detail, progress, fresh, vegetation)
     t0 = time.perf_counter()
     poses = valid_poses(plan, plan_backend(plan), poses_per_zone)
     stage("valid poses", time.perf_counter() - t0)

@@ -14,6 +14,9 @@ takes to build a world (bpy wheel). One module per suite:
                   objects (synthetic scenes of N objects).
   world_build.py  the world built at each detail level: stage times, counts, terrain fit
                   (suite "world"; `wildscan bench-world`).
+  realism.py      porous vegetation and the realistic sensor model (suite "realism"): crown and
+                  canopy gap fractions (porosity.py), echoes, realistic scan speed beside the
+                  paper model's, world build time and memory porous beside solid.
   targets.py      each goal of issue 5, met or not.
 
 backends.py runs the first four (suite "backends", the default) and writes bench.csv,
@@ -30,4 +33,5 @@ touched. Results: bench.csv, bench.png and scaling.md in --out (written together
 
     wildscan bench [--quick] [--details low,default,high] [--backends embree,bvh] [--out DIR]
     wildscan bench --suite world [--seed S] [--details LIST]      (= wildscan bench-world)
+    wildscan bench --suite realism [--seed S] [--quick]
 """

@@ -19,7 +19,7 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ..core.world import WorldParams, WorldPlan, plan_world
+from ..core.world import DEFAULT_VEGETATION, WorldParams, WorldPlan, plan_world
 from . import WORLD_COLLECTION
 from .mesh import GENERATED, mesh_data, remove_generated, tag_object, wildscan_collection
 
@@ -43,10 +43,11 @@ def build_world(
     progress: Progress | None = None,
     params: WorldParams | None = None,
     collection_name: str = WORLD_COLLECTION,
+    vegetation: str = DEFAULT_VEGETATION,
 ) -> WorldPlan:
     """Plan the world for `seed` and realise it in the current scene, replacing what a
     previous build made (and nothing else). `progress(stage, seconds)` after each stage."""
-    plan = plan_world(seed, detail, params, progress=progress)
+    plan = plan_world(seed, detail, params, progress=progress, vegetation=vegetation)
     realise(plan, collection_name, progress)
     return plan
 
@@ -70,6 +71,7 @@ def realise(
     # (the add-on's panel reads these).
     root["wildscan_seed"] = int(plan.seed)
     root["wildscan_detail"] = plan.detail.name
+    root["wildscan_vegetation"] = plan.vegetation
     t0 = _timed(plan, "blender.clear", t0, progress)
 
     used = {el.proto for el in plan.elements}

@@ -1,4 +1,5 @@
-"""`wildscan bench [--suite backends|world|drive]` and `wildscan bench-world` (= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive|realism]` and `wildscan bench-world`
+(= `bench --suite world`)."""
 
 from __future__ import annotations
 
@@ -7,13 +8,15 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world", "drive")
+SUITES = ("backends", "world", "drive", "realism")
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
     "world, analytic primitives and the default world at each detail level, print ratios against "
     "scene.ray_cast and scaling tables, and write a CSV and a chart of time against error. With --suite "
-    "world, time the building of the world instead (as `wildscan bench-world`)."
+    "world, time the building of the world instead (as `wildscan bench-world`); with --suite realism, "
+    "measure the porous vegetation (crown and canopy gap fractions), the realistic sensor model's echoes "
+    "and its speed beside the paper model's, and the world's build time and memory, porous beside solid."
 )
 WORLD_HELP = "time every world-building stage at each detail level (= bench --suite world)"
 WORLD_DESCRIPTION = (
@@ -54,7 +57,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         help="backends: every ray backend on the test world, analytic primitives, the default world per "
         "detail level and scaling (default); world: the world built at each detail level, as "
         "`wildscan bench-world`; drive: a 60 s drive along the trail with both ROS bags on the "
-        "--seed world's trail, stepped and continuous head",
+        "--seed world's trail, stepped and continuous head; realism: vegetation porosity, echoes, "
+        "realistic scan speed, build time and memory",
     )
     options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
     options.add(
@@ -100,8 +104,14 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     if args.suite == "drive":
         from ..bench.drive import bench_drive
 
-        _only_for_backends(args)
+        _only_for_backends(args, also=("details",))
         bench_drive(args.seed)
+        return 0
+    if args.suite == "realism":
+        from ..bench.realism import bench_realism
+
+        _only_for_backends(args, also=("details",))
+        bench_realism(args.seed, args.quick)
         return 0
     if args.suite == "world":
         from ..bench.config import check_details
@@ -123,10 +133,10 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     return run_backends(cfg)
 
 
-def _only_for_backends(args: argparse.Namespace) -> None:
+def _only_for_backends(args: argparse.Namespace, also: tuple[str, ...] = ()) -> None:
     from ..core.errors import UserError
 
-    for setting in ("backends", "runs", "reference_rays", "out"):
+    for setting in ("backends", "runs", "reference_rays", "out", *also):
         if getattr(args, setting) is not None:
             raise UserError("applies to {suite} backends only", setting=setting, related=("suite",))
 

@@ -21,7 +21,7 @@ from ..core import sensor as S
 from ..core.checks import whole_number
 from ..core.errors import UserError
 from ..core.frames import FRAMES
-from ..core.world import ZONES, check_seed, check_zone, detail_level
+from ..core.world import DEFAULT_VEGETATION, ZONES, check_seed, check_vegetation, check_zone, detail_level
 from ..raycast.select import BACKEND_NAMES
 
 EXIT_USER_ERROR = 2
@@ -95,6 +95,11 @@ def _count(setting: str, help: str) -> Option:
 
 SEED_HELP = "world seed, a whole number from 0 to 2147483647"
 DETAIL_HELP = "low | default | high"
+VEGETATION_HELP = (
+    "porous: tree crowns, bushes and high grass a beam can pass through (branches carrying leaf "
+    "clusters, separate blades) in a closed-canopy forest; solid: closed shells in an open stand, the "
+    "paper's look (exactly the worlds WildScan built before porous vegetation). Default porous"
+)
 
 
 def _number(setting: str, default: float, metavar: str, help: str) -> Option:
@@ -110,6 +115,9 @@ _SHARED = (
     ),
     Option(
         "zone", dict(metavar="NAME", help=f"only this zone: {', '.join(ZONES)} (default: all)"), check_zone
+    ),
+    Option(
+        "vegetation", dict(default=DEFAULT_VEGETATION, metavar="KIND", help=VEGETATION_HELP), check_vegetation
     ),
     _count("poses", "valid scan poses listed per zone in the sidecar"),
     _count("count", f"poses per zone, 1..{MAX_POSE_COUNT}"),
@@ -156,10 +164,11 @@ _SHARED = (
     ),
     _number(
         "noise",
-        S.DEFAULT_NOISE_SIGMA,
+        None,
         "SIGMA",
-        f"standard deviation of the Gaussian range noise, metres, 0 (off) to "
-        f"{S.MAX_NOISE_SIGMA:g} (default {S.DEFAULT_NOISE_SIGMA:g})",
+        f"standard deviation of the Gaussian range noise, metres, 0 (off) to {S.MAX_NOISE_SIGMA:g} "
+        f"(default {S.DEFAULT_NOISE_SIGMA:g} with the paper model; with the realistic model the "
+        "datasheet's accuracy, +-30 mm to 10 m and +-50 mm beyond, read as 2 sigma: 0.015 and 0.025)",
     ),
     Option(
         "noise_seed",
@@ -169,6 +178,40 @@ _SHARED = (
             metavar="N",
             help="seed of the range noise, independent of the world seed (default 0)",
         ),
+    ),
+    Option(
+        "model",
+        dict(
+            choices=S.MODELS,
+            default=S.DEFAULT_MODEL,
+            help="sensor model: paper (one thin ray a beam, intensity = the class reflectivity, as the "
+            "paper; default) or realistic (the beam's footprint, up to 3 echoes a beam with mixed pixels, "
+            "intensity from reflectivity, incidence and range, datasheet noise; adds the PLY fields echo, "
+            "echoes, label_purity and mixed)",
+        ),
+    ),
+    _number(
+        "divergence",
+        None,
+        "MRAD",
+        f"realistic model: full beam divergence in mrad, 0 (a thin ray) to {S.MAX_DIVERGENCE_MRAD:g} "
+        f"(default {S.DEFAULT_DIVERGENCE_MRAD:g}, an estimate: the datasheet gives none)",
+    ),
+    Option(
+        "echoes",
+        dict(
+            metavar="N",
+            help=f"realistic model: most echoes a beam returns, 1 to {S.MAX_ECHOES} (default "
+            f"{S.MAX_ECHOES}, the UTM-30LX-EW's multi-echo)",
+        ),
+        lambda text: whole_number(text, "echoes", 1, S.MAX_ECHOES),
+    ),
+    _number(
+        "echo_separation",
+        None,
+        "M",
+        "realistic model: surfaces farther apart along a beam than this give separate echoes, closer "
+        f"ones merge into one mixed range, metres (default {S.DEFAULT_ECHO_SEPARATION:g})",
     ),
     Option(
         "frame",
@@ -192,7 +235,18 @@ _SHARED = (
     Option("out", dict(required=True)),
 )
 OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
-SENSOR_OPTIONS = ("rh", "min_range", "max_range", "noise", "noise_seed")
+SENSOR_OPTIONS = (
+    "rh",
+    "min_range",
+    "max_range",
+    "noise",
+    "noise_seed",
+    "model",
+    "divergence",
+    "echoes",
+    "echo_separation",
+)
+REALISTIC_ONLY = ("divergence", "echoes", "echo_separation")
 
 
 def add(parser: ArgumentParser, option: str | Option, group=None, **overrides) -> None:
@@ -214,11 +268,25 @@ def apply_checks(parser: ArgumentParser, args: argparse.Namespace) -> argparse.N
 
 
 def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
-    """The sensor the sensor options describe (validated where it is used)."""
+    """The sensor the sensor options describe (validated where it is used); the realistic
+    model's own options are a mistake with the paper model."""
+    model = getattr(args, "model", S.DEFAULT_MODEL)
+    realistic = {}
+    for setting in REALISTIC_ONLY:
+        value = getattr(args, setting, None)
+        if value is None:
+            continue
+        if model != "realistic":
+            raise UserError("applies to {model} realistic only", setting=setting, related=("model",))
+        realistic[setting] = value
     return S.SensorConfig(
         rh_deg=args.rh,
         min_range=args.min_range,
         max_range=args.max_range,
         noise_sigma=args.noise,
         noise_seed=args.noise_seed,
+        model=model,
+        divergence_mrad=realistic.get("divergence", S.DEFAULT_DIVERGENCE_MRAD),
+        echoes=realistic.get("echoes", S.MAX_ECHOES),
+        echo_separation=realistic.get("echo_separation", S.DEFAULT_ECHO_SEPARATION),
     )

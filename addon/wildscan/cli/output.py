@@ -55,3 +55,17 @@ def print_class_counts(counts: dict[int, int]) -> None:
 
     for class_id in sorted(counts):
         print(f"  {class_id:2d} {BY_ID[class_id].name:<11} {counts[class_id]:>9,}")
+
+
+def print_echo_summary(echoes: dict, points: int) -> None:
+    """The realistic model's echo counts: beams by how many echoes they returned, mixed points."""
+    beams = echoes["beams_by_echoes"]
+    total = sum(beams.values()) or 1
+    shares = ", ".join(
+        f"{k} echo{'es' if k != '1' else ''} {100 * n / total:.1f} %" for k, n in beams.items()
+    )
+    mixed = echoes["mixed_points"]
+    print(
+        f"beams with points: {shares}; mixed pixels {mixed:,} "
+        f"({100 * mixed / max(points, 1):.1f} % of points)"
+    )

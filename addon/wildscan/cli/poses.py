@@ -17,6 +17,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     options.add(p, "zone")
     options.add(p, "count")
     options.add(p, "detail")
+    options.add(p, "vegetation")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
 
@@ -25,9 +26,10 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from ..core.world import ZONES
 
     zones = (args.zone,) if args.zone is not None else ZONES
-    poses = poses_of_seed(args.seed, args.detail, args.count, zones)
+    poses = poses_of_seed(args.seed, args.detail, args.count, zones, args.vegetation)
     if args.json:
-        print(json.dumps({"seed": args.seed, "detail": args.detail, "poses": poses}, indent=1))
+        doc = {"seed": args.seed, "detail": args.detail, "vegetation": args.vegetation, "poses": poses}
+        print(json.dumps(doc, indent=1))
         return 0
     print("# zone      x         y         yaw     z_start  kind   (scan with: --pose X Y YAW [--z-start Z])")
     for zone in zones:

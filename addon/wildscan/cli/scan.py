@@ -30,6 +30,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         metavar="SCENE.npz",
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )
+    options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
     for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
         options.add(p, name)
     p.add_argument("--ascii", action="store_true", help="write an ASCII PLY instead of binary little-endian")
@@ -47,9 +48,13 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
     from ..app.scan import check_scan, open_scan_world, scan_current_scene, write_scan
     from ..blender.scene_io import scene_provenance
     from ..core.placement import Pose
-    from .output import Progress, StageProgress, print_class_counts, say
+    from .output import Progress, StageProgress, print_class_counts, print_echo_summary, say
 
     pose, sensor = Pose(*args.pose), options.sensor_of(args)
+    if args.vegetation is not None and args.seed is None:
+        from ..core.errors import UserError
+
+        raise UserError("applies to a world built from {seed} only", setting="vegetation", related=("seed",))
     out = check_scan(pose, sensor, args.z_start, args.out)
     geometry, provenance = None, {}
     if args.geometry is not None:
@@ -57,7 +62,9 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
     elif args.seed is not None:
         say(args, f"building the world of seed {args.seed}")
     if geometry is None:
-        open_scan_world(args.world, args.seed, progress=StageProgress(args.quiet))
+        open_scan_world(
+            args.world, args.seed, progress=StageProgress(args.quiet), vegetation=args.vegetation or "porous"
+        )
     result = scan_current_scene(
         pose,
         sensor,
@@ -84,6 +91,8 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         f"roll {p.roll_deg:.2f} deg, pitch {p.pitch_deg:.2f} deg",
     )
     print(f"wrote {ply} ({len(result.cloud):,} points of {result.beams:,} beams, frame {args.frame})")
+    if sensor.realistic and not args.quiet:
+        print_echo_summary(result.metadata["echoes"], len(result.cloud))
     print(f"wrote {sidecar}")
     if not args.quiet:
         print_class_counts(result.cloud.class_counts())

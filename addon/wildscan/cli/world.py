@@ -40,6 +40,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         help="also write an aerial map (classes in colour, zones, poses); "
         "needs matplotlib, which the bpy wheel's venv has and Debian's Blender does not",
     )
+    options.add(p, "vegetation")
     options.add(p, "poses")
     p.add_argument("--quiet", action="store_true", help="print only the files written")
 
@@ -56,6 +57,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         args.poses,
         StageProgress(args.quiet),
         fresh=not in_blender,
+        vegetation=args.vegetation,
     )
     print_saved_world(saved, args.quiet)
     return 0
@@ -66,7 +68,8 @@ def print_saved_world(saved, quiet: bool = False) -> None:
     if not quiet:
         counts = saved.plan.counts()
         print(
-            f"world of seed {saved.plan.seed} ({saved.plan.detail.name} detail): {counts['objects']:,} "
+            f"world of seed {saved.plan.seed} ({saved.plan.detail.name} detail, {saved.plan.vegetation} "
+            f"vegetation): {counts['objects']:,} "
             f"objects sharing {counts['meshes']} meshes, {counts['triangles']:,} triangles, "
             f"built and saved in {saved.seconds:.1f} s"
         )

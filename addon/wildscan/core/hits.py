@@ -23,6 +23,10 @@ class RayHits:
     class_id: np.ndarray  # int16 (N,) internal class id (classes.BY_ID; WATER_ID for water, 0 untagged)
     instance: np.ndarray  # int32 (N,) the hit object's `wildscan_instance` (0 when untagged)
     untagged_objects: frozenset[str] = frozenset()  # names of untagged objects that were hit
+    # float64 (N,3) unit normal of the hit triangle (zeros on a miss; its sign is the
+    # triangle's winding, not the ray's side). Only when asked for (`cast(..., normals=True)`):
+    # the realistic sensor model needs each hit's incidence angle.
+    normal: np.ndarray | None = None
 
     @property
     def hit(self) -> np.ndarray:
@@ -39,9 +43,11 @@ class RayHits:
     @staticmethod
     def joined(parts: list["RayHits"]) -> "RayHits":
         """The hits of several consecutive batches of rays, in order."""
+        normals = [p.normal for p in parts]
         return RayHits(
             distance=np.concatenate([p.distance for p in parts]),
             class_id=np.concatenate([p.class_id for p in parts]),
             instance=np.concatenate([p.instance for p in parts]),
             untagged_objects=frozenset().union(*(p.untagged_objects for p in parts)),
+            normal=None if any(n is None for n in normals) else np.concatenate(normals),
         )

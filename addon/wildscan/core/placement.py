@@ -19,6 +19,11 @@ start LASER_CLEARANCE above that surface, so an overhead crown is never
 mistaken for the ground while a rock, bench or table under the footprint still
 is. The first terrain surface from above a cave is its roof; to stand inside
 the cave, give a z_start under the roof.
+
+The lasers cannot see a trunk standing between them (a pose right at a tree): then
+the column would put the optical centre inside the trunk. So four horizontal rays leave
+the optical centre along the arms; when all four meet the same element within
+ENCLOSED_REACH, the sensor would be inside it and the pose is rejected.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ import numpy as np
 from . import detmath as dm
 from .classes import BY_ID, WATER_ID
 from .errors import PoseRejected, UserError
-from .leveling import roll_pitch_from_slopes, sensor_to_world_matrix, tilt_deg
+from .leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
 
 COLUMN_HEIGHT = 0.723  # m, optical centre above the ground (paper section II)
 ARM_X = 0.335  # m, half-length of the X arm (half of Andabata's ~0.67 m length)
@@ -42,6 +47,7 @@ LASER_CLEARANCE = 1.0  # m, lasers start this far above the ground the probe fou
 PROBE_TOP_Z = 10_000.0  # m, the probe starts here (worlds are far lower)
 PROBE_MAX_LAYERS = 64  # surfaces the probe may pass through before giving up
 PROBE_STEP = 1e-4  # m, how far past a surface the probe restarts
+ENCLOSED_REACH = 1.0  # m: an element met this close in all four arm directions encloses the sensor
 MAX_COORDINATE = 1e6  # m; float64 keeps 0.1 um steps out there, and no world is bigger
 
 TERRAIN_ID = 1
@@ -238,6 +244,17 @@ def lasers_of(pose: Pose, row) -> tuple[LaserHit, ...]:
     )
 
 
+def enclosing_element(backend, centre: np.ndarray, yaw_deg: float) -> str | None:
+    """The class name of an element around `centre` in all four arm directions within
+    ENCLOSED_REACH (the sensor would be inside it), or None."""
+    heading = rot_z(dm.radians(yaw_deg))
+    dirs = dm.apply(heading, np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, -1.0, 0]]))
+    hits = backend.cast(np.asarray(centre, dtype=np.float64), dirs, ENCLOSED_REACH)
+    if hits.hit.all() and len(set(zip(hits.class_id.tolist(), hits.instance.tolist()))) == 1:
+        return BY_ID[int(hits.class_id[0])].name
+    return None
+
+
 def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
     """Stand the structure at `pose`; raise PoseRejected naming each laser that says no."""
     pose.validate()
@@ -248,7 +265,14 @@ def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
         z_start = ground + LASER_CLEARANCE
     else:
         check_z_start(z_start)
-    return stand(pose, z_start, cast_lasers(backend, pose, z_start))
+    placement = stand(pose, z_start, cast_lasers(backend, pose, z_start))
+    enclosing = enclosing_element(backend, placement.optical_centre, pose.yaw_deg)
+    if enclosing is not None:
+        raise PoseRejected(
+            f"{describe_pose(pose)} rejected: the sensor would stand inside a {enclosing} (its column "
+            "meets it)"
+        )
+    return placement
 
 
 def describe_pose(pose: Pose) -> str:

@@ -32,6 +32,11 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
 OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
     ("hag", "<f4"),  # height above the true terrain surface under the point, metres (datasets)
     ("time", "<f8"),  # when the point was measured, seconds after its 3D scan's first beam (drives)
+    # the realistic sensor model's (core/echoes.py); a paper-model scan has none of them
+    ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest
+    ("echoes", "u1"),  # how many echoes its beam returned, 1..3
+    ("label_purity", "<f4"),  # share of the echo's energy from the labeled class, 0..1
+    ("mixed", "u1"),  # 1 where the point lies on no single surface: a mixed pixel
 )
 
 

@@ -39,15 +39,22 @@ class ScanResult:
 
 
 def cast_in_chunks(
-    backend, origin: np.ndarray, dirs: np.ndarray, max_range: float, progress: Progress | None
+    backend,
+    origin: np.ndarray,
+    dirs: np.ndarray,
+    max_range: float,
+    progress: Progress | None,
+    normals: bool = False,
 ):
-    """Cast all rays, reporting progress between chunks when asked."""
+    """Cast all rays, reporting progress between chunks when asked (with each hit's surface
+    normal when `normals`: the realistic model's)."""
+    extra = {"normals": True} if normals else {}
     if progress is None:
-        return backend.cast(origin, dirs, max_range)
+        return backend.cast(origin, dirs, max_range, **extra)
     parts = []
     total = len(dirs)
     for start in range(0, total, PROGRESS_CHUNK):
-        parts.append(backend.cast(origin, dirs[start : start + PROGRESS_CHUNK], max_range))
+        parts.append(backend.cast(origin, dirs[start : start + PROGRESS_CHUNK], max_range, **extra))
         progress(min(start + PROGRESS_CHUNK, total), total)
     return RayHits.joined(parts)
 
@@ -117,6 +124,16 @@ def frame_directions(placement: Placement, frame: str, rh_deg: float, dirs_world
     return dirs_world
 
 
+def _points(placement: Placement, frame: str, rh_deg: float, dirs_world, beams, ranges) -> np.ndarray:
+    """The points of `beams` (a mask or indices) at their `ranges` (all beams' when a mask) in the
+    output frame: range times the beam's direction, plus the optical centre in the world frame."""
+    rho = ranges[beams] if beams.dtype == bool else ranges
+    points = frame_directions(placement, frame, rh_deg, dirs_world)[beams] * rho[:, None]
+    if frame == "world":
+        points += placement.optical_centre
+    return points
+
+
 def run_scan(
     backend,
     pose: Pose,
@@ -127,19 +144,18 @@ def run_scan(
 ) -> ScanResult:
     sensor.validate()
     check_frame(frame)
+    if sensor.realistic:
+        from .realistic import check_backend
+
+        check_backend(backend)
     placement = place(backend, pose, z_start)
-
-    dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg)
-    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg)
-    cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.noise_sigma
-    hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress)
-
-    returns = measure(hits, range_noise(sensor, len(dirs_sensor)), sensor)
-    keep, rho = returns.keep, returns.range[returns.keep]
-    points = frame_directions(placement, frame, sensor.rh_deg, dirs_world)[keep] * rho[:, None]
-    if frame == "world":
-        points += placement.optical_centre
-    cloud = returns.cloud(points, ring, sweep, frame)
+    beam_count = sensor.beam_count
+    cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
+    if sensor.realistic:
+        cloud, facts = _realistic_cloud(backend, placement, sensor, frame, cast_range, progress)
+    else:
+        cloud, facts = _paper_cloud(backend, placement, sensor, frame, cast_range, progress)
+    untagged = facts.pop("untagged")
     metadata = {
         "wildscan_version": __version__,
         "pose": pose.to_dict(),
@@ -148,18 +164,80 @@ def run_scan(
         "sensor": sensor.to_dict(),
         "backend": getattr(backend, "name", type(backend).__name__),
         "placement": placement.to_dict(),
-        "beams": int(len(dirs_sensor)),
-        "returns": int(hits.hit.sum()),
-        "water_returns_dropped": int((hits.class_id == WATER_ID).sum()),
+        "beams": int(beam_count),
+        **{k: v for k, v in facts.items() if k != "hits"},
         "points": int(len(cloud)),
-        "untagged_objects_hit": sorted(hits.untagged_objects),
+        "untagged_objects_hit": sorted(untagged),
         "classes": class_table_dict(),
     }
     return ScanResult(
         cloud=cloud,
         placement=placement,
         metadata=metadata,
-        untagged_objects=hits.untagged_objects,
-        beams=len(dirs_sensor),
-        hits=int(hits.hit.sum()),
+        untagged_objects=untagged,
+        beams=beam_count,
+        hits=facts["hits"],
     )
+
+
+def _paper_cloud(
+    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress
+):
+    """The paper's scan: one thin ray a beam, its first hit, intensity = reflectivity."""
+    dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg)
+    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg)
+    hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress)
+
+    returns = measure(hits, range_noise(sensor, len(dirs_sensor)), sensor)
+    cloud = returns.cloud(
+        _points(placement, frame, sensor.rh_deg, dirs_world, returns.keep, returns.range), ring, sweep, frame
+    )
+    facts = {
+        "returns": int(hits.hit.sum()),
+        "water_returns_dropped": int((hits.class_id == WATER_ID).sum()),
+        "hits": int(hits.hit.sum()),
+        "untagged": hits.untagged_objects,
+    }
+    return cloud, facts
+
+
+def _realistic_cloud(
+    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress
+):
+    """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
+    from .realistic import realistic_points
+
+    _, ring, sweep = beam_directions(sensor.rh_deg)
+    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg)
+    untagged: set[str] = set()
+
+    def cast(origins, dirs, max_range, normals):
+        hits = cast_in_chunks(backend, origins, dirs, max_range, progress if normals else None, normals)
+        untagged.update(hits.untagged_objects)
+        return hits
+
+    pts = realistic_points(cast, placement.optical_centre, placement.rotation, sensor, cast_range)
+    cloud = PointCloud(
+        xyz=_points(placement, frame, sensor.rh_deg, dirs_world, pts.beam, pts.range),
+        intensity=pts.intensity.astype(np.float32),
+        label=pts.label.astype(np.uint16),
+        instance=np.maximum(pts.instance, 0).astype(np.uint32),
+        ring=ring[pts.beam],
+        sweep=sweep[pts.beam],
+        range=pts.range.astype(np.float32),
+        frame=frame,
+        extra={
+            "echo": pts.echo,
+            "echoes": pts.echoes,
+            "label_purity": pts.purity.astype(np.float32),
+            "mixed": pts.mixed.astype(np.uint8),
+        },
+    )
+    beams_hit = int(len(np.unique(pts.beam)))
+    facts = {
+        "returns": int(len(pts.beam)),
+        "hits": beams_hit,
+        "echoes": pts.stats,
+        "untagged": frozenset(untagged),
+    }
+    return cloud, facts

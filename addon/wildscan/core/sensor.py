@@ -8,17 +8,49 @@ the structure's X arm (the heading). Beam n of 2D scan m points along
 
 so n = 0 looks 45° away from straight down behind, n = 540 straight up, and the
 90° wedge around −Z is never scanned (the blind cone).
+
+Two sensor models share these beams (`SensorConfig.model`):
+
+  paper       the paper's emulation: one infinitely thin ray per beam, its first hit is the
+              point, intensity is the element's Table I reflectivity (which carries the
+              label), Gaussian range noise of 1.5 cm. The default; its files never change.
+  realistic   the beam as the UTM-30LX-EW sends it (core/footprint.py, core/echoes.py):
+              a footprint of `divergence_mrad` sampled by sub-rays, up to `echoes`
+              echoes split `echo_separation` apart (closer surfaces merge into one mixed
+              pixel), intensity from reflectivity, incidence and range, and the
+              datasheet's range accuracy as noise (`datasheet_sigma`).
+
+Realistic settings and where their values come from
+---------------------------------------------------
+Range accuracy: the UTM-30LX-EW datasheet gives ±30 mm from 0.1 to 10 m and ±50 mm
+from 10 to 30 m (Hokuyo, "Scanning range finder UTM-30LX-EW" specification,
+https://www.hokuyo-aut.jp/02sensor/07scanner/download/pdf/UTM-30LX-EW_spec_en.pdf). We
+read ± as a 95 % bound, two standard deviations: σ = 15 mm up to 10 m (exactly the
+paper's 1.5 cm, which its authors took for the same sensor) and σ = 25 mm beyond.
+
+Beam divergence: the datasheet states none. The default, 4.4 mrad (0.25°, full angle
+at 1/e²), is an estimate: scanners of this class size the spot to cover one angular
+step so that consecutive footprints leave no gap (SICK's LMS1xx operating instructions
+state that rule and give 15 mrad for the LMS1xx, section 3.6.2; the TiM4xx instructions
+give 8.6 mrad, section 3.6.4), and the UTM-30LX-EW's step is 0.25°. It is a setting: 0
+gives the paper's thin ray.
+
+Echo separation: the multi-echo receiver separates two returns whose ranges differ by
+more than the pulse can resolve, about c·τ/2 for a pulse of width τ; the datasheet gives
+no pulse width. The default 0.3 m stands for a 2 ns pulse, typical of 905 nm pulsed
+diodes of this size; surfaces closer than it merge into one range between them.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import detmath as dm
+from .checks import one_of
 from .errors import UserError
 from .rng import seeded
 
@@ -37,14 +69,49 @@ MAX_NOISE_SIGMA = 1.0  # m; far past any real rangefinder, and rays are cast 6 s
 DEFAULT_RH_DEG = 1.0
 MIN_RH_DEG = 0.05  # 3,600 2D scans, 3.9 M beams: finer would need gigabytes of beams
 
+MODELS = ("paper", "realistic")
+DEFAULT_MODEL = "paper"
+DEFAULT_DIVERGENCE_MRAD = 4.4  # full angle at 1/e^2; an estimate (module docstring)
+MAX_DIVERGENCE_MRAD = 50.0  # ~3 deg: far wider than any scanning rangefinder's beam
+MAX_ECHOES = 3  # the UTM-30LX-EW's multi-echo
+DEFAULT_ECHO_SEPARATION = 0.3  # m, ~ c * 2 ns / 2 (module docstring)
+MAX_ECHO_SEPARATION = 10.0  # m
+# The datasheet's range accuracy: (up to this range in m, +- metres), read as 2 sigma.
+DATASHEET_ACCURACY = ((10.0, 0.030), (MAX_RANGE_LIMIT, 0.050))
+ACCURACY_SIGMAS = 2.0
+
 
 @dataclass(frozen=True)
 class SensorConfig:
     rh_deg: float = DEFAULT_RH_DEG
     min_range: float = DEFAULT_MIN_RANGE
     max_range: float = DEFAULT_MAX_RANGE
-    noise_sigma: float = DEFAULT_NOISE_SIGMA
+    # m; None: the model's own noise (paper: 0.015 m; realistic: the datasheet's, by range)
+    noise_sigma: float | None = None
     noise_seed: int = 0
+    model: str = DEFAULT_MODEL
+    # the realistic model's own settings (the paper model has a thin ray and one echo)
+    divergence_mrad: float = DEFAULT_DIVERGENCE_MRAD
+    echoes: int = MAX_ECHOES
+    echo_separation: float = DEFAULT_ECHO_SEPARATION
+
+    @property
+    def realistic(self) -> bool:
+        return self.model == "realistic"
+
+    @property
+    def fixed_noise(self) -> float | None:
+        """The one σ of every range (metres), or None when σ depends on the range (the
+        realistic model's datasheet noise)."""
+        if self.noise_sigma is not None:
+            return self.noise_sigma
+        return None if self.realistic else DEFAULT_NOISE_SIGMA
+
+    @property
+    def max_noise_sigma(self) -> float:
+        """The largest σ any range gets: how far past max range rays are cast."""
+        fixed = self.fixed_noise
+        return fixed if fixed is not None else DATASHEET_ACCURACY[-1][1] / ACCURACY_SIGMAS
 
     @property
     def sweeps(self) -> int:
@@ -57,9 +124,11 @@ class SensorConfig:
 
     def validate(self) -> "SensorConfig":
         sweep_count(self.rh_deg)
+        one_of(self.model, "model", MODELS)
         _check_finite("min_range", self.min_range, "m")
         _check_finite("max_range", self.max_range, "m")
-        _check_finite("noise", self.noise_sigma, "m")
+        if self.noise_sigma is not None:
+            _check_finite("noise", self.noise_sigma, "m")
         if self.min_range < 0:
             raise UserError(f"must be >= 0 m, got {self.min_range:g}", setting="min_range", allowed=(0, None))
         if self.max_range <= 0 or self.max_range > MAX_RANGE_LIMIT:
@@ -74,7 +143,7 @@ class SensorConfig:
                 setting="min_range",
                 related=("max_range",),
             )
-        if not 0 <= self.noise_sigma <= MAX_NOISE_SIGMA:
+        if self.noise_sigma is not None and not 0 <= self.noise_sigma <= MAX_NOISE_SIGMA:
             raise UserError(
                 f"must be from 0 (off) to {MAX_NOISE_SIGMA:g} m, got {self.noise_sigma:g}",
                 setting="noise",
@@ -86,16 +155,54 @@ class SensorConfig:
                 setting="noise_seed",
                 allowed=(0, 2**63 - 1),
             )
+        self._validate_realistic()
         return self
 
+    def _validate_realistic(self) -> None:
+        _check_finite("divergence", self.divergence_mrad, "mrad")
+        if not 0 <= self.divergence_mrad <= MAX_DIVERGENCE_MRAD:
+            raise UserError(
+                f"must be from 0 (a thin ray) to {MAX_DIVERGENCE_MRAD:g} mrad, got {self.divergence_mrad:g}",
+                setting="divergence",
+                allowed=(0, MAX_DIVERGENCE_MRAD),
+            )
+        if isinstance(self.echoes, bool) or not isinstance(self.echoes, int) or not 1 <= self.echoes <= 3:
+            raise UserError(
+                f"must be a whole number from 1 to {MAX_ECHOES}, got {self.echoes!r}",
+                setting="echoes",
+                allowed=(1, MAX_ECHOES),
+            )
+        _check_finite("echo_separation", self.echo_separation, "m")
+        if not 0 < self.echo_separation <= MAX_ECHO_SEPARATION:
+            raise UserError(
+                f"must be in (0, {MAX_ECHO_SEPARATION:g}] m, got {self.echo_separation:g}",
+                setting="echo_separation",
+                allowed=(0, MAX_ECHO_SEPARATION),
+            )
+
     def to_dict(self) -> dict:
-        d = asdict(self)
-        d.update(
-            model="Hokuyo UTM-30LX-EW",
-            rv_deg=R_V_DEG,
-            beams_per_2d_scan=BEAMS_PER_2D_SCAN,
-            sweeps=self.sweeps,
-        )
+        """The sensor as file headers and sidecars state it. A paper-model scan says exactly
+        what it said before the realistic model existed (so its files stay byte for byte
+        the same): a sensor without `scan_model` is the paper model."""
+        d = {
+            "rh_deg": self.rh_deg,
+            "min_range": self.min_range,
+            "max_range": self.max_range,
+            "noise_sigma": self.fixed_noise,
+            "noise_seed": self.noise_seed,
+            "model": "Hokuyo UTM-30LX-EW",
+            "rv_deg": R_V_DEG,
+            "beams_per_2d_scan": BEAMS_PER_2D_SCAN,
+            "sweeps": self.sweeps,
+        }
+        if self.realistic:
+            d.update(
+                scan_model=self.model,
+                divergence_mrad=self.divergence_mrad,
+                echoes=self.echoes,
+                echo_separation=self.echo_separation,
+                noise_model="fixed" if self.noise_sigma is not None else "datasheet",
+            )
         return d
 
 
@@ -204,15 +311,17 @@ def directions_at(head_rad: np.ndarray) -> np.ndarray:
 
 
 def range_noise(sensor: SensorConfig, beam_count: int) -> np.ndarray:
-    """Gaussian range noise per beam (zero bias, σ = noise_sigma) from the sensor's own seed.
+    """Gaussian range noise per beam (zero bias, σ = the fixed noise) from the sensor's own
+    seed (the paper model).
 
     One draw per beam, hit or not, so a beam's noise depends only on the noise
     seed and its (n, m) — not on what the scene happens to contain. The draws are
     core.rng's (Marsaglia's polar method on detmath), the same on every machine.
     """
-    if sensor.noise_sigma == 0:
+    sigma = sensor.fixed_noise
+    if sigma == 0:
         return np.zeros(beam_count)
-    return sensor.noise_sigma * _standard_normals(int(sensor.noise_seed), beam_count)
+    return sigma * _standard_normals(int(sensor.noise_seed), beam_count)
 
 
 @functools.lru_cache(maxsize=4)
@@ -221,3 +330,28 @@ def _standard_normals(seed: int, count: int) -> np.ndarray:
     z = seeded(seed).standard_normal(count)
     z.flags.writeable = False
     return z
+
+
+def noise_draws(sensor: SensorConfig, beam_count: int, per_beam: int) -> np.ndarray | None:
+    """Standard normal draws (beam_count, per_beam) from the noise seed, one row per beam
+    whatever it hit (as `range_noise`, whose draws are the first column's when per_beam
+    is 1); None when the noise is off."""
+    if sensor.fixed_noise == 0:
+        return None
+    return seeded(int(sensor.noise_seed)).standard_normal((beam_count, per_beam))
+
+
+def datasheet_sigma(true_range: np.ndarray) -> np.ndarray:
+    """σ of the range noise by range, from the datasheet's accuracy (±30 mm to 10 m, ±50 mm
+    beyond) read as 2σ: 0.015 m up to 10 m, 0.025 m beyond."""
+    (near, near_pm), (_, far_pm) = DATASHEET_ACCURACY
+    r = np.asarray(true_range, dtype=np.float64)
+    return np.where(r <= near, near_pm / ACCURACY_SIGMAS, far_pm / ACCURACY_SIGMAS)
+
+
+def range_sigma(sensor: SensorConfig, true_range: np.ndarray) -> np.ndarray:
+    """σ of each range's noise: the fixed one, or the datasheet's by range."""
+    fixed = sensor.fixed_noise
+    if fixed is not None:
+        return np.full(np.shape(true_range), fixed)
+    return datasheet_sigma(true_range)

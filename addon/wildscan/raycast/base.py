@@ -19,7 +19,8 @@ class RayBackend(Protocol):
 
     def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
         """origins (N,3) or (3,) world metres; directions (N,3) unit vectors; hits beyond
-        max_range are misses."""
+        max_range are misses. A backend whose `supports_normals` is true also takes
+        `normals=True` and then fills `RayHits.normal` (the realistic sensor model needs it)."""
         ...
 
 

@@ -80,10 +80,10 @@ def plan_geometry(plan) -> SceneGeometry:
     return geometry
 
 
-def world_geometry(seed, detail: str = "default") -> SceneGeometry:
+def world_geometry(seed, detail: str = "default", vegetation: str = "porous") -> SceneGeometry:
     """The scene geometry of the world of `seed` at `detail`, without Blender: what
-    `wildscan world --seed S --detail D` saves, as the scanner sees it."""
-    return plan_geometry(plan_world(seed, detail))
+    `wildscan world --seed S --detail D --vegetation V` saves, as the scanner sees it."""
+    return plan_geometry(plan_world(seed, detail, vegetation=vegetation))
 
 
 def blender_order(elements) -> list:

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import detmath as dm
-from ..core.hits import RayHits
+from ..core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
 from .settle import settle
 
 
@@ -149,17 +149,34 @@ class SceneGeometry:
 
     # -- turning triangle hits into RayHits ---------------------------------------------
 
-    def hits(self, triangle: np.ndarray, distance: np.ndarray) -> RayHits:
-        """RayHits from per-ray hit triangle index (-1 for a miss) and distance."""
+    def hits(self, triangle: np.ndarray, distance: np.ndarray, normals: np.ndarray | None = None) -> RayHits:
+        """RayHits from per-ray hit triangle index (-1 for a miss) and distance (inf for a
+        miss); with the per-triangle unit `normals` (local_planes) given, each hit's normal."""
         triangle = np.asarray(triangle, dtype=np.int64)
-        out = RayHits.empty(len(triangle))
         hit = triangle >= 0
-        tri = triangle[hit]
-        out.distance[hit] = distance[hit]
-        out.class_id[hit] = self.class_id[tri]
-        out.instance[hit] = self.instance[tri]
-        out.untagged_objects = self.untagged_names(tri)
+        # One gather each from arrays ending in a miss row (index -1 is the last): faster than
+        # boolean masks on big batches (the realistic model casts a million sub-rays a scan).
+        class_id, instance = self._with_miss_row()
+        out = RayHits(
+            distance=np.where(hit, distance, np.inf),
+            class_id=class_id.take(triangle),
+            instance=instance.take(triangle),
+            untagged_objects=self.untagged_names(triangle[hit]),
+        )
+        if normals is not None:
+            out.normal = np.concatenate([normals, np.zeros((1, 3))]).take(triangle, axis=0)
         return out
+
+    def _with_miss_row(self) -> tuple[np.ndarray, np.ndarray]:
+        """class_id and instance, each with the miss value appended (cached)."""
+        cached = self.__dict__.get("_miss_rows")
+        if cached is None or len(cached[0]) != len(self.class_id) + 1:
+            cached = (
+                np.append(self.class_id, np.int16(MISS_CLASS)).astype(np.int16),
+                np.append(self.instance, np.int32(MISS_INSTANCE)).astype(np.int32),
+            )
+            self.__dict__["_miss_rows"] = cached
+        return cached
 
     def untagged_names(self, triangles: np.ndarray) -> frozenset[str]:
         """Names of the untagged (class 0) objects owning these triangles."""
@@ -381,11 +398,18 @@ class RefiningBackend:
         the uploaded triangle, or None)."""
         raise NotImplementedError
 
-    def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
+    supports_normals = True  # cast(..., normals=True) gives each hit's triangle normal
+
+    def cast(
+        self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
+    ) -> RayHits:
         local, dirs = prepare_rays(origins, directions, self.geometry.offset)
         count = len(dirs)
         if count == 0 or not self._ready():
-            return RayHits.empty(count)
+            out = RayHits.empty(count)
+            if normals:
+                out.normal = np.zeros((count, 3))
+            return out
         triangle, rough, bary = self._first_hits(local, dirs, max_range)
         if self._settler is not None:
             triangle, rough = settle(self, self._settler, local, dirs, triangle, rough, bary, max_range)
@@ -397,4 +421,4 @@ class RefiningBackend:
         beyond = hit & (distance > max_range)
         triangle[beyond] = -1
         distance[beyond] = np.inf
-        return self.geometry.hits(triangle, distance)
+        return self.geometry.hits(triangle, distance, normal if normals else None)

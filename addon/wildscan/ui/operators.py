@@ -64,10 +64,10 @@ class WILDSCAN_OT_generate_world(Operator):
         from .scene import world_info
 
         settings = context.scene.wildscan
-        seed, detail = int(settings.seed), str(settings.detail)
+        seed, detail, vegetation = int(settings.seed), str(settings.detail), str(settings.vegetation)
         try:
             with Progress(context, f"WildScan: building the world of seed {seed}") as progress:
-                build_in_scene(seed, detail, progress.stage)
+                build_in_scene(seed, detail, progress.stage, vegetation=vegetation)
         except UserError as e:
             self.report({"ERROR"}, panel_message(e))
             return {"CANCELLED"}

@@ -53,6 +53,7 @@ class VIEW3D_PT_wildscan_world(_WildScanPanel, Panel):
         layout.use_property_decorate = False
         layout.prop(s, "seed")
         layout.prop(s, "detail")
+        layout.prop(s, "vegetation")
         layout.operator("wildscan.generate_world", icon="WORLD")
         info = world_info(context.scene)
         if info is None:
@@ -113,8 +114,16 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         col.prop(s, "rh", text="r_h (deg)")
         col.prop(s, "min_range")
         col.prop(s, "max_range")
+        layout.prop(s, "model")
+        realistic = s.model == "realistic"
+        if realistic:
+            col = layout.column(align=True)
+            col.prop(s, "divergence", text="Divergence (mrad)")
+            col.prop(s, "datasheet_noise")
         col = layout.column(align=True)
-        col.prop(s, "noise")
+        row = col.row()
+        row.active = not (realistic and s.datasheet_noise)
+        row.prop(s, "noise")
         col.prop(s, "noise_seed")
         layout.prop(s, "frame")
         try:

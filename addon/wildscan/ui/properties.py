@@ -108,6 +108,19 @@ class WildScanSettings(PropertyGroup):
         items=[(d, d.capitalize(), _DETAIL_TEXT.get(d, d)) for d in DETAILS],
         default="default" if "default" in DETAILS else DETAILS[0],
     )
+    vegetation: EnumProperty(
+        name=label("vegetation"),
+        description="How crowns, bushes and high grass are modelled",
+        items=[
+            (
+                "porous",
+                "Porous",
+                "Branches carrying leaf clusters and separate blades a beam can pass through",
+            ),
+            ("solid", "Solid", "Closed shells in an open stand: the paper's look"),
+        ],
+        default="porous",
+    )
 
     # Pose
     pose_x: FloatProperty(
@@ -188,6 +201,33 @@ class WildScanSettings(PropertyGroup):
         min=0,
         default=0,
     )
+    model: EnumProperty(
+        name=label("model"),
+        description="Which sensor model scans",
+        items=[
+            ("paper", "Paper", "One thin ray a beam; intensity is the class reflectivity (as the paper)"),
+            (
+                "realistic",
+                "Realistic",
+                "The beam's footprint, up to 3 echoes with mixed pixels, physical intensity",
+            ),
+        ],
+        default=S.DEFAULT_MODEL,
+    )
+    divergence: FloatProperty(
+        name=label("divergence"),
+        description="Realistic model: full beam divergence in mrad (0: a thin ray)",
+        default=S.DEFAULT_DIVERGENCE_MRAD,
+        min=0.0,
+        max=S.MAX_DIVERGENCE_MRAD,
+        precision=1,
+    )
+    datasheet_noise: BoolProperty(
+        name="Datasheet noise",
+        description="Realistic model: the datasheet's range noise (15 mm sigma to 10 m, 25 mm beyond) "
+        "instead of the Noise below",
+        default=True,
+    )
     frame: EnumProperty(
         name=label("frame"),
         description="Coordinate frame of the exported points",
@@ -255,12 +295,15 @@ def typed_value(value: float) -> float:
 
 def sensor_from(settings):
     """The SensorConfig the settings describe (not validated: the caller decides when)."""
+    realistic = settings.model == "realistic"
     return S.SensorConfig(
         rh_deg=typed_value(settings.rh),
         min_range=typed_value(settings.min_range),
         max_range=typed_value(settings.max_range),
-        noise_sigma=typed_value(settings.noise),
+        noise_sigma=None if realistic and settings.datasheet_noise else typed_value(settings.noise),
         noise_seed=int(settings.noise_seed),
+        model=str(settings.model),
+        divergence_mrad=typed_value(settings.divergence) if realistic else S.DEFAULT_DIVERGENCE_MRAD,
     )
 
 

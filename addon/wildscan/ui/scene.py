@@ -22,7 +22,7 @@ import numpy as np
 from ..blender import WORLD_COLLECTION
 from ..blender.mesh import GENERATED, remove_objects_and_their_meshes, wildscan_collection
 from ..core import frames
-from ..core.pointcloud import PointCloud
+from ..core.pointcloud import OPTIONAL_FIELDS, PointCloud
 
 SCANS_COLLECTION = "WildScan Scans"
 MARKER_PROP = "wildscan_pose_marker"
@@ -231,6 +231,11 @@ def build_cloud_mesh(name: str, cloud: PointCloud, world_xyz: np.ndarray):
         for attr, field, kind, key, dtype in CLOUD_ATTRIBUTES:
             values = np.ascontiguousarray(getattr(cloud, field), dtype=dtype).ravel()
             mesh.attributes.new(attr, kind, "POINT").data.foreach_set(key, values)
+        for name, values in cloud.extra.items():  # the optional fields (pointcloud.OPTIONAL_FIELDS)
+            kind, dtype = _extra_attribute(name)
+            mesh.attributes.new(f"wildscan_{name}", kind, "POINT").data.foreach_set(
+                "value", np.ascontiguousarray(values, dtype=dtype)
+            )
         mesh.update()
     except BaseException:
         bpy.data.meshes.remove(mesh)
@@ -304,4 +309,17 @@ def read_cloud(obj) -> PointCloud:
         data.data.foreach_get(key, values)
         fields[field] = values.reshape(-1, 3) if width == 3 else values
     typed = {f: v.astype(POINTCLOUD_DTYPES[f]) for f, v in fields.items()}
-    return PointCloud(frame=str(obj.get(FRAME_PROP, "leveled")), **typed)
+    extra = {}
+    for name, code in OPTIONAL_FIELDS:
+        data = mesh.attributes.get(f"wildscan_{name}")
+        if data is not None and data.domain == "POINT":
+            values = np.empty(n, dtype=_extra_attribute(name)[1])
+            data.data.foreach_get("value", values)
+            extra[name] = values.astype(code)
+    return PointCloud(frame=str(obj.get(FRAME_PROP, "leveled")), extra=extra, **typed)
+
+
+def _extra_attribute(name: str) -> tuple[str, type]:
+    """(Blender attribute type, numpy dtype it is set with) of an optional point field."""
+    code = dict(OPTIONAL_FIELDS)[name]
+    return ("FLOAT", np.float32) if np.dtype(code).kind == "f" else ("INT", np.int32)

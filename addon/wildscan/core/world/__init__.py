@@ -23,6 +23,7 @@ from .detail import DETAILS, DetailLevel, detail_level, model_errors
 from .elements import Element, Prototype
 from .pipeline import STAGES, WorldParams, plan_world
 from .plan import (
+    DEFAULT_VEGETATION,
     ELEMENT_STAGES,
     EXTENT,
     HALF,
@@ -31,12 +32,14 @@ from .plan import (
     SITE_CLEARANCE,
     STAGE_INSTANCE_BASE,
     STAGE_INSTANCE_BLOCK,
+    VEGETATION,
     WORLD_ZONE,
     ZONES,
     Clearance,
     Site,
     WorldPlan,
     check_seed,
+    check_vegetation,
     check_zone,
     plan_hash,
 )
@@ -52,6 +55,7 @@ from .stages.trail import TrailParams
 from .stages.trees import TreeParams
 
 __all__ = [
+    "DEFAULT_VEGETATION",
     "DETAILS",
     "ELEMENT_STAGES",
     "EXTENT",
@@ -62,6 +66,7 @@ __all__ = [
     "STAGES",
     "STAGE_INSTANCE_BASE",
     "STAGE_INSTANCE_BLOCK",
+    "VEGETATION",
     "WORLD_ZONE",
     "ZONES",
     "BushParams",
@@ -83,6 +88,7 @@ __all__ = [
     "WorldPlan",
     "candidate_sites",
     "check_seed",
+    "check_vegetation",
     "check_zone",
     "detail_level",
     "footprint_ok",

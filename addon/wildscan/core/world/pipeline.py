@@ -21,7 +21,7 @@ from typing import Callable
 
 from ..rng import stage_rng
 from .detail import detail_level
-from .plan import WorldPlan, check_seed
+from .plan import DEFAULT_VEGETATION, WorldPlan, check_seed, check_vegetation
 from .stages import bushes, cave, grass, lake, layout, park, poses, powerline, rocks, terrain, trail, trees
 from .stages.bushes import BushParams
 from .stages.grass import GrassParams
@@ -64,9 +64,13 @@ def plan_world(
     detail: str = "default",
     params: WorldParams | None = None,
     progress: Callable[[str, float], None] | None = None,
+    vegetation: str = DEFAULT_VEGETATION,
 ) -> WorldPlan:
-    """Plan the whole world for a seed. `progress(stage, seconds)` is called after each stage."""
-    plan = WorldPlan(check_seed(seed), detail_level(detail), params or WorldParams())
+    """Plan the whole world for a seed. `progress(stage, seconds)` is called after each stage;
+    `vegetation` is porous (the default) or solid (plan.VEGETATION)."""
+    plan = WorldPlan(
+        check_seed(seed), detail_level(detail), params or WorldParams(), check_vegetation(vegetation)
+    )
     for stage in STAGE_MODULES:
         t0 = time.perf_counter()
         stage.run(plan, stage_rng(plan.seed, f"world.{stage.STAGE}"))

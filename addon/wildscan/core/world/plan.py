@@ -49,6 +49,13 @@ STAGE_INSTANCE_BLOCK = 10_000
 
 SITE_CLEARANCE = 1.0  # m kept free of elements around every reserved pose site
 
+# How vegetation is modelled (a world option, orthogonal to the detail level): "porous"
+# crowns, bushes and high grass a beam can pass through (skeletons carrying leaf clusters,
+# separate blades; the default), or "solid" closed shells (the paper's look, exactly the
+# worlds WildScan built before porous vegetation existed).
+VEGETATION = ("porous", "solid")
+DEFAULT_VEGETATION = "porous"
+
 # Seeds are stored on the world in Blender (ID properties are 32-bit) and in the
 # add-on's seed field, so they stay within a signed 32-bit int.
 MAX_SEED = 2**31 - 1
@@ -61,6 +68,10 @@ def check_seed(seed) -> int:
 
 def check_zone(zone: str) -> str:
     return one_of(zone, "zone", ZONES)
+
+
+def check_vegetation(vegetation: str) -> str:
+    return one_of(vegetation, "vegetation", VEGETATION)
 
 
 Density = tuple[tuple[str, float], ...]  # (zone, elements per 1000 m^2)
@@ -154,6 +165,7 @@ class WorldPlan(ElementSet):
     seed: int
     detail: DetailLevel
     params: Any  # WorldParams (pipeline.py): one parameter dataclass per stage
+    vegetation: str = DEFAULT_VEGETATION  # VEGETATION: porous or solid crowns, bushes, high grass
     layout: Any = None  # stages.layout.Layout: each zone's cell and shape, drawn first
     heightfield: Heightfield | None = None
     grid_fit: GridFit | None = None
@@ -165,6 +177,10 @@ class WorldPlan(ElementSet):
     timings: dict[str, float] = field(default_factory=dict)
 
     # -- terrain queries ----------------------------------------------------------------
+
+    @property
+    def porous(self) -> bool:
+        return self.vegetation == "porous"
 
     @property
     def grid(self):
@@ -273,6 +289,7 @@ class WorldPlan(ElementSet):
         return {
             "seed": self.seed,
             "detail": self.detail.name,
+            "vegetation": self.vegetation,
             "extent": {"xmin": EXTENT[0], "xmax": EXTENT[1], "ymin": EXTENT[2], "ymax": EXTENT[3]},
             "terrain": {
                 "relief": round(float(self.grid.z.max() - self.grid.z.min()), 3),

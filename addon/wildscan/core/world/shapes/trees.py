@@ -1,12 +1,14 @@
 """Trees: a trunk (with its branches) and a crown, two elements sharing one placement.
 
-`d` is the world's DetailLevel (sides and subdivisions per shape).
+`d` is the world's DetailLevel (sides and subdivisions per shape). These are the solid
+crowns (the paper's look, `--vegetation solid`); each also records its crown's envelope,
+from which shapes/porous_trees.py grows the same tree as skeleton and leaf clusters.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -22,6 +24,9 @@ class TreeShape:
     height: float
     crown_radius: float
     trunk_radius: float
+    # the crown's extent, for the porous version: crown_base (m above the foot) for a
+    # conifer or birch; centre_z, rx, rz and fork for a broadleaf
+    envelope: dict = field(default_factory=dict)
 
 
 def _ellipsoid_entry(p0, p1, centre, axes) -> float:
@@ -58,7 +63,7 @@ def conifer(rng: np.random.Generator, d) -> TreeShape:
     r.append(0.0)
     z.append(height)
     crown = lathe(r, z, d.crown_sides, phase=rng.uniform(0, 1))
-    return TreeShape("conifer", trunk, crown, height, radius, trunk_r)
+    return TreeShape("conifer", trunk, crown, height, radius, trunk_r, {"crown_base": crown_base})
 
 
 def broadleaf(rng: np.random.Generator, d) -> TreeShape:
@@ -93,7 +98,8 @@ def broadleaf(rng: np.random.Generator, d) -> TreeShape:
         )
     crown = lumpy(icosphere(d.sphere_subdivisions), rng, 0.12)
     crown = (crown[0] * axes + centre, crown[1])
-    return TreeShape("broadleaf", merge(parts), crown, height, rx, trunk_r)
+    envelope = {"centre_z": float(centre[2]), "rx": rx, "rz": rz, "fork": float(fork)}
+    return TreeShape("broadleaf", merge(parts), crown, height, rx, trunk_r, envelope)
 
 
 def birch(rng: np.random.Generator, d) -> TreeShape:
@@ -124,7 +130,7 @@ def birch(rng: np.random.Generator, d) -> TreeShape:
     crown = lathe(r, crown_base + t * (height - crown_base), d.crown_sides, phase=rng.uniform(0, 1))
     crown = lumpy(((crown[0] - [0, 0, (crown_base + height) / 2]), crown[1]), rng, 0.08)
     crown = (crown[0] + [0, 0, (crown_base + height) / 2], crown[1])
-    return TreeShape("birch", merge(parts), crown, height, radius, trunk_r)
+    return TreeShape("birch", merge(parts), crown, height, radius, trunk_r, {"crown_base": crown_base})
 
 
 TREE_KINDS = {"conifer": conifer, "broadleaf": broadleaf, "birch": birch}

@@ -1,4 +1,6 @@
-"""Stage "bushes": lumpy domes scattered over every zone."""
+"""Stage "bushes": bushes scattered over every zone: stems carrying leaf clusters (porous
+vegetation, each grown with its own generator "world.bushes.foliage.<v>") or lumpy domes
+(solid)."""
 
 from __future__ import annotations
 
@@ -7,8 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...rng import stage_rng
 from ..plan import ZONES, Clearance, Density, WorldPlan, density_of
-from ..shapes.plants import bush
+from ..shapes.plants import bush, porous_bush
 
 STAGE = "bushes"
 
@@ -31,7 +34,9 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     p = plan.params.bushes
     protos = []
     for v in range(p.variants):
-        mesh, radius = bush(rng, plan.detail)
+        mesh, radius = bush(rng, plan.detail)  # drawn either way: the placements stay the same
+        if plan.porous:
+            mesh = porous_bush(radius, stage_rng(plan.seed, f"world.{STAGE}.foliage.{v}"), plan.detail)
         protos.append((plan.add_prototype(f"bush{v}", mesh), radius))
     counter: dict = {}
     for zone in ZONES:

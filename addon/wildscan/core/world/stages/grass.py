@@ -1,4 +1,6 @@
-"""Stage "grass": low and high grass tufts, the lawn included; high grass by the lake is reeds."""
+"""Stage "grass": low and high grass tufts, the lawn included; high grass by the lake is reeds.
+With porous vegetation high grass is separate blades (grown with the generator
+"world.grass.foliage"); low grass is the same crossed zig-zag tufts either way."""
 
 from __future__ import annotations
 
@@ -7,8 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...rng import stage_rng
 from ..plan import ZONES, Clearance, Density, WorldPlan, density_of
-from ..shapes.plants import tuft
+from ..shapes.plants import blade_tuft, tuft
 
 STAGE = "grass"
 
@@ -46,10 +49,11 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
         plan.add_prototype(f"low_grass{v}", tuft(rng, 0.28, 0.32, d.tuft_planes, d.tuft_blades))
         for v in range(p.variants)
     ]
-    high = [
-        plan.add_prototype(f"high_grass{v}", tuft(rng, 0.95, 0.45, d.tuft_planes, d.tuft_blades))
-        for v in range(p.variants)
-    ]
+    high = [tuft(rng, 0.95, 0.45, d.tuft_planes, d.tuft_blades) for _ in range(p.variants)]
+    if plan.porous:  # the solid tufts are drawn either way: the placements stay the same
+        foliage = stage_rng(plan.seed, f"world.{STAGE}.foliage")
+        high = [blade_tuft(foliage, 0.95, 0.45) for _ in range(p.variants)]
+    high = [plan.add_prototype(f"high_grass{v}", mesh) for v, mesh in enumerate(high)]
     counter: dict = {}
     for zone in ZONES:
         for cls, protos, density, radius in (

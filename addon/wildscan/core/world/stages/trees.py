@@ -1,5 +1,10 @@
 """Stage "trees": conifers, broadleaves and birches scattered over every zone, densest in
-the forest; each tree is two elements, its trunk (with branches) and its crown."""
+the forest; each tree is two elements, its trunk (with branches) and its crown.
+
+Porous vegetation (the default) grows each prototype's skeleton and leaves from the
+solid shape's size and envelope with a generator of its own ("world.trees.foliage.<kind><v>"), so
+the stage's own generator draws exactly what it drew for solid crowns and every tree
+stands where it stood."""
 
 from __future__ import annotations
 
@@ -8,7 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...rng import stage_rng
 from ..plan import ZONES, Clearance, Density, WorldPlan, density_of
+from ..shapes.porous_trees import POROUS_KINDS
 from ..shapes.trees import TREE_KINDS, TreeShape
 
 STAGE = "trees"
@@ -36,6 +43,19 @@ class TreeParams:
     )
     min_spacing: float = 4.0
     variants: int = 2
+    # Porous vegetation grows the forest as real forests stand, its canopy closed (about 500
+    # stems a hectare, crowns touching), so the sky seen from under it is what canopy
+    # gap-fraction studies report (README "Vegetation"); the solid world keeps the paper
+    # world's open stand above.
+    porous_density: Density = (
+        ("forest", 50.0),
+        ("trail", 4.0),
+        ("lake", 2.0),
+        ("hills", 1.2),
+        ("cave", 1.0),
+        ("park", 1.5),
+    )
+    porous_min_spacing: float = 3.0
 
 
 def _where_trees_grow(plan: WorldPlan, zone: str):
@@ -55,8 +75,13 @@ def _prototypes(plan: WorldPlan, rng: np.random.Generator) -> dict[str, list[tup
         for v in range(plan.params.trees.variants):
             t = make(rng, plan.detail)
             key = f"{kind}{v}"
-            plan.add_prototype(f"tree_{key}_trunk", t.trunk)
-            plan.add_prototype(f"tree_{key}_crown", t.crown)
+            if plan.porous:  # each prototype's own generator: tuning one kind moves no other
+                foliage = stage_rng(plan.seed, f"world.{STAGE}.foliage.{key}")
+                trunk, crown = POROUS_KINDS[kind](t, foliage, plan.detail)
+            else:
+                trunk, crown = t.trunk, t.crown
+            plan.add_prototype(f"tree_{key}_trunk", trunk)
+            plan.add_prototype(f"tree_{key}_crown", crown)
             kinds.setdefault(kind, []).append((key, t))
     return kinds
 
@@ -64,13 +89,14 @@ def _prototypes(plan: WorldPlan, rng: np.random.Generator) -> dict[str, list[tup
 def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     p = plan.params.trees
     kinds = _prototypes(plan, rng)
+    density, spacing = (p.porous_density, p.porous_min_spacing) if plan.porous else (p.density, p.min_spacing)
     counter: dict = {}
     for zone in ZONES:
         pts = plan.scatter(
             rng,
             zone,
-            density_of(p.density, zone),
-            p.min_spacing,
+            density_of(density, zone),
+            spacing,
             Clearance(0.4),
             _where_trees_grow(plan, zone),
         )

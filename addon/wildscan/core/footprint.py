@@ -1,0 +1,136 @@
+"""The beam's footprint: the sub-rays that sample the UTM-30LX-EW's diverging beam (numpy only).
+
+A laser beam is not a line: it leaves the scanner as a cone of full angle θ (the
+divergence, at 1/e² of the peak intensity) whose Gaussian profile falls as
+exp(−2r²/w²) with w = θ/2. Where part of that cone meets a leaf and the rest passes on
+to a trunk, the scanner receives two pulses (two echoes); where it straddles an edge it
+receives one blurred pulse between the two ranges (a mixed pixel). The footprint is
+sampled by SUBRAYS = 5 sub-rays carrying equal shares of the beam's energy:
+
+    the axis            the central disc holding 1/5 of the energy (radius 0.334 w)
+    a ring of RING = 4  one per 90 deg quadrant of the rest, each at the radius that
+                        halves its quadrant's energy (0.677 w), so each carries 1/5 too
+
+Equal weights keep the energy bookkeeping exact: every echo's energy is a whole number
+of fifths of the beam's, and `label_purity` is how many of them the labeled class took.
+Why five and not more: casting is nearly all of a realistic scan's time (a sub-ray in a
+forest crosses crowns of thousands of leaf clusters), and five keeps a full r_h = 1 deg
+scan near the paper model's order of time while still splitting the footprint along both
+of its axes. A divergence of 0 leaves the axis alone: the paper's thin ray, bit for bit.
+
+The ring is laid out in each beam's own frame: u along the scan line (increasing θ,
+from one beam of a 2D scan to the next), v along the head's rotation (increasing φ).
+
+Deterministic math: the transcendental calls of this module are all in `_ring_layout`
+(the pattern, once per divergence) and `_beam_angles` (the beams' sines and cosines,
+once per r_h); everything else is products and sums.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from . import detmath as dm
+from .sensor import BEAMS_PER_2D_SCAN, beam_directions, sweep_count
+from .sensor import _beam_angles as sensor_beam_angles
+
+RING = 4  # sub-rays around the axis, along +u, +v, -u, -v
+SUBRAYS = 1 + RING
+# Energy shares: the axis holds the central 1/SUBRAYS of the Gaussian, each ring sub-ray
+# the median radius of one sector of the rest (see the module docstring).
+_AXIS_ENERGY = 1.0 / SUBRAYS
+_RING_MEDIAN_ENERGY = _AXIS_ENERGY + 0.5 * (1.0 - _AXIS_ENERGY)
+
+
+def subray_count(divergence_mrad: float) -> int:
+    """Sub-rays per beam: the axis alone for a thin beam, else the axis and the ring."""
+    return 1 if divergence_mrad == 0 else SUBRAYS
+
+
+def subray_weights(count: int) -> np.ndarray:
+    """(S,) energy share of each of `count` sub-rays (equal; they sum to 1)."""
+    return np.full(count, 1.0 / count)
+
+
+def _ring_layout(divergence_mrad: float) -> tuple[float, float, np.ndarray, np.ndarray]:
+    """The pattern's transcendentals: (cos, sin) of the ring's angle off the axis and the
+    (cos, sin) of each ring sub-ray's direction around it, from u (the scan line) to v."""
+    w = 0.5 * divergence_mrad * 1e-3  # 1/e^2 radius, radians
+    # exp(-2 r^2 / w^2) = 1 - E  <=>  r = w sqrt(-ln(1 - E) / 2)
+    off_axis = w * ring_radius_fraction()
+    around = 2.0 * np.pi * np.arange(RING) / RING
+    sin_around, cos_around = dm.sincos(around)
+    return dm.cos(off_axis), dm.sin(off_axis), cos_around, sin_around
+
+
+def ring_radius_fraction() -> float:
+    """The ring's angle off the axis as a fraction of the 1/e^2 radius w (0.677)."""
+    return math.sqrt(-dm.log(1.0 - _RING_MEDIAN_ENERGY) / 2.0)
+
+
+def _beam_angles(rh_deg: float, m_count: int):
+    """The beams' transcendentals: sin and cos of each beam's angle from the column (θ, by
+    ring n) and of each 2D scan's turn (φ, by sweep m), exactly as sensor.beam_directions
+    computes them."""
+    return sensor_beam_angles(rh_deg, m_count)
+
+
+@functools.lru_cache(maxsize=4)
+def _beam_frames(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors across each beam, sweep-major as beam_directions: e_u = d(dir)/dθ (along
+    the scan line) and e_v = d(dir)/dφ / sin θ (along the head's turn), both (N, 3)."""
+    sin_t, cos_t, sin_p, cos_p = _beam_angles(rh_deg, m_count)
+    e_u = np.empty((m_count, BEAMS_PER_2D_SCAN, 3))
+    e_u[:, :, 0] = cos_p[:, None] * cos_t[None, :]
+    e_u[:, :, 1] = sin_p[:, None] * cos_t[None, :]
+    e_u[:, :, 2] = -sin_t[None, :]
+    e_v = np.zeros((m_count, BEAMS_PER_2D_SCAN, 3))
+    e_v[:, :, 0] = -sin_p[:, None]
+    e_v[:, :, 1] = cos_p[:, None]
+    arrays = (e_u.reshape(-1, 3), e_v.reshape(-1, 3))
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+def subray_directions(rh_deg: float, divergence_mrad: float) -> np.ndarray:
+    """(S, N, 3) unit directions of every beam's sub-rays in the sensor frame, sub-ray-major
+    (all axes, then every beam's first ring sub-ray...), beams in the order of
+    sensor.beam_directions(rh_deg); sub-ray 0 is the axis, that beam's direction bit for
+    bit. Cached (a few scans share them) and read-only."""
+    return _subray_directions(float(rh_deg), sweep_count(rh_deg), float(divergence_mrad))
+
+
+@functools.lru_cache(maxsize=2)
+def _subray_directions(rh_deg: float, m_count: int, divergence_mrad: float) -> np.ndarray:
+    dirs = beam_directions(rh_deg)[0]
+    if subray_count(divergence_mrad) == 1:
+        out = dirs[None].copy()
+    else:
+        out = subrays_around(dirs, *_beam_frames(rh_deg, m_count), divergence_mrad)
+    out.flags.writeable = False
+    return out
+
+
+def subrays_around(dirs: np.ndarray, e_u: np.ndarray, e_v: np.ndarray, divergence_mrad: float) -> np.ndarray:
+    """(S, N, 3) sub-ray directions around beams `dirs` (N, 3) whose footprints' u and v axes
+    are the unit vectors e_u, e_v (N, 3), all three orthonormal; sub-ray 0 is `dirs`.
+    Sub-ray-major: each sub-ray's beams are contiguous, so per-beam sums over sub-rays are
+    sums of rows."""
+    dirs = np.asarray(dirs, dtype=np.float64)
+    if subray_count(divergence_mrad) == 1:
+        return dirs[None].copy()
+    cos_a, sin_a, cos_b, sin_b = _ring_layout(divergence_mrad)
+    out = np.empty((SUBRAYS, len(dirs), 3))
+    out[0] = dirs
+    for k in range(RING):
+        out[1 + k] = cos_a * dirs + sin_a * (cos_b[k] * e_u + sin_b[k] * e_v)
+    return out
+
+
+def footprint_diameter(range_m: float, divergence_mrad: float) -> float:
+    """The 1/e^2 diameter of the footprint at a range, metres (small-angle)."""
+    return range_m * divergence_mrad * 1e-3

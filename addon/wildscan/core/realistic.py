@@ -1,0 +1,205 @@
+"""The realistic sensor model's scan: footprint, echoes, physical intensity, datasheet noise,
+and a label that stays exact or says it is not (numpy only).
+
+    sub-rays (footprint.py) -> first hit of each, with its surface normal (backend.cast)
+    -> echoes per beam (echoes.py) -> datasheet noise and range limits
+    -> which echoes lie on their labeled surface (`mixed`) -> points
+
+Labels stay exact. An echo's point is on an element of its class when the beam axis
+itself meets a surface of that class at the echo's range (within MIXED_TOLERANCE,
+noise off): the axis is followed through the surfaces it meets (AXIS_STEP past each)
+until every echo is settled. Every other point — a range merged between surfaces, an
+edge the axis missed, a curved surface's facets averaged — is flagged `mixed`, so no
+point is ever silently off its class. With divergence 0 and one echo the model casts
+the paper's very rays and keeps their first hits: the same points and labels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import detmath as dm
+from .classes import WATER_ID
+from .echoes import Echoes, SubrayReturns, form_echoes
+from .errors import UserError
+from .footprint import subray_directions, subray_weights
+from .hits import RayHits
+from .sensor import SensorConfig, noise_draws, range_sigma
+
+MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
+AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)
+MAX_AXIS_STEPS = 16  # surfaces followed along one axis (leaves, twigs, a trunk's two sides...)
+
+
+@dataclass
+class RealisticPoints:
+    """The points of a realistic scan, one per kept echo, beam-major then by range."""
+
+    beam: np.ndarray  # int64
+    range: np.ndarray  # float64 measured (noise included)
+    intensity: np.ndarray  # float64
+    label: np.ndarray  # int16
+    instance: np.ndarray  # int32
+    echo: np.ndarray  # uint8 1..3, 1 nearest
+    echoes: np.ndarray  # uint8 echoes its beam returned
+    purity: np.ndarray  # float64
+    mixed: np.ndarray  # bool
+    stats: dict
+
+
+def check_backend(backend) -> None:
+    if not getattr(backend, "supports_normals", False):
+        name = getattr(backend, "name", type(backend).__name__)
+        raise UserError(
+            f"{name} cannot give surface normals, which the realistic model needs; use embree or bvh "
+            "(or auto)",
+            setting="backend",
+        )
+
+
+def subray_returns(hits: RayHits, sub_world: np.ndarray) -> SubrayReturns:
+    """Per (sub-ray, beam) what was hit, with the incidence cosine and the axis ratio."""
+    s, n, _ = sub_world.shape
+    normal = hits.normal.reshape(s, n, 3)
+    along_sub = dm.dot3(normal, sub_world)
+    along_axis = dm.dot3(normal, sub_world[0][None])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(along_axis != 0, along_sub / along_axis, np.inf)
+    return SubrayReturns(
+        distance=hits.distance.reshape(s, n),
+        class_id=hits.class_id.reshape(s, n),
+        instance=hits.instance.reshape(s, n),
+        cos_incidence=np.abs(along_sub),
+        axis_cos=np.abs(along_axis),
+        axis_ratio=ratio,
+    )
+
+
+def realistic_points(
+    cast,
+    origin: np.ndarray,
+    rotation: np.ndarray,
+    sensor: SensorConfig,
+    cast_range: float,
+) -> RealisticPoints:
+    """Every point of a realistic scan over the beams of sensor.beam_directions (their
+    order). `cast(origins, dirs_world, max_range, normals)` is the backend's cast (maybe
+    reporting progress); `rotation` turns the sensor frame to the world's."""
+    sub = subray_directions(sensor.rh_deg, sensor.divergence_mrad)
+    return echo_points(cast, origin, dm.apply(rotation, sub), sensor, cast_range)
+
+
+def echo_points(cast, origin: np.ndarray, sub_world: np.ndarray, sensor: SensorConfig, cast_range: float):
+    """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
+    world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's."""
+    s, n, _ = sub_world.shape
+    returns = subray_returns(cast(origin, sub_world.reshape(-1, 3), cast_range, True), sub_world)
+    weights = subray_weights(s)
+    echoes = form_echoes(returns, weights, sensor.echo_separation, sensor.echoes)
+    measured = _measured_ranges(echoes, sensor, n)
+    keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
+    echoes, measured = echoes.subset(keep), measured[keep]
+    number, count = _numbers(echoes.beam, n)
+    axis = AxisHits(returns, sub_world[0], origin, cast_range)
+    on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False))
+    per_beam = np.bincount(echoes.beam, minlength=n)
+    stats = {
+        "subrays_per_beam": s,
+        "beams_by_echoes": {str(k): int((per_beam == k).sum()) for k in range(1, sensor.echoes + 1)},
+        "mixed_points": int((~on_surface).sum()),
+        "water_subrays": int((returns.class_id == WATER_ID).sum()),
+    }
+    return RealisticPoints(
+        beam=echoes.beam,
+        range=measured,
+        intensity=echoes.intensity,
+        label=echoes.label,
+        instance=np.where(on_surface, instance, echoes.instance),
+        echo=number.astype(np.uint8),
+        echoes=count.astype(np.uint8),
+        purity=echoes.purity,
+        mixed=~on_surface,
+        stats=stats,
+    )
+
+
+def _rank_in_beam(beam: np.ndarray) -> np.ndarray:
+    """0, 1, 2... for the entries of each beam in order (entries are grouped by beam)."""
+    if not len(beam):
+        return np.zeros(0, dtype=np.int64)
+    first = np.ones(len(beam), dtype=bool)
+    first[1:] = beam[1:] != beam[:-1]
+    index = np.arange(len(beam))
+    return index - np.maximum.accumulate(np.where(first, index, 0))
+
+
+def _measured_ranges(echoes: Echoes, sensor: SensorConfig, beam_count: int) -> np.ndarray:
+    """Each echo's range with noise: draw j of its beam for the beam's j-th echo (one row of
+    draws per beam whatever it hit, as the paper model), σ by the noise model."""
+    draws = noise_draws(sensor, beam_count, sensor.echoes)
+    if draws is None:
+        return echoes.range.copy()
+    rank = _rank_in_beam(echoes.beam)
+    return echoes.range + range_sigma(sensor, echoes.range) * draws[echoes.beam, rank]
+
+
+def _numbers(beam: np.ndarray, beam_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """(echo number 1.. within its beam, echoes its beam returned) per kept echo."""
+    return _rank_in_beam(beam) + 1, np.bincount(beam, minlength=beam_count)[beam]
+
+
+class AxisHits:
+    """The surfaces along each beam axis, followed as far as the echoes need."""
+
+    def __init__(self, returns: SubrayReturns, axis_world: np.ndarray, origin: np.ndarray, cast_range: float):
+        self.axis = axis_world
+        self.origin = np.asarray(origin, dtype=np.float64)
+        self.cast_range = cast_range
+        self.last = returns.distance[0].copy()  # the farthest axis hit found so far
+        self.first = (self.last.copy(), returns.class_id[0], returns.instance[0])
+
+    def settle(self, echoes: Echoes, cast) -> tuple[np.ndarray, np.ndarray]:
+        """(on its labeled surface, that surface's instance) for each echo."""
+        on = np.zeros(len(echoes), dtype=bool)
+        instance = np.zeros(len(echoes), dtype=np.int32)
+        self._match(echoes, self.first, np.arange(len(echoes)), on, instance)
+        for _ in range(MAX_AXIS_STEPS):
+            pending = np.flatnonzero(~on & (echoes.range > self.last[echoes.beam] + MIXED_TOLERANCE))
+            if not len(pending):
+                break
+            beams = np.unique(echoes.beam[pending])
+            hit = self._follow(beams, cast)
+            mine = np.isin(echoes.beam, beams)
+            self._match(echoes, hit, np.flatnonzero(mine & ~on), on, instance)
+        return on, instance
+
+    def _follow(self, beams: np.ndarray, cast):
+        """The next surface along the axis of each beam in `beams`, past the last one."""
+        start = self.last[beams] + AXIS_STEP
+        distance = np.full(len(self.last), np.inf)
+        cls = np.full(len(self.last), -1, dtype=np.int16)
+        inst = np.zeros(len(self.last), dtype=np.int32)
+        room = start < self.cast_range
+        go = beams[room]
+        if len(go):
+            origins = self.origin + self.axis[go] * start[room][:, None]
+            hits = cast(origins, self.axis[go], self.cast_range - float(start[room].min()))
+            reach = hits.distance + start[room]
+            ok = np.isfinite(reach) & (reach <= self.cast_range)
+            distance[go[ok]] = reach[ok]
+            cls[go[ok]] = hits.class_id[ok]
+            inst[go[ok]] = hits.instance[ok]
+        self.last[beams] = distance[beams]
+        return distance, cls, inst
+
+    @staticmethod
+    def _match(echoes: Echoes, hit, which: np.ndarray, on: np.ndarray, instance: np.ndarray) -> None:
+        distance, cls, inst = hit
+        b = echoes.beam[which]
+        close = (np.abs(echoes.range[which] - distance[b]) <= MIXED_TOLERANCE) & (
+            cls[b] == echoes.label[which]
+        )
+        on[which[close]] = True
+        instance[which[close]] = inst[b[close]]
