@@ -66,7 +66,7 @@ def sweep(
     true_local = _turned_during_scan(believed, motion.step[k0:k1], fraction)
     dirs_world = _by_attitude(true_local, motion.rotation[k0:k1])
     origins = _origins(motion, k0, k1, fraction)
-    cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.noise_sigma
+    cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     hits = cast_in_chunks(backend, origins, dirs_world, cast_range, ks, progress)
 
     returns = measure(hits, noise, sensor)
