@@ -80,9 +80,18 @@ def probe(seed: int, detail: str, rh: float, zones: list[str]) -> dict[str, str]
 
 def drive_hashes(seed: int, detail: str) -> dict[str, str]:
     """Every file of a short drive in the world frame (raw and deskewed PLYs and sidecars,
-    TUM trajectory, SemanticKITTI poses and labels, ROS 1 and ROS 2 bags), by name."""
+    TUM trajectory, SemanticKITTI poses and labels, ROS 1 and ROS 2 bags), by name, and the
+    float64 poses and points before the files round them (float32 PLYs, 9-digit text)."""
     from wildscan.app.drive import DriveRequest, run_drive
+    from wildscan.app.drive import run as drive_run
     from wildscan.core.sensor import SensorConfig
+
+    sweeps = []
+    original = drive_run.sweep
+
+    def recording(backend, motion, *args, **kwargs):
+        sweeps.append((motion, original(backend, motion, *args, **kwargs)))
+        return sweeps[-1][1]
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "drive"
@@ -100,10 +109,17 @@ def drive_hashes(seed: int, detail: str) -> dict[str, str]:
             wind_seed=5,
             bag="both",
         )
-        report = run_drive(request, say=lambda text: None)
+        drive_run.sweep = recording
+        try:
+            report = run_drive(request, say=lambda text: None)
+        finally:
+            drive_run.sweep = original
         files = sorted(f for f in out.rglob("*") if f.is_file())
         hashes = {f"drive {f.relative_to(out)}": sha(f.read_bytes()) for f in files}
     hashes["drive points"] = json.dumps(report.points)
+    motion = sweeps[0][0]
+    hashes["drive float64 motion"] = sha(motion.centre, motion.ground, motion.rotation, motion.step)
+    hashes["drive float64 points"] = sha(*[c.xyz for _, s in sweeps for c in (s.raw, s.deskewed)])
     return hashes
 
 
