@@ -19,7 +19,7 @@ import numpy as np
 from .. import detmath as dm
 from ..classes import class_by_name
 from ..rng import stage_rng
-from .rotations import rotate
+from .rotations import matrix
 
 # class -> (amplitude relative to the treetops', lowest and highest frequency in Hz)
 SWAY = {
@@ -68,8 +68,10 @@ class Sway:
 
     def posed(self, vertices: np.ndarray, vertex_object: np.ndarray, t: float) -> np.ndarray:
         """Vertices (V, 3) of the objects `vertex_object` (V,) where they are at time t."""
+        # one matrix an object (the sines per object, not per vertex), applied in a fixed order
+        turn = matrix(self.rotvecs(t))[vertex_object]
         pivot = self.pivots[vertex_object]
-        return pivot + rotate(vertices - pivot, self.rotvecs(t)[vertex_object])
+        return pivot + dm.apply(turn, vertices - pivot)
 
 
 def pivots_of(vertices: np.ndarray, faces: np.ndarray, face_object: np.ndarray, count: int) -> np.ndarray:
