@@ -18,6 +18,7 @@ from .hits import RayHits
 from .leveling import leveling_matrix
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
+from .reach import check_reach
 from .sensor import SensorConfig, beam_directions, range_noise, rotated_beam_directions
 
 # Rays are cast a little past max range so a true range just beyond it can
@@ -154,6 +155,7 @@ def run_scan(
 
         check_backend(backend)
     placement = place(backend, pose, z_start)
+    check_reach(placement.optical_centre, sensor.max_range, frame, getattr(backend, "name", ""))
     beam_count = sensor.beam_count
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     if sensor.realistic:
