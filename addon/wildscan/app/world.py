@@ -56,25 +56,35 @@ def build_in_scene(
 
 
 def replacing_generated(build: Callable[[], WorldPlan]) -> WorldPlan:
-    """Run `build()` (which replaces the generated content of the world collection) so
-    that a failure leaves the previous world exactly as it was.
+    """Run `build()` (which builds a world into the WildScan collection) so that it
+    replaces the world WildScan built before, and a failure leaves that world exactly
+    as it was.
 
-    The previous world is set aside while the new one is built: its generated
-    collections, objects and data get temporary names, so the new world gets the same
-    names a first build would. On success the user's own objects and collections in
-    the old collection move to the new one and the generated rest is removed; on
-    failure the partial new world is removed and the old one gets its names back.
+    The previous world is found by what it is, not by its collection's name (a user
+    may rename it): its root collection's marker (blender/mesh.py world_root) and every
+    generated, class-tagged object in the scene, wherever the user moved it. It is set
+    aside while the new one is built: its generated collections, objects and data get
+    temporary names, so the new world gets the same names a first build would. On
+    success the user's own objects and collections in the old root move to the new one
+    and the generated rest is removed; on failure the partial new world is removed and
+    the old one gets its names back.
     """
     import bpy
 
     from ..blender import WORLD_COLLECTION as ROOT
-    from ..blender.mesh import GENERATED, remove_generated
+    from ..blender.mesh import (
+        GENERATED,
+        remove_generated,
+        remove_objects_and_their_meshes,
+        world_element_objects,
+        world_root,
+    )
 
-    old = bpy.data.collections.get(ROOT)
-    if old is None or not old.get(GENERATED):
-        # Nothing to set aside (or a collection of the user's own, which the builder reuses).
+    old = world_root()
+    strays = world_element_objects()
+    if old is None and not strays:
         return build()
-    renamed = _set_aside(old, GENERATED)
+    renamed, objects = _set_aside(old, strays, GENERATED)
     try:
         result = build()
     except BaseException:
@@ -83,23 +93,26 @@ def replacing_generated(build: Callable[[], WorldPlan]) -> WorldPlan:
             block.name = name
         raise
     new = bpy.data.collections.get(ROOT)
-    if new is not None and new != old:
+    if old is not None and new is not None and new != old:
         _adopt_user_content(old, new, GENERATED)
-    remove_generated(old.name)
+    remove_objects_and_their_meshes(objects)
+    if old is not None:
+        remove_generated(old.name)
     return result
 
 
-def _set_aside(root, generated: str) -> list:
-    """Give the generated collections, objects and object data under `root` temporary
-    names; returns (datablock, original name) pairs."""
-    collections = [root, *(c for c in root.children_recursive if c.get(generated))]
-    objects = {o for c in collections for o in c.objects if o.get(generated)}
+def _set_aside(root, strays: set, generated: str) -> tuple[list, set]:
+    """Give the generated collections under `root` (None: none), the generated objects in
+    them and the `strays` and those objects' generated data temporary names; returns
+    ((datablock, original name) pairs, the objects)."""
+    collections = [] if root is None else [root, *(c for c in root.children_recursive if c.get(generated))]
+    objects = {o for c in collections for o in c.objects if o.get(generated)} | set(strays)
     data = {o.data for o in objects if o.data is not None and o.data.get(generated)}
     renamed = []
     for i, block in enumerate([*collections, *objects, *data]):
         renamed.append((block, block.name))
         block.name = f".wildscan-replaced-{i}"
-    return renamed
+    return renamed, objects
 
 
 def _parents_of(coll) -> list:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from ..core.errors import UserError
 from ..core.io.files import check_input_file
-from . import WORLD_COLLECTION
 
 # First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
@@ -45,6 +44,8 @@ def scene_provenance() -> tuple[int | None, str | None]:
     seed WildScan recorded on its world collection, the file Blender has open."""
     import bpy
 
-    root = bpy.data.collections.get(WORLD_COLLECTION)
-    seed = root.get("wildscan_seed") if root is not None else None
+    from .mesh import WORLD_SEED_PROP, world_root
+
+    root = world_root()
+    seed = root.get(WORLD_SEED_PROP) if root is not None else None
     return (int(seed) if seed is not None else None), (bpy.data.filepath or None)

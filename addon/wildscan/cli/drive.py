@@ -64,6 +64,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     )
     for name in options.SENSOR_OPTIONS:
         options.add(p, name)
+    # argparse keeps the last help given: the drive's --model is the paper one only
+    model = p._option_string_actions["--model"]
+    model.help = "sensor model: paper only (realistic exits 2: not cast in motion yet)"
     options.add(
         p,
         "frame",
