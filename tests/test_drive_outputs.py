@@ -188,6 +188,7 @@ def test_same_drive_same_bytes(tmp_path):
         (["--trail", "--scans", "500"], "--scans 500 3D scans at 1 m/s need"),
         (["--trail", "--rh", "7"], "--rh must divide 180"),
         (["--trail", "--wind", "45"], "--wind must be from 0"),
+        (["--trail", "--model", "realistic"], "--model must be paper for a drive"),
     ],
 )
 def test_user_mistakes_exit_2_with_one_line(tmp_path, args, says):

@@ -25,7 +25,7 @@ DESCRIPTION = (
 
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     source = p.add_mutually_exclusive_group(required=True)
-    source.add_argument("--world", metavar="FILE.blend", help="drive in this saved world (needs bpy)")
+    options.add(p, "world", group=source, help="drive in this saved world (needs bpy)")
     options.add(p, "seed", group=source, help="drive in the world of this seed, planned without Blender")
     options.add(p, "detail", help="detail level of the --seed world: low | default | high (default: default)")
     route = p.add_mutually_exclusive_group(required=True)
@@ -64,6 +64,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     )
     for name in options.SENSOR_OPTIONS:
         options.add(p, name)
+    # argparse keeps the last help given: the drive's --model is the paper one only
+    model = p._option_string_actions["--model"]
+    model.help = "sensor model: paper only (realistic exits 2: not cast in motion yet)"
     options.add(
         p,
         "frame",

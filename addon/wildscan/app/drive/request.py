@@ -61,6 +61,8 @@ class DriveRequest:
             raise UserError(f"must be from 1 to {MAX_SCANS_3D:,}, got {self.scans}", setting="scans")
         check_head(self.head)
         self.sensor.validate()
+        if self.sensor.realistic:  # its beams (divergence, echoes) are not yet cast in motion
+            raise UserError("must be paper for a drive, got realistic", setting="model", allowed=("paper",))
         check_frame(self.frame)
         one_of(self.backend, "backend", DRIVE_BACKENDS)
         one_of(self.bag, "bag", BAGS)

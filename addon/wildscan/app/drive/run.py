@@ -24,6 +24,7 @@ from ...core.label_schemes import scheme
 from ...core.motion.placements import Motion, place_all
 from ...core.motion.sweep import Sweep, sweep
 from ...core.motion.trajectory import instants, schedule
+from ...core.reach import check_reach
 from ...core.rng import seeded
 from ...core.scan import points_in_frame
 from ...core.sensor import BEAMS_PER_2D_SCAN
@@ -78,6 +79,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     backend = _backend(request, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times)
+    check_reach(motion.centre, sensor.max_range, request.frame, getattr(backend, "name", ""))
     clock.lap("placement")
 
     from ...core.io.files import output_directory
@@ -151,7 +153,7 @@ class _Context:
         self.world_instances = np.unique(np.asarray(instances))
         self.backend_name = getattr(backend, "name", type(backend).__name__)
         self.labels = scheme("semantickitti")
-        sigma = request.sensor.noise_sigma
+        sigma = request.sensor.fixed_noise  # the paper model's: request.check refuses realistic
         # one generator for the drive: the first 3D scan draws what a static scan draws
         self._rng = seeded(int(request.sensor.noise_seed)) if sigma > 0 else None
         self.pose_matrices: list[np.ndarray] = []
@@ -163,7 +165,7 @@ class _Context:
         count = scans_2d * BEAMS_PER_2D_SCAN
         if self._rng is None:
             return np.zeros(count)
-        return self.request.sensor.noise_sigma * self._rng.standard_normal(count)
+        return self.request.sensor.fixed_noise * self._rng.standard_normal(count)
 
     def metadata(self, index: int, result: Sweep, cloud: str) -> dict:
         start = self.motion.placements[result.k0]

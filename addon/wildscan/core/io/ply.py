@@ -25,7 +25,7 @@ from ..classes import BY_ID, class_table_dict, class_table_lines
 from ..errors import UserError
 from ..pointcloud import PointCloud
 from . import files
-from .files import atomic_outputs, write_durably
+from .files import atomic_outputs, write_durably, writing_to
 
 # numpy kind+size -> PLY type name (the names plyfile, PCL and CloudCompare all read).
 _PLY_TYPE_BY_CODE = {
@@ -304,8 +304,10 @@ def write_scan_files(
     sidecar = _sidecar_bytes(ply_path, cloud, metadata, ascii)
 
     with atomic_outputs(ply_path, json_path) as (tmp_ply, tmp_json):
-        write_durably(tmp_ply, lambda f: (f.write(header), _write_vertices(f, records, ascii)))
-        write_durably(tmp_json, lambda f: f.write(sidecar))
+        with writing_to(ply_path):  # a write error names no file: say which one failed
+            write_durably(tmp_ply, lambda f: (f.write(header), _write_vertices(f, records, ascii)))
+        with writing_to(json_path):
+            write_durably(tmp_json, lambda f: f.write(sidecar))
     return ply_path, json_path
 
 
