@@ -4,7 +4,10 @@ tests/test_determinism.py runs it under forced instruction sets (numpy's, glibc'
 OpenBLAS's) and under QEMU as an older CPU (Embree's too), and wants the same output
 everywhere. Blender-free: plan_world, raycast.from_plan.plan_geometry and Embree.
 
-    python tests/determinism_probe.py [--seed S] [--detail D] [--rh DEG] [--zones a,b]
+    python tests/determinism_probe.py [--seed S] [--detail D] [--rh DEG] [--zones a,b] [--drive]
+
+--drive adds a short drive (issue 12) along the world's trail: moving, turning, the
+continuous head, wind and noise on, both bags; every file it writes is hashed.
 """
 
 from __future__ import annotations
@@ -75,11 +78,60 @@ def probe(seed: int, detail: str, rh: float, zones: list[str]) -> dict[str, str]
     return out
 
 
+def drive_hashes(seed: int, detail: str) -> dict[str, str]:
+    """Every file of a short drive in the world frame (raw and deskewed PLYs and sidecars,
+    TUM trajectory, SemanticKITTI poses and labels, ROS 1 and ROS 2 bags), by name, and the
+    float64 poses and points before the files round them (float32 PLYs, 9-digit text)."""
+    from wildscan.app.drive import DriveRequest, run_drive
+    from wildscan.app.drive import run as drive_run
+    from wildscan.core.sensor import SensorConfig
+
+    sweeps = []
+    original = drive_run.sweep
+
+    def recording(backend, motion, *args, **kwargs):
+        sweeps.append((motion, original(backend, motion, *args, **kwargs)))
+        return sweeps[-1][1]
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "drive"
+        request = DriveRequest(
+            out=str(out),
+            seed=seed,
+            detail=detail,
+            trail=True,
+            speed=1.0,
+            scans=2,
+            head="continuous",
+            sensor=SensorConfig(rh_deg=10.0, noise_sigma=0.015, noise_seed=3),
+            frame="world",
+            wind=3.0,
+            wind_seed=5,
+            bag="both",
+        )
+        drive_run.sweep = recording
+        try:
+            report = run_drive(request, say=lambda text: None)
+        finally:
+            drive_run.sweep = original
+        files = sorted(f for f in out.rglob("*") if f.is_file())
+        hashes = {f"drive {f.relative_to(out)}": sha(f.read_bytes()) for f in files}
+    hashes["drive points"] = json.dumps(report.points)
+    motion = sweeps[0][0]
+    hashes["drive float64 motion"] = sha(motion.centre, motion.ground, motion.rotation, motion.step)
+    hashes["drive float64 points"] = sha(*[c.xyz for _, s in sweeps for c in (s.raw, s.deskewed)])
+    return hashes
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser()
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--detail", default="default")
     parser.add_argument("--rh", type=float, default=1.0)
     parser.add_argument("--zones", default="hills,forest,cave")
+    parser.add_argument("--drive", action="store_true", help="and a short drive (drive_hashes)")
     a = parser.parse_args()
-    print(json.dumps(probe(a.seed, a.detail, a.rh, a.zones.split(",")), indent=1, sort_keys=True))
+    hashes = probe(a.seed, a.detail, a.rh, a.zones.split(","))
+    if a.drive:
+        hashes.update(drive_hashes(a.seed, a.detail))
+    print(json.dumps(hashes, indent=1, sort_keys=True))

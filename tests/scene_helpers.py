@@ -127,3 +127,12 @@ def user_error_line(proc: subprocess.CompletedProcess) -> str:
     assert len(lines) == 1, f"expected one line on stderr, got: {proc.stderr!r}"
     assert "Traceback" not in proc.stderr and "Traceback" not in proc.stdout
     return lines[0]
+
+
+def save_seed_2_low(directory: Path) -> Path:
+    """The world of seed 2 at low detail saved by the wheel as w.blend (+ w.json) and w.npz."""
+    for cmd in (["world", "--out", "w.blend"], ["extract", "--out", "w.npz"]):
+        subprocess.run(
+            [WILDSCAN, *cmd, "--seed", "2", "--detail", "low", "--quiet"], cwd=directory, check=True
+        )
+    return directory

@@ -25,7 +25,6 @@ from dataset_helpers import (
     read_kitti_scan,
     wildscan,
 )
-from test_ply import cloudcompare_env, parse_ascii_pcd, parse_cloudcompare_asc, require_tool
 
 from wildscan.app.dataset.spec import draw_sensor, spec_from_dict
 from wildscan.core.classes import BY_ID
@@ -33,6 +32,8 @@ from wildscan.core.errors import UserError
 from wildscan.core.io.las import ASPRS_CODES
 from wildscan.core.label_schemes import SCHEMES
 from wildscan.core.placement import COLUMN_HEIGHT
+
+from reader_helpers import cloudcompare_env, parse_ascii_pcd, parse_cloudcompare_asc, require_tool
 
 # --------------------------------------------------------------------------- the spec
 

@@ -9,7 +9,9 @@ OpenBLAS, Embree's AVX code with 8-wide BVH and no FMA; Haswell: AVX2 and FMA, n
 AVX-512). Each run prints full-precision hashes of a world (every element's float64
 vertices unrounded, the terrain grid, the sites), its scan geometry, its world.json, and
 the PLY and JSON bytes of scans with noise, in the leveled and world frames
-(tests/determinism_probe.py); every run must print the same.
+(tests/determinism_probe.py); every run must print the same. The emulated runs add a
+short drive (issue 12: moving, turning, continuous head, wind, noise) and hash every file
+it writes: PLYs raw and deskewed, TUM trajectory, SemanticKITTI poses, both bags.
 """
 
 from __future__ import annotations
@@ -40,6 +42,15 @@ NATIVE_VARIANTS = {
 # QEMU's oldest CPUs this Python runs on (Nehalem: the interpreter or a wheel needs more
 # than SSE4.2 and dies with SIGILL)
 EMULATED_CPUS = ("SandyBridge", "Haswell")
+# what the probe's drive must have written (and hashed), among its other files
+DRIVE_FILES = (
+    "raw/000001.ply",
+    "deskewed/000001.ply",
+    "trajectory.tum",
+    "sequences/00/poses.txt",
+    "drive.bag",
+    "drive_ros2/drive_ros2.mcap",
+)
 
 
 def run_probe(command: list[str], env: dict, *args: str) -> dict:
@@ -83,10 +94,12 @@ def test_the_probe_sees_what_it_should(native):
 @pytest.mark.parametrize("cpu", EMULATED_CPUS)
 def test_the_same_bytes_on_an_emulated_older_cpu(cpu):
     """qemu-user (apt package qemu-user) runs this venv's Python as `cpu`: Embree then picks
-    its code for that CPU too. A smaller world (low detail, one zone) keeps it ~20 s."""
+    its code for that CPU too. A smaller world (low detail, two zones) and a drive of two
+    coarse 3D scans (r_h = 10 deg) keep it ~40 s."""
     qemu = shutil.which("qemu-x86_64")
     assert qemu, "qemu-x86_64 not found: apt-get install qemu-user"
-    args = ("--seed", "1", "--detail", "low", "--zones", "forest,cave")
+    args = ("--seed", "1", "--detail", "low", "--zones", "forest,cave", "--drive")
     here = run_probe([sys.executable], {}, *args)
+    assert {f"drive {name}" for name in DRIVE_FILES} <= set(here)
     emulated = run_probe([qemu, "-cpu", cpu, sys.executable], {}, *args)
     assert emulated == here, {k: (here[k], emulated.get(k)) for k in here if emulated.get(k) != here[k]}

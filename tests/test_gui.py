@@ -146,6 +146,12 @@ def test_undo_after_a_scan_removes_only_the_cloud_and_redo_brings_it_back(gui_ru
     assert r["after_redo"]["world_objects"] == r["world_objects"]
 
 
+def test_show_world_is_display_only(gui_run):
+    r = gui_run["result"]["show_world"]
+    assert r["hides_meshes"] and r["shown_again"] and r["same_scan"]
+    assert r["hits"] > 45
+
+
 def test_disable_and_enable_again_in_the_gui(gui_run):
     assert gui_run["result"]["disable_enable"] == {
         "unregistered": True,

@@ -151,7 +151,10 @@ def test_cave_entrance_scan_sees_under_the_flooring_cover(world):
     # the roof itself is seen from below (flooring, class terrain)
     roof_hits = under_roof & (np.abs(pts[:, 2] - (plan.cave_level - 0.15)) < 0.1)
     assert roof_hits.sum() > 1000
-    assert set(result.cloud.class_counts()) == {1}
+    # under the roof only terrain; out of the ramp's mouth a bush on the surface may show
+    assert set(np.unique(result.cloud.label[under_roof])) == {1}
+    counts = result.cloud.class_counts()
+    assert counts[1] > 0.999 * len(result.cloud)
 
 
 def test_no_cracks_vertical_rays_hit_everywhere(world):

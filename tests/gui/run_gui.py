@@ -313,6 +313,38 @@ def step_undo():
         "points": len(read_cloud(found[-1])) if found else 0,
         "world_objects": len(world_objects(scene)),
     }
+    return "showworld"
+
+
+def step_showworld():
+    """'Show world' off hides the meshes in the viewports, and a scan sees the same world."""
+    from wildscan.app.scan import make_scene_backend
+    from wildscan.core.placement import Pose
+    from wildscan.core.sensor import SensorConfig
+
+    s = bpy.context.scene.wildscan
+    pose, sensor = Pose(s.pose_x, s.pose_y, 0.0), SensorConfig()
+    angles = np.linspace(0.0, 2.0 * np.pi, 90, endpoint=False)
+    dirs = np.column_stack([np.cos(angles), np.sin(angles), np.full(90, -0.3)])
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    origin = np.array([s.pose_x, s.pose_y, 5.0])
+
+    def ranges(backend):
+        caster = make_scene_backend(backend, pose, sensor, notify=lambda _t: None)
+        return caster.cast(origin, dirs, 30.0).distance
+
+    before = {b: ranges(b) for b in ("auto", "blender")}
+    s.show_world = False
+    area, _region, _ui = view3d()
+    hidden = not area.spaces.active.show_object_viewport_mesh and not s.show_world
+    after = {b: ranges(b) for b in ("auto", "blender")}
+    s.show_world = True
+    RESULT["show_world"] = {
+        "hides_meshes": hidden,
+        "shown_again": area.spaces.active.show_object_viewport_mesh and s.show_world,
+        "hits": int(np.isfinite(before["auto"]).sum()),
+        "same_scan": all(np.array_equal(before[b], after[b]) for b in before),
+    }
     return "toggle"
 
 
@@ -340,6 +372,7 @@ STEPS = {
     "scroll": step_scroll,
     "shot": step_shot,
     "undo": step_undo,
+    "showworld": step_showworld,
     "toggle": step_toggle,
 }
 

@@ -48,6 +48,7 @@ SETTINGS: dict[str, Setting] = {
     # a drive (wildscan drive)
     "trail": Setting("--trail"),
     "waypoints": Setting("--waypoints"),
+    "verify": Setting("--verify"),
     "from": Setting("--from"),
     "distance": Setting("--distance"),
     "speed": Setting("--speed"),

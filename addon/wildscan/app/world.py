@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.errors import UserError
-from ..core.io.files import atomic_outputs, check_output_path
+from ..core.io.files import atomic_outputs, check_output_path, remove_quietly, writing_to
 from ..core.io.ply import sidecar_path
 from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, check_seed, check_vegetation, detail_level
 from .poses import DEFAULT_POSES_PER_ZONE, plan_backend, valid_poses
@@ -56,25 +56,35 @@ def build_in_scene(
 
 
 def replacing_generated(build: Callable[[], WorldPlan]) -> WorldPlan:
-    """Run `build()` (which replaces the generated content of the world collection) so
-    that a failure leaves the previous world exactly as it was.
+    """Run `build()` (which builds a world into the WildScan collection) so that it
+    replaces the world WildScan built before, and a failure leaves that world exactly
+    as it was.
 
-    The previous world is set aside while the new one is built: its generated
-    collections, objects and data get temporary names, so the new world gets the same
-    names a first build would. On success the user's own objects and collections in
-    the old collection move to the new one and the generated rest is removed; on
-    failure the partial new world is removed and the old one gets its names back.
+    The previous world is found by what it is, not by its collection's name (a user
+    may rename it): its root collection's marker (blender/mesh.py world_root) and every
+    generated, class-tagged object in the scene, wherever the user moved it. It is set
+    aside while the new one is built: its generated collections, objects and data get
+    temporary names, so the new world gets the same names a first build would. On
+    success the user's own objects and collections in the old root move to the new one
+    and the generated rest is removed; on failure the partial new world is removed and
+    the old one gets its names back.
     """
     import bpy
 
     from ..blender import WORLD_COLLECTION as ROOT
-    from ..blender.mesh import GENERATED, remove_generated
+    from ..blender.mesh import (
+        GENERATED,
+        remove_generated,
+        remove_objects_and_their_meshes,
+        world_element_objects,
+        world_root,
+    )
 
-    old = bpy.data.collections.get(ROOT)
-    if old is None or not old.get(GENERATED):
-        # Nothing to set aside (or a collection of the user's own, which the builder reuses).
+    old = world_root()
+    strays = world_element_objects()
+    if old is None and not strays:
         return build()
-    renamed = _set_aside(old, GENERATED)
+    renamed, objects = _set_aside(old, strays, GENERATED)
     try:
         result = build()
     except BaseException:
@@ -83,23 +93,26 @@ def replacing_generated(build: Callable[[], WorldPlan]) -> WorldPlan:
             block.name = name
         raise
     new = bpy.data.collections.get(ROOT)
-    if new is not None and new != old:
+    if old is not None and new is not None and new != old:
         _adopt_user_content(old, new, GENERATED)
-    remove_generated(old.name)
+    remove_objects_and_their_meshes(objects)
+    if old is not None:
+        remove_generated(old.name)
     return result
 
 
-def _set_aside(root, generated: str) -> list:
-    """Give the generated collections, objects and object data under `root` temporary
-    names; returns (datablock, original name) pairs."""
-    collections = [root, *(c for c in root.children_recursive if c.get(generated))]
-    objects = {o for c in collections for o in c.objects if o.get(generated)}
+def _set_aside(root, strays: set, generated: str) -> tuple[list, set]:
+    """Give the generated collections under `root` (None: none), the generated objects in
+    them and the `strays` and those objects' generated data temporary names; returns
+    ((datablock, original name) pairs, the objects)."""
+    collections = [] if root is None else [root, *(c for c in root.children_recursive if c.get(generated))]
+    objects = {o for c in collections for o in c.objects if o.get(generated)} | set(strays)
     data = {o.data for o in objects if o.data is not None and o.data.get(generated)}
     renamed = []
     for i, block in enumerate([*collections, *objects, *data]):
         renamed.append((block, block.name))
         block.name = f".wildscan-replaced-{i}"
-    return renamed
+    return renamed, objects
 
 
 def _parents_of(coll) -> list:
@@ -188,25 +201,24 @@ def make_world(
     stage("valid poses", time.perf_counter() - t0)
 
     finals = (blend, sidecar, png) if png is not None else (blend, sidecar)
-    try:
-        with atomic_outputs(*finals) as temps:
-            t0 = time.perf_counter()
-            save_blend(temps[0], blend)
-            stage("save .blend", time.perf_counter() - t0)
-            if png is not None:
-                from ..core.world import Site
-                from ..viz.aerial_map import render_map
+    with atomic_outputs(*finals) as temps:
+        t0 = time.perf_counter()
+        save_blend(temps[0], blend)
+        stage("save .blend", time.perf_counter() - t0)
+        if png is not None:
+            from ..core.world import Site
+            from ..viz.aerial_map import render_map
 
-                t0 = time.perf_counter()
-                crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]
+            t0 = time.perf_counter()
+            crosses = [Site(z, p["x"], p["y"], p["yaw"], p["kind"]) for z in ZONES for p in poses[z]]
+            with writing_to(png):  # matplotlib's errors often name no file: say which one failed
                 render_map(plan, str(temps[2]), poses=crosses)
-                stage("aerial map", time.perf_counter() - t0)
-            description = plan.describe(poses)
-            description["blend"] = str(blend)
-            description["map"] = str(png) if png else None
+            stage("aerial map", time.perf_counter() - t0)
+        description = plan.describe(poses)
+        description["blend"] = str(blend)
+        description["map"] = str(png) if png else None
+        with writing_to(sidecar):
             temps[1].write_text(json.dumps(description, indent=1) + "\n")
-    except OSError as e:
-        raise UserError(f"cannot write the world files: {e.strerror or e}") from None
     return SavedWorld(plan, poses, blend, sidecar, png, time.perf_counter() - t_start)
 
 
@@ -225,12 +237,25 @@ def quiet_stdout():
 
 
 def save_blend(tmp: Path, final: Path) -> None:
-    """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError."""
+    """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError.
+
+    Blender writes `tmp@` and renames it to `tmp`: that file goes too when the save fails
+    or a signal stops the run, and Blender's message is reworded to name `final`."""
     import bpy
 
     try:
         with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
             bpy.ops.wm.save_as_mainfile(filepath=str(tmp), check_existing=False, copy=True, compress=True)
     except RuntimeError as e:
-        reason = str(e).strip().splitlines()[0] if str(e).strip() else "Blender could not save it"
-        raise UserError(f"cannot write {final}: {reason.replace(str(tmp), str(final))}") from None
+        raise UserError(f"cannot write {final}: {blender_save_reason(e, tmp)}") from None
+    finally:
+        remove_quietly([Path(f"{tmp}@")])
+
+
+def blender_save_reason(error: RuntimeError, tmp: Path) -> str:
+    """Why Blender could not save, without its temporary names or its "Error:" prefix."""
+    lines = [line.strip() for line in str(error).strip().splitlines() if line.strip()]
+    reason = (lines[0] if lines else "").removeprefix("Error:").strip()
+    if str(tmp) in reason:  # "Cannot open file TMP@ for writing: REASON": keep the reason
+        reason = reason.rsplit(":", 1)[-1].strip() if ":" in reason.split(str(tmp))[-1] else ""
+    return reason or "Blender could not save it"

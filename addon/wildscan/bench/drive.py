@@ -22,12 +22,14 @@ SPEED = 1.0
 def trail_waypoints(seed: int, length: float) -> np.ndarray:
     """The first `length` metres of the seed's trail (its centre line)."""
     from ..app.drive.world import layout_of
+    from ..core import detmath as dm
+    from ..core.motion.trajectory import step_lengths
 
     path = layout_of(seed).trail.path
-    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+    along = np.concatenate([[0.0], np.cumsum(step_lengths(path))])
     if along[-1] < length:
         raise ValueError(f"the trail of seed {seed} is {along[-1]:.1f} m, shorter than {length:g} m")
-    end = np.column_stack([np.interp(length, along, path[:, 0]), np.interp(length, along, path[:, 1])])
+    end = np.column_stack([dm.interp(length, along, path[:, 0]), dm.interp(length, along, path[:, 1])])
     return np.concatenate([path[along < length], end])
 
 

@@ -82,9 +82,7 @@ def agreement_counts(hits, reference) -> dict:
 
 
 def _take(hits, index: np.ndarray):
-    from ..core.hits import RayHits
-
-    return RayHits(hits.distance[index], hits.class_id[index], hits.instance[index], hits.untagged_objects)
+    return hits.rows(index)
 
 
 def wrong_answers(geometry, origin, directions, max_range: float, hits, index: np.ndarray) -> int:

@@ -21,7 +21,15 @@ import numpy as np
 
 from ..core.world import DEFAULT_VEGETATION, WorldParams, WorldPlan, plan_world
 from . import WORLD_COLLECTION
-from .mesh import GENERATED, mesh_data, remove_generated, tag_object, wildscan_collection
+from .mesh import (
+    GENERATED,
+    WORLD_ROOT_PROP,
+    WORLD_SEED_PROP,
+    mesh_data,
+    remove_generated,
+    tag_object,
+    wildscan_collection,
+)
 
 ZONE_PROP = "wildscan_zone"
 STAGE_PROP = "wildscan_stage"
@@ -69,7 +77,8 @@ def realise(
     root = wildscan_collection(collection_name)
     # Recorded on the world itself, so a saved world says what it was built from
     # (the add-on's panel reads these).
-    root["wildscan_seed"] = int(plan.seed)
+    root[WORLD_ROOT_PROP] = True
+    root[WORLD_SEED_PROP] = int(plan.seed)
     root["wildscan_detail"] = plan.detail.name
     root["wildscan_vegetation"] = plan.vegetation
     t0 = _timed(plan, "blender.clear", t0, progress)

@@ -15,6 +15,10 @@ from ..core.classes import CLASS_PROP, COLOR_BY_ID, INSTANCE_PROP, WATER_ID, cla
 from . import WORLD_COLLECTION
 
 GENERATED = "wildscan_generated"
+# On the root collection of a world WildScan built: how a rebuild finds it whatever the
+# user renamed it to. Worlds saved before it existed carry the seed there instead.
+WORLD_ROOT_PROP = "wildscan_world"
+WORLD_SEED_PROP = "wildscan_seed"
 
 # Since 4.0 a polygon's size is derived from the next polygon's loop_start.
 _LOOP_TOTAL_WRITABLE = not bpy.types.MeshPolygon.bl_rna.properties["loop_total"].is_readonly
@@ -126,3 +130,25 @@ def remove_generated(collection_name: str = WORLD_COLLECTION) -> int:
         if coll.get(GENERATED) and not coll.objects and not coll.children:
             bpy.data.collections.remove(coll)
     return len(objects)
+
+
+def is_world_root(coll) -> bool:
+    return bool(coll.get(GENERATED)) and (coll.get(WORLD_ROOT_PROP) or coll.get(WORLD_SEED_PROP) is not None)
+
+
+def world_root(scene=None):
+    """The root collection of the world WildScan built in `scene` (default: the current
+    one), found by its marker, not its name (a user may rename it); None without one."""
+    scene = scene if scene is not None else bpy.context.scene
+    roots = [c for c in scene.collection.children_recursive if is_world_root(c)]
+    # the one still called by the default name first, then by name: the same answer every time
+    roots.sort(key=lambda c: (c.name != WORLD_COLLECTION, c.name))
+    return roots[0] if roots else None
+
+
+def world_element_objects(scene=None) -> set:
+    """Every object of the scene WildScan built as part of a world: marked generated and
+    tagged with a class (the pose marker and scan clouds are generated but untagged),
+    wherever the user moved it."""
+    scene = scene if scene is not None else bpy.context.scene
+    return {o for o in scene.objects if o.get(GENERATED) and o.get(CLASS_PROP) is not None}

@@ -2,23 +2,15 @@
 
 from __future__ import annotations
 
-import os
-
 from ..core.errors import UserError
-from . import WORLD_COLLECTION
+from ..core.io.files import check_input_file
 
 # First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
 
 
 def check_blend_file(path: str) -> str:
-    if not str(path).strip():
-        raise UserError("needs a .blend file name, got an empty one", setting="world")
-    path = os.path.abspath(path)
-    if os.path.isdir(path):
-        raise UserError(f"{path}: is a directory, not a .blend file", setting="world")
-    if not os.path.isfile(path):
-        raise UserError(f"{path}: no such file", setting="world")
+    path = str(check_input_file(path, (".blend",), "world"))
     try:
         with open(path, "rb") as f:
             head = f.read(8)
@@ -52,6 +44,8 @@ def scene_provenance() -> tuple[int | None, str | None]:
     seed WildScan recorded on its world collection, the file Blender has open."""
     import bpy
 
-    root = bpy.data.collections.get(WORLD_COLLECTION)
-    seed = root.get("wildscan_seed") if root is not None else None
+    from .mesh import WORLD_SEED_PROP, world_root
+
+    root = world_root()
+    seed = root.get(WORLD_SEED_PROP) if root is not None else None
     return (int(seed) if seed is not None else None), (bpy.data.filepath or None)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..core.world.testworld import TestWorldPlan, plan_test_world
 from . import WORLD_COLLECTION
-from .mesh import mesh_object, remove_generated, wildscan_collection
+from .mesh import WORLD_ROOT_PROP, mesh_object, remove_generated, wildscan_collection
 
 
 def build_test_world(seed: int, collection_name: str = WORLD_COLLECTION) -> TestWorldPlan:
@@ -13,6 +13,7 @@ def build_test_world(seed: int, collection_name: str = WORLD_COLLECTION) -> Test
     plan = plan_test_world(seed)
     remove_generated(collection_name)
     coll = wildscan_collection(collection_name)
+    coll[WORLD_ROOT_PROP] = True
     for el in plan.elements:
         vertices, faces = plan.element_vertices(el), plan.prototypes[el.proto].faces
         mesh_object(el.name, vertices, faces, coll, el.wildscan_class, el.instance)

@@ -6,7 +6,8 @@ One registry of subcommands (COMMANDS); one module per command, each with its ar
 share are declared once in options.py.
 
 A user mistake ends with one line on stderr and exit code 2; nothing is written.
-Ctrl-C ends with exit code 130, and nothing is written either.
+Ctrl-C (or SIGTERM) at any moment ends the run with exit code 130 (143), one line on
+stderr saying which files it had completed (those stay; no temporary or partial file does).
 """
 
 from __future__ import annotations
@@ -18,12 +19,21 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 from .. import __version__
+from ..app.interrupts import EXIT_INTERRUPTED, Interrupted, Terminated, stop_code, stopping_on_signals
 from ..app.settings import command_line_message
 from ..core.errors import UserError
+from ..core.io.files import recording_written
 from . import bench, dataset, demo, drive, extract, options, poses, scan, world
 from .options import EXIT_USER_ERROR, ArgumentParser
 
-EXIT_INTERRUPTED = 130
+__all__ = ["EXIT_INTERRUPTED", "blender_main", "build_parser", "main"]
+
+
+EPILOG = (
+    "Paths: ~ expands in every path option (also in --opt=~/x), names longer than the file system "
+    "allows are refused before any work. Exit codes: 0 done, 2 a mistake (one line, nothing written), "
+    "130 Ctrl-C, 143 SIGTERM (one line saying which files were completed; no temporary or partial file)."
+)
 
 
 class Command(NamedTuple):
@@ -62,7 +72,7 @@ def build_parser(prog: str = "wildscan") -> ArgumentParser:
     sub.required = True
     parser.command_parsers = {}
     for name, command in COMMANDS.items():
-        p = sub.add_parser(name, help=command.help, description=command.description)
+        p = sub.add_parser(name, help=command.help, description=command.description, epilog=EPILOG)
         command.add_arguments(p, False)
         parser.command_parsers[name] = p
     return parser
@@ -73,6 +83,7 @@ def build_blender_parser(command: str) -> ArgumentParser:
     parser = ArgumentParser(
         prog=f"blender -b [file.blend] -P blender_scripts/{command}.py --",
         description=COMMANDS[command].description,
+        epilog=EPILOG,
     )
     COMMANDS[command].add_arguments(parser, True)
     parser.set_defaults(command=command)
@@ -83,15 +94,31 @@ def build_blender_parser(command: str) -> ArgumentParser:
 def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:
     args = parser.parse_args(argv)  # a malformed command line exits 2 here, in one line
     where = f"blender_scripts/{args.command}.py" if in_blender else f"wildscan {args.command}"
-    try:
-        options.apply_checks(parser.command_parsers[args.command], args)
-        return COMMANDS[args.command].run(args, in_blender)
-    except UserError as e:
-        sys.stderr.write(f"{where}: error: {command_line_message(e)}\n")
-        return EXIT_USER_ERROR
-    except KeyboardInterrupt:
-        sys.stderr.write(f"{where}: interrupted; nothing written\n")
-        return EXIT_INTERRUPTED
+    with stopping_on_signals(), recording_written() as written:
+        try:
+            options.apply_checks(parser.command_parsers[args.command], args)
+            return COMMANDS[args.command].run(args, in_blender)
+        except UserError as e:
+            sys.stderr.write(f"{where}: error: {command_line_message(e)}\n")
+            return EXIT_USER_ERROR
+        except Interrupted as e:  # a command that says itself what it completed
+            sys.stderr.write(f"{where}: {e}\n")
+            return e.code
+        except (KeyboardInterrupt, Terminated) as stop:
+            sys.stderr.write(f"{where}: {stopped_message(stop, written)}\n")
+            return stop_code(stop)
+
+
+def stopped_message(stop: BaseException, written: list) -> str:
+    """`interrupted; nothing written`, or which files were completed before the signal."""
+    what = "terminated" if isinstance(stop, Terminated) else "interrupted"
+    if not written:
+        return f"{what}; nothing written"
+    folders = {p.parent for p in written}
+    names = ", ".join(p.name if len(folders) == 1 else str(p) for p in written)
+    where = f" in {written[0].parent}" if len(folders) == 1 else ""
+    files = f"{len(written)} file{'s' if len(written) > 1 else ''}"
+    return f"{what}; completed {files}{where} ({names}), nothing else"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,4 +1,4 @@
-"""`wildscan bench [--suite backends|world|drive|realism]` and `wildscan bench-world`
+"""`wildscan bench [--suite backends|world|drive|realism|far]` and `wildscan bench-world`
 (= `bench --suite world`)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world", "drive", "realism")
+SUITES = ("backends", "world", "drive", "realism", "far")
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
@@ -58,7 +58,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "detail level and scaling (default); world: the world built at each detail level, as "
         "`wildscan bench-world`; drive: a 60 s drive along the trail with both ROS bags on the "
         "--seed world's trail, stepped and continuous head; realism: vegetation porosity, echoes, "
-        "realistic scan speed, build time and memory",
+        "realistic scan speed, build time and memory; far: the largest point error of every backend "
+        "and frame with the scene 0 m to 999 km from the origin (README 'Far from the origin')",
     )
     options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
     options.add(
@@ -101,6 +102,12 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
 
 
 def run(args: argparse.Namespace, in_blender: bool = False) -> int:
+    if args.suite == "far":
+        from ..bench.far import OFFSETS, QUICK_OFFSETS, bench_far
+
+        _only_for_backends(args, also=("details",), allowed=("backends",))
+        bench_far(QUICK_OFFSETS if args.quick else OFFSETS, args.backends)
+        return 0
     if args.suite == "drive":
         from ..bench.drive import bench_drive
 
@@ -133,11 +140,13 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     return run_backends(cfg)
 
 
-def _only_for_backends(args: argparse.Namespace, also: tuple[str, ...] = ()) -> None:
+def _only_for_backends(
+    args: argparse.Namespace, also: tuple[str, ...] = (), allowed: tuple[str, ...] = ()
+) -> None:
     from ..core.errors import UserError
 
     for setting in ("backends", "runs", "reference_rays", "out", *also):
-        if getattr(args, setting) is not None:
+        if setting not in allowed and getattr(args, setting) is not None:
             raise UserError("applies to {suite} backends only", setting=setting, related=("suite",))
 
 

@@ -35,7 +35,7 @@ DRIVE_OVERRIDES = {
 
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     source = p.add_mutually_exclusive_group(required=True)
-    source.add_argument("--world", metavar="FILE.blend", help="drive in this saved world (needs bpy)")
+    options.add(p, "world", group=source, help="drive in this saved world (needs bpy)")
     options.add(p, "seed", group=source, help="drive in the world of this seed, planned without Blender")
     options.add(p, "detail", help="detail level of the --seed world: low | default | high (default: default)")
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")

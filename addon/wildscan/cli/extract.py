@@ -18,9 +18,7 @@ DESCRIPTION = (
 
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     source = p.add_mutually_exclusive_group(required=not in_blender)
-    source.add_argument(
-        "--world", metavar="FILE.blend", help="extract this .blend (any scene with tagged objects)"
-    )
+    options.add(p, "world", group=source, help="extract this .blend (any scene with tagged objects)")
     options.add(p, "seed", group=source, help=f"{options.SEED_HELP}: extract the world of this seed")
     options.add(p, "detail", help=f"{options.DETAIL_HELP}, with --seed (default: default)")
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")

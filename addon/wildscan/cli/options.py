@@ -21,6 +21,7 @@ from ..core import sensor as S
 from ..core.checks import whole_number
 from ..core.errors import UserError
 from ..core.frames import FRAMES
+from ..core.io.files import check_input_file, check_output_path
 from ..core.world import DEFAULT_VEGETATION, ZONES, check_seed, check_vegetation, check_zone, detail_level
 from ..raycast.select import BACKEND_NAMES
 
@@ -73,6 +74,17 @@ class Option(NamedTuple):
     setting: str  # its name in app/settings.py, which gives the flag
     kwargs: dict  # for add_argument; a command may override any of them
     check: Callable[[Any], Any] | None = None  # the parsed value -> the checked value
+
+
+def input_file(setting: str, suffix: str) -> Callable[[str], str]:
+    """The check of a path option naming a file to read: core/io/files.user_path reads it
+    (`~` expanded, name lengths checked) and the file must exist and be readable."""
+    return lambda text: str(check_input_file(text, (suffix,), setting))
+
+
+def output_file(setting: str, suffix: str) -> Callable[[str], str]:
+    """The check of a path option naming a file to write, the same one the app repeats."""
+    return lambda text: str(check_output_path(text, suffix, setting))
 
 
 def detail_name(name: str) -> str:
@@ -233,6 +245,10 @@ _SHARED = (
         ),
     ),
     Option("out", dict(required=True)),
+    # files read or written besides --out: checked up front like every path option
+    Option("world", dict(metavar="FILE.blend"), input_file("world", ".blend")),
+    Option("geometry", dict(metavar="SCENE.npz"), input_file("geometry", ".npz")),
+    Option("map", dict(metavar="MAP.png"), output_file("map", ".png")),
 )
 OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
 SENSOR_OPTIONS = S.SENSOR_SETTINGS

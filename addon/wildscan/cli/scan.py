@@ -16,8 +16,11 @@ DESCRIPTION = (
 
 def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     source = p.add_mutually_exclusive_group(required=not in_blender)
-    source.add_argument(
-        "--world", metavar="FILE.blend", help="scan this saved world (or any .blend with tagged objects)"
+    options.add(
+        p,
+        "world",
+        group=source,
+        help="scan this saved world (or any .blend with tagged objects)",
     )
     options.add(
         p,
@@ -25,9 +28,10 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         group=source,
         help="build the world from this seed (integer from 0 to 2147483647) and scan it",
     )
-    source.add_argument(
-        "--geometry",
-        metavar="SCENE.npz",
+    options.add(
+        p,
+        "geometry",
+        group=source,
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")

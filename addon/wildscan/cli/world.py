@@ -34,9 +34,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         metavar="WORLD.blend",
         help="the Blender file to write; zones and scan poses go beside it as WORLD.json",
     )
-    p.add_argument(
-        "--map",
-        metavar="MAP.png",
+    options.add(
+        p,
+        "map",
         help="also write an aerial map (classes in colour, zones, poses); "
         "needs matplotlib, which the bpy wheel's venv has and Debian's Blender does not",
     )

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import UserError
+
 
 @dataclass(frozen=True)
 class ElementClass:
@@ -74,13 +76,67 @@ def class_by_name(name: str) -> ElementClass:
 
 
 def class_id_for_tag(tag: object) -> int:
-    """Internal id for a custom-property value; untagged or unknown tags give 0 (unlabeled)."""
+    """Internal id for a custom-property value; untagged or unknown tags give 0 (unlabeled).
+    Lenient, for drawing; a scan reads tags with `object_tags`, which refuses unknown ones."""
     if tag is None:
         return UNLABELED.id
     try:
         return class_by_name(str(tag)).id
     except KeyError:
         return UNLABELED.id
+
+
+# The largest `wildscan_instance`: instance ids travel as int32 in hits and uint32 in PLY files.
+MAX_INSTANCE = 2**31 - 1
+# Per-object reflectivity override (intensity only; the label still comes from the class).
+REFLECTIVITY_PROP = "wildscan_reflectivity"
+MAX_REFLECTIVITY = 1000.0
+
+
+def object_tags(name: str, class_tag: object, instance_tag: object, reflectivity: object = None):
+    """(class id, instance id, reflectivity override or None) of the object `name` from its
+    custom-property values (None where it has none). A tag the user got wrong is a
+    UserError naming the object, the value and what is allowed: a class must be one of
+    TAG_NAMES (case, `_`, `-` and extra spaces do not matter), an instance a whole number
+    in 0..MAX_INSTANCE, a reflectivity a number in [0, MAX_REFLECTIVITY]."""
+    class_id = UNLABELED.id if class_tag is None else _strict_class(name, class_tag)
+    instance = 0 if instance_tag is None else _strict_instance(name, instance_tag)
+    override = None if reflectivity is None else _strict_reflectivity(name, reflectivity)
+    return class_id, instance, override
+
+
+def _strict_class(name: str, tag: object) -> int:
+    if isinstance(tag, str) and normalize_name(tag) in _BY_NAME:
+        return _BY_NAME[normalize_name(tag)].id
+    allowed = ", ".join(TAG_NAMES)
+    raise UserError(
+        f"object {name!r} has {CLASS_PROP} = {tag!r}, which is not a class; allowed: {allowed}",
+        allowed=TAG_NAMES,
+    )
+
+
+def _strict_instance(name: str, tag: object) -> int:
+    value = tag
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_INSTANCE:
+        raise UserError(
+            f"object {name!r} has {INSTANCE_PROP} = {tag!r}; it must be a whole number from 0 to "
+            f"{MAX_INSTANCE}",
+            allowed=(0, MAX_INSTANCE),
+        )
+    return value
+
+
+def _strict_reflectivity(name: str, value: object) -> float:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not 0.0 <= float(value) <= MAX_REFLECTIVITY:
+        raise UserError(
+            f"object {name!r} has {REFLECTIVITY_PROP} = {value!r}; it must be a number from 0 to "
+            f"{MAX_REFLECTIVITY:g}",
+            allowed=(0.0, MAX_REFLECTIVITY),
+        )
+    return float(value)
 
 
 def reflectivity_of(class_ids: np.ndarray) -> np.ndarray:

@@ -58,9 +58,12 @@ def _echo_reflectivity() -> np.ndarray:
 ECHO_REFLECTIVITY = _echo_reflectivity()
 
 
-def return_energy(weight, class_id, cos_incidence, distance) -> np.ndarray:
-    """e = w · ρ · cos θ · (R_REF / R)² for each return (Table I units; see module docstring)."""
+def return_energy(weight, class_id, cos_incidence, distance, override=None) -> np.ndarray:
+    """e = w · ρ · cos θ · (R_REF / R)² for each return (Table I units; see module docstring);
+    ρ is the object's `wildscan_reflectivity` where `override` is not nan."""
     refl = ECHO_REFLECTIVITY[np.asarray(class_id, dtype=np.intp)]
+    if override is not None:
+        refl = np.where(np.isnan(override), refl, override)
     cos = np.maximum(np.abs(cos_incidence), COS_FLOOR)
     return weight * refl * cos * (R_REF / distance) ** 2
 
@@ -75,6 +78,7 @@ class SubrayReturns:
     cos_incidence: np.ndarray  # float64 |n · d| of the hit surface
     axis_cos: np.ndarray  # float64 |n · d_axis|: how squarely the hit plane faces the beam axis
     axis_ratio: np.ndarray  # float64 (n · d_sub) / (n · d_axis): the plane met along the axis
+    reflectivity: np.ndarray | None = None  # float32 `wildscan_reflectivity` overrides (nan: none)
 
 
 @dataclass
@@ -107,7 +111,9 @@ def form_echoes(returns: SubrayReturns, weights: np.ndarray, separation: float, 
     s, n = returns.distance.shape
     valid = np.isfinite(returns.distance) & (returns.class_id >= 0) & (returns.class_id != WATER_ID)
     t = np.where(valid, returns.distance, np.inf)
-    energy = return_energy(weights[:, None], returns.class_id, returns.cos_incidence, np.where(valid, t, 1.0))
+    ranges = np.where(valid, t, 1.0)
+    cos, override = returns.cos_incidence, returns.reflectivity
+    energy = return_energy(weights[:, None], returns.class_id, cos, ranges, override)
     columns = {
         "t": t,
         "t_axis": axis_ranges(returns),

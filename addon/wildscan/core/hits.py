@@ -27,6 +27,26 @@ class RayHits:
     # triangle's winding, not the ray's side). Only when asked for (`cast(..., normals=True)`):
     # the realistic sensor model needs each hit's incidence angle.
     normal: np.ndarray | None = None
+    # float32 (N,) the hit object's `wildscan_reflectivity` override, nan where the class's
+    # applies; None: no override on any ray (the paper's case, the common one)
+    reflectivity: np.ndarray | None = None
+
+    def overrides(self) -> np.ndarray:
+        """float32 (N,) reflectivity overrides, nan where none."""
+        if self.reflectivity is None:
+            return np.full(len(self.distance), np.nan, dtype=np.float32)
+        return self.reflectivity
+
+    def rows(self, index) -> "RayHits":
+        """The hits of the rays `index` selects (a slice, mask or index array)."""
+        return RayHits(
+            self.distance[index],
+            self.class_id[index],
+            self.instance[index],
+            self.untagged_objects,
+            normal=None if self.normal is None else self.normal[index],
+            reflectivity=None if self.reflectivity is None else self.reflectivity[index],
+        )
 
     @property
     def hit(self) -> np.ndarray:
@@ -50,4 +70,7 @@ class RayHits:
             instance=np.concatenate([p.instance for p in parts]),
             untagged_objects=frozenset().union(*(p.untagged_objects for p in parts)),
             normal=None if any(n is None for n in normals) else np.concatenate(normals),
+            reflectivity=None
+            if all(p.reflectivity is None for p in parts)
+            else np.concatenate([p.overrides() for p in parts]),
         )

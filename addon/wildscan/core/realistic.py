@@ -26,7 +26,7 @@ from .echoes import Echoes, SubrayReturns, form_echoes
 from .errors import UserError
 from .footprint import subray_directions, subray_weights
 from .hits import RayHits
-from .sensor import SensorConfig, noise_draws, range_sigma
+from .sensor import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
 AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)
@@ -74,6 +74,7 @@ def subray_returns(hits: RayHits, sub_world: np.ndarray) -> SubrayReturns:
         cos_incidence=np.abs(along_sub),
         axis_cos=np.abs(along_axis),
         axis_ratio=ratio,
+        reflectivity=None if hits.reflectivity is None else hits.reflectivity.reshape(s, n),
     )
 
 
@@ -87,8 +88,11 @@ def realistic_points(
     """Every point of a realistic scan over the beams of sensor.beam_directions (their
     order). `cast(origins, dirs_world, max_range, normals)` is the backend's cast (maybe
     reporting progress); `rotation` turns the sensor frame to the world's."""
-    sub = subray_directions(sensor.rh_deg, sensor.divergence_mrad)
-    return echo_points(cast, origin, dm.apply(rotation, sub), sensor, cast_range)
+    sub_world = dm.apply(rotation, subray_directions(sensor.rh_deg, sensor.divergence_mrad))
+    # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
+    # single-echo realistic scan hits exactly where the paper's does.
+    sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg)
+    return echo_points(cast, origin, sub_world, sensor, cast_range)
 
 
 def echo_points(cast, origin: np.ndarray, sub_world: np.ndarray, sensor: SensorConfig, cast_range: float):

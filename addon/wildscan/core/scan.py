@@ -16,8 +16,10 @@ from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflec
 from .frames import check_frame, to_world
 from .hits import RayHits
 from .leveling import leveling_matrix
+from .pause import pause_here
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
+from .reach import check_reach
 from .sensor import SensorConfig, beam_directions, range_noise, rotated_beam_directions
 
 # Rays are cast a little past max range so a true range just beyond it can
@@ -48,6 +50,7 @@ def cast_in_chunks(
 ):
     """Cast all rays, reporting progress between chunks when asked (with each hit's surface
     normal when `normals`: the realistic model's)."""
+    pause_here("casting")
     extra = {"normals": True} if normals else {}
     if progress is None:
         return backend.cast(origin, dirs, max_range, **extra)
@@ -89,11 +92,16 @@ class Returns:
 
 def measure(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
     """Ranges, limits and labels of a batch of beams: the hit distance plus noise, kept inside
-    the range window; the label read from the reflectivity of what was hit (paper IV-C)."""
+    the range window; the label read from the reflectivity of what was hit (paper IV-C); an
+    object's reflectivity override changes the intensity, not the label."""
     measured = hits.distance + noise
     keep = hits.hit & (measured >= sensor.min_range) & (measured <= sensor.max_range)
     intensity = reflectivity_of(np.where(keep, hits.class_id, 0))
     label = label_from_reflectivity(intensity)
+    if hits.reflectivity is not None:
+        # a `wildscan_reflectivity` override changes what is measured, not the label
+        override = keep & ~np.isnan(hits.reflectivity)
+        intensity = np.where(override, hits.reflectivity, intensity).astype(intensity.dtype)
     # A beam whose first hit is water returns nothing (the paper drops them).
     keep &= label != WATER_ID
     return Returns(keep, measured, intensity, label, hits.instance)
@@ -149,6 +157,7 @@ def run_scan(
 
         check_backend(backend)
     placement = place(backend, pose, z_start)
+    check_reach(placement.optical_centre, sensor.max_range, frame, getattr(backend, "name", ""))
     beam_count = sensor.beam_count
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     if sensor.realistic:

@@ -31,24 +31,33 @@ def broadcast_origins(origins: np.ndarray, n: int) -> np.ndarray:
     return origins
 
 
-def tags_from(sources) -> tuple[int, int]:
-    """(class id, instance id) from the WildScan custom properties of `sources`, each
-    property taken from the first source that has it: an instanced object, then its
-    instancer, so a tagged template instanced by empties that carry their own
-    `wildscan_instance` gives every copy its own id. Untagged: (0, 0)."""
-    from ..core.classes import CLASS_PROP, INSTANCE_PROP, class_id_for_tag
+def tags_from(sources) -> tuple[int, int, float]:
+    """(class id, instance id, reflectivity) from the WildScan custom properties of
+    `sources`, each property taken from the first source that has it: an instanced
+    object, then its instancer, so a tagged template instanced by empties that carry
+    their own `wildscan_instance` gives every copy its own id. Untagged: (0, 0, nan);
+    the reflectivity is nan unless `wildscan_reflectivity` overrides the class's.
+    A wrong tag is a UserError naming the object that carries it."""
+    from ..core.classes import CLASS_PROP, INSTANCE_PROP, REFLECTIVITY_PROP, object_tags
 
-    class_id = class_id_for_tag(_first_prop(sources, CLASS_PROP))
-    try:
-        instance = int(_first_prop(sources, INSTANCE_PROP) or 0)
-    except (TypeError, ValueError):
-        instance = 0
-    return class_id, instance
+    keys = (CLASS_PROP, INSTANCE_PROP, REFLECTIVITY_PROP)
+    values = []
+    for k, key in enumerate(keys):
+        value, owner = _first_prop(sources, key)
+        if value is not None:
+            # checked with the name of the object that carries it
+            alone = [None, None, None]
+            alone[k] = value
+            object_tags(owner.name, *alone)
+        values.append(value)
+    class_id, instance, reflectivity = object_tags(sources[0].name, *values)
+    return class_id, instance, float("nan") if reflectivity is None else reflectivity
 
 
 def _first_prop(objects, key: str):
+    """(value, object carrying it), or (None, None)."""
     for obj in objects:
         value = obj.get(key)
         if value is not None:
-            return value
-    return None
+            return value, obj
+    return None, None

@@ -18,9 +18,11 @@ from collections.abc import Callable
 import bpy
 import numpy as np
 
+from ..core import detmath as dm
 from ..core.classes import UNLABELED
 from ..core.hits import RayHits
 from .base import broadcast_origins, tags_from
+from .extract import check_scene_tags
 
 PROGRESS_EVERY = 10_000
 
@@ -28,18 +30,20 @@ PROGRESS_EVERY = 10_000
 # A hit's matrix and a depsgraph instance's matrix are the same float32 numbers; this
 # only absorbs round-off should a Blender version recompute one of them.
 MATRIX_MATCH_TOL = 1e-4
+# Below this |cos| between a ray and a face's plane the plane intersection is ill-posed.
+_PARALLEL_COS = 1e-9
 
 
 def _original(obj):
     return obj.original if obj.original is not None else obj
 
 
-def _object_tags(obj, instancer=None) -> tuple[int, int, str | None]:
-    """(class id, instance, name if untagged) of the hit object, read from the original
-    objects (evaluated copies may not carry custom properties)."""
+def _object_tags(obj, instancer=None) -> tuple[int, int, float, str | None]:
+    """(class id, instance, reflectivity override (nan: none), name if untagged) of the hit
+    object, read from the original objects (evaluated copies may not carry custom properties)."""
     sources = [_original(obj)] + ([_original(instancer)] if instancer is not None else [])
-    class_id, instance = tags_from(sources)
-    return class_id, instance, sources[0].name if class_id == UNLABELED.id else None
+    class_id, instance, reflectivity = tags_from(sources)
+    return class_id, instance, reflectivity, sources[0].name if class_id == UNLABELED.id else None
 
 
 def scene_depsgraph(scene):
@@ -96,13 +100,12 @@ class InstanceCopies:
 def exact_distances(depsgraph, origins, directions, rough, objects, faces, matrices) -> np.ndarray:
     """Hit distances recomputed in float64 against the face scene.ray_cast reported.
 
-    scene.ray_cast works in float32: its hit points are off by up to ~1e-6 of
-    their distance from the world origin (1.5 mm at 10 km), and on grazing
-    beams a placement that much off moves ranges by more than 1e-4 m. The hit
-    (object, face) stays scene.ray_cast's; only the distance is made exact, the
-    same refinement the fast backends apply. A face whose exact plane
-    disagrees with the float32 answer by more than float32 round-off allows
-    (refine_tolerance) keeps the float32 answer.
+    scene.ray_cast works in float32: its hit points are off by up to ~1e-6 of their
+    distance from the world origin (1.5 mm at 10 km), and on a very large single face far
+    more (its float32 test works with the face's own coordinates: centimetres to metres
+    on a 100 km wall, `wildscan bench --suite far`). The hit (object, face) stays
+    scene.ray_cast's; the distance is always the float64 one, the same refinement the
+    fast backends apply: only a ray parallel to the face keeps the float32 distance.
     """
     dist = rough.copy()
     groups: dict = {}
@@ -114,7 +117,7 @@ def exact_distances(depsgraph, origins, directions, rough, objects, faces, matri
         if verts is None:
             continue
         m = np.asarray(flat_matrix, dtype=np.float64).reshape(4, 4)
-        world = verts @ m[:3, :3].T + m[:3, 3]
+        world = dm.apply(m[:3, :3], verts) + m[:3, 3]  # fixed order, not BLAS: same bits on every CPU
         face = np.asarray([faces[k] for k in ks], dtype=np.intp)
         if face.max(initial=-1) >= len(loop_start):
             continue  # the mesh changed under us: keep scene.ray_cast's distances
@@ -128,13 +131,6 @@ def exact_distances(depsgraph, origins, directions, rough, objects, faces, matri
             rough[rows],
         )
     return dist
-
-
-def refine_tolerance(origins, directions, rough) -> np.ndarray:
-    """How far scene.ray_cast's float32 distance may be from the exact one: 1 mm plus a
-    few float32 steps at the hit's coordinates (1 mm steps at 10 km)."""
-    where = np.abs(origins + directions * rough[:, None]).max(axis=1)
-    return 1e-3 + 16 * np.finfo(np.float32).eps * where
 
 
 def _evaluated_faces(obj):
@@ -161,24 +157,40 @@ def _evaluated_faces(obj):
 
 
 def _fan_plane_distances(world, start, total, loop_verts, origins, dirs, rough) -> np.ndarray:
-    """Per ray, the distance to the plane of the fan triangle (v0, vi, vi+1) of its face
-    that is nearest the float32 distance (planar faces: any; bent quads: the one hit)."""
+    """Per ray, the float64 distance to the plane of the fan triangle (v0, vi, vi+1) of its
+    face that the ray passes through in float64; where it passes through none (a hair
+    beside the face's edge, as float32 saw it inside), the fan plane nearest the float32
+    distance. Planar faces: every fan plane is the face's; bent quads and n-gons: the one
+    hit. The float32 distance only ranks the candidates: it is never the answer unless the
+    ray runs parallel to every fan plane."""
     best = rough.copy()
-    best_gap = refine_tolerance(origins, dirs, rough)
-    a = world[loop_verts[start]]
+    best_gap = np.full(len(rough), np.inf)
+    best_inside = np.zeros(len(rough), dtype=bool)
+    a = world[loop_verts[start]] - origins  # ray-origin-local: float64 keeps far worlds exact
     for i in range(1, int(total.max(initial=3)) - 1):
         has = total > i + 1
-        b = world[loop_verts[start + np.minimum(i, total - 1)]]
-        c = world[loop_verts[start + np.minimum(i + 1, total - 1)]]
-        n = np.cross(b - a, c - a)
-        denom = np.einsum("ij,ij->i", dirs, n)
+        b = world[loop_verts[start + np.minimum(i, total - 1)]] - origins
+        c = world[loop_verts[start + np.minimum(i + 1, total - 1)]] - origins
+        n = dm.cross(b - a, c - a)
+        denom = dm.dot3(dirs, n)
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.einsum("ij,ij->i", a - origins, n) / denom
+            t = dm.dot3(a, n) / denom
+        ok = has & np.isfinite(t) & (np.abs(denom) >= _PARALLEL_COS * dm.norm(n))
+        inside = ok & _inside_triangle(a, b, c, n, np.where(ok, t, 0.0)[:, None] * dirs)
         gap = np.abs(t - rough)
-        better = has & np.isfinite(t) & (gap < best_gap)
+        better = ok & ((inside & ~best_inside) | ((inside == best_inside) & (gap < best_gap)))
         best[better] = t[better]
         best_gap[better] = gap[better]
+        best_inside |= better & inside
     return best
+
+
+def _inside_triangle(a, b, c, n, p) -> np.ndarray:
+    """Whether points p lie in triangles (a, b, c) of (unnormalised) normals n, in their plane."""
+    inside = np.ones(len(p), dtype=bool)
+    for u, v in ((a, b), (b, c), (c, a)):
+        inside &= dm.dot3(dm.cross(v - u, p - u), n) >= 0.0
+    return inside
 
 
 class BlenderRayCastBackend:
@@ -215,6 +227,8 @@ class BlenderRayCastBackend:
             raise ValueError(f"origins {origins.shape} do not match directions {directions.shape}")
         if self._own_depsgraph:
             self.depsgraph = self._evaluated_depsgraph()
+        # every visible object's tags, hit or not: the fast backends refuse the same scenes
+        check_scene_tags(self.depsgraph)
         copies = InstanceCopies(self.depsgraph)
         # The loop allocates several objects per ray; with generational GC on, each
         # collection walks the growing lists below, which costs ~30% of the run.
@@ -294,7 +308,7 @@ class BlenderRayCastBackend:
             depsgraph,
             origins[idx],
             directions[idx],
-            np.linalg.norm(loc - origins[idx], axis=1),
+            dm.norm(loc - origins[idx]),
             hit_obj,
             hit_face,
             hit_matrix,
@@ -306,6 +320,7 @@ class BlenderRayCastBackend:
         tags: dict = {}
         class_ids = np.empty(len(keep), dtype=np.int16)
         instances = np.empty(len(keep), dtype=np.int32)
+        reflectivity = np.empty(len(keep), dtype=np.float32)
         instancers: dict = {}
         for j, k in enumerate(keep.tolist()):
             obj = hit_obj[k]
@@ -320,9 +335,12 @@ class BlenderRayCastBackend:
             tag = tags.get(key)
             if tag is None:
                 tag = tags[key] = _object_tags(obj, key[1] if isinstance(key, tuple) else None)
-            class_ids[j], instances[j] = tag[0], tag[1]
+            class_ids[j], instances[j], reflectivity[j] = tag[0], tag[1], tag[2]
         idx = idx[keep]
         hits.distance[idx] = dist[keep]
         hits.class_id[idx] = class_ids
         hits.instance[idx] = instances
-        hits.untagged_objects = frozenset(t[2] for t in tags.values() if t[2] is not None)
+        if not np.isnan(reflectivity).all():
+            hits.reflectivity = np.full(len(hits.distance), np.nan, dtype=np.float32)
+            hits.reflectivity[idx] = reflectivity
+        hits.untagged_objects = frozenset(t[3] for t in tags.values() if t[3] is not None)

@@ -1,8 +1,9 @@
 """Read the evaluated Blender scene once into a numpy `SceneGeometry` (bpy).
 
-What is read: every mesh-like object the depsgraph shows (what `scene.ray_cast`
-sees), with modifiers evaluated and instances (collection instances, instancing
-by vertices/faces, geometry-node instances) expanded, via
+What is read: every mesh-like object the laser sees (`scanned`; README "Which objects
+a scan sees"): what the viewport shows, as `scene.ray_cast` sees it, with modifiers
+evaluated and instances (collection instances, instancing by vertices/faces,
+geometry-node instances) expanded, via
 `depsgraph.object_instances`. Each object's evaluated mesh comes from
 `to_mesh()` + `loop_triangles` with `foreach_get`, is released with
 `to_mesh_clear()`, and its world matrix is applied in float64 numpy.
@@ -17,6 +18,16 @@ For an instance each property is taken from the instanced object when it has
 it, else from the instancer: a template rock tagged `"rock"` but without an
 instance id, instanced by empties that each carry their own
 `wildscan_instance`, gives every copy its own instance id.
+
+Which objects: an object is scanned when it is visible in the view layer
+(`visible_get()`: not hidden with its eye icon or its collection's, not disabled in
+viewports, not in an excluded collection) and its world matrix is not singular (an
+axis scaled to exactly zero: scene.ray_cast cannot see it). A copy made by instancing
+is scanned when its instancer is. `hide_render` does not matter: the viewport shows it.
+The add-on's scan clouds are loose points without faces, so they never are.
+
+Tags are read from every visible object, near or far, and a wrong one is a UserError
+(core/classes.py object_tags), so every backend refuses the same scenes.
 
 Cropping (when `center` and `radius` are given): see geometry.py: triangles
 whose XY bounding box lies within `radius` of the centre (a vertical cylinder),
@@ -53,8 +64,9 @@ def extract_scene(depsgraph=None, center=None, radius=None) -> SceneGeometry:
     names: dict[str, int] = {}
     parts: list[SceneGeometry] = []
     mesh_cache: dict = {}
+    view_layer = depsgraph.view_layer
     for inst in depsgraph.object_instances:
-        part = _instance_part(inst, crop, names, mesh_cache)
+        part = _instance_part(inst, view_layer, crop, names, mesh_cache)
         if part is not None:
             parts.append(part)
 
@@ -63,13 +75,16 @@ def extract_scene(depsgraph=None, center=None, radius=None) -> SceneGeometry:
     return geometry
 
 
-def _instance_part(inst, crop, names: dict[str, int], mesh_cache: dict) -> SceneGeometry | None:
+def _instance_part(inst, view_layer, crop, names: dict[str, int], mesh_cache: dict) -> SceneGeometry | None:
     """The triangles one depsgraph instance contributes (None when it has none in reach)."""
     obj = inst.object
-    if obj is None or obj.type not in MESH_TYPES:
+    if obj is None or obj.type not in MESH_TYPES or not scanned(inst, view_layer):
         return None
     # Copy now: an instance's matrix and object are only valid during this iteration step.
     matrix = np.array(inst.matrix_world, dtype=np.float64)
+    if singular(matrix):
+        return None
+    class_id, instance, reflectivity, name = _tags(inst)
     if crop is not None and not _box_within(obj, matrix, *crop):
         return None
     local = _local_mesh(obj, inst.is_instance, mesh_cache)
@@ -82,11 +97,35 @@ def _instance_part(inst, crop, names: dict[str, int], mesh_cache: dict) -> Scene
         keep = triangles_near_xy(vertices, faces, *crop)
         if not keep.any():
             return None
-    class_id, instance, name = _tags(inst)
     index = names.setdefault(name, len(names))
-    part = SceneGeometry(vertices, faces, class_id, instance, index)
+    part = SceneGeometry(vertices, faces, class_id, instance, index, reflectivity=reflectivity)
     # drop the cropped triangles' vertices too: they would widen the float32 extent
     return part if keep is None or keep.all() else part.subset(keep)
+
+
+def scanned(inst, view_layer) -> bool:
+    """Whether the laser sees this depsgraph instance: the object (for a copy made by
+    instancing, its instancer) is visible in the depsgraph's view layer (which need not be
+    the context's: a scene outside any window has its own)."""
+    source = inst.parent if inst.is_instance and inst.parent is not None else inst.object
+    original = source.original if source.original is not None else source
+    return bool(original.visible_get(view_layer=view_layer))
+
+
+def singular(matrix) -> bool:
+    """An axis scaled to exactly zero: Blender's ray_cast cannot invert the matrix and so
+    never hits the object; no backend scans it."""
+    m = np.asarray(matrix, dtype=np.float64)[:3, :3]
+    return float(np.linalg.det(m)) == 0.0
+
+
+def check_scene_tags(depsgraph) -> None:
+    """Raise UserError for the first visible object whose tags are wrong (every backend
+    checks the whole scene up front, so none refuses a scene another accepts)."""
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        if obj is not None and obj.type in MESH_TYPES and scanned(inst, depsgraph.view_layer):
+            _tags(inst)
 
 
 def _box_within(obj, matrix: np.ndarray, center_xy: np.ndarray, radius: float) -> bool:
@@ -133,11 +172,12 @@ def _read_evaluated_mesh(obj):
     return co.reshape(-1, 3).astype(np.float64), tris.reshape(-1, 3)
 
 
-def _tags(inst) -> tuple[int, int, str]:
-    """(class id, instance id, object name) of a depsgraph instance, from original objects."""
+def _tags(inst) -> tuple[int, int, float, str]:
+    """(class id, instance id, reflectivity (nan: the class's), object name) of a
+    depsgraph instance, from original objects."""
     own = inst.object.original
     sources = [own]
     if inst.is_instance and inst.parent is not None:
         sources.append(inst.parent.original)
-    class_id, instance = tags_from(sources)
-    return class_id, instance, own.name
+    class_id, instance, reflectivity = tags_from(sources)
+    return class_id, instance, reflectivity, own.name

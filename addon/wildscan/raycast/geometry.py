@@ -58,6 +58,8 @@ class SceneGeometry:
     object_index: int32 (T,) index into `object_names` of the object the triangle came from.
     object_names: names of the extracted objects (instances use the instanced object's name).
     offset:       float64 (3,) local origin for float32 copies (see module docstring).
+    reflectivity: float32 (T,) the object's `wildscan_reflectivity` override, nan where the
+                  class's reflectivity applies (None given: no override anywhere).
     """
 
     vertices: np.ndarray
@@ -67,6 +69,7 @@ class SceneGeometry:
     object_index: np.ndarray
     object_names: tuple[str, ...] = ()
     offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    reflectivity: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
@@ -75,6 +78,8 @@ class SceneGeometry:
         self.class_id = _per_triangle(self.class_id, t, np.int16, "class_id")
         self.instance = _per_triangle(self.instance, t, np.int32, "instance")
         self.object_index = _per_triangle(self.object_index, t, np.int32, "object_index")
+        refl = np.nan if self.reflectivity is None else self.reflectivity
+        self.reflectivity = _per_triangle(refl, t, np.float32, "reflectivity")
         self.object_names = tuple(self.object_names)
         self.offset = np.asarray(self.offset, dtype=np.float64).reshape(3)
         if t and (self.faces.min() < 0 or self.faces.max() >= len(self.vertices)):
@@ -145,6 +150,7 @@ class SceneGeometry:
             object_index=self.object_index[keep],
             object_names=self.object_names,
             offset=self.offset.copy(),
+            reflectivity=self.reflectivity[keep],
         )
 
     # -- turning triangle hits into RayHits ---------------------------------------------
@@ -163,6 +169,8 @@ class SceneGeometry:
             instance=instance.take(triangle),
             untagged_objects=self.untagged_names(triangle[hit]),
         )
+        if not np.isnan(self.reflectivity).all():
+            out.reflectivity = np.append(self.reflectivity, np.float32(np.nan)).take(triangle)
         if normals is not None:
             out.normal = np.concatenate([normals, np.zeros((1, 3))]).take(triangle, axis=0)
         return out
@@ -246,6 +254,7 @@ def concatenate(parts: list[SceneGeometry], object_names=None, offset=None) -> S
         instance=np.concatenate([p.instance for p in parts]),
         object_index=np.concatenate([p.object_index for p in parts]),
         object_names=object_names if object_names is not None else parts[0].object_names,
+        reflectivity=np.concatenate([p.reflectivity for p in parts]),
     )
     geometry.offset = local_origin(geometry.vertices, geometry.faces) if offset is None else offset
     return geometry

@@ -14,7 +14,9 @@ too) with one JSON entry, `header.json`:
 
 then vertices.npy (<f8, V x 3), faces.npy (<i4, T x 3), class_id.npy (<i2, T),
 instance.npy (<i4, T), object_index.npy (<i4, T), offset.npy (<f8, 3), always in
-that order. The same geometry and metadata always give the same bytes: fixed entry
+that order; version 2 adds reflectivity.npy (<f4, T: `wildscan_reflectivity` overrides,
+nan where none) after them, written only when some object has an override, so other
+files keep version 1 and their bytes. The same geometry and metadata always give the same bytes: fixed entry
 order, timestamps and attributes, little-endian arrays, sorted JSON, no compression
 (a deflate stream could differ between zlib versions). The file is written under a
 temporary name and renamed into place, so a failed save leaves nothing.
@@ -34,11 +36,11 @@ import numpy as np
 
 from .. import __version__
 from ..core.errors import UserError
-from ..core.io.files import atomic_outputs, check_output_path, write_durably
+from ..core.io.files import atomic_outputs, check_input_file, check_output_path, write_durably
 from .geometry import SceneGeometry
 
 FORMAT = "wildscan-scene-geometry"
-VERSION = 1
+VERSION = 2  # the newest this reads; a file without reflectivity overrides is written as 1
 SUFFIX = ".npz"
 HEADER = "header.json"
 # name, stored dtype, number of dimensions
@@ -50,6 +52,7 @@ ARRAYS = (
     ("object_index", "<i4", 1),
     ("offset", "<f8", 1),
 )
+OVERRIDES = ("reflectivity", "<f4", 1)  # version 2
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # the zip format's earliest date: no clock in the bytes
 
 
@@ -66,9 +69,10 @@ def save_geometry(geometry: SceneGeometry, path, metadata: dict | None = None, s
 
 def geometry_file_bytes(geometry: SceneGeometry, metadata: dict | None = None) -> bytes:
     """The bytes `save_geometry` writes."""
+    arrays = ARRAYS + ((OVERRIDES,) if not np.isnan(geometry.reflectivity).all() else ())
     header = {
         "format": FORMAT,
-        "version": VERSION,
+        "version": 2 if len(arrays) > len(ARRAYS) else 1,
         "wildscan_version": __version__,
         "object_names": list(geometry.object_names),
         "metadata": metadata or {},
@@ -80,7 +84,7 @@ def geometry_file_bytes(geometry: SceneGeometry, metadata: dict | None = None) -
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_STORED) as zf:
         _write_entry(zf, HEADER, header_text.encode("utf-8"))
-        for name, dtype, _ in ARRAYS:
+        for name, dtype, _ in arrays:
             array = np.ascontiguousarray(getattr(geometry, name), dtype=dtype)
             npy = io.BytesIO()
             np.lib.format.write_array(npy, array, version=(1, 0), allow_pickle=False)
@@ -105,17 +109,16 @@ def load_geometry(path, setting: str = "geometry") -> SceneGeometry:
 def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, dict]:
     """(geometry, header) of the file at `path`; the header holds `metadata`,
     `object_names`, `wildscan_version` (of the writer), `format` and `version`."""
-    path = Path(str(path)).expanduser().resolve()
+    path = check_input_file(path, (SUFFIX,), setting)
 
     def fail(why: str) -> UserError:
         return UserError(f"{path}: {why}", setting=setting)
 
-    if not path.is_file():
-        raise fail("no such file" if not path.exists() else "not a file")
     try:
         with zipfile.ZipFile(path) as zf:
             header = _read_header(zf, fail)
-            arrays = {name: _read_array(zf, name, dtype, ndim, fail) for name, dtype, ndim in ARRAYS}
+            wanted = ARRAYS + ((OVERRIDES,) if header["version"] >= 2 else ())
+            arrays = {name: _read_array(zf, name, dtype, ndim, fail) for name, dtype, ndim in wanted}
     except zipfile.BadZipFile:
         raise fail(f"not a WildScan scene geometry file (save one with a {SUFFIX} name)") from None
     except OSError as e:

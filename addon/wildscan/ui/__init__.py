@@ -5,9 +5,9 @@ enable again): every class, property, handler, draw callback and icon they add i
 removed again, and nothing is left holding a reference to an old scene.
 """
 
-from . import draw, legend, operators, panel, properties, status
+from . import draw, legend, operators, panel, properties, status, tag
 
-CLASSES: tuple = (*properties.CLASSES, *operators.CLASSES, *panel.CLASSES)
+CLASSES: tuple = (*properties.CLASSES, *operators.CLASSES, *tag.CLASSES, *panel.CLASSES)
 
 # (bpy.app.handlers list name, function)
 _HANDLERS = (

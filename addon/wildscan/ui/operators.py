@@ -240,7 +240,7 @@ class WILDSCAN_OT_scan(Operator):
             self.report(
                 {"WARNING"},
                 f"{len(result.untagged_objects)} untagged object(s) hit ({names}): their "
-                "points are labeled 0 (unlabeled); add the wildscan_class property to tag them",
+                "points are labeled 0 (unlabeled); tag them in the Tag panel",
             )
         self.report(
             {"INFO"},

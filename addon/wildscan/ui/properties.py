@@ -19,6 +19,7 @@ from bpy.types import PropertyGroup
 from ..app.settings import label
 from ..blender.generate import DETAILS
 from ..core import sensor as S
+from ..core.classes import TAG_NAMES
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 
@@ -72,29 +73,31 @@ def _pose_setter(name: str):
     return set_
 
 
-def _world_layer_collection():
-    """The view layer's entry for the world collection (its eye icon), if the world is in it."""
-    context = bpy.context
-    if context.view_layer is None:
-        return None
-    todo = [context.view_layer.layer_collection]
-    while todo:
-        layer = todo.pop()
-        if layer.name == wscene.WORLD_COLLECTION:
-            return layer
-        todo.extend(layer.children)
-    return None
+def _view3d_spaces() -> list:
+    """The 3D viewports of every open window (none in a background Blender)."""
+    wm = bpy.context.window_manager
+    windows = wm.windows if wm is not None else []
+    return [
+        space
+        for window in windows
+        for area in window.screen.areas
+        if area.type == "VIEW_3D"
+        for space in area.spaces
+        if space.type == "VIEW_3D"
+    ]
 
 
+# "Show world" is display only: it switches the viewports' mesh visibility filter (the
+# viewport's Object Types Visibility), which no scan reads. Hiding the world's collection
+# (its eye icon) would hide it from the laser too (README "Which objects a scan sees").
 def _get_show_world(self):
-    layer = _world_layer_collection()
-    return layer is None or not layer.hide_viewport
+    spaces = _view3d_spaces()
+    return not spaces or spaces[0].show_object_viewport_mesh
 
 
 def _set_show_world(self, value):
-    layer = _world_layer_collection()
-    if layer is not None:
-        layer.hide_viewport = not value
+    for space in _view3d_spaces():
+        space.show_object_viewport_mesh = bool(value)
 
 
 class WildScanSettings(PropertyGroup):
@@ -258,10 +261,16 @@ class WildScanSettings(PropertyGroup):
     )
     show_world: BoolProperty(
         name="Show world",
-        description="Show the generated world in the viewport (its collection's eye icon); "
-        "hide it to look at the cloud alone",
+        description="Show the scene's meshes in the 3D viewports (their mesh visibility filter); hide "
+        "them to look at the cloud alone. Display only: a scan still sees them",
         get=_get_show_world,
         set=_set_show_world,
+    )
+    tag_class: EnumProperty(
+        name="Class",
+        description="The class the Tag buttons give objects (the wildscan_class property)",
+        items=[(n, n.capitalize(), f"Tag as {n}") for n in TAG_NAMES],
+        default="rock",
     )
     points_in_front: BoolProperty(
         name="In front", description="Draw the cloud's points over the world's surfaces", default=True

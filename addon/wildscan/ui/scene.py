@@ -19,7 +19,6 @@ import math
 import bpy
 import numpy as np
 
-from ..blender import WORLD_COLLECTION
 from ..blender.mesh import GENERATED, remove_objects_and_their_meshes, wildscan_collection
 from ..core import frames
 from ..core.pointcloud import OPTIONAL_FIELDS, PointCloud
@@ -82,13 +81,11 @@ def pose_marker(scene):
 
 
 def world_objects(scene) -> list:
-    """The objects of the world WildScan built in this scene."""
-    from ..blender.builder import generated_objects
+    """The objects of the world WildScan built in this scene (found by their marks,
+    whatever its collection is called)."""
+    from ..blender.mesh import world_element_objects
 
-    root = bpy.data.collections.get(WORLD_COLLECTION)
-    if root is None or not in_scene_collection(scene, root):
-        return []
-    return generated_objects(WORLD_COLLECTION)
+    return sorted(world_element_objects(scene), key=lambda o: o.name)
 
 
 def in_scene_collection(scene, coll) -> bool:
@@ -97,15 +94,17 @@ def in_scene_collection(scene, coll) -> bool:
 
 def world_info(scene) -> dict | None:
     """Seed, detail and object count of the generated world in the scene, if any."""
+    from ..blender.mesh import world_root
+
     objects = world_objects(scene)
     if not objects:
         return None
-    root = bpy.data.collections[WORLD_COLLECTION]
-    seed = root.get(WORLD_SEED_PROP)
+    root = world_root(scene)
+    seed = root.get(WORLD_SEED_PROP) if root is not None else None
     return {
         "objects": len(objects),
         "seed": int(seed) if seed is not None else None,
-        "detail": root.get(WORLD_DETAIL_PROP),
+        "detail": root.get(WORLD_DETAIL_PROP) if root is not None else None,
     }
 
 

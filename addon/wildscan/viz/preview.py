@@ -21,7 +21,7 @@ import numpy as np
 from ..core import detmath as dm
 from ..core.classes import BY_ID
 from ..core.errors import UserError
-from ..core.io.files import atomic_outputs
+from ..core.io.files import atomic_outputs, user_path
 from ..core.pointcloud import PointCloud
 
 _DPI = 100
@@ -67,7 +67,7 @@ def render_preview(
 
 
 def _check_png_path(path: str | os.PathLike) -> Path:
-    out = Path(path).expanduser().resolve()
+    out = user_path(path, "preview")
     if out.suffix.lower() != ".png":
         raise UserError(f"cannot write preview {out}: the file name must end in .png")
     if out.is_dir():

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ...core.errors import UserError
 from ...core.io import semantickitti as sk
-from ...core.io.files import atomic_outputs, output_directory, write_durably
+from ...core.io.files import atomic_outputs, output_directory, user_path, write_durably
 from ...core.label_schemes import scheme
 from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
@@ -329,7 +329,7 @@ class VerifyReport:
 
 
 def verify_dataset(out) -> VerifyReport:
-    root = Path(str(out)).expanduser().resolve()
+    root = user_path(out, "verify", "a directory name")
     data = card.read_dataset_json(root) if root.is_dir() else None
     if data is None:
         raise UserError(f"--verify {root}: no WildScan dataset there (no dataset.json)")

@@ -12,12 +12,12 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
 
 from ... import __version__
 from ...core import sensor as S
 from ...core.errors import UserError
 from ...core.frames import FRAMES
+from ...core.io.files import user_path
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
 from ...core.rng import stage_rng, stage_seed
@@ -112,7 +112,7 @@ def load_spec(path) -> DatasetSpec:
     except ImportError:  # Python 3.10: the same parser as a package (the `dataset` extra)
         import tomli as tomllib
 
-    path = Path(str(path)).expanduser()
+    path = user_path(path, "spec", "a spec file name")
     try:
         text = path.read_bytes()
     except OSError as e:

@@ -3,11 +3,11 @@ robot's motion and the sweeps."""
 
 from __future__ import annotations
 
-import math
 from contextlib import ExitStack
 
 import numpy as np
 
+from ...core import detmath as dm
 from ...core.io.rosbag import BASE_LINK, LASER, ODOM, SENSOR, DriveBag, point_records
 from ...core.leveling import rot_z
 from ...core.motion.placements import Motion
@@ -37,10 +37,10 @@ def open_bags(stack: ExitStack, stage, flavours, ros2_storage: str) -> list[Driv
 
 def scan_geometry(sensor: SensorConfig) -> dict:
     """LaserScan's description of the UTM-30LX-EW's 2D scan."""
-    inc = math.radians(R_V_DEG)
+    inc = dm.radians(R_V_DEG)
     return {
-        "angle_min": math.radians(FIRST_BEAM_DEG),
-        "angle_max": math.radians(FIRST_BEAM_DEG) + (BEAMS_PER_2D_SCAN - 1) * inc,
+        "angle_min": dm.radians(FIRST_BEAM_DEG),
+        "angle_max": dm.radians(FIRST_BEAM_DEG) + (BEAMS_PER_2D_SCAN - 1) * inc,
         "angle_increment": inc,
         "time_increment": BEAM_INTERVAL,
         "scan_time": SCAN_PERIOD,
@@ -59,10 +59,11 @@ class BagFeed:
         self.geometry = scan_geometry(sensor)
         self.q_base = quaternions(motion.rotation)
         count = len(motion.times) - 1
-        head = np.deg2rad(np.arange(count) * sensor.rh_deg)  # the head at the start of each 2D scan
-        self.q_laser = quaternions(np.stack([rot_z(float(a)) @ LASER_AXES for a in head]))
+        head = dm.deg2rad(np.arange(count) * sensor.rh_deg)  # the head at the start of each 2D scan
+        self.q_laser = quaternions(dm.matmul(np.stack([rot_z(float(a)) for a in head]), LASER_AXES))
         ground = motion.ground
-        self.linear = np.einsum("kji,kj->ki", motion.rotation[:-1], ground[1:] - ground[:-1]) / SCAN_PERIOD
+        to_base = np.swapaxes(motion.rotation[:-1], 1, 2)  # R_k^T: the velocity in base_link
+        self.linear = dm.apply(to_base, ground[1:] - ground[:-1]) / SCAN_PERIOD
         self.angular = motion.step / SCAN_PERIOD
 
     def static(self) -> None:

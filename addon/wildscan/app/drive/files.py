@@ -28,7 +28,7 @@ import numpy as np
 
 from ...core.errors import UserError
 from ...core.io import semantickitti as sk
-from ...core.io.files import fsync_dir, write_durably
+from ...core.io.files import fsync_dir, user_path, write_durably
 
 DRIVE_JSON = "drive.json"
 TRAJECTORY = "trajectory.tum"
@@ -131,9 +131,7 @@ def previous_files(root: Path) -> list[str]:
 
 def check_out_dir(text) -> Path:
     """The output folder as given, refused early if it names a file (it is made later)."""
-    if not str(text).strip():
-        raise UserError("needs a directory name, got an empty one", setting="out")
-    out = Path(str(text)).expanduser().resolve()
+    out = user_path(text, "out", "a directory name")
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: it is a file; give a directory", setting="out")
     return out

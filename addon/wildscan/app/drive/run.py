@@ -24,6 +24,7 @@ from ...core.label_schemes import scheme
 from ...core.motion.placements import Motion, place_all
 from ...core.motion.sweep import Sweep, sweep
 from ...core.motion.trajectory import instants, schedule
+from ...core.reach import check_reach
 from ...core.rng import seeded
 from ...core.scan import points_in_frame
 from ...core.sensor import BEAMS_PER_2D_SCAN
@@ -78,6 +79,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     backend = _backend(request, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times)
+    check_reach(motion.centre, sensor.max_range, request.frame, getattr(backend, "name", ""))
     clock.lap("placement")
 
     from ...core.io.files import output_directory

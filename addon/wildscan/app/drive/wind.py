@@ -8,10 +8,9 @@ Each 2D scan's rays are cast at both and the nearer hit wins.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from ...core import detmath as dm
 from ...core.hits import RayHits
 from ...core.motion.timing import SCAN_PERIOD
 from ...core.motion.wind import SWAYING_IDS, Sway, Wind, pivots_of
@@ -32,12 +31,12 @@ class SwayingScene:
         self.swaying = swaying
         self.sway = sway
         self.make = make
-        self.rh = math.radians(rh_deg)
+        self.rh = dm.radians(rh_deg)
         corners = swaying.vertices[swaying.faces]
         objects = len(sway.pivots)
         self.face_object = swaying.object_index
         reach = np.zeros(objects)
-        far = np.linalg.norm(corners - sway.pivots[self.face_object][:, None, :], axis=2).max(axis=1)
+        far = dm.norm(corners - sway.pivots[self.face_object][:, None, :]).max(axis=1)
         np.maximum.at(reach, self.face_object, far)
         self.reach = reach  # every vertex stays within this of the pivot, whatever the tilt
         self.rest = make(swaying) if swaying.triangle_count else None
@@ -68,11 +67,11 @@ class SwayingScene:
 
     def _posed_near(self, origins, dirs, max_range, t):
         centre = origins[0]
-        normal = np.cross(dirs[0], dirs[len(dirs) // 2])
-        normal /= np.linalg.norm(normal)
+        normal = dm.cross(dirs[0], dirs[len(dirs) // 2])
+        normal /= dm.norm(normal)
         offset = self.sway.pivots - centre
-        slack = self.reach + PLANE_SLACK + max_range * math.sin(self.rh)
-        near = (np.abs(offset @ normal) <= slack) & (np.linalg.norm(offset, axis=1) <= max_range + self.reach)
+        slack = self.reach + PLANE_SLACK + max_range * dm.sin(self.rh)
+        near = (np.abs(dm.dot3(offset, normal)) <= slack) & (dm.norm(offset) <= max_range + self.reach)
         if not np.any(near):
             return None
         faces = near[self.face_object]
@@ -92,11 +91,14 @@ def nearer(a: RayHits, b: RayHits) -> RayHits:
         class_id=np.where(take, b.class_id, a.class_id),
         instance=np.where(take, b.instance, a.instance),
         untagged_objects=a.untagged_objects | b.untagged_objects,
+        reflectivity=None
+        if a.reflectivity is None and b.reflectivity is None
+        else np.where(take, b.overrides(), a.overrides()),
     )
 
 
 def _rows(hits: RayHits, rows: slice) -> RayHits:
-    return RayHits(hits.distance[rows], hits.class_id[rows], hits.instance[rows])
+    return hits.rows(rows)
 
 
 def swaying_scene(static_geometry: SceneGeometry, wind: Wind, make, rh_deg: float):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.errors import UserError
-from ...core.motion.trajectory import Path, polyline_path, straight_path
+from ...core.motion.trajectory import Path, polyline_path, step_lengths, straight_path
 from ...raycast.geometry import SceneGeometry, local_origin
 from .request import DriveRequest
 
@@ -99,7 +99,7 @@ def crop_along(geometry: SceneGeometry, xy: np.ndarray, radius: float) -> SceneG
     lo_c, hi_c = lo[candidates], hi[candidates]
     for point in samples:
         gap = np.clip(point, lo_c, hi_c) - point
-        keep[candidates[np.einsum("ij,ij->i", gap, gap) <= reach * reach]] = True
+        keep[candidates[gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= reach * reach]] = True
     part = geometry.subset(keep)
     centre = 0.5 * (samples.min(axis=0) + samples.max(axis=0))
     part.offset = local_origin(part.vertices, part.faces, centre)
@@ -109,7 +109,7 @@ def crop_along(geometry: SceneGeometry, xy: np.ndarray, radius: float) -> SceneG
 def _thinned(xy: np.ndarray, step: float) -> np.ndarray:
     """Points of the polyline about `step` apart along it (the robot's positions are a few cm
     apart: the crop needs far fewer), its first and last included."""
-    along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+    along = np.concatenate([[0.0], np.cumsum(step_lengths(xy))])
     picks = np.searchsorted(along, np.arange(0.0, along[-1], step))
     return xy[np.unique(np.concatenate([picks, [len(xy) - 1]]))]
 
@@ -118,6 +118,6 @@ def _samples(xy: np.ndarray, step: float) -> np.ndarray:
     """Points along the polyline no more than `step` apart, its vertices included."""
     out = [xy[:1]]
     for a, b in zip(xy[:-1], xy[1:]):
-        count = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        count = max(1, int(np.ceil(step_lengths(np.stack([a, b]))[0] / step)))
         out.append(a + np.outer(np.arange(1, count + 1) / count, b - a))
     return np.concatenate(out)

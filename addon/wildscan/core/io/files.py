@@ -13,6 +13,69 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import UserError
+from ..pause import pause_here
+
+DEFAULT_NAME_MAX = 255  # bytes in one file name, where the file system does not say
+# Room kept in a temporary name for what a writer adds to it (Blender saves NAME@, then renames).
+TEMP_NAME_SLACK = 1
+
+
+# ---------------------------------------------------------------------------------------
+# paths as users type them: every path option goes through user_path
+
+
+def user_path(text, setting: str, what: str = "a file name") -> Path:
+    """The absolute path a user means by `text` (`~` and `~user` expanded, relative to the
+    working directory), or UserError naming `setting`: empty, or a name in it longer than
+    the file system allows. Every path option of every command reads its value here."""
+    if not str(text).strip():
+        raise UserError(f"needs {what}, got an empty one", setting=setting)
+    path = Path(os.path.expanduser(os.fspath(text)))
+    try:
+        path = path.resolve()
+    except (OSError, RuntimeError):  # a symlink loop: keep the absolute path, checks below say why
+        path = Path(os.path.abspath(path))
+    for part in path.parts[1:]:
+        if len(os.fsencode(part)) > name_max(path.parent):
+            raise UserError(
+                f"{path}: the name {_short(part)} is {len(os.fsencode(part))} bytes, longer than "
+                f"the {name_max(path.parent)} the file system allows",
+                setting=setting,
+            )
+    return path
+
+
+def name_max(directory: Path) -> int:
+    """The longest file name (bytes) allowed in `directory` (or its nearest existing parent)."""
+    for d in (directory, *directory.parents):
+        try:
+            return os.pathconf(d, "PC_NAME_MAX")
+        except (OSError, ValueError):
+            continue
+    return DEFAULT_NAME_MAX
+
+
+def _short(name: str) -> str:
+    return repr(name) if len(name) <= 40 else repr(name[:20] + "…" + name[-12:])
+
+
+def check_input_file(text, suffixes: tuple[str, ...], setting: str) -> Path:
+    """An existing, readable file a path option names (for --world, --geometry, a spec)."""
+    path = user_path(text, setting)
+
+    def fail(why: str) -> UserError:
+        return UserError(f"{path}: {why}", setting=setting)
+
+    try:
+        if path.is_dir():
+            raise fail(f"is a directory, not a {' or '.join(suffixes)} file")
+        if not path.is_file():
+            raise fail("no such file")
+        if not os.access(path, os.R_OK):
+            raise fail("cannot read it (permission denied)")
+    except OSError as e:
+        raise fail(f"cannot read it ({e.strerror or e})") from None
+    return path
 
 
 def check_output_path(
@@ -29,10 +92,14 @@ def check_output_path(
     an existing .json companion holding `foreign_sidecar_key` belongs to another
     kind of output (a world's, beside a scan named after it) and is not replaced.
     """
-    if not str(path).strip():
-        raise UserError(f"needs a file name ending in {suffix}, got an empty one", setting=setting)
-    out = Path(path).expanduser().resolve()
+    out = user_path(path, setting, f"a file name ending in {suffix}")
+    try:
+        return _check_output_file(out, suffix, setting, companions, foreign_sidecar_key)
+    except OSError as e:  # the OS refuses to even look (a too-long path, a loop): say so, no traceback
+        raise UserError(f"{out}: {e.strerror or e}", setting=setting) from None
 
+
+def _check_output_file(out: Path, suffix, setting, companions, foreign_sidecar_key) -> Path:
     def fail(why: str) -> UserError:
         return UserError(f"{out}: {why}", setting=setting)
 
@@ -62,8 +129,13 @@ def check_output_path(
 
 def temp_path(final: Path) -> Path:
     """Beside the target (so os.replace is an atomic rename), hidden from globs like *.ply,
-    and ending in the target's own suffix (Blender and matplotlib pick formats by it)."""
-    return final.with_name(f".{final.stem}.tmp-{os.getpid()}{final.suffix}")
+    and ending in the target's own suffix (Blender and matplotlib pick formats by it).
+    A long target's stem is shortened so the temporary name is legal whenever the target's
+    is: a name that passed the checks never fails at the end of the work."""
+    tail = f".tmp-{os.getpid()}{final.suffix}"
+    room = name_max(final.parent) - TEMP_NAME_SLACK - len(os.fsencode("." + tail))
+    stem = os.fsencode(final.stem)[: max(room, 1)].decode(errors="ignore")
+    return final.with_name(f".{stem}{tail}")
 
 
 def remove_quietly(paths) -> None:
@@ -97,9 +169,7 @@ def _json_has_key(path: Path, key: str) -> bool:
 
 def output_directory(text, setting: str = "out") -> Path:
     """A directory to write into, created (with its parents) if missing, or UserError."""
-    if not str(text).strip():
-        raise UserError("needs a directory name, got an empty one", setting=setting)
-    out = Path(str(text)).expanduser().resolve()
+    out = user_path(text, setting, "a directory name")
     if out.exists() and not out.is_dir():
         raise UserError(f"{out}: it is a file; give a directory", setting=setting)
     try:
@@ -111,15 +181,45 @@ def output_directory(text, setting: str = "out") -> Path:
     return out
 
 
+# ---------------------------------------------------------------------------------------
+# writing
+
+_records: list[list[Path]] = []  # one list per recording_written() block
+
+
+@contextmanager
+def recording_written():
+    """A list that receives every file an atomic_outputs group placed inside the block, so
+    an interrupted command can say truly what it completed."""
+    written: list[Path] = []
+    _records.append(written)
+    try:
+        yield written
+    finally:
+        _records.remove(written)
+
+
+@contextmanager
+def writing_to(final: Path):
+    """Inside the block an OSError (a full disk, a refused write) is reported as failing to
+    write `final`, the file the user asked for, whatever temporary name the writer used."""
+    try:
+        yield
+    except OSError as e:
+        raise UserError(f"cannot write {final}: {e.strerror or e}") from None
+
+
 @contextmanager
 def atomic_outputs(*finals: Path):
     """Yield one temporary path per target; rename them all into place when the block
-    succeeds, and leave none of them (temporary or final) when anything fails."""
+    succeeds, and leave none of them (temporary or final) when anything fails or a
+    signal stops the run."""
     finals = tuple(Path(p) for p in finals)
     temps = [temp_path(p) for p in finals]
     placed: list[Path] = []
     try:
         yield temps
+        pause_here("writing")
         for tmp, final in zip(temps, finals, strict=True):
             os.replace(tmp, final)
             placed.append(final)
@@ -131,6 +231,8 @@ def atomic_outputs(*finals: Path):
         raise
     for directory in {p.parent for p in finals}:
         fsync_dir(directory)
+    for written in _records:
+        written.extend(finals)
 
 
 def _target_of(filename, temps, finals) -> Path:
@@ -138,7 +240,9 @@ def _target_of(filename, temps, finals) -> Path:
     for tmp, final in zip(temps, finals):
         if filename is not None and Path(filename) == tmp:
             return final
-    return Path(filename) if filename else finals[0]
+    if filename:
+        return Path(filename)
+    return finals[0] if len(finals) == 1 else " or ".join(str(f) for f in finals)  # the OS did not say
 
 
 def write_durably(path: Path, write) -> None:

@@ -25,7 +25,7 @@ from ..classes import BY_ID, class_table_dict, class_table_lines
 from ..errors import UserError
 from ..pointcloud import PointCloud
 from . import files
-from .files import atomic_outputs, write_durably
+from .files import atomic_outputs, write_durably, writing_to
 
 # numpy kind+size -> PLY type name (the names plyfile, PCL and CloudCompare all read).
 _PLY_TYPE_BY_CODE = {
@@ -67,6 +67,22 @@ _NOT_IN_HEADER = frozenset({"classes", "class_counts", "wildscan_version", "ply_
 # so a comment line stays one line of ASCII and `key=value` pairs stay unambiguous.
 _PLAIN_TEXT = re.compile(r"[A-Za-z0-9_.,:/+\-]+")
 
+# The longest header line written, `comment ` included. RPly -- the PLY library inside
+# Open3D (both its readers) and CloudCompare -- copies each header line into a fixed
+# 1,024-byte buffer: a `comment` line of 1,032 characters or more aborts the whole reading
+# process ("buffer overflow detected"; measured with Open3D 0.20 and CloudCompare 2.11).
+# Metadata with no short form (the four placement lasers, a long .blend path, the names of
+# untagged objects) goes to the JSON sidecar only, and a key with many `key=value` pairs
+# continues on further lines: every line stays short whatever the input.
+MAX_HEADER_LINE = 200
+_MAX_COMMENT = MAX_HEADER_LINE - len("comment ")
+_MAX_KEY = 64  # a metadata key's text in the header (keys are ours, but keep the bound total)
+# What a header value reads when the JSON sidecar alone holds it: a list of records, or a
+# value too long for a header line. Not plain text, so no string value reads the same.
+IN_SIDECAR = "<sidecar>"
+# Metadata lists of unbounded length that the header only counts (`KEY count=N`).
+_COUNTED_KEYS = frozenset({"untagged_objects_hit"})
+
 
 # --------------------------------------------------------------------------- paths
 
@@ -99,8 +115,7 @@ def _scalar_text(value: object) -> str:
         value = value.ravel().tolist()
     if isinstance(value, (list, tuple)):
         if any(isinstance(v, (dict, list, tuple)) for v in value):
-            # records (the four lasers): one compact JSON value keeps `key=value` pairs unambiguous
-            return json.dumps(value, sort_keys=True, separators=(",", ":"), default=_json_default)
+            return IN_SIDECAR  # records (the four placement lasers) have no one-line form
         return ",".join(_scalar_text(v) for v in value)
     if isinstance(value, dict):
         return " ".join(_flatten_dict(value))
@@ -110,7 +125,8 @@ def _scalar_text(value: object) -> str:
 
 def _key_text(key: object) -> str:
     text = str(key)
-    return text if _PLAIN_TEXT.fullmatch(text) else re.sub(r"[^A-Za-z0-9_.:/+\-]", "_", text) or "_"
+    text = text if _PLAIN_TEXT.fullmatch(text) else re.sub(r"[^A-Za-z0-9_.:/+\-]", "_", text) or "_"
+    return text[:_MAX_KEY]
 
 
 def _flatten_dict(d: dict, prefix: str = "") -> list[str]:
@@ -126,13 +142,49 @@ def _flatten_dict(d: dict, prefix: str = "") -> list[str]:
     return pairs
 
 
+def _fitted(key: str, pair: str) -> str:
+    """`pair` (`name=value`, or a bare value) as it fits on a line after `key`: a value too
+    long becomes IN_SIDECAR, and a name too long is cut."""
+    room = _MAX_COMMENT - len(key) - 1
+    if len(pair) <= room:
+        return pair
+    name, equals, _ = pair.partition("=")
+    if not equals:
+        return IN_SIDECAR
+    return name[: max(1, room - len(IN_SIDECAR) - 1)] + "=" + IN_SIDECAR
+
+
+def _packed(key: str, items: list[str]) -> list[str]:
+    """`key item item …` lines of at most _MAX_COMMENT characters: a key whose pairs do not
+    fit on one line repeats on the next (a reader joins the lines of a key)."""
+    lines: list[str] = []
+    line = key
+    for item in (_fitted(key, item) for item in items):
+        if line != key and len(line) + 1 + len(item) > _MAX_COMMENT:
+            lines.append(line)
+            line = key
+        line += " " + item
+    lines.append(line)
+    return lines
+
+
+def _header_value(key: object, value: object) -> object:
+    if key in _COUNTED_KEYS and isinstance(value, (list, tuple, set, frozenset)):
+        return {"count": len(value)}
+    return value
+
+
 def _metadata_comments(metadata: dict) -> list[str]:
     leading = [k for k in _LEADING_KEYS if k in metadata]
     rest = sorted((k for k in metadata if k not in _LEADING_KEYS and k not in _NOT_IN_HEADER), key=str)
     lines = []
     for key in (*leading, *rest):
-        value = _scalar_text(metadata[key])
-        lines.append(f"{_key_text(key)} {value}".rstrip())
+        value = _header_value(key, metadata[key])
+        if isinstance(value, dict) and value:
+            lines.extend(_packed(_key_text(key), _flatten_dict(value)))
+        else:
+            text = _scalar_text(value)
+            lines.extend(_packed(_key_text(key), [text] if text else []))
     return lines
 
 
@@ -145,8 +197,9 @@ def _ply_header(count: int, comments: list[str], ascii: bool, fields) -> bytes:
         np_code = np.dtype(code).str[1:]  # '<f4' -> 'f4', '|u1' -> 'u1'
         lines.append(f"property {_PLY_TYPE_BY_CODE[np_code]} {name}")
     lines.append("end_header")
-    for line in lines:  # a stray newline would corrupt the header for every reader
+    for line in lines:  # a stray newline or a long line would break the header for readers
         assert "\n" not in line and "\r" not in line, line
+        assert len(line) <= MAX_HEADER_LINE, line
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
@@ -251,8 +304,10 @@ def write_scan_files(
     sidecar = _sidecar_bytes(ply_path, cloud, metadata, ascii)
 
     with atomic_outputs(ply_path, json_path) as (tmp_ply, tmp_json):
-        write_durably(tmp_ply, lambda f: (f.write(header), _write_vertices(f, records, ascii)))
-        write_durably(tmp_json, lambda f: f.write(sidecar))
+        with writing_to(ply_path):  # a write error names no file: say which one failed
+            write_durably(tmp_ply, lambda f: (f.write(header), _write_vertices(f, records, ascii)))
+        with writing_to(json_path):
+            write_durably(tmp_json, lambda f: f.write(sidecar))
     return ply_path, json_path
 
 

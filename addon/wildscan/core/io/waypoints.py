@@ -7,12 +7,12 @@ from __future__ import annotations
 import math
 import os
 import re
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import UserError
 from ..placement import MAX_COORDINATE
+from .files import user_path
 
 _HEADER = re.compile(r"\s*x\s*,\s*y\s*", re.IGNORECASE)
 MAX_WAYPOINTS = 1_000_000
@@ -20,7 +20,7 @@ MAX_WAYPOINTS = 1_000_000
 
 def read_waypoints(path: str | os.PathLike, setting: str = "waypoints") -> np.ndarray:
     """(n, 2) float64 waypoints from the CSV file at `path`, or UserError naming the line."""
-    file = Path(path).expanduser()
+    file = user_path(path, setting)
 
     def fail(why: str) -> UserError:
         return UserError(f"{file}: {why}", setting=setting)

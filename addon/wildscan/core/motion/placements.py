@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import detmath as dm
 from ..errors import PoseRejected
 from ..placement import (
     LASER_CLEARANCE,
@@ -71,7 +72,7 @@ def place_all(
 
 def motion_of(placements: list[Placement], times: np.ndarray, distance: np.ndarray) -> Motion:
     rotation = np.stack([p.rotation for p in placements])
-    relative = np.einsum("kji,kjl->kil", rotation[:-1], rotation[1:])  # R_k^T R_{k+1}
+    relative = dm.matmul(np.swapaxes(rotation[:-1], 1, 2), rotation[1:])  # R_k^T R_{k+1}
     step = log_map(relative)
     same = np.all(rotation[1:] == rotation[:-1], axis=(1, 2))
     step[same] = 0.0  # exactly: a robot standing still does not turn by rounding

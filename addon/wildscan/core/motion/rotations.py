@@ -1,10 +1,15 @@
 """Rotations for poses in motion, vectorised (numpy only): rotation vectors (axis times angle)
 between two attitudes, rotating many vectors by many rotation vectors, and unit quaternions.
+
+Their numbers reach a drive's outputs (poses, deskewed points, swaying foliage), so every
+sine, arctangent, norm and product is detmath's: the same bits on every CPU.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from .. import detmath as dm
 
 # Below this angle (rad) sin(a)/a and (1 - cos a)/a^2 are taken from their Taylor series.
 _SMALL = 1e-6
@@ -18,16 +23,16 @@ def log_map(r: np.ndarray) -> np.ndarray:
         [r[..., 2, 1] - r[..., 1, 2], r[..., 0, 2] - r[..., 2, 0], r[..., 1, 0] - r[..., 0, 1]], -1
     )
     # atan2 keeps its precision at every angle (arccos of the trace alone loses it near 0 and pi)
-    angle = np.arctan2(np.linalg.norm(skew, axis=-1) / 2, (trace - 1) / 2)
-    sin = np.sin(angle)
+    angle = dm.arctan2(dm.norm(skew) / 2, (trace - 1) / 2)
+    sin = dm.sin(angle)
     small = angle < _SMALL
     with np.errstate(divide="ignore", invalid="ignore"):
-        factor = np.where(small, 0.5 + angle**2 / 12, angle / (2 * np.where(small, 1.0, sin)))
+        factor = np.where(small, 0.5 + angle * angle / 12, angle / (2 * np.where(small, 1.0, sin)))
     out = skew * factor[..., None]
     near_pi = angle > np.pi - 1e-4  # the skew part vanishes: take the axis from the diagonal
     if np.any(near_pi):
         axis = _axis_near_pi(r[near_pi])
-        axis *= np.where(np.einsum("ij,ij->i", axis, skew[near_pi]) < 0, -1.0, 1.0)[:, None]
+        axis *= np.where(dm.dot3(axis, skew[near_pi]) < 0, -1.0, 1.0)[:, None]
         out[near_pi] = axis * angle[near_pi][:, None]
     return out
 
@@ -36,20 +41,22 @@ def _axis_near_pi(r: np.ndarray) -> np.ndarray:
     sym = (r + np.swapaxes(r, -1, -2)) / 2 + np.eye(3)  # = 2 * axis axis^T at pi
     column = np.argmax(np.diagonal(sym, axis1=-2, axis2=-1), axis=-1)
     axis = sym[np.arange(len(r)), :, column]
-    return axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+    return axis / dm.norm(axis)[:, None]
 
 
 def rotate(vectors: np.ndarray, rotvec: np.ndarray) -> np.ndarray:
     """Rotate vectors (N, 3) by rotation vectors (N, 3) (Rodrigues' formula)."""
     v = np.asarray(vectors, dtype=np.float64)
     w = np.asarray(rotvec, dtype=np.float64)
-    angle = np.linalg.norm(w, axis=-1)
+    angle = dm.norm(w)
     small = angle < _SMALL
     safe = np.where(small, 1.0, angle)
-    a = np.where(small, 1 - angle**2 / 6, np.sin(angle) / safe)  # sin(a) / a
-    b = np.where(small, 0.5 - angle**2 / 24, (1 - np.cos(angle)) / safe**2)  # (1 - cos a) / a^2
-    cross = np.cross(w, v)
-    return v + a[..., None] * cross + b[..., None] * np.cross(w, cross)
+    sin, cos = dm.sincos(angle)
+    square = angle * angle
+    a = np.where(small, 1 - square / 6, sin / safe)  # sin(a) / a
+    b = np.where(small, 0.5 - square / 24, (1 - cos) / (safe * safe))  # (1 - cos a) / a^2
+    cross = dm.cross(w, v)
+    return v + a[..., None] * cross + b[..., None] * dm.cross(w, cross)
 
 
 def matrix(rotvec: np.ndarray) -> np.ndarray:
@@ -85,5 +92,5 @@ def quaternions(r: np.ndarray) -> np.ndarray:
     )
     q = candidates[np.arange(len(r)), pick] / t[:, None]
     q *= np.where(q[:, 3] < 0, -1.0, 1.0)[:, None]
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q /= np.sqrt(((q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1]) + q[:, 2] * q[:, 2]) + q[:, 3] * q[:, 3])[:, None]
     return q.reshape(shape + (4,))

@@ -14,6 +14,8 @@ deskewed  every point where it truly is, expressed in the same frame: range time
 A drive standing still takes the same rays as a static scan, bit for bit: rays of 2D
 scans that share one attitude are turned by one matrix product (as run_scan turns them),
 and a motion of exactly zero is never applied, so even the sign of a zero is the same.
+Every product is detmath's (dm.apply, dm.matmul: summed in a fixed order), every sine
+and cosine too (via sensor.directions_at and rotations.py): the same bytes on every CPU.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import detmath as dm
 from ..pointcloud import PointCloud
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame
 from ..sensor import BEAMS_PER_2D_SCAN, SensorConfig, directions_at
@@ -132,7 +135,7 @@ def _by_attitude(local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     2D scans sharing one attitude turned by one product."""
     out = np.empty((local.shape[0] * BEAMS_PER_2D_SCAN, 3))
     for a, b in _runs(rotation):
-        out[a * BEAMS_PER_2D_SCAN : b * BEAMS_PER_2D_SCAN] = local[a:b].reshape(-1, 3) @ rotation[a].T
+        out[a * BEAMS_PER_2D_SCAN : b * BEAMS_PER_2D_SCAN] = dm.apply(rotation[a], local[a:b].reshape(-1, 3))
     return out
 
 
@@ -156,15 +159,15 @@ def _deskewed(
     rotation, centre = motion.rotation, motion.centre
     start_r, start_c = rotation[k0], centre[k0]
     out = vectors.copy()
-    relative = np.einsum("ji,kjl->kil", start_r, rotation[k0:k1])  # R_k0^T R_k
+    relative = dm.matmul(start_r.T, rotation[k0:k1])  # R_k0^T R_k
     relative[np.all(rotation[k0:k1] == start_r, axis=(1, 2))] = np.eye(3)
     for a, b in _runs(relative):
         if np.array_equal(relative[a], np.eye(3)):
             continue
         rows = (scan_of >= a) & (scan_of < b)
-        out[rows] = vectors[rows] @ relative[a].T
-    offset = (centre[k0:k1] - start_c) @ start_r  # R_k0^T (c_k - c_k0), one row a 2D scan
-    step = (centre[k0 + 1 : k1 + 1] - centre[k0:k1]) @ start_r
+        out[rows] = dm.apply(relative[a], vectors[rows])
+    offset = dm.apply(start_r.T, centre[k0:k1] - start_c)  # R_k0^T (c_k - c_k0), one row a 2D scan
+    step = dm.apply(start_r.T, centre[k0 + 1 : k1 + 1] - centre[k0:k1])
     if np.any(offset != 0) or np.any(step != 0):
         out += offset[scan_of] + frac[:, None] * step[scan_of]
     return out

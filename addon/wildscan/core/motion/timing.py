@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import detmath as dm
 from ..checks import one_of
 from ..sensor import BEAMS_PER_2D_SCAN
 
@@ -58,5 +59,5 @@ def head_angles_rad(k: np.ndarray, rh_deg: float, mode: str) -> np.ndarray:
     the drive's start), (K, 1080) one per beam for the continuous head."""
     k = np.asarray(k, dtype=np.float64)
     if check_head(mode) == "stepped":
-        return np.deg2rad(k * rh_deg)
-    return np.deg2rad((k[:, None] + beam_fractions()[None, :]) * rh_deg)
+        return dm.deg2rad(k * rh_deg)
+    return dm.deg2rad((k[:, None] + beam_fractions()[None, :]) * rh_deg)

@@ -5,7 +5,8 @@ constant speed, heading along it: along each segment in its direction, turning l
 with distance from one segment's direction to the next within TURN (0.5 m) of the vertex
 between them (within half a segment where segments are shorter, as on the trail, sampled
 every 0.5 m: there the heading turns smoothly all along). A straight path keeps the yaw
-it was given.
+it was given. Lengths, headings and interpolation are detmath's (the poses are outputs:
+the same bits on every CPU).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import detmath as dm
 from ..errors import UserError
 from .timing import SCAN_PERIOD
 
@@ -36,8 +38,7 @@ class Path:
     @property
     def arc(self) -> np.ndarray:
         """(n,) distance along the path to each point."""
-        steps = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
-        return np.concatenate([[0.0], np.cumsum(steps)])
+        return np.concatenate([[0.0], np.cumsum(step_lengths(self.points))])
 
     @property
     def length(self) -> float:
@@ -49,11 +50,27 @@ class Path:
         if len(self.points) == 1:
             return np.repeat(self.points, len(s), axis=0), np.full(len(s), float(self.yaw_deg or 0.0))
         arc = self.arc
-        xy = np.column_stack([np.interp(s, arc, self.points[:, 0]), np.interp(s, arc, self.points[:, 1])])
+        xy = np.column_stack([dm.interp(s, arc, self.points[:, 0]), dm.interp(s, arc, self.points[:, 1])])
         if self.yaw_deg is not None:
             return xy, np.full(len(s), float(self.yaw_deg))
         knots, headings = heading_knots(self.points, arc)
-        return xy, np.degrees(np.interp(s, knots, headings))
+        return xy, dm.degrees(dm.interp(s, knots, headings))
+
+
+def step_lengths(points: np.ndarray) -> np.ndarray:
+    """(n - 1,) the length of each step of a polyline (n, 2): sqrt(dx dx + dy dy), as
+    np.linalg.norm gives it, but with no SIMD or BLAS kernel to choose the order."""
+    d = np.diff(points, axis=0)
+    return np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
+
+
+def unwrap(angles: np.ndarray) -> np.ndarray:
+    """np.unwrap's meaning (each jump of more than pi made the one within pi), spelt out in
+    operations IEEE rounds alike everywhere: rint and exact multiples of 2 pi."""
+    jumps = np.diff(angles)
+    turns = np.rint(jumps / (2 * math.pi))
+    fixes = np.concatenate([[0.0], np.cumsum(-turns * (2 * math.pi))])
+    return angles + fixes
 
 
 def heading_knots(points: np.ndarray, arc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -61,7 +78,7 @@ def heading_knots(points: np.ndarray, arc: np.ndarray) -> tuple[np.ndarray, np.n
     segment's own direction along it, turning linearly from one to the next within TURN of
     each inner vertex (at most half of either segment beside it)."""
     d = np.diff(points, axis=0)
-    segment = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    segment = unwrap(dm.arctan2(d[:, 1], d[:, 0]))
     lengths = np.diff(arc)
     turn = np.minimum(TURN, np.minimum(lengths[:-1], lengths[1:]) / 2)  # one per inner vertex
     s = [[arc[0]]]
@@ -84,8 +101,8 @@ def straight_path(x: float, y: float, yaw_deg: float, distance: float) -> Path:
     start = np.array([[x, y]], dtype=np.float64)
     if distance == 0:
         return Path(start, "straight", yaw_deg)
-    yaw = math.radians(yaw_deg)
-    end = start + distance * np.array([[math.cos(yaw), math.sin(yaw)]])
+    yaw = dm.radians(yaw_deg)
+    end = start + distance * np.array([[dm.cos(yaw), dm.sin(yaw)]])
     return Path(np.concatenate([start, end]), "straight", yaw_deg)
 
 
@@ -93,8 +110,7 @@ def polyline_path(points, kind: str, setting: str) -> Path:
     """A path through `points` (n, 2); consecutive repeats are dropped. It must have length."""
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if len(pts):
-        step = np.linalg.norm(np.diff(pts, axis=0), axis=1)
-        pts = pts[np.concatenate([[True], step > _SAME_POINT])]
+        pts = pts[np.concatenate([[True], step_lengths(pts) > _SAME_POINT])]
     if len(pts) < 2:
         raise UserError("needs at least two different points to drive along", setting=setting)
     return Path(pts, kind)

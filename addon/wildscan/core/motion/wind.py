@@ -5,7 +5,8 @@ bounding box: where a crown sits on its trunk, where a bush or a tuft meets the 
 small rotations that change with time: each object oscillates along the wind's direction
 at its own seeded frequency and phase, with a weaker crosswind component. Grass moves
 most and fastest, crowns least and slowest. Everything else stands still, and every
-triangle keeps its class and instance, so labels stay exact.
+triangle keeps its class and instance, so labels stay exact. The sway is detmath's (the
+posed foliage decides hits: the same bits on every CPU).
 """
 
 from __future__ import annotations
@@ -15,9 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import detmath as dm
 from ..classes import class_by_name
 from ..rng import stage_rng
-from .rotations import rotate
+from .rotations import matrix
 
 # class -> (amplitude relative to the treetops', lowest and highest frequency in Hz)
 SWAY = {
@@ -45,29 +47,31 @@ class Sway:
         count = len(class_ids)
         self.pivots = np.asarray(pivots, dtype=np.float64).reshape(-1, 3)
         heading = rng.uniform(0, 2 * math.pi)
-        self.along = np.array([math.cos(heading), math.sin(heading)])
+        self.along = np.array([dm.cos(heading), dm.sin(heading)])
         scale = np.zeros(count)
         low, high = np.zeros(count), np.zeros(count)
         for name, (factor, f_low, f_high) in SWAY.items():
             mine = np.asarray(class_ids) == class_by_name(name).id
             scale[mine], low[mine], high[mine] = factor, f_low, f_high
-        self.amplitude = np.radians(wind.amplitude_deg) * scale * rng.uniform(0.7, 1.3, count)
+        self.amplitude = dm.radians(wind.amplitude_deg) * scale * rng.uniform(0.7, 1.3, count)
         self.frequency = rng.uniform(low, high)
         self.phase = rng.uniform(0, 2 * math.pi, (count, 2))
 
     def rotvecs(self, t: float) -> np.ndarray:
         """(E, 3) each object's rotation at time t (s): a tilt about a horizontal axis."""
         w = 2 * math.pi * self.frequency * t
-        along = self.amplitude * np.sin(w + self.phase[:, 0])
-        across = CROSSWIND * self.amplitude * np.sin(1.7 * w + self.phase[:, 1])
+        along = self.amplitude * dm.sin(w + self.phase[:, 0])
+        across = CROSSWIND * self.amplitude * dm.sin(1.7 * w + self.phase[:, 1])
         tilt = along[:, None] * self.along + across[:, None] * np.array([-self.along[1], self.along[0]])
         # tilting the top towards `tilt` is a rotation about z x tilt
         return np.column_stack([-tilt[:, 1], tilt[:, 0], np.zeros(len(tilt))])
 
     def posed(self, vertices: np.ndarray, vertex_object: np.ndarray, t: float) -> np.ndarray:
         """Vertices (V, 3) of the objects `vertex_object` (V,) where they are at time t."""
+        # one matrix an object (the sines per object, not per vertex), applied in a fixed order
+        turn = matrix(self.rotvecs(t))[vertex_object]
         pivot = self.pivots[vertex_object]
-        return pivot + rotate(vertices - pivot, self.rotvecs(t)[vertex_object])
+        return pivot + dm.apply(turn, vertices - pivot)
 
 
 def pivots_of(vertices: np.ndarray, faces: np.ndarray, face_object: np.ndarray, count: int) -> np.ndarray:
