@@ -82,8 +82,10 @@ def test_extract_builds_the_vegetation_asked_for_and_records_it(tmp_path):
     assert header["metadata"]["vegetation"] == "solid"
     solid = world_geometry(2, "low", "solid")
     assert geometry.triangle_count == solid.triangle_count != world_geometry(2, "low").triangle_count
+    saved = tmp_path / "x.blend"  # exists: the path check comes first and must pass
+    saved.write_bytes(b"")
     blend = without_bpy(
-        "extract", "--world", "x.blend", "--vegetation", "solid", "--out", str(tmp_path / "b.npz")
+        "extract", "--world", str(saved), "--vegetation", "solid", "--out", str(tmp_path / "b.npz")
     )
     assert blend.returncode == 2
     assert "--vegetation applies to a world built from --seed only" in user_error_line(blend)
