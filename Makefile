@@ -14,7 +14,7 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml addon/wildscan/__init__.py
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest plyfile ruff \
+	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest pytest-xdist plyfile ruff \
 		dask distributed laspy laszip tqdm pyyaml psutil rosbags open3d
 	$(PY) -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
@@ -22,8 +22,10 @@ $(STAMP): pyproject.toml addon/wildscan/__init__.py
 demo: $(STAMP)
 	$(WILDSCAN) demo --seed 1 --out $(OUT)/demo
 
+# two test processes (the machine's two cores), a test file's tests in one of them so its
+# module fixtures are built once
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n 2 --dist loadfile
 
 bench: $(STAMP)
 	$(WILDSCAN) bench --out $(OUT)/bench

@@ -90,16 +90,25 @@ def test_the_probe_sees_what_it_should(native):
     } <= set(native)
 
 
+# A smaller world (low detail, two zones) and a drive of two coarse 3D scans (r_h = 10 deg)
+# for the emulated runs: QEMU runs it about ten times slower than this CPU (~100 s).
+EMULATED_PROBE = ("--seed", "1", "--detail", "low", "--zones", "forest,cave", "--drive")
+
+
+@pytest.fixture(scope="module")
+def native_small() -> dict:
+    here = run_probe([sys.executable], {}, *EMULATED_PROBE)
+    assert {f"drive {name}" for name in DRIVE_FILES} <= set(here)
+    return here
+
+
 @pytest.mark.external
 @pytest.mark.parametrize("cpu", EMULATED_CPUS)
-def test_the_same_bytes_on_an_emulated_older_cpu(cpu):
+def test_the_same_bytes_on_an_emulated_older_cpu(native_small, cpu):
     """qemu-user (apt package qemu-user) runs this venv's Python as `cpu`: Embree then picks
-    its code for that CPU too. A smaller world (low detail, two zones) and a drive of two
-    coarse 3D scans (r_h = 10 deg) keep it ~40 s."""
+    its code for that CPU too."""
     qemu = shutil.which("qemu-x86_64")
     assert qemu, "qemu-x86_64 not found: apt-get install qemu-user"
-    args = ("--seed", "1", "--detail", "low", "--zones", "forest,cave", "--drive")
-    here = run_probe([sys.executable], {}, *args)
-    assert {f"drive {name}" for name in DRIVE_FILES} <= set(here)
-    emulated = run_probe([qemu, "-cpu", cpu, sys.executable], {}, *args)
+    here = native_small
+    emulated = run_probe([qemu, "-cpu", cpu, sys.executable], {}, *EMULATED_PROBE)
     assert emulated == here, {k: (here[k], emulated.get(k)) for k in here if emulated.get(k) != here[k]}
