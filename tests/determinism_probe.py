@@ -45,7 +45,7 @@ def world_hashes(plan) -> dict[str, str]:
 
 
 def probe(seed: int, detail: str, rh: float, zones: list[str]) -> dict[str, str]:
-    from wildscan.app.poses import plan_backend, valid_poses
+    from wildscan.app.poses import valid_poses
     from wildscan.core.io.ply import write_scan_files
     from wildscan.core.placement import Pose
     from wildscan.core.scan import run_scan
@@ -53,13 +53,15 @@ def probe(seed: int, detail: str, rh: float, zones: list[str]) -> dict[str, str]
     from wildscan.core.world import plan_world
     from wildscan.raycast.embree_backend import EmbreeBackend
     from wildscan.raycast.from_plan import plan_geometry
+    from wildscan.raycast.select import make_backend
 
     plan = plan_world(seed, detail)
     out = {f"world {k}": v for k, v in world_hashes(plan).items()}
     geometry = plan_geometry(plan)
     g = geometry
     out["scan geometry"] = sha(g.vertices, g.faces, g.class_id, g.instance, g.object_index, g.offset)
-    poses = valid_poses(plan, plan_backend(plan), 2, zones)
+    # app.poses.plan_backend(plan) would build the same geometry again
+    poses = valid_poses(plan, make_backend("auto", geometry=geometry, notify=None), 2, zones)
     out["world.json"] = sha(json.dumps(plan.describe(poses), sort_keys=True).encode())
     with tempfile.TemporaryDirectory() as tmp:
         for zone in zones:

@@ -19,9 +19,12 @@ from dataset_helpers import assert_same_dataset, manifest_rows, start_wildscan, 
 
 from wildscan.app.dataset.layout import TEMP_NAME
 
+# Solid crowns: these runs test stopping and resuming, not vegetation, and a porous world
+# takes about five times longer to build (tests/test_dataset.py writes porous ones).
 SPEC = """\
 seeds = [1, 2, 3]
 scans_per_world = 4
+vegetation = "solid"
 label_scheme = "rellis3d"
 split = { train = 0.34, val = 0.33, test = 0.33 }
 

@@ -56,14 +56,19 @@ def poses() -> dict[int, dict[str, dict]]:
 
 
 def wildscan_scans(poses: dict, out: Path) -> list[Path]:
-    """`wildscan scan --seed S` of every zone of every seed (Blender-free)."""
+    """`wildscan scan` of every zone of every seed (Blender-free): the first zone with
+    `--seed S`, the others from the seed's geometry extracted once into a user's long
+    non-ASCII folder (`--geometry`, the same points; its path goes into the header)."""
     plys = []
     for seed, zones in poses.items():
-        for zone, pose in zones.items():
+        scene = out.joinpath(*USER_FOLDER) / f"world {seed}.npz"
+        scene.parent.mkdir(parents=True, exist_ok=True)
+        extract = run([WILDSCAN, "extract", "--seed", str(seed), "--out", str(scene), "--quiet"])
+        assert extract.returncode == 0, extract.stderr
+        for k, (zone, pose) in enumerate(zones.items()):
             ply = out / f"wildscan-{seed}-{zone}.ply"
-            proc = run(
-                [WILDSCAN, "scan", "--seed", str(seed), *pose_args(pose), "--out", str(ply), "--quiet"]
-            )
+            world = ["--seed", str(seed)] if k == 0 else ["--geometry", str(scene)]
+            proc = run([WILDSCAN, "scan", *world, *pose_args(pose), "--out", str(ply), "--quiet"])
             assert proc.returncode == 0, proc.stderr
             plys.append(ply)
     return plys

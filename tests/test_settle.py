@@ -8,6 +8,7 @@ import pytest
 
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.geometry import from_triangles
+from wildscan.raycast.settle import position_ids
 
 # Two objects meeting along the diagonal of the unit square at z = 0 (separate vertex
 # copies, as two meshes have), and a floor 1 m below.
@@ -84,3 +85,18 @@ def test_the_settling_leaves_clear_hits_alone_and_is_cheap():
     triangle, rough, bary = backend._first_hits(local, dirs, 10.0)
     band = backend._settler.in_band(triangle, bary, local, dirs, rough)
     assert 0 < band.sum() < 0.01 * len(dirs)
+
+
+def test_vertices_at_one_position_get_one_id_as_numpy_unique_groups_them():
+    """settle.position_ids groups exactly as np.unique(axis=0) (what it replaces, five times
+    slower): equal x with other y or z kept apart, 0.0 and -0.0 one position."""
+    rng = np.random.default_rng(4)
+    grid = rng.integers(0, 4, size=(3000, 3)).astype(np.float64) - 1.5  # many shared x, some repeats
+    spread = rng.normal(size=(3000, 3))  # x all different
+    signed_zero = np.array([[0.0, 1.0, 2.0], [-0.0, 1.0, 2.0], [0.0, -0.0, 0.0], [-0.0, 0.0, -0.0]])
+    vertices = rng.permutation(np.vstack([grid, spread, spread[:50], signed_zero]))
+    ids = position_ids(vertices)
+    _, expected = np.unique(vertices, axis=0, return_inverse=True)
+    expected = expected.reshape(-1)
+    assert ids.max() + 1 == expected.max() + 1 < len(vertices)
+    assert len(np.unique(np.stack([ids, expected], axis=1), axis=0)) == expected.max() + 1  # one-to-one
