@@ -219,3 +219,18 @@ def test_a_worker_killed_mid_run_is_replaced_and_the_result_is_the_same(spec, cl
             os.killpg(job.pid, signal.SIGKILL)
     assert job.returncode == 0, stderr
     assert_same_dataset(clean, out)
+
+
+def test_bench_dataset_times_each_worker_count_side_by_side():
+    result = wildscan(
+        "bench-dataset", "--worlds", "2", "--scans", "2", "--rh", "10",
+        "--workers", "1", "--workers", "2", "--vegetation", "solid",
+    )  # fmt: skip
+    assert result.returncode == 0 and result.stderr == "", result.stderr
+    assert "2 scans at r_h = 10 deg from 2 worlds (default detail, solid vegetation)" in result.stdout
+    rows = [line.split("|")[1:-1] for line in result.stdout.splitlines() if line.startswith("| ")][1:]
+    assert [(r[0].strip(), r[1].strip()) for r in rows] == [("1", "2"), ("2", "2")]
+    assert float(rows[1][4].strip().rstrip("x")) > 0 and rows[1][6].count("GB") == 2  # a worker each
+    assert "speed-up >= 1.8x" in result.stdout
+    wrong = wildscan("bench-dataset", "--vegetation", "leafy")
+    assert wrong.returncode == 2 and "--vegetation must be one of porous, solid" in wrong.stderr

@@ -8,6 +8,7 @@ import sys
 
 from ..core.checks import whole_number
 from ..core.errors import UserError
+from . import options
 
 HELP, DESCRIPTION = (
     "make (or finish) a labeled dataset: many worlds x many poses, on Dask",
@@ -119,10 +120,13 @@ def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
         help="a worker count to time; repeat (default: 1 and 2)",
     )
     p.add_argument("--format", default="semantickitti", choices=("semantickitti", "las", "ply"))
+    options.add(p, "vegetation")
 
 
 def run_bench(args, in_blender: bool = False) -> int:
     from ..bench.dataset import bench_dataset
 
-    bench_dataset(args.worlds, args.scans, args.rh, tuple(args.workers or (1, 2)), (args.format,))
+    bench_dataset(
+        args.worlds, args.scans, args.rh, tuple(args.workers or (1, 2)), (args.format,), args.vegetation
+    )
     return 0
