@@ -43,7 +43,9 @@ from .spec import DatasetSpec, draw_sensor, spec_from_json
 
 RANGE_BIN = 0.5  # m, the range histogram kept per scan (dataset card)
 RANGE_BINS = 60
-_CACHE_SIZE = 2  # worlds kept per worker: batches of one world usually follow each other
+# Worlds kept per worker: a world's batches follow each other in the queue, so one is
+# enough, and a second held while the next is built doubled a worker's peak memory.
+_CACHE_SIZE = 1
 
 
 @dataclass
@@ -73,10 +75,10 @@ def world_context(spec: DatasetSpec, seed: int) -> WorldContext:
     if key in _worlds:
         _worlds.move_to_end(key)
         return _worlds[key]
+    while len(_worlds) >= _CACHE_SIZE:
+        _worlds.popitem(last=False)  # before building: a porous world holds about 1 GB
     context = build_world(spec, seed)
     _worlds[key] = context
-    while len(_worlds) > _CACHE_SIZE:
-        _worlds.popitem(last=False)
     return context
 
 
