@@ -17,6 +17,8 @@ import sys
 import tempfile
 from dataclasses import dataclass
 
+from ..core.world import DEFAULT_VEGETATION
+
 TARGET_SECONDS = 60.0
 TARGET_SPEEDUP = 1.8
 TARGET_WORKER_BYTES = 1.5e9
@@ -69,7 +71,7 @@ def bench_dataset(
     rh: float = 1.0,
     worker_counts: tuple[int, ...] = (1, 2),
     formats: tuple[str, ...] = ("semantickitti",),
-    vegetation: str = "porous",
+    vegetation: str = DEFAULT_VEGETATION,
     stream=None,
 ) -> list[BenchRow]:
     stream = stream or sys.stdout

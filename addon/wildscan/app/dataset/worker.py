@@ -16,7 +16,6 @@ import os
 import resource
 import sys
 import time
-from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,9 +42,6 @@ from .spec import DatasetSpec, draw_sensor, spec_from_json
 
 RANGE_BIN = 0.5  # m, the range histogram kept per scan (dataset card)
 RANGE_BINS = 60
-# Worlds kept per worker: a world's batches follow each other in the queue, so one is
-# enough, and a second held while the next is built doubled a worker's peak memory.
-_CACHE_SIZE = 1
 
 
 @dataclass
@@ -66,20 +62,23 @@ class WorldContext:
         return np.maximum(hits.class_id, 0)
 
 
-_worlds: OrderedDict[tuple, WorldContext] = OrderedDict()
+# The worker's last world, kept for the next batch of the same world (a world's batches
+# follow each other in the queue). One only, freed before the next is built: a porous world
+# holds about 1 GB, and a second held while building doubled a worker's peak memory.
+_last_world: dict[tuple, WorldContext] = {}
+
+
+def _world_key(spec: DatasetSpec, seed: int) -> tuple:
+    return (seed, spec.detail, spec.vegetation, spec.scans_per_world, spec.poses)
 
 
 def world_context(spec: DatasetSpec, seed: int) -> WorldContext:
     _keep_freed_memory()
-    key = (seed, spec.detail, spec.vegetation, spec.scans_per_world, spec.poses)
-    if key in _worlds:
-        _worlds.move_to_end(key)
-        return _worlds[key]
-    while len(_worlds) >= _CACHE_SIZE:
-        _worlds.popitem(last=False)  # before building: a porous world holds about 1 GB
-    context = build_world(spec, seed)
-    _worlds[key] = context
-    return context
+    key = _world_key(spec, seed)
+    if key not in _last_world:
+        _last_world.clear()
+        _last_world[key] = build_world(spec, seed)
+    return _last_world[key]
 
 
 @functools.lru_cache(maxsize=1)
@@ -157,10 +156,9 @@ def scan_batch(
             "every worker shares"
         )
     spec = spec_from_json(spec_json)
-    t0 = time.perf_counter()
-    cached = any(k[0] == seed for k in _worlds)
+    cached = _world_key(spec, seed) in _last_world
     context = world_context(spec, seed)
-    build = 0.0 if cached else time.perf_counter() - t0
+    build = 0.0 if cached else context.build_seconds
     rows = []
     for index in indices:
         rows.append(scan_one(spec, context, root, index))
