@@ -563,3 +563,22 @@ def test_max_range_is_exact_and_empty_scenes_miss():
     empty = from_triangles(np.zeros((0, 3, 3)))
     for backend in (EmbreeBackend(empty), BVHBackend(empty)):
         assert not backend.cast(np.array([0, 0, 5.0]), down, 10.0).hit.any()
+
+
+def test_first_hit_classes_are_the_cast_classes_up_to_the_exact_max_range():
+    rng = np.random.default_rng(5)
+    centres = rng.uniform(-3, 3, (400, 1, 3))
+    soup = centres + rng.normal(0, 0.4, (400, 3, 3))
+    geometry = from_triangles(soup, class_id=rng.integers(1, 13, 400), instance=1)
+    origins = rng.uniform(-4, 4, (5000, 3))
+    dirs = random_dirs(5000, "first-hit classes")
+    for backend in (EmbreeBackend(geometry), BVHBackend(geometry)):
+        for max_range in (0.5, 2.0, 9.0):
+            classes = backend.first_hit_classes(origins, dirs, max_range)
+            assert np.array_equal(classes, backend.cast(origins, dirs, max_range).class_id)
+        hits = backend.cast(origins, dirs, 9.0)
+        first = np.flatnonzero(hits.hit)[:50]  # each of these cut at exactly its hit distance
+        for i in first:
+            d = float(hits.distance[i])
+            assert backend.first_hit_classes(origins[i], dirs[i : i + 1], d)[0] == hits.class_id[i]
+            assert backend.first_hit_classes(origins[i], dirs[i : i + 1], np.nextafter(d, 0))[0] == -1

@@ -46,9 +46,8 @@ class BVHBackend(RefiningBackend):
         self._planes = geometry.local_planes()
         self._settler = None  # unsealed (tests measuring why sealing is needed): the BVH's answer as is
         if seal:
-            padded = geometry.padded_local_triangles(dtype=np.float64)
-            self._settler = Settler(geometry, padded, self._planes)
-            vertices = padded.reshape(-1, 3)
+            self._settler = Settler.sealing(geometry, self._planes)
+            vertices = self._settler.padded.reshape(-1, 3)
             faces = np.arange(len(vertices)).reshape(-1, 3)
         else:
             vertices, faces = geometry.local_vertices(np.float64), geometry.faces

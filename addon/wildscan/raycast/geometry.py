@@ -44,6 +44,7 @@ import numpy as np
 
 from ..core import detmath as dm
 from ..core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
+from .blocks import by_blocks
 from .settle import settle
 
 
@@ -99,30 +100,30 @@ class SceneGeometry:
         """Vertices relative to `offset` (subtracted in float64, then cast)."""
         return np.ascontiguousarray(self.vertices - self.offset, dtype=dtype)
 
-    def padded_local_triangles(self, pad: float | None = None, dtype=np.float32) -> np.ndarray:
+    def local_triangles(self) -> np.ndarray:
+        """(T, 3, 3) offset-local float64 corners of each triangle."""
+        return (self.vertices - self.offset)[self.faces]
+
+    def padded_local_triangles(self, pad: float | None = None, dtype=np.float32, corners=None) -> np.ndarray:
         """(T, 3, 3) offset-local triangles, each grown in its own plane so every edge moves
-        outward by `pad` metres (default `edge_pad`). See `pad_triangles` for why."""
-        tris = (self.vertices - self.offset)[self.faces]
+        outward by `pad` metres (default `edge_pad`). See `pad_triangles` for why. `corners`:
+        `local_triangles()` when the caller has them already."""
+        tris = self.local_triangles() if corners is None else corners
         if pad is None:
             pad = edge_pad(tris)
-        return np.ascontiguousarray(pad_triangles(tris, pad), dtype=dtype)
+        return np.ascontiguousarray(by_blocks(lambda block: pad_triangles(block, pad), tris), dtype=dtype)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(min (3,), max (3,)) of the vertices actually used by triangles."""
         if not self.triangle_count:
             return np.zeros(3), np.zeros(3)
-        used = self.vertices[used_vertices(self.faces, len(self.vertices))]
-        return used.min(axis=0), used.max(axis=0)
+        return corner_extent(self.vertices, self.faces)
 
     def local_planes(self) -> tuple[np.ndarray, np.ndarray]:
         """Per-triangle plane in offset-local float64 coordinates: (unit normal (T,3), d (T,))
         with n·x = d on the plane; degenerate triangles get a zero normal."""
         local = self.vertices - self.offset
-        v0, v1, v2 = (local[self.faces[:, k]] for k in range(3))
-        normal = dm.cross(v1 - v0, v2 - v0)  # detmath: summed in a fixed order on every CPU
-        length = dm.norm(normal)
-        normal /= np.where(length > 0, length, 1.0)[:, None]
-        return normal, dm.dot3(normal, v0)
+        return by_blocks(_planes, *(local[self.faces[:, k]] for k in range(3)))
 
     # -- cropping ------------------------------------------------------------------------
 
@@ -195,6 +196,14 @@ class SceneGeometry:
         return frozenset(self.object_names[i] for i in idx if 0 <= i < len(self.object_names))
 
 
+def _planes(v0: np.ndarray, v1: np.ndarray, v2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(unit normal, d) of the triangles with these corners (zero normal when degenerate)."""
+    normal = dm.cross(v1 - v0, v2 - v0)  # detmath: summed in a fixed order on every CPU
+    length = dm.norm(normal)
+    normal /= np.where(length > 0, length, 1.0)[:, None]
+    return normal, dm.dot3(normal, v0)
+
+
 def _per_triangle(values, count: int, dtype, name: str) -> np.ndarray:
     arr = np.asarray(values, dtype=dtype).ravel()
     if arr.size == 1 and count != 1:
@@ -220,13 +229,23 @@ def used_vertices(faces: np.ndarray, vertex_count: int) -> np.ndarray:
     return used
 
 
+def corner_extent(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(min (3,), max (3,)) of the vertices some face uses (faces not empty). Column by
+    column: numpy's min(axis=0) over an (N, 3) array is ten times slower."""
+    used = used_vertices(faces, len(vertices))
+    points = vertices if used.all() else vertices[used]
+    low = np.array([points[:, k].min() for k in range(3)])
+    high = np.array([points[:, k].max() for k in range(3)])
+    return low, high
+
+
 def local_origin(vertices: np.ndarray, faces: np.ndarray, center=None) -> np.ndarray:
     """A local origin near the data: `center` in XY (and Z when given), else the middle of
     the used vertices' bounding box. Rounded to whole metres so it prints cleanly;
     float32 precision near it is unaffected by that."""
     if len(faces):
-        used = vertices[used_vertices(faces, len(vertices))]
-        mid = 0.5 * (used.min(axis=0) + used.max(axis=0))
+        low, high = corner_extent(vertices, faces)
+        mid = 0.5 * (low + high)
     else:
         mid = np.zeros(3)
     if center is not None:
@@ -353,6 +372,9 @@ def prepare_rays(origins: np.ndarray, directions: np.ndarray, offset: np.ndarray
 # Below this |cos| between ray and triangle plane the ray runs along the plane and the
 # plane intersection is ill-posed: the backend's own distance is kept.
 _PARALLEL_COS = 1e-9
+# Far above how much a caster's float32 distance can differ from the float64 one within a
+# world (micrometres): a hit nearer than max_range by more than this is within range.
+_ROUGH_DISTANCE_ERROR = 1e-2
 
 
 def refine_distances(
@@ -374,10 +396,9 @@ def refine_distances(
     """
     n = normal[triangle]
     cos = dm.dot3(n, directions)
-    if len(origins_local) > 1 and origins_local.strides[0] == 0:  # one origin (a scan): per triangle
-        gap = (d - dm.dot3(normal, origins_local[0]))[triangle]
-    else:
-        gap = d[triangle] - dm.dot3(n, origins_local)
+    if len(origins_local) > 1 and origins_local.strides[0] == 0:
+        origins_local = origins_local[0]  # one origin (a scan): used as it is, not gathered per ray
+    gap = d[triangle] - dm.dot3(n, origins_local)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = gap / cos
     bad = ~np.isfinite(t) | (np.abs(cos) < _PARALLEL_COS)
@@ -419,9 +440,7 @@ class RefiningBackend:
             if normals:
                 out.normal = np.zeros((count, 3))
             return out
-        triangle, rough, bary = self._first_hits(local, dirs, max_range)
-        if self._settler is not None:
-            triangle, rough = settle(self, self._settler, local, dirs, triangle, rough, bary, max_range)
+        triangle, rough = self._settled_hits(local, dirs, max_range)
         hit = triangle >= 0
         distance = np.full(count, np.inf)
         normal, d = self._planes
@@ -431,3 +450,28 @@ class RefiningBackend:
         triangle[beyond] = -1
         distance[beyond] = np.inf
         return self.geometry.hits(triangle, distance, normal if normals else None)
+
+    def first_hit_classes(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> np.ndarray:
+        """The class id of each ray's first hit within max_range (MISS_CLASS for none): what
+        `cast(...).class_id` gives, without the float64 distances a bird's-eye grid does not
+        use. Only hits near max_range are measured, to cut them there the way `cast` does."""
+        local, dirs = prepare_rays(origins, directions, self.geometry.offset)
+        if not len(dirs) or not self._ready():
+            return np.full(len(dirs), MISS_CLASS, dtype=np.int16)
+        triangle, rough = self._settled_hits(local, dirs, max_range)
+        near_end = np.flatnonzero((triangle >= 0) & (rough > max_range - _ROUGH_DISTANCE_ERROR))
+        if len(near_end):
+            normal, d = self._planes
+            exact = refine_distances(
+                normal, d, local[near_end], dirs[near_end], triangle[near_end], rough[near_end]
+            )
+            triangle[near_end[exact > max_range]] = -1
+        class_id, _ = self.geometry._with_miss_row()
+        return class_id.take(triangle)
+
+    def _settled_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float):
+        """(hit triangle per ray, -1 for none; its approximate distance), ambiguous hits settled."""
+        triangle, rough, bary = self._first_hits(local, dirs, max_range)
+        if self._settler is not None:
+            triangle, rough = settle(self, self._settler, local, dirs, triangle, rough, bary, max_range)
+        return triangle, rough

@@ -29,6 +29,7 @@ from functools import cached_property
 import numpy as np
 
 from ..core import detmath as dm
+from .blocks import by_blocks
 
 # Barycentric margin around the padding band: Embree's float32 u, v are good to ~1e-7.
 BAND_MARGIN = 1e-4
@@ -41,28 +42,29 @@ _PARALLEL_COS = 1e-9  # as geometry.refine_distances: a ray in a triangle's plan
 class Settler:
     """The float64 data about one geometry's triangles the settling needs, made when needed."""
 
-    def __init__(self, geometry, padded: np.ndarray, planes: tuple[np.ndarray, np.ndarray]):
+    def __init__(
+        self, geometry, padded: np.ndarray, planes: tuple[np.ndarray, np.ndarray], corners: np.ndarray
+    ):
         self.geometry = geometry
         self.padded = padded  # (T, 3, 3) offset-local float64, as uploaded (before float32)
         self.normal, self.d = planes
+        self.corners = corners  # (T, 3, 3) offset-local float64 corners of the unpadded triangles
 
-    @cached_property
-    def corners(self) -> np.ndarray:
-        """(T, 3, 3) offset-local float64 corners of the unpadded triangles."""
-        return (self.geometry.vertices - self.geometry.offset)[self.geometry.faces]
+    @classmethod
+    def sealing(cls, geometry, planes: tuple[np.ndarray, np.ndarray]) -> Settler:
+        """For a float32 caster: the padded triangles it uploads (`padded`, float64) and what
+        settling its answers needs."""
+        corners = geometry.local_triangles()
+        return cls(
+            geometry, geometry.padded_local_triangles(dtype=np.float64, corners=corners), planes, corners
+        )
 
     @cached_property
     def band(self) -> np.ndarray:
         """(T,) float32: a hit whose smallest barycentric coordinate on the padded triangle is
         below this may lie outside the unpadded triangle (the widest of its three edges'
         bands: the unpadded edge is at most the largest corner shift inside the padded one)."""
-        padded, corners = self.padded, self.corners
-        shift = np.max(dm.norm(padded - corners), axis=1)
-        double_area = dm.norm(dm.cross(padded[:, 1] - padded[:, 0], padded[:, 2] - padded[:, 0]))
-        longest = np.max([dm.norm(padded[:, k] - padded[:, k - 1]) for k in range(3)], axis=0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            band = 2.0 * shift * longest / double_area + BAND_MARGIN  # 2 shift / the lowest altitude
-        return np.where(double_area > 0, band, np.inf).astype(np.float32)
+        return by_blocks(_band, self.padded, self.corners)
 
     @cached_property
     def neighbours(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -125,6 +127,16 @@ class Settler:
         firsts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]]) if len(ray) else np.zeros(0, int)
         winner[ray[firsts]] = cand[firsts]
         return winner
+
+
+def _band(padded: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Settler.band of these triangles."""
+    shift = np.max(dm.norm(padded - corners), axis=1)
+    double_area = dm.norm(dm.cross(padded[:, 1] - padded[:, 0], padded[:, 2] - padded[:, 0]))
+    longest = np.max([dm.norm(padded[:, k] - padded[:, k - 1]) for k in range(3)], axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        band = 2.0 * shift * longest / double_area + BAND_MARGIN  # 2 shift / the lowest altitude
+    return np.where(double_area > 0, band, np.inf).astype(np.float32)
 
 
 def position_ids(vertices: np.ndarray) -> np.ndarray:

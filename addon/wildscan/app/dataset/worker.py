@@ -3,7 +3,9 @@
 The world is planned once per worker (a small cache keeps it for the next batch of the
 same world) and turned straight into triangles (the Blender-free path: no bpy), which
 one Embree scene holds for every scan of that world: placement, the sweep and the
-bird's-eye rays all cast against it, so nothing is cropped or rebuilt per pose. Every
+bird's-eye rays all cast against it, so nothing is cropped or rebuilt per pose (a
+bird's-eye cell on open ground, where the terrain is the only surface, is not cast:
+core/open_ground.py). Every
 file of a scan is written under a temporary name and renamed with the others only when
 all of them are complete; the rows returned say what was written, with sizes and SHA-256.
 """
@@ -22,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import __version__
+from ...core.classes import class_by_name
 from ...core.errors import PoseRejected, UserError
 from ...core.groundtruth import (
     bev_grid,
@@ -33,6 +36,7 @@ from ...core.groundtruth import (
 )
 from ...core.io.files import atomic_outputs
 from ...core.label_schemes import scheme
+from ...core.open_ground import OpenGround, open_ground
 from ...core.placement import place
 from ...core.posesampler import NoPose, ScanPose, sample_poses
 from ...core.scan import run_scan
@@ -40,6 +44,7 @@ from ...core.world import EXTENT, WorldPlan, plan_world
 from .layout import scan_paths
 from .spec import DatasetSpec, draw_sensor, spec_from_json
 
+TERRAIN_ID = class_by_name("terrain").id
 RANGE_BIN = 0.5  # m, the range histogram kept per scan (dataset card)
 RANGE_BINS = 60
 
@@ -54,12 +59,20 @@ class WorldContext:
     z_range: tuple[float, float]
     build_seconds: float
 
+    open_ground: OpenGround | None
+
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
-        """Class of the first surface straight below each origin (0 for none). Cast like
-        every other ray, so the float64 settling decides edge hits the same on every CPU."""
-        down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), origins.shape)
-        hits = self.backend.cast(origins, down, max_range)
-        return np.maximum(hits.class_id, 0)
+        """Class of the first surface straight below each origin (0 for none): the terrain
+        on open ground (core/open_ground.py), elsewhere cast like every other ray, so the
+        float64 settling decides edge hits the same on every CPU."""
+        classes = np.full(len(origins), TERRAIN_ID, dtype=np.int16)
+        if self.open_ground is None:
+            cast = np.arange(len(origins))
+        else:
+            cast = np.flatnonzero(~self.open_ground.contains(origins[:, 0], origins[:, 1]))
+        down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), (len(cast), 3))
+        classes[cast] = np.maximum(self.backend.first_hit_classes(origins[cast], down, max_range), 0)
+        return classes
 
 
 # The worker's last world, kept for the next batch of the same world (a world's batches
@@ -124,8 +137,19 @@ def build_world(spec: DatasetSpec, seed: int) -> WorldContext:
         poses=poses,
         instances=np.array([e.instance for e in plan.elements], dtype=np.int64),
         z_range=(float(low[2]), float(high[2])),
+        open_ground=world_open_ground(plan, geometry),
         build_seconds=time.perf_counter() - t0,
     )
+
+
+def world_open_ground(plan: WorldPlan, geometry) -> OpenGround | None:
+    """Where only the terrain lies under a bird's-eye cell; None unless the terrain grid
+    covers the extent (what makes an open cell's answer the terrain: core/open_ground.py)."""
+    xs, ys = plan.grid.xs, plan.grid.ys
+    x0, x1, y0, y1 = EXTENT
+    if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):
+        return None
+    return open_ground(geometry.vertices[:, :2], geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
 
 
 def _embree(geometry):

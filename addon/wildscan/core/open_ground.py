@@ -1,0 +1,96 @@
+"""Open ground (numpy only): the places of a world, seen from above, where the terrain is
+the only surface, so a ray straight down can meet nothing else.
+
+Why: every dataset scan's bird's-eye grid (groundtruth.bev_grid) casts 90,000 rays straight
+down for the class of the first surface under each cell. Most of them meet nothing but the
+terrain (measured on seed 3, 20 scans of every zone: 77 % of the cells on solid crowns, 68 %
+on porous ones); a lookup in this raster answers those for a fraction of a cast, and only
+the rest are cast.
+
+The answer is the cast's, not an estimate. The raster has square cells over the world's
+extent; a cell is open when no triangle of any other class has its xy bounding box, grown
+by MARGIN, reaching into it. Then, for a point whose cell is open:
+  - no other surface lies anywhere on its vertical line: MARGIN is hundreds of times the
+    growth the ray casters give triangles (geometry.pad_triangles) and the float32 rounding
+    of a ray's origin, so not even a grown copy of another triangle reaches it;
+  - the terrain is there: it is a heightfield grid covering the whole extent (the caller
+    checks), and the downward rays start above every surface and reach below them;
+  - a point inside a grown box always falls in a cell the box marked: both use the same
+    floor((x - x0) / cell), which never decreases as x grows, however it rounds.
+The cells on the border of the extent are never open: a ray along the terrain's very edge
+is left to the caster.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+RASTER_CELL = 0.1  # m
+MARGIN = 0.01  # m by which every other triangle's bounding box is grown
+
+
+@dataclass(frozen=True)
+class OpenGround:
+    """Open cells of a raster over the extent: `is_open[i, j]` for the cell whose lower
+    corner is (x0 + i cell, y0 + j cell)."""
+
+    x0: float
+    y0: float
+    cell: float
+    is_open: np.ndarray  # (nx, ny) bool
+
+    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Whether each point (x, y) lies in an open cell (False off the raster)."""
+        i = self._index(np.asarray(x, dtype=np.float64), self.x0)
+        j = self._index(np.asarray(y, dtype=np.float64), self.y0)
+        nx, ny = self.is_open.shape
+        on = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        out = np.zeros(i.shape, dtype=bool)
+        out[on] = self.is_open[i[on], j[on]]
+        return out
+
+    def _index(self, v: np.ndarray, origin: float) -> np.ndarray:
+        """The raster index of coordinates v (the one expression marking and lookup share)."""
+        return np.floor((v - origin) / self.cell).astype(np.int64)
+
+
+def open_ground(
+    xy: np.ndarray, faces: np.ndarray, extent: tuple[float, float, float, float], cell: float = RASTER_CELL
+) -> OpenGround:
+    """The open ground of a world whose terrain covers `extent` (x0, x1, y0, y1), given the
+    vertices' xy (V, 2) and the faces (T, 3) of every triangle that is not terrain."""
+    x0, x1, y0, y1 = extent
+    nx = int(np.ceil((x1 - x0) / cell)) + 1
+    ny = int(np.ceil((y1 - y0) / cell)) + 1
+    raster = OpenGround(float(x0), float(y0), float(cell), np.zeros((nx, ny), dtype=bool))
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    boxes = []
+    for axis, origin, count in ((0, x0, nx), (1, y0, ny)):
+        low, high = _corner_range(np.ascontiguousarray(xy[:, axis], dtype=np.float64), faces)
+        boxes.append(np.clip(raster._index(low - MARGIN, origin), 0, count - 1))
+        boxes.append(np.clip(raster._index(high + MARGIN, origin), 0, count - 1))
+    covered = _covered(*boxes, nx, ny)
+    covered[[0, -1], :] = True
+    covered[:, [0, -1]] = True
+    return OpenGround(raster.x0, raster.y0, raster.cell, ~covered)
+
+
+def _corner_range(values: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle, the least and the greatest of a coordinate over its three corners."""
+    a, b, c = (values[faces[:, k]] for k in range(3))
+    return np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+
+
+def _covered(i0, i1, j0, j1, nx: int, ny: int) -> np.ndarray:
+    """(nx, ny) bool: the cells inside any of the index boxes [i0, i1] x [j0, j1]. Each box
+    adds +1 at two corners and -1 at the other two of a difference array; its running sums
+    along both axes count the boxes over each cell."""
+    rows, cols = nx + 1, ny + 1
+    corners = np.concatenate(
+        [i0 * cols + j0, (i1 + 1) * cols + j0, i0 * cols + j1 + 1, (i1 + 1) * cols + j1 + 1]
+    )
+    signs = np.repeat(np.array([1, -1, -1, 1], dtype=np.int64), len(i0))
+    diff = np.bincount(corners, weights=signs, minlength=rows * cols).astype(np.int64).reshape(rows, cols)
+    return np.cumsum(np.cumsum(diff, axis=0), axis=1)[:nx, :ny] > 0
