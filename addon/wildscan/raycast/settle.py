@@ -74,7 +74,7 @@ class Settler:
         corner_pos = position[self.geometry.faces]
         order = np.argsort(corner_pos.ravel(), kind="stable")
         triangles = order // 3
-        starts = np.searchsorted(corner_pos.ravel()[order], np.arange(position.max() + 2))
+        starts = np.r_[0, np.cumsum(np.bincount(corner_pos.ravel(), minlength=position.max() + 1))]
         return corner_pos, starts, triangles
 
     def in_band(self, triangle, bary, local, dirs, rough) -> np.ndarray:
@@ -151,9 +151,12 @@ def position_ids(vertices: np.ndarray) -> np.ndarray:
     shared_x = np.flatnonzero(np.r_[tie, False] | np.r_[False, tie])
     rows = bits[order[shared_x]]
     # x stays the first key, so each run of one x keeps its place in `order`
-    order[shared_x] = order[shared_x][np.lexsort((rows[:, 2], rows[:, 1], rows[:, 0]))]
-    ordered = bits[order]
-    new_position = np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)]
+    by_yz = np.lexsort((rows[:, 2], rows[:, 1], rows[:, 0]))
+    order[shared_x], rows = order[shared_x][by_yz], rows[by_yz]
+    # a new position where x changes, or, inside a run of one x, where y or z does
+    new_position = np.r_[True, x[1:] != x[:-1]]
+    follows = shared_x[1:] - 1 == shared_x[:-1]
+    new_position[shared_x[1:]] |= follows & np.any(rows[1:, 1:] != rows[:-1, 1:], axis=1)
     ids = np.empty(len(bits), dtype=np.int64)
     ids[order] = np.cumsum(new_position) - 1
     return ids
