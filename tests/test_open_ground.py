@@ -57,16 +57,17 @@ def context():
 
 
 def test_open_ground_gives_the_class_the_cast_gives_everywhere_in_a_world(context):
-    assert context.open_ground is not None
-    rng = np.random.default_rng(7)
+    from wildscan.core.open_ground import no_open_ground
     from wildscan.core.world import EXTENT as world_extent
 
+    assert context.open_ground.is_open.any()  # the worker found its terrain covering the extent
+    rng = np.random.default_rng(7)
     x0, x1, y0, y1 = world_extent
     points = np.column_stack(
         [rng.uniform(x0, x1, 200_000), rng.uniform(y0, y1, 200_000), np.full(200_000, context.z_range[1] + 1)]
     )
     depth = context.z_range[1] - context.z_range[0] + 2
-    cast_all = dataclasses.replace(context, open_ground=None)
+    cast_all = dataclasses.replace(context, open_ground=no_open_ground(world_extent))
     assert np.array_equal(context.top_classes(points, depth), cast_all.top_classes(points, depth))
     opened = context.open_ground.contains(points[:, 0], points[:, 1])
     assert 0.4 < opened.mean() < 0.95  # it saves casts, and not by opening everything

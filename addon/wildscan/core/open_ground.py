@@ -43,17 +43,18 @@ class OpenGround:
 
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Whether each point (x, y) lies in an open cell (False off the raster)."""
-        i = self._index(np.asarray(x, dtype=np.float64), self.x0)
-        j = self._index(np.asarray(y, dtype=np.float64), self.y0)
+        i = _raster_index(np.asarray(x, dtype=np.float64), self.x0, self.cell)
+        j = _raster_index(np.asarray(y, dtype=np.float64), self.y0, self.cell)
         nx, ny = self.is_open.shape
         on = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
         out = np.zeros(i.shape, dtype=bool)
         out[on] = self.is_open[i[on], j[on]]
         return out
 
-    def _index(self, v: np.ndarray, origin: float) -> np.ndarray:
-        """The raster index of coordinates v (the one expression marking and lookup share)."""
-        return np.floor((v - origin) / self.cell).astype(np.int64)
+
+def _raster_index(v: np.ndarray, origin: float, cell: float) -> np.ndarray:
+    """The raster index of coordinates v (the one expression marking and lookup share)."""
+    return np.floor((v - origin) / cell).astype(np.int64)
 
 
 def open_ground(
@@ -62,19 +63,29 @@ def open_ground(
     """The open ground of a world whose terrain covers `extent` (x0, x1, y0, y1), given the
     vertices' xy (V, 2) and the faces (T, 3) of every triangle that is not terrain."""
     x0, x1, y0, y1 = extent
-    nx = int(np.ceil((x1 - x0) / cell)) + 1
-    ny = int(np.ceil((y1 - y0) / cell)) + 1
-    raster = OpenGround(float(x0), float(y0), float(cell), np.zeros((nx, ny), dtype=bool))
+    nx, ny = _raster_shape(extent, cell)
     faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     boxes = []
     for axis, origin, count in ((0, x0, nx), (1, y0, ny)):
         low, high = _corner_range(np.ascontiguousarray(xy[:, axis], dtype=np.float64), faces)
-        boxes.append(np.clip(raster._index(low - MARGIN, origin), 0, count - 1))
-        boxes.append(np.clip(raster._index(high + MARGIN, origin), 0, count - 1))
+        boxes.append(np.clip(_raster_index(low - MARGIN, origin, cell), 0, count - 1))
+        boxes.append(np.clip(_raster_index(high + MARGIN, origin, cell), 0, count - 1))
     covered = _covered(*boxes, nx, ny)
     covered[[0, -1], :] = True
     covered[:, [0, -1]] = True
-    return OpenGround(raster.x0, raster.y0, raster.cell, ~covered)
+    return OpenGround(float(x0), float(y0), float(cell), ~covered)
+
+
+def no_open_ground(extent: tuple[float, float, float, float], cell: float = RASTER_CELL) -> OpenGround:
+    """A raster with no open cell: every point is left to the caster."""
+    return OpenGround(
+        float(extent[0]), float(extent[2]), float(cell), np.zeros(_raster_shape(extent, cell), bool)
+    )
+
+
+def _raster_shape(extent, cell: float) -> tuple[int, int]:
+    x0, x1, y0, y1 = extent
+    return int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
 
 
 def _corner_range(values: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

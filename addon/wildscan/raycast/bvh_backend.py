@@ -43,10 +43,11 @@ class BVHBackend(RefiningBackend):
         self.geometry = geometry
         self.seal = seal
         self._tree = None
-        self._planes = geometry.local_planes()
+        corners = geometry.local_triangles()  # gathered once for the planes and the padding
+        self._planes = geometry.local_planes(corners)
         self._settler = None  # unsealed (tests measuring why sealing is needed): the BVH's answer as is
         if seal:
-            self._settler = Settler.sealing(geometry, self._planes)
+            self._settler = Settler.sealing(geometry, self._planes, corners)
             vertices = self._settler.padded.reshape(-1, 3)
             faces = np.arange(len(vertices)).reshape(-1, 3)
         else:

@@ -47,10 +47,11 @@ class EmbreeBackend(RefiningBackend):
         self.seal = seal
         self._scene = rtcore_scene.EmbreeScene(robust=robust)
         self._mesh = None
-        self._planes = geometry.local_planes()
+        corners = geometry.local_triangles()  # gathered once for the planes and the padding
+        self._planes = geometry.local_planes(corners)
         self._settler = None  # unsealed (tests measuring why sealing is needed): Embree's answer as is
         if seal:
-            self._settler = Settler.sealing(geometry, self._planes)
+            self._settler = Settler.sealing(geometry, self._planes, corners)
             if geometry.triangle_count:
                 # float64 in: embreex rounds each value to float32 as numpy's astype would,
                 # and reads float64 items faster (its upload indexes item by item)

@@ -119,11 +119,12 @@ class SceneGeometry:
             return np.zeros(3), np.zeros(3)
         return corner_extent(self.vertices, self.faces)
 
-    def local_planes(self) -> tuple[np.ndarray, np.ndarray]:
+    def local_planes(self, corners=None) -> tuple[np.ndarray, np.ndarray]:
         """Per-triangle plane in offset-local float64 coordinates: (unit normal (T,3), d (T,))
-        with n·x = d on the plane; degenerate triangles get a zero normal."""
-        local = self.vertices - self.offset
-        return by_blocks(_planes, *(local[self.faces[:, k]] for k in range(3)))
+        with n·x = d on the plane; degenerate triangles get a zero normal. `corners`:
+        `local_triangles()` when the caller has them already."""
+        tris = self.local_triangles() if corners is None else corners
+        return by_blocks(_planes, tris[:, 0], tris[:, 1], tris[:, 2])
 
     # -- cropping ------------------------------------------------------------------------
 

@@ -51,10 +51,9 @@ class Settler:
         self.corners = corners  # (T, 3, 3) offset-local float64 corners of the unpadded triangles
 
     @classmethod
-    def sealing(cls, geometry, planes: tuple[np.ndarray, np.ndarray]) -> Settler:
+    def sealing(cls, geometry, planes: tuple[np.ndarray, np.ndarray], corners: np.ndarray) -> Settler:
         """For a float32 caster: the padded triangles it uploads (`padded`, float64) and what
-        settling its answers needs."""
-        corners = geometry.local_triangles()
+        settling its answers needs; `corners` are geometry.local_triangles()."""
         return cls(
             geometry, geometry.padded_local_triangles(dtype=np.float64, corners=corners), planes, corners
         )

@@ -36,7 +36,7 @@ from ...core.groundtruth import (
 )
 from ...core.io.files import atomic_outputs
 from ...core.label_schemes import scheme
-from ...core.open_ground import OpenGround, open_ground
+from ...core.open_ground import OpenGround, no_open_ground, open_ground
 from ...core.placement import place
 from ...core.posesampler import NoPose, ScanPose, sample_poses
 from ...core.scan import run_scan
@@ -57,19 +57,15 @@ class WorldContext:
     poses: list
     instances: np.ndarray
     z_range: tuple[float, float]
+    open_ground: OpenGround
     build_seconds: float
-
-    open_ground: OpenGround | None
 
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
         """Class of the first surface straight below each origin (0 for none): the terrain
         on open ground (core/open_ground.py), elsewhere cast like every other ray, so the
         float64 settling decides edge hits the same on every CPU."""
         classes = np.full(len(origins), TERRAIN_ID, dtype=np.int16)
-        if self.open_ground is None:
-            cast = np.arange(len(origins))
-        else:
-            cast = np.flatnonzero(~self.open_ground.contains(origins[:, 0], origins[:, 1]))
+        cast = np.flatnonzero(~self.open_ground.contains(origins[:, 0], origins[:, 1]))
         down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), (len(cast), 3))
         classes[cast] = np.maximum(self.backend.first_hit_classes(origins[cast], down, max_range), 0)
         return classes
@@ -142,13 +138,13 @@ def build_world(spec: DatasetSpec, seed: int) -> WorldContext:
     )
 
 
-def world_open_ground(plan: WorldPlan, geometry) -> OpenGround | None:
-    """Where only the terrain lies under a bird's-eye cell; None unless the terrain grid
+def world_open_ground(plan: WorldPlan, geometry) -> OpenGround:
+    """Where only the terrain lies under a bird's-eye cell; none unless the terrain grid
     covers the extent (what makes an open cell's answer the terrain: core/open_ground.py)."""
     xs, ys = plan.grid.xs, plan.grid.ys
     x0, x1, y0, y1 = EXTENT
     if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):
-        return None
+        return no_open_ground(EXTENT)
     return open_ground(geometry.vertices[:, :2], geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
 
 
