@@ -12,7 +12,7 @@ from pathlib import Path
 from ..core.classes import BY_ID, CLASSES
 from ..core.placement import Pose
 from ..core.pointcloud import PointCloud
-from ..core.sensor import SensorConfig
+from ..core.sensors import SensorConfig
 from .world import SavedWorld, StageProgress
 
 DETAIL = "default"

@@ -9,7 +9,7 @@ from typing import Callable
 
 from ..core.placement import COLUMN_HEIGHT, Pose, check_z_start
 from ..core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
-from ..core.sensor import SensorConfig
+from ..core.sensors import SensorConfig
 
 # Crop margin around the pose beyond max range: the optical centre sits up to a
 # column height off the pose's xy on tilted ground, plus a little slack.

@@ -35,7 +35,7 @@ def trail_waypoints(seed: int, length: float) -> np.ndarray:
 
 def run_case(seed: int, head: str, wind: float, bag: str, folder: Path) -> dict:
     from ..app.drive import DriveRequest, run_drive
-    from ..core.sensor import SensorConfig
+    from ..core.sensors import SensorConfig
 
     csv = folder / "trail.csv"
     csv.write_text("".join(f"{x!r},{y!r}\n" for x, y in trail_waypoints(seed, DRIVE_SECONDS * SPEED)))

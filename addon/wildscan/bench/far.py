@@ -68,7 +68,7 @@ def point_errors(result, geometry, rh_deg: float, frame: str) -> tuple[np.ndarra
     (N,) whether the beam passes within EDGE_BAND of an edge before its hit (where a float32
     caster may take the other face: the edge leaks tests/test_stability.py counts)."""
     from ..core.frames import from_world
-    from ..core.sensor import rotated_beam_directions
+    from ..core.sensors import rotated_beam_directions
     from ..raycast.reference import reference_hits
 
     placement, cloud = result.placement, result.cloud
@@ -88,7 +88,7 @@ def point_errors(result, geometry, rh_deg: float, frame: str) -> tuple[np.ndarra
 
 def expected_points(result, geometry, rh_deg: float, sensor) -> int:
     """How many points the exact float64 hits give from the scan's placement (noise off)."""
-    from ..core.sensor import rotated_beam_directions
+    from ..core.sensors import rotated_beam_directions
     from ..raycast.reference import reference_hits
 
     placement = result.placement
@@ -128,7 +128,7 @@ def measure_offset(
     from ..core.errors import UserError
     from ..core.placement import Pose
     from ..core.scan import run_scan
-    from ..core.sensor import SensorConfig
+    from ..core.sensors import SensorConfig
     from ..raycast.extract import extract_scene
     from ..raycast.select import make_backend
 

@@ -170,7 +170,7 @@ class ScanRun:
         return self.result.placement.optical_centre
 
     def directions(self) -> np.ndarray:
-        from ..core.sensor import rotated_beam_directions
+        from ..core.sensors import rotated_beam_directions
 
         return rotated_beam_directions(self.result.placement.rotation, self.rh_deg)
 
@@ -191,7 +191,7 @@ class ScanRun:
 
 
 def noise_free(rh_deg: float):
-    from ..core.sensor import SensorConfig
+    from ..core.sensors import SensorConfig
 
     return SensorConfig(rh_deg=rh_deg, noise_sigma=0.0).validate()
 

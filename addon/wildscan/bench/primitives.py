@@ -184,7 +184,7 @@ ANALYTIC_RANGE = 25.0
 def analytic_rays(rh_deg: float) -> tuple[np.ndarray, np.ndarray]:
     """(origins (N,3), unit directions (N,3)): the scan pattern of r_h from each origin,
     turned by its yaw and tipped 7 deg so no beam runs along a face by symmetry."""
-    from ..core.sensor import beam_directions
+    from ..core.sensors import beam_directions
 
     dirs = beam_directions(rh_deg)[0]
     origins, rays = [], []

@@ -83,7 +83,7 @@ def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
     from ..core.io.ply import write_scan_files
     from ..core.placement import Pose
     from ..core.scan import run_scan
-    from ..core.sensor import SensorConfig
+    from ..core.sensors import SensorConfig
     from ..core.world import ZONES, plan_world
     from ..raycast.from_plan import plan_geometry
     from .measure import gc_paused

@@ -22,8 +22,8 @@ The ring is laid out in each beam's own frame: u along the scan line (increasing
 from one beam of a 2D scan to the next), v along the head's rotation (increasing φ).
 
 Deterministic math: the transcendental calls of this module are all in `_ring_layout`
-(the pattern, once per divergence) and `_beam_angles` (the beams' sines and cosines,
-once per r_h); everything else is products and sums.
+(the pattern, once per divergence) and sensors/beams.py (the beams' sines and cosines,
+once per device and r_h); everything else is products and sums.
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ import math
 import numpy as np
 
 from . import detmath as dm
-from .sensor import BEAMS_PER_2D_SCAN, beam_directions, sweep_count
-from .sensor import _beam_angles as sensor_beam_angles
+from .sensors import DEFAULT_DEVICE, Device, beam_directions, sweep_count
+from .sensors.beams import beam_frames
 
 RING = 4  # sub-rays around the axis, along +u, +v, -u, -v
 SUBRAYS = 1 + RING
@@ -71,46 +71,23 @@ def ring_radius_fraction() -> float:
     return math.sqrt(-dm.log(1.0 - _RING_MEDIAN_ENERGY) / 2.0)
 
 
-def _beam_angles(rh_deg: float, m_count: int):
-    """The beams' transcendentals: sin and cos of each beam's angle from the column (θ, by
-    ring n) and of each 2D scan's turn (φ, by sweep m), exactly as sensor.beam_directions
-    computes them."""
-    return sensor_beam_angles(rh_deg, m_count)
-
-
-@functools.lru_cache(maxsize=4)
-def _beam_frames(rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Unit vectors across each beam, sweep-major as beam_directions: e_u = d(dir)/dθ (along
-    the scan line) and e_v = d(dir)/dφ / sin θ (along the head's turn), both (N, 3)."""
-    sin_t, cos_t, sin_p, cos_p = _beam_angles(rh_deg, m_count)
-    e_u = np.empty((m_count, BEAMS_PER_2D_SCAN, 3))
-    e_u[:, :, 0] = cos_p[:, None] * cos_t[None, :]
-    e_u[:, :, 1] = sin_p[:, None] * cos_t[None, :]
-    e_u[:, :, 2] = -sin_t[None, :]
-    e_v = np.zeros((m_count, BEAMS_PER_2D_SCAN, 3))
-    e_v[:, :, 0] = -sin_p[:, None]
-    e_v[:, :, 1] = cos_p[:, None]
-    arrays = (e_u.reshape(-1, 3), e_v.reshape(-1, 3))
-    for a in arrays:
-        a.flags.writeable = False
-    return arrays
-
-
-def subray_directions(rh_deg: float, divergence_mrad: float) -> np.ndarray:
+def subray_directions(rh_deg: float, divergence_mrad: float, device: Device = DEFAULT_DEVICE) -> np.ndarray:
     """(S, N, 3) unit directions of every beam's sub-rays in the sensor frame, sub-ray-major
     (all axes, then every beam's first ring sub-ray...), beams in the order of
-    sensor.beam_directions(rh_deg); sub-ray 0 is the axis, that beam's direction bit for
-    bit. Cached (a few scans share them) and read-only."""
-    return _subray_directions(float(rh_deg), sweep_count(rh_deg), float(divergence_mrad))
+    sensors.beam_directions(rh_deg, device); sub-ray 0 is the axis, that beam's direction
+    bit for bit. The ring's u and v are sensors.beams.beam_frames'. Cached (a few scans
+    share them) and read-only."""
+    m_count = sweep_count(rh_deg, device.mount)
+    return _subray_directions(device, float(rh_deg), m_count, float(divergence_mrad))
 
 
 @functools.lru_cache(maxsize=2)
-def _subray_directions(rh_deg: float, m_count: int, divergence_mrad: float) -> np.ndarray:
-    dirs = beam_directions(rh_deg)[0]
+def _subray_directions(device: Device, rh_deg: float, m_count: int, divergence_mrad: float) -> np.ndarray:
+    dirs = beam_directions(rh_deg, device)[0]
     if subray_count(divergence_mrad) == 1:
         out = dirs[None].copy()
     else:
-        out = subrays_around(dirs, *_beam_frames(rh_deg, m_count), divergence_mrad)
+        out = subrays_around(dirs, *beam_frames(device, rh_deg, m_count), divergence_mrad)
     out.flags.writeable = False
     return out
 

@@ -23,10 +23,11 @@ import numpy as np
 from . import detmath as dm
 from .classes import WATER_ID
 from .echoes import Echoes, SubrayReturns, form_echoes
+from .effects import CLEAR_AIR, Effects, Rays
 from .errors import UserError
 from .footprint import subray_directions, subray_weights
 from .hits import RayHits
-from .sensor import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
+from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
 AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)
@@ -84,22 +85,34 @@ def realistic_points(
     rotation: np.ndarray,
     sensor: SensorConfig,
     cast_range: float,
+    effects: Effects = CLEAR_AIR,
 ) -> RealisticPoints:
     """Every point of a realistic scan over the beams of sensor.beam_directions (their
     order). `cast(origins, dirs_world, max_range, normals)` is the backend's cast (maybe
     reporting progress); `rotation` turns the sensor frame to the world's."""
-    sub_world = dm.apply(rotation, subray_directions(sensor.rh_deg, sensor.divergence_mrad))
+    sub_world = dm.apply(rotation, subray_directions(sensor.rh_deg, sensor.divergence_mrad, sensor.device))
     # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
     # single-echo realistic scan hits exactly where the paper's does.
-    sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg)
-    return echo_points(cast, origin, sub_world, sensor, cast_range)
+    sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
+    return echo_points(cast, origin, sub_world, sensor, cast_range, effects)
 
 
-def echo_points(cast, origin: np.ndarray, sub_world: np.ndarray, sensor: SensorConfig, cast_range: float):
+def echo_points(
+    cast,
+    origin: np.ndarray,
+    sub_world: np.ndarray,
+    sensor: SensorConfig,
+    cast_range: float,
+    effects: Effects = CLEAR_AIR,
+):
     """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
-    world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's."""
+    world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's.
+    The sub-rays' first hits pass through `effects`' medium; following the axis to settle
+    labels (AxisHits) looks at the surfaces alone."""
     s, n, _ = sub_world.shape
-    returns = subray_returns(cast(origin, sub_world.reshape(-1, 3), cast_range, True), sub_world)
+    rays = sub_world.reshape(-1, 3)
+    hits = effects.medium(Rays(origin, rays, cast_range), cast(origin, rays, cast_range, True))
+    returns = subray_returns(hits, sub_world)
     weights = subray_weights(s)
     echoes = form_echoes(returns, weights, sensor.echo_separation, sensor.echoes)
     measured = _measured_ranges(echoes, sensor, n)

@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import __version__
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
+from .effects import CLEAR_AIR, Effects, Rays
 from .frames import check_frame, to_world
 from .hits import RayHits
 from .leveling import leveling_matrix
@@ -20,7 +21,7 @@ from .pause import pause_here
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
 from .reach import check_reach
-from .sensor import SensorConfig, beam_directions, range_noise, rotated_beam_directions
+from .sensors import SensorConfig, beam_directions, range_noise, rotated_beam_directions
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -119,24 +120,26 @@ def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str)
     return to_world(points_sensor, "sensor", placement)
 
 
-def frame_directions(placement: Placement, frame: str, rh_deg: float, dirs_world: np.ndarray) -> np.ndarray:
+def frame_directions(
+    placement: Placement, frame: str, sensor: SensorConfig, dirs_world: np.ndarray
+) -> np.ndarray:
     """Every beam's direction in the output frame: Eq. 1's in the sensor frame, turned by
     Eq. 2 (the paper's leveling) in the leveled frame, the cast directions in the world
     frame. A point is then its range times its beam's direction (plus the optical centre in
     the world frame): three products, in a fixed order, on every machine."""
     if frame == "sensor":
-        return beam_directions(rh_deg)[0]
+        return beam_directions(sensor.rh_deg, sensor.device)[0]
     if frame == "leveled":
         leveling = leveling_matrix(placement.roll_rad, placement.pitch_rad)
-        return rotated_beam_directions(leveling, rh_deg)
+        return rotated_beam_directions(leveling, sensor.rh_deg, sensor.device)
     return dirs_world
 
 
-def _points(placement: Placement, frame: str, rh_deg: float, dirs_world, beams, ranges) -> np.ndarray:
+def _points(placement: Placement, frame: str, sensor: SensorConfig, dirs_world, beams, ranges) -> np.ndarray:
     """The points of `beams` (a mask or indices) at their `ranges` (all beams' when a mask) in the
     output frame: range times the beam's direction, plus the optical centre in the world frame."""
     rho = ranges[beams] if beams.dtype == bool else ranges
-    points = frame_directions(placement, frame, rh_deg, dirs_world)[beams] * rho[:, None]
+    points = frame_directions(placement, frame, sensor, dirs_world)[beams] * rho[:, None]
     if frame == "world":
         points += placement.optical_centre
     return points
@@ -149,7 +152,9 @@ def run_scan(
     frame: str = "leveled",
     z_start: float | None = None,
     progress: Progress | None = None,
+    effects: Effects = CLEAR_AIR,
 ) -> ScanResult:
+    """One 3D scan from `pose` with `sensor`, through `effects`' medium (none: clear air)."""
     sensor.validate()
     check_frame(frame)
     if sensor.realistic:
@@ -161,9 +166,9 @@ def run_scan(
     beam_count = sensor.beam_count
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     if sensor.realistic:
-        cloud, facts = _realistic_cloud(backend, placement, sensor, frame, cast_range, progress)
+        cloud, facts = _realistic_cloud(backend, placement, sensor, frame, cast_range, progress, effects)
     else:
-        cloud, facts = _paper_cloud(backend, placement, sensor, frame, cast_range, progress)
+        cloud, facts = _paper_cloud(backend, placement, sensor, frame, cast_range, progress, effects)
     untagged = facts.pop("untagged")
     metadata = {
         "wildscan_version": __version__,
@@ -179,6 +184,8 @@ def run_scan(
         "untagged_objects_hit": sorted(untagged),
         "classes": class_table_dict(),
     }
+    if effects:  # clear air says nothing, so scans without effects keep their bytes
+        metadata["effects"] = effects.describe()
     return ScanResult(
         cloud=cloud,
         placement=placement,
@@ -190,16 +197,17 @@ def run_scan(
 
 
 def _paper_cloud(
-    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress
+    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress, effects
 ):
     """The paper's scan: one thin ray a beam, its first hit, intensity = reflectivity."""
-    dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg)
-    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg)
+    dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)
+    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device)
     hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress)
+    hits = effects.medium(Rays(placement.optical_centre, dirs_world, cast_range), hits)
 
     returns = measure(hits, range_noise(sensor, len(dirs_sensor)), sensor)
     cloud = returns.cloud(
-        _points(placement, frame, sensor.rh_deg, dirs_world, returns.keep, returns.range), ring, sweep, frame
+        _points(placement, frame, sensor, dirs_world, returns.keep, returns.range), ring, sweep, frame
     )
     facts = {
         "returns": int(hits.hit.sum()),
@@ -211,13 +219,13 @@ def _paper_cloud(
 
 
 def _realistic_cloud(
-    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress
+    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress, effects
 ):
     """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
     from .realistic import realistic_points
 
-    _, ring, sweep = beam_directions(sensor.rh_deg)
-    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg)
+    _, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)
+    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device)
     untagged: set[str] = set()
 
     def cast(origins, dirs, max_range, normals):
@@ -225,9 +233,9 @@ def _realistic_cloud(
         untagged.update(hits.untagged_objects)
         return hits
 
-    pts = realistic_points(cast, placement.optical_centre, placement.rotation, sensor, cast_range)
+    pts = realistic_points(cast, placement.optical_centre, placement.rotation, sensor, cast_range, effects)
     cloud = PointCloud(
-        xyz=_points(placement, frame, sensor.rh_deg, dirs_world, pts.beam, pts.range),
+        xyz=_points(placement, frame, sensor, dirs_world, pts.beam, pts.range),
         intensity=pts.intensity.astype(np.float32),
         label=pts.label.astype(np.uint16),
         instance=np.maximum(pts.instance, 0).astype(np.uint32),

@@ -68,7 +68,7 @@ def check_pose(pose, z_start) -> PoseStatus:
     from ..app.settings import panel_message
     from ..core.errors import UserError
     from ..core.placement import place
-    from ..core.sensor import SensorConfig
+    from ..core.sensors import SensorConfig
 
     try:
         backend = make_scene_backend(LIVE_BACKEND, pose, SensorConfig(), notify=lambda _text: None)

@@ -27,12 +27,12 @@ from ...core.motion.trajectory import instants, schedule
 from ...core.reach import check_reach
 from ...core.rng import seeded
 from ...core.scan import points_in_frame
-from ...core.sensor import BEAMS_PER_2D_SCAN
 from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
 from . import files
 from .bags import BagFeed, open_bags
 from .request import DriveRequest
+from .wind import drive_effects, moving_scene
 from .world import crop_along, drive_path, drive_world
 
 
@@ -72,11 +72,13 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     geometry, provenance, trail = drive_world(request)
     path = path or drive_path(request, trail)
     sensor = request.sensor
-    plan = schedule(path, request.speed, sensor.sweeps, request.scans)
+    period = sensor.device.timing.column_period_s
+    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period)
     clock.lap("world")
 
-    times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1)
-    backend = _backend(request, crop_along(geometry, xy, crop_radius(sensor)), say)
+    times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
+    effects = drive_effects(request.wind, request.wind_seed)
+    backend = _backend(request, effects, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times)
     check_reach(motion.centre, sensor.max_range, request.frame, getattr(backend, "name", ""))
@@ -90,11 +92,13 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
         with ExitStack() as bags:
             feed = BagFeed(open_bags(bags, stage, request.bags, request.ros2_storage), motion, sensor)
             feed.static()
-            counter = _Rays(progress, plan.scans_2d * BEAMS_PER_2D_SCAN)
+            counter = _Rays(progress, plan.scans_2d * sensor.beams_per_column)
             points = []
             for k0, k1 in _groups(plan.scans_2d, plan.sweeps):
                 noise = context.noise(k1 - k0)
-                result = sweep(backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter)
+                result = sweep(
+                    backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter, effects
+                )
                 clock.lap("sweep")
                 whole = k1 - k0 == plan.sweeps
                 if whole:
@@ -121,20 +125,17 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     )
 
 
-def _backend(request: DriveRequest, cropped, say):
+def _backend(request: DriveRequest, effects, cropped, say):
     from ...raycast.select import make_backend
 
-    if request.wind == 0:
+    if effects.scene_mover is None:
         return make_backend(request.backend, geometry=cropped, notify=say)
-    from ...core.motion.wind import Wind
-    from .wind import swaying_scene
-
     name = make_backend(request.backend, geometry=cropped.subset(np.zeros(0, dtype=int)), notify=say).name
 
     def make(geometry):
         return make_backend(name, geometry=geometry, notify=None)
 
-    return swaying_scene(cropped, Wind(request.wind, request.wind_seed), make, request.sensor.rh_deg)
+    return moving_scene(cropped, effects, make, request.sensor)
 
 
 def _groups(scans_2d: int, sweeps: int) -> list[tuple[int, int]]:
@@ -162,7 +163,7 @@ class _Context:
         self.class_points = np.zeros(max(self.labels.labels) + 1)
 
     def noise(self, scans_2d: int) -> np.ndarray:
-        count = scans_2d * BEAMS_PER_2D_SCAN
+        count = scans_2d * self.request.sensor.beams_per_column
         if self._rng is None:
             return np.zeros(count)
         return self.request.sensor.fixed_noise * self._rng.standard_normal(count)

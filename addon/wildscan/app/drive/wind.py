@@ -1,9 +1,11 @@
-"""A scene whose foliage sways (core/motion/wind.py) behind the ray-caster interface.
+"""The scene at a time behind the ray-caster interface: the caster of an effect that moves
+the scene (core/effects, the first one the drive's wind, core/effects/wind.py).
 
-Everything that stands still is one ray caster built once. Swaying objects are posed anew
-for every 2D scan, at its start time, and only those a 2D scan can reach are posed: the
-objects whose bounding sphere comes near the plane its beams sweep and within its range.
-Each 2D scan's rays are cast at both and the nearer hit wins.
+Everything that stands still is one ray caster built once. The effect's moving objects are
+posed anew for every 2D scan, at its start time (the device's timing), and only those a 2D
+scan can reach are posed: the objects whose bounding sphere comes near the plane its beams
+sweep and within its range (a planar fan's plane: the UTM-30LX-EW's). Each 2D scan's rays
+are cast at both and the nearer hit wins.
 """
 
 from __future__ import annotations
@@ -11,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...core import detmath as dm
+from ...core.effects import CLEAR_AIR, Effects, ObjectMotion, Wind
+from ...core.effects.wind import pivots_of
 from ...core.hits import RayHits
-from ...core.motion.timing import SCAN_PERIOD
-from ...core.motion.wind import SWAYING_IDS, Sway, Wind, pivots_of
-from ...core.sensor import BEAMS_PER_2D_SCAN
+from ...core.sensors import SensorConfig
 from ...raycast.geometry import SceneGeometry
 
 # How far a swaying object may be from a 2D scan's plane at its start and still be reached:
@@ -22,16 +24,25 @@ from ...raycast.geometry import SceneGeometry
 PLANE_SLACK = 0.3  # m
 
 
-class SwayingScene:
-    """Static triangles in `static`, swaying ones rebuilt per 2D scan with `make(geometry)`."""
+def drive_effects(wind_deg: float, wind_seed: int) -> Effects:
+    """The effects of a drive: wind when it blows, else clear air."""
+    return Effects((Wind(wind_deg, wind_seed),)) if wind_deg else CLEAR_AIR
 
-    def __init__(self, static, swaying: SceneGeometry, sway: Sway, make, rh_deg: float):
-        self.name = f"{static.name}+wind"
+
+class MovingScene:
+    """Static triangles in `static`, moving ones rebuilt per 2D scan with `make(geometry)`."""
+
+    def __init__(
+        self, static, swaying: SceneGeometry, sway: ObjectMotion, make, sensor: SensorConfig, name: str
+    ):
+        self.name = f"{static.name}+{name}"
         self.static = static
         self.swaying = swaying
         self.sway = sway
         self.make = make
-        self.rh = dm.radians(rh_deg)
+        self.rh = dm.radians(sensor.rh_deg)
+        self.timing = sensor.device.timing
+        self.per_column = sensor.device.beams.count
         corners = swaying.vertices[swaying.faces]
         objects = len(sway.pivots)
         self.face_object = swaying.object_index
@@ -47,14 +58,17 @@ class SwayingScene:
         return hits if self.rest is None else nearer(hits, self.rest.cast(origins, directions, max_range))
 
     def cast_scans(self, origins, directions, max_range, ks) -> RayHits:
-        """The rays of 2D scans `ks` (1080 each, in order), each at its 2D scan's time."""
+        """The rays of 2D scans `ks` (a column of beams each, in order), each at its 2D scan's time."""
         hits = self.static.cast(origins, directions, max_range)
         if self.rest is None:
             return hits
         origins = np.broadcast_to(np.asarray(origins, dtype=np.float64), np.shape(directions))
+        n = self.per_column
         for row, k in enumerate(ks):
-            rays = slice(row * BEAMS_PER_2D_SCAN, (row + 1) * BEAMS_PER_2D_SCAN)
-            part = self._posed_near(origins[rays], directions[rays], max_range, k * SCAN_PERIOD)
+            rays = slice(row * n, (row + 1) * n)
+            part = self._posed_near(
+                origins[rays], directions[rays], max_range, k * self.timing.column_period_s
+            )
             if part is not None:
                 scan_hits = part.cast(origins[rays], directions[rays], max_range)
                 merged = nearer(_rows(hits, rays), scan_hits)
@@ -101,9 +115,13 @@ def _rows(hits: RayHits, rows: slice) -> RayHits:
     return hits.rows(rows)
 
 
-def swaying_scene(static_geometry: SceneGeometry, wind: Wind, make, rh_deg: float):
-    """The scene of `static_geometry` with its treetops, bushes and grass swaying in `wind`."""
-    moving = np.isin(static_geometry.class_id, SWAYING_IDS)
+def moving_scene(static_geometry: SceneGeometry, effects: Effects, make, sensor: SensorConfig):
+    """The scene of `static_geometry` as `effects` move it (the wind: treetops, bushes and grass
+    sway), behind a caster `make(geometry)` builds; a backend of its own when nothing moves."""
+    effect = effects.scene_mover
+    if effect is None:
+        return make(static_geometry)
+    moving = np.isin(static_geometry.class_id, effect.moving_classes)
     still = static_geometry.subset(~moving)
     still.offset = static_geometry.offset
     swaying = static_geometry.subset(moving)
@@ -113,4 +131,4 @@ def swaying_scene(static_geometry: SceneGeometry, wind: Wind, make, rh_deg: floa
     swaying.object_index = face_object.astype(np.int32)
     class_ids = swaying.class_id[first]
     pivots = pivots_of(swaying.vertices, swaying.faces, swaying.object_index, len(objects))
-    return SwayingScene(make(still), swaying, Sway(wind, class_ids, pivots), make, rh_deg)
+    return MovingScene(make(still), swaying, effect.motion(class_ids, pivots), make, sensor, effect.name)

@@ -15,7 +15,8 @@ A drive standing still takes the same rays as a static scan, bit for bit: rays o
 scans that share one attitude are turned by one matrix product (as run_scan turns them),
 and a motion of exactly zero is never applied, so even the sign of a zero is the same.
 Every product is detmath's (dm.apply, dm.matmul: summed in a fixed order), every sine
-and cosine too (via sensor.directions_at and rotations.py): the same bytes on every CPU.
+and cosine too (via sensors.directions_at and rotations.py): the same bytes on every CPU.
+Beams, their timing and the head's modes are the sensor's device's (sensors/device.py).
 """
 
 from __future__ import annotations
@@ -25,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..effects import CLEAR_AIR, Effects, Rays
 from ..pointcloud import PointCloud
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame
-from ..sensor import BEAMS_PER_2D_SCAN, SensorConfig, directions_at
+from ..sensors import SensorConfig, directions_at
 from .placements import Motion
 from .rotations import rotate
 from .timing import beam_fractions, beam_times, head_angles_rad
@@ -41,7 +43,7 @@ class Sweep:
 
     k0: int
     k1: int
-    returns: Returns  # per beam, (k1 - k0) * 1080 of them, scan-major
+    returns: Returns  # per beam, (k1 - k0) * beams a column (1080) of them, scan-major
     raw: PointCloud  # in `frame` at the start of 2D scan k0
     deskewed: PointCloud
     times: np.ndarray  # (N,) beam times, seconds after the start of 2D scan k0
@@ -57,26 +59,32 @@ def sweep(
     noise: np.ndarray,
     frame: str = "sensor",
     progress=None,
+    effects: Effects = CLEAR_AIR,
 ) -> Sweep:
     """Cast the beams of 2D scans k0 ... k1 - 1 and make their clouds. `noise` (N,) is the
-    range noise of each beam; `progress(rays)` hears of each chunk cast."""
+    range noise of each beam; `progress(rays)` hears of each chunk cast; the first hits pass
+    through `effects`' medium (none: clear air)."""
+    device = sensor.device
     ks = np.arange(k0, k1)
-    fraction = beam_fractions()
-    believed = directions_at(head_angles_rad(ks, sensor.rh_deg, head))  # (K, 1080, 3), Eq. 1
+    fraction = beam_fractions(device.timing)
+    believed = directions_at(head_angles_rad(ks, sensor.rh_deg, head, device.timing), device)  # Eq. 1
     true_local = _turned_during_scan(believed, motion.step[k0:k1], fraction)
     dirs_world = _by_attitude(true_local, motion.rotation[k0:k1])
     origins = _origins(motion, k0, k1, fraction)
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     hits = cast_in_chunks(backend, origins, dirs_world, cast_range, ks, progress)
+    if effects.changes_medium:  # the beams' times since the drive's start, for the medium
+        drive_times = beam_times(ks, timing=device.timing).ravel()
+        hits = effects.medium(Rays(origins, dirs_world, cast_range, drive_times), hits)
 
     returns = measure(hits, noise, sensor)
     keep, rho = returns.keep, returns.range[returns.keep]
     raw_sensor = believed.reshape(-1, 3)[keep] * rho[:, None]
     true_sensor = _deskewed(motion, k0, k1, true_local.reshape(-1, 3)[keep] * rho[:, None], keep, fraction)
 
-    times = beam_times(ks, since=k0).ravel()
-    ring = np.tile(np.arange(BEAMS_PER_2D_SCAN, dtype=np.uint16), len(ks))
-    sweep_index = np.repeat(np.arange(len(ks), dtype=np.uint16), BEAMS_PER_2D_SCAN)
+    times = beam_times(ks, since=k0, timing=device.timing).ravel()
+    ring = np.tile(np.asarray(device.beams.ring, dtype=np.uint16), len(ks))
+    sweep_index = np.repeat(np.arange(len(ks), dtype=np.uint16), device.beams.count)
     start = motion.placements[k0]
     raw = returns.cloud(points_in_frame(raw_sensor, start, frame), ring, sweep_index, frame, time=times)
     deskewed = returns.cloud(points_in_frame(true_sensor, start, frame), ring, sweep_index, frame, time=times)
@@ -84,22 +92,20 @@ def sweep(
 
 
 def cast_in_chunks(backend, origins, dirs, max_range, ks, progress):
-    """All rays, in chunks of whole 2D scans. A backend with `cast_scans` (a scene that moves
-    with time: wind.py) is told which 2D scan each chunk's rows belong to."""
+    """All rays, in chunks of whole 2D scans (columns: `dirs` holds len(ks) of them). A backend
+    with `cast_scans` (a scene that moves with time: an effect's, app/drive/wind.py) is told
+    which 2D scan each chunk's rows belong to."""
     from ..hits import RayHits
 
-    per_chunk = max(1, CAST_CHUNK // BEAMS_PER_2D_SCAN) * BEAMS_PER_2D_SCAN
+    per_column = len(dirs) // len(ks)
+    per_chunk = max(1, CAST_CHUNK // per_column) * per_column
     timed = getattr(backend, "cast_scans", None)
     parts = []
     for start in range(0, len(dirs), per_chunk):
         stop = min(start + per_chunk, len(dirs))
         o = origins if origins.ndim == 1 else origins[start:stop]
         if timed is not None:
-            parts.append(
-                timed(
-                    o, dirs[start:stop], max_range, ks[start // BEAMS_PER_2D_SCAN : stop // BEAMS_PER_2D_SCAN]
-                )
-            )
+            parts.append(timed(o, dirs[start:stop], max_range, ks[start // per_column : stop // per_column]))
         else:
             parts.append(backend.cast(o, dirs[start:stop], max_range))
         if progress is not None:
@@ -115,9 +121,7 @@ def _turned_during_scan(dirs: np.ndarray, step: np.ndarray, fraction: np.ndarray
         return dirs
     out = dirs.copy()
     rotvec = fraction[None, :, None] * step[turning][:, None, :]
-    out[turning] = rotate(dirs[turning].reshape(-1, 3), rotvec.reshape(-1, 3)).reshape(
-        -1, BEAMS_PER_2D_SCAN, 3
-    )
+    out[turning] = rotate(dirs[turning].reshape(-1, 3), rotvec.reshape(-1, 3)).reshape(-1, dirs.shape[1], 3)
     return out
 
 
@@ -131,11 +135,12 @@ def _runs(matrices: np.ndarray):
 
 
 def _by_attitude(local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """(K, 1080, 3) directions in each 2D scan's sensor frame -> (K * 1080, 3) world directions,
+    """(K, N, 3) directions in each 2D scan's sensor frame -> (K * N, 3) world directions,
     2D scans sharing one attitude turned by one product."""
-    out = np.empty((local.shape[0] * BEAMS_PER_2D_SCAN, 3))
+    n = local.shape[1]
+    out = np.empty((local.shape[0] * n, 3))
     for a, b in _runs(rotation):
-        out[a * BEAMS_PER_2D_SCAN : b * BEAMS_PER_2D_SCAN] = dm.apply(rotation[a], local[a:b].reshape(-1, 3))
+        out[a * n : b * n] = dm.apply(rotation[a], local[a:b].reshape(-1, 3))
     return out
 
 
@@ -154,7 +159,7 @@ def _deskewed(
     """Points measured from the true pose at their time (`vectors`: range times the true
     direction in the sensor frame at the start of the point's 2D scan), in the sensor frame
     at the start of 2D scan k0."""
-    scan_of = np.repeat(np.arange(k1 - k0), BEAMS_PER_2D_SCAN)[keep]
+    scan_of = np.repeat(np.arange(k1 - k0), len(fraction))[keep]
     frac = np.tile(fraction, k1 - k0)[keep]
     rotation, centre = motion.rotation, motion.centre
     start_r, start_c = rotation[k0], centre[k0]

@@ -1,9 +1,12 @@
 """When each beam is measured and where the head points then (numpy only).
 
-The Hokuyo UTM-30LX-EW turns its mirror at 40 Hz: one 2D scan every SCAN_PERIOD (25 ms),
-1440 steps of 0.25 deg a turn, of which the 1080 beams of the 270 deg field take
-1080/1440 of the period (18.75 ms; the rest of the turn faces the scanner's housing). So
-beam n of 2D scan k, counting 2D scans from the start of the drive, is measured at
+A device's timing (sensors/device.py `Timing`) says it: column k (a 2D scan) starts at
+k * column_period_s and its beam i fires beam_step[i] steps of column_period_s /
+steps_per_column later. The Hokuyo UTM-30LX-EW (the default, presets/utm30lx-ew.toml)
+turns its mirror at 40 Hz: one 2D scan every SCAN_PERIOD (25 ms), 1440 steps of 0.25 deg a
+turn, of which the 1080 beams of the 270 deg field take 1080/1440 of the period (18.75 ms;
+the rest of the turn faces the scanner's housing). So beam n of 2D scan k, counting 2D scans
+from the start of the drive, is measured at
 
     t = k * SCAN_PERIOD + n * BEAM_INTERVAL,     BEAM_INTERVAL = SCAN_PERIOD / 1440 (17.4 us)
 
@@ -24,40 +27,42 @@ import numpy as np
 
 from .. import detmath as dm
 from ..checks import one_of
-from ..sensor import BEAMS_PER_2D_SCAN
+from ..sensors import DEFAULT_DEVICE
+from ..sensors.device import HEAD_MODES, Timing
 
-SCAN_PERIOD = 0.025  # s, one 2D scan (40 Hz)
-STEPS_PER_TURN = 1440  # mirror steps in one turn (0.25 deg each)
-BEAM_INTERVAL = SCAN_PERIOD / STEPS_PER_TURN  # s between neighbouring beams
-FIELD_SWEEP_TIME = BEAMS_PER_2D_SCAN * BEAM_INTERVAL  # 18.75 ms: the 270 deg field
-HEAD_MODES = ("stepped", "continuous")
-
-
-def check_head(mode: str) -> str:
-    return one_of(mode, "head", HEAD_MODES)
+_T = DEFAULT_DEVICE.timing
+# The default device's timing, by the names the drive has always used
+SCAN_PERIOD = _T.column_period_s  # s, one 2D scan (40 Hz)
+STEPS_PER_TURN = _T.steps_per_column  # mirror steps in one turn (0.25 deg each)
+BEAM_INTERVAL = _T.step_interval_s  # s between neighbouring beams
+FIELD_SWEEP_TIME = _T.field_time_s  # 18.75 ms: the 270 deg field
 
 
-def beam_fractions() -> np.ndarray:
-    """(1080,) how far into its 2D scan's period each beam is measured (0 ... 0.749)."""
-    return np.arange(BEAMS_PER_2D_SCAN, dtype=np.float64) / STEPS_PER_TURN
+def check_head(mode: str, heads: tuple[str, ...] = HEAD_MODES) -> str:
+    return one_of(mode, "head", heads)
 
 
-def scan_times(k: np.ndarray) -> np.ndarray:
+def beam_fractions(timing: Timing = _T) -> np.ndarray:
+    """(N,) how far into its column's period each beam is measured (0 ... 0.749)."""
+    return np.asarray(timing.beam_step, dtype=np.float64) / timing.steps_per_column
+
+
+def scan_times(k: np.ndarray, timing: Timing = _T) -> np.ndarray:
     """Start time (s) of 2D scans k: its first beam."""
-    return np.asarray(k, dtype=np.float64) * SCAN_PERIOD
+    return np.asarray(k, dtype=np.float64) * timing.column_period_s
 
 
-def beam_times(k: np.ndarray, since: int = 0) -> np.ndarray:
-    """(K, 1080) time of every beam of 2D scans k, in seconds after the start of 2D scan
+def beam_times(k: np.ndarray, since: int = 0, timing: Timing = _T) -> np.ndarray:
+    """(K, N) time of every beam of 2D scans k, in seconds after the start of 2D scan
     `since` (the drive's start by default, a 3D scan's first 2D scan for its points)."""
-    steps = (np.asarray(k, dtype=np.int64) - since)[:, None] * STEPS_PER_TURN
-    return (steps + np.arange(BEAMS_PER_2D_SCAN)) * BEAM_INTERVAL
+    steps = (np.asarray(k, dtype=np.int64) - since)[:, None] * timing.steps_per_column
+    return (steps + np.asarray(timing.beam_step, dtype=np.int64)) * timing.step_interval_s
 
 
-def head_angles_rad(k: np.ndarray, rh_deg: float, mode: str) -> np.ndarray:
+def head_angles_rad(k: np.ndarray, rh_deg: float, mode: str, timing: Timing = _T) -> np.ndarray:
     """Head angle of 2D scans k: (K,) for the stepped head (Eq. 1's m * r_h, counted on from
-    the drive's start), (K, 1080) one per beam for the continuous head."""
+    the drive's start), (K, N) one per beam for the continuous head."""
     k = np.asarray(k, dtype=np.float64)
     if check_head(mode) == "stepped":
         return dm.deg2rad(k * rh_deg)
-    return dm.deg2rad((k[:, None] + beam_fractions()[None, :]) * rh_deg)
+    return dm.deg2rad((k[:, None] + beam_fractions(timing)[None, :]) * rh_deg)

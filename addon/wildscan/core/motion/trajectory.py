@@ -133,20 +133,24 @@ class Schedule:
     scans_2d: int  # K: 2D scans, every one on /laser2D and in the trajectory
     scans_3d: int  # J: complete 3D scans (the first J * sweeps 2D scans)
     sweeps: int  # M: 2D scans in a 3D scan
+    period: float = SCAN_PERIOD  # s a 2D scan: the device's column period
 
     @property
     def duration(self) -> float:
-        return self.scans_2d * SCAN_PERIOD
+        return self.scans_2d * self.period
 
 
-def schedule(path: Path, speed: float, sweeps: int, scans_3d: int | None = None) -> Schedule:
+def schedule(
+    path: Path, speed: float, sweeps: int, scans_3d: int | None = None, period: float = SCAN_PERIOD
+) -> Schedule:
     """The 2D scans of a drive along `path` at `speed`: as many as fit until the robot reaches
     the path's end (all of them, then, whole 3D scans or not), or exactly `scans_3d` 3D scans.
-    Standing still (speed 0) takes `scans_3d` (default 1) 3D scans."""
+    Standing still (speed 0) takes `scans_3d` (default 1) 3D scans. `period`: the device's
+    time a 2D scan (sensors/device.py Timing.column_period_s)."""
     speed = check_speed(speed)
     if scans_3d is not None:
         scans_2d = scans_3d * sweeps
-        need = speed * scans_2d * SCAN_PERIOD
+        need = speed * scans_2d * period
         if need > path.length * (1 + 1e-12) + 1e-9:
             raise UserError(
                 f"{scans_3d} 3D scans at {speed:g} m/s need {need:.2f} m of path, and the path is "
@@ -157,25 +161,27 @@ def schedule(path: Path, speed: float, sweeps: int, scans_3d: int | None = None)
         scans_2d = sweeps
     else:
         # a whisker of slack so a path of exactly K periods' length gives K, not K - 1
-        scans_2d = int(math.floor(path.length / (speed * SCAN_PERIOD) * (1 + 1e-12) + 1e-9))
+        scans_2d = int(math.floor(path.length / (speed * period) * (1 + 1e-12) + 1e-9))
     if scans_2d > MAX_SCAN_COUNT:
         raise UserError(
-            f"the drive would take {scans_2d:,} 2D scans ({scans_2d * SCAN_PERIOD:.0f} s); at most "
+            f"the drive would take {scans_2d:,} 2D scans ({scans_2d * period:.0f} s); at most "
             f"{MAX_SCAN_COUNT:,}: drive a shorter path or faster",
             setting="speed",
         )
     if scans_2d < sweeps:
         raise UserError(
-            f"the path ({path.length:.2f} m at {speed:g} m/s, {scans_2d * SCAN_PERIOD:.2f} s) is shorter "
-            f"than one 3D scan ({sweeps} 2D scans, {sweeps * SCAN_PERIOD:g} s); drive farther or slower",
+            f"the path ({path.length:.2f} m at {speed:g} m/s, {scans_2d * period:.2f} s) is shorter "
+            f"than one 3D scan ({sweeps} 2D scans, {sweeps * period:g} s); drive farther or slower",
             setting="speed",
         )
-    return Schedule(scans_2d, scans_2d // sweeps, sweeps)
+    return Schedule(scans_2d, scans_2d // sweeps, sweeps, period)
 
 
-def instants(path: Path, speed: float, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where the robot is at the start of 2D scans 0 ... count - 1: (time (count,), xy
-    (count, 2), yaw in degrees (count,))."""
-    t = np.arange(count, dtype=np.float64) * SCAN_PERIOD
+def instants(
+    path: Path, speed: float, count: int, period: float = SCAN_PERIOD
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the robot is at the start of 2D scans 0 ... count - 1 (`period` s apart): (time
+    (count,), xy (count, 2), yaw in degrees (count,))."""
+    t = np.arange(count, dtype=np.float64) * period
     xy, yaw = path.at(speed * t)
     return t, xy, yaw

@@ -1,4 +1,4 @@
-"""Wind: foliage swaying over time (numpy only).
+"""Wind: foliage swaying over time (numpy only), the first effect that moves the scene.
 
 Treetops, bushes and grass tilt about their base (the bottom centre of the object's
 bounding box: where a crown sits on its trunk, where a bush or a tuft meets the ground) by
@@ -6,7 +6,9 @@ small rotations that change with time: each object oscillates along the wind's d
 at its own seeded frequency and phase, with a weaker crosswind component. Grass moves
 most and fastest, crowns least and slowest. Everything else stands still, and every
 triangle keeps its class and instance, so labels stay exact. The sway is detmath's (the
-posed foliage decides hits: the same bits on every CPU).
+posed foliage decides hits: the same bits on every CPU). The caster that poses the
+triangles for each column's time is app/drive/wind.py `moving_scene`, which asks the
+effect (`moving_classes`, `motion`) as base.py describes.
 """
 
 from __future__ import annotations
@@ -18,8 +20,9 @@ import numpy as np
 
 from .. import detmath as dm
 from ..classes import class_by_name
+from ..motion.rotations import matrix
 from ..rng import stage_rng
-from .rotations import matrix
+from .base import Effect
 
 # class -> (amplitude relative to the treetops', lowest and highest frequency in Hz)
 SWAY = {
@@ -33,9 +36,19 @@ CROSSWIND = 0.3  # the crosswind component's share of the amplitude
 
 
 @dataclass(frozen=True)
-class Wind:
+class Wind(Effect):
     amplitude_deg: float  # peak sway of the treetops
     seed: int = 0
+
+    name = "wind"
+    moves_scene = True
+    moving_classes = SWAYING_IDS
+
+    def describe(self) -> dict:
+        return {"amplitude_deg": self.amplitude_deg, "seed": self.seed}
+
+    def motion(self, class_ids: np.ndarray, pivots: np.ndarray) -> "Sway":
+        return Sway(self, class_ids, pivots)
 
 
 class Sway:

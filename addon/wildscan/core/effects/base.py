@@ -1,0 +1,114 @@
+"""What an effect is and the collection a scan takes (numpy only).
+
+An effect changes what the sensor measures through one or both of two hooks:
+
+  the medium   `medium(rays, hits) -> hits`: given the rays a scan cast and their first
+               hits, the hits the sensor sees through the air between (fog, rain, dust
+               attenuate a beam into a miss, or return it from a particle: a hit at the
+               particle's range with class `particle`). Same rows, same fields. In the
+               realistic model the rays are the beams' sub-rays, so a particle met by part
+               of a footprint becomes an extra echo. Every scan path calls it once, on its
+               first hits, before ranges are measured: core/scan.py (paper), core/realistic.py,
+               core/motion/sweep.py.
+  the scene    `moving_classes` and `motion(class_ids, pivots)`: which objects move with
+  at a time    time and where they are at time t (the drive's wind). Posing triangles needs a
+               ray caster, so the caster lives with the backends (app/drive/wind.py
+               `moving_scene`) and asks the effect; the scan paths see a backend whose
+               `cast_scans` answers for each column's time.
+
+`Effects()` is clear air: no effect, and `medium` returns the very hits it was given
+(nothing computed, nothing copied), so every scan without effects keeps its bytes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from ..errors import UserError
+from ..hits import RayHits
+
+
+@dataclass(frozen=True)
+class Rays:
+    """The rays a scan cast: origins (3,) shared or (N, 3), unit directions (N, 3) in the
+    world frame, cast to `max_range`; `times` (N,) seconds after the scan's start when the
+    path knows them (the motion sweep), else None."""
+
+    origins: np.ndarray
+    directions: np.ndarray
+    max_range: float
+    times: np.ndarray | None = None
+
+
+class ObjectMotion(Protocol):
+    """Where moving objects are at a time: E objects turning about their pivots."""
+
+    pivots: np.ndarray  # (E, 3)
+
+    def posed(self, vertices: np.ndarray, vertex_object: np.ndarray, t: float) -> np.ndarray:
+        """Vertices (V, 3) of objects `vertex_object` (V,) where they are at time t (s)."""
+        ...
+
+
+class Effect:
+    """The base of every effect: no hook until a subclass sets its flag and method.
+
+    name            what files and messages call it ("wind", "fog")
+    changes_medium  True when `medium` is overridden
+    moves_scene     True when `moving_classes` and `motion` are
+    """
+
+    name = "effect"
+    changes_medium = False
+    moves_scene = False
+    moving_classes: tuple[int, ...] = ()
+
+    def describe(self) -> dict:
+        """The effect's settings, as files record them."""
+        return {}
+
+    def medium(self, rays: Rays, hits: RayHits) -> RayHits:
+        return hits
+
+    def motion(self, class_ids: np.ndarray, pivots: np.ndarray) -> ObjectMotion:
+        raise NotImplementedError(f"{self.name} does not move the scene")
+
+
+@dataclass(frozen=True)
+class Effects:
+    """The effects of a scan, applied in the order given. Empty: clear air."""
+
+    items: tuple[Effect, ...] = ()
+
+    def __post_init__(self):
+        movers = [e.name for e in self.items if e.moves_scene]
+        if len(movers) > 1:
+            raise UserError(f"effects {', '.join(movers)} both move the scene; only one may so far")
+
+    def __bool__(self) -> bool:
+        return bool(self.items)
+
+    @property
+    def changes_medium(self) -> bool:
+        return any(e.changes_medium for e in self.items)
+
+    @property
+    def scene_mover(self) -> Effect | None:
+        """The one effect that moves the scene, if any."""
+        return next((e for e in self.items if e.moves_scene), None)
+
+    def medium(self, rays: Rays, hits: RayHits) -> RayHits:
+        """The hits seen through every effect's medium in turn; clear air: `hits` itself."""
+        for effect in self.items:
+            if effect.changes_medium:
+                hits = effect.medium(rays, hits)
+        return hits
+
+    def describe(self) -> dict:
+        return {e.name: e.describe() for e in self.items}
+
+
+CLEAR_AIR = Effects()

@@ -1,0 +1,128 @@
+"""Beam directions of a device (numpy only): Eq. 1 for the UTM-30LX-EW, and any beam table.
+
+Beam i of column m points along Rz(ψ) · (sin θi, 0, cos θi), ψ = φm + αi (device.py). The
+sines and cosines are detmath's (np.sin is the C library's, which differs by CPU), taken
+once per beam (θ) and once per column (φ), then multiplied in a fixed order: the same bits
+on every machine. A planar table (every α 0, the UTM-30LX-EW's fan) keeps ψ = φm, one
+angle a column, which is Eq. 1's arithmetic exactly; a table with offsets takes one ψ a
+beam and column. Either way the head's sines and cosines come as (M, 1) or (M, N) arrays
+that broadcast against the beams' (N,).
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .. import detmath as dm
+from .config import sweep_count
+from .device import BeamTable, Device
+from .load import DEFAULT_DEVICE
+
+
+def from_axis_rad(beams: BeamTable) -> np.ndarray:
+    """θ of each beam, radians: for the UTM-30LX-EW θn = n·r_v − 135° (Eq. 1)."""
+    return dm.deg2rad(np.asarray(beams.from_axis_deg, dtype=np.float64))
+
+
+@functools.lru_cache(maxsize=8)
+def _beam_sincos(beams: BeamTable) -> tuple[np.ndarray, np.ndarray]:
+    return dm.sincos(from_axis_rad(beams))
+
+
+def _psi_sincos(beams: BeamTable, phi_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sin and cos of ψ for head angles `phi_rad`: (K,) one a column or (K, N) one a beam,
+    returned (K, 1) or (K, N) to broadcast against the beams."""
+    phi = np.asarray(phi_rad, dtype=np.float64)
+    if phi.ndim == 1:
+        phi = phi[:, None]
+    if not beams.planar:
+        phi = phi + dm.deg2rad(np.asarray(beams.azimuth_offset_deg, dtype=np.float64))[None, :]
+    return dm.sincos(phi)
+
+
+@functools.lru_cache(maxsize=8)
+def beam_angles(device: Device, rh_deg: float, m_count: int):
+    """(sin θ (N,), cos θ (N,), sin ψ, cos ψ ((M, 1) or (M, N))), φm = m·r_h, cached."""
+    sin_t, cos_t = _beam_sincos(device.beams)
+    sin_p, cos_p = _psi_sincos(device.beams, dm.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg))
+    return sin_t, cos_t, sin_p, cos_p
+
+
+def beam_directions(rh_deg: float, device: Device = DEFAULT_DEVICE):
+    """Unit beam directions of a full 3D scan in the sensor frame (Eq. 1 with ρ = 1).
+
+    Returns (dirs (N,3) float64, ring (N,) uint16, column m (N,) uint16), column-major: all
+    beams of column 0, then of column 1, … Cached per (device, r_h) and read-only.
+    """
+    return _beam_directions(device, float(rh_deg), sweep_count(rh_deg, device.mount))
+
+
+@functools.lru_cache(maxsize=8)
+def _beam_directions(device: Device, rh_deg: float, m_count: int):
+    sin_t, cos_t, sin_p, cos_p = beam_angles(device, rh_deg, m_count)
+    n = device.beams.count
+    dirs = np.empty((m_count, n, 3))
+    dirs[:, :, 0] = cos_p * sin_t[None, :]
+    dirs[:, :, 1] = sin_p * sin_t[None, :]
+    dirs[:, :, 2] = cos_t[None, :]
+    ring = np.tile(np.asarray(device.beams.ring, dtype=np.uint16), m_count)
+    column = np.repeat(np.arange(m_count, dtype=np.uint16), n)
+    arrays = (dirs.reshape(-1, 3), ring, column)
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+def rotated_beam_directions(
+    rotation: np.ndarray, rh_deg: float, device: Device = DEFAULT_DEVICE
+) -> np.ndarray:
+    """The beams of `beam_directions(rh_deg, device)` turned by `rotation` (3x3; the
+    placement's sensor -> world), (N, 3) float64 in the same order.
+
+    Beam (i, m) is R·Rz(ψ)·(sin θi, 0, cos θi) = a sin θi + R[:, 2] cos θi with
+    a = R[:, 0] cos ψ + R[:, 1] sin ψ: three products a beam in a fixed order, where
+    R @ dirs would take nine and let the BLAS kernel (so the CPU) choose their order."""
+    m_count = sweep_count(rh_deg, device.mount)
+    sin_t, cos_t, sin_p, cos_p = beam_angles(device, float(rh_deg), m_count)
+    r = np.asarray(rotation, dtype=np.float64)
+    out = np.empty((m_count, device.beams.count, 3))
+    for i in range(3):
+        a = cos_p * r[i, 0] + sin_p * r[i, 1]
+        component = out[:, :, i]
+        np.multiply(a, sin_t[None, :], out=component)
+        component += r[i, 2] * cos_t
+    return out.reshape(-1, 3)
+
+
+def directions_at(head_rad: np.ndarray, device: Device = DEFAULT_DEVICE) -> np.ndarray:
+    """Beam directions (sensor frame, unit) for head angles `head_rad`: (K,) one angle a
+    column (the stepped head of Eq. 1) or (K, N) one a beam (a head that turns while the
+    beams fire). Returns (K, N, 3)."""
+    sin_t, cos_t = _beam_sincos(device.beams)
+    sin_p, cos_p = _psi_sincos(device.beams, head_rad)
+    dirs = np.empty((len(sin_p), device.beams.count, 3))
+    dirs[:, :, 0] = cos_p * sin_t[None, :]
+    dirs[:, :, 1] = sin_p * sin_t[None, :]
+    dirs[:, :, 2] = cos_t[None, :]
+    return dirs
+
+
+@functools.lru_cache(maxsize=4)
+def beam_frames(device: Device, rh_deg: float, m_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit vectors across each beam, column-major as beam_directions: e_u = d(dir)/dθ (along
+    the scan line) and e_v = d(dir)/dψ / sin θ (along the head's turn), both (N, 3)."""
+    sin_t, cos_t, sin_p, cos_p = beam_angles(device, rh_deg, m_count)
+    n = device.beams.count
+    e_u = np.empty((m_count, n, 3))
+    e_u[:, :, 0] = cos_p * cos_t[None, :]
+    e_u[:, :, 1] = sin_p * cos_t[None, :]
+    e_u[:, :, 2] = -sin_t[None, :]
+    e_v = np.zeros((m_count, n, 3))
+    e_v[:, :, 0] = -sin_p
+    e_v[:, :, 1] = cos_p
+    arrays = (e_u.reshape(-1, 3), e_v.reshape(-1, 3))
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays

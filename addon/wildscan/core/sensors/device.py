@@ -1,0 +1,148 @@
+"""A sensor device as data (numpy only): its beams, when they fire, its range limits, noise,
+optics and mount. A device file (presets/*.toml, read by load.py) fills these; the scan
+paths read them, never module constants.
+
+Beams. One *column* of beams fires per step of the mount: for a 2D scanner on a rotating
+head a column is one 2D scan (the UTM-30LX-EW's 1080 beams), for a spinning multi-beam
+lidar one firing of its lasers. Beam i of a column points along
+
+    Rz(ψ) · (sin θi, 0, cos θi),   ψ = the mount's angle for the column + αi
+
+θi its angle from the mount's axis (+Z of the sensor frame; signed, in the plane at
+azimuth αi) and αi its azimuth offset. The UTM-30LX-EW is a *planar fan*: θn = first +
+n·step, every α 0 (Eq. 1). A multi-beam lidar lists θ (as elevation, 90° − θ) and α per
+beam, and rings number its beams from the lowest elevation (0) up.
+
+Mount. `rotating`: the device on a head turning about the axis by `step_deg` (r_h) a
+column, stepped or continuously, through `sweep_deg` a 3D scan (Eq. 1: 180°). `spinning`
+(the device itself turns continuously, 360°) and `fixed` (one column) are data a device
+file may state; the scan paths refuse them until they support them (`check_scannable`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import UserError
+
+MOUNT_KINDS = ("rotating", "spinning", "fixed")
+HEAD_MODES = ("stepped", "continuous")
+
+
+@dataclass(frozen=True)
+class BeamTable:
+    """The beams of one column, in firing order (the order of every scan's arrays)."""
+
+    from_axis_deg: tuple[float, ...]  # θ per beam: angle from the mount's axis
+    azimuth_offset_deg: tuple[float, ...]  # α per beam
+    ring: tuple[int, ...]  # the ring number written with each beam's points
+    # a planar fan's (first, step) in degrees (θ = first + n·step), None for a beam table
+    fan: tuple[float, float] | None = None
+
+    @property
+    def count(self) -> int:
+        return len(self.from_axis_deg)
+
+    @property
+    def planar(self) -> bool:
+        """Every beam in the one plane through the axis at the column's angle (no offsets):
+        the fast path of beams.py, Eq. 1's arithmetic bit for bit."""
+        return not any(self.azimuth_offset_deg)
+
+    @property
+    def elevation_deg(self) -> np.ndarray:
+        """(count,) elevation above the plane normal to the axis, 90° − θ."""
+        return 90.0 - np.asarray(self.from_axis_deg, dtype=np.float64)
+
+    @property
+    def blind_cone_half_angle_deg(self) -> float:
+        """How close to straight down (−axis) the nearest beam comes."""
+        return 180.0 - float(np.max(np.abs(self.from_axis_deg)))
+
+
+@dataclass(frozen=True)
+class Timing:
+    """When beams fire: column k starts at k·column_period_s, beam i of it fires
+    beam_step[i] steps of column_period_s / steps_per_column later."""
+
+    column_period_s: float
+    steps_per_column: int
+    beam_step: tuple[int, ...]
+
+    @property
+    def step_interval_s(self) -> float:
+        return self.column_period_s / self.steps_per_column
+
+    @property
+    def column_period_ns(self) -> int:
+        """The period in whole nanoseconds (bag stamps), exact by the loader's check."""
+        return round(self.column_period_s * 1e9)
+
+    @property
+    def field_time_s(self) -> float:
+        """From the first beam of a column to just after its last."""
+        return (max(self.beam_step) + 1) * self.step_interval_s
+
+
+@dataclass(frozen=True)
+class RangeLimits:
+    min_m: float  # default shortest range kept
+    max_m: float  # default longest range kept
+    max_dark_m: float  # the device's longest range (in the dark): the limit of max_range
+
+
+@dataclass(frozen=True)
+class Noise:
+    sigma_m: float  # the fixed σ of the paper model
+    accuracy: tuple[tuple[float, float], ...]  # (up to this range m, ± m): the datasheet's
+    accuracy_sigmas: float  # how many σ the datasheet's ± stands for
+
+
+@dataclass(frozen=True)
+class Optics:
+    divergence_mrad: float  # full angle at 1/e^2, the realistic model's default
+    echoes: int  # the most echoes a beam returns (the default, and the limit)
+    echo_separation_m: float  # closer surfaces merge into one echo (default)
+
+
+@dataclass(frozen=True)
+class Mount:
+    kind: str  # MOUNT_KINDS
+    axis: tuple[float, float, float]  # the turning axis in the sensor frame
+    tilt_deg: float  # the device's tilt on the mount
+    step_deg: float  # default r_h: the turn per column
+    min_step_deg: float  # finest r_h allowed
+    sweep_deg: float  # the turn of one 3D scan
+    heads: tuple[str, ...] = HEAD_MODES  # how the head may turn: stepped, continuous
+
+
+@dataclass(frozen=True)
+class Device:
+    id: str  # "utm30lx-ew": the name a user asks for
+    vendor: str
+    model: str
+    beams: BeamTable
+    timing: Timing
+    ranges: RangeLimits
+    noise: Noise
+    optics: Optics
+    mount: Mount
+
+    @property
+    def name(self) -> str:
+        """How files name the device: "Hokuyo UTM-30LX-EW"."""
+        return f"{self.vendor} {self.model}"
+
+    def check_scannable(self) -> "Device":
+        """The device as the scan paths support it so far: a rotating head turning about
+        the sensor's Z axis, untilted (the spinning and fixed mounts are data for now)."""
+        mount = self.mount
+        if mount.kind != "rotating" or mount.axis != (0.0, 0.0, 1.0) or mount.tilt_deg != 0:
+            raise UserError(
+                f"{self.id}: the scans support a rotating mount about [0, 0, 1] with tilt 0 so far, got "
+                f"{mount.kind} about {list(mount.axis)} with tilt {mount.tilt_deg:g}",
+                setting="device",
+            )
+        return self
