@@ -55,7 +55,7 @@ def load_device(path) -> Device:
 
 
 def device_from_text(text: str, where: str = "device.toml") -> Device:
-    toml = _toml()
+    toml = toml_reader()
     try:
         data = toml.loads(text)
     except toml.TOMLDecodeError as e:
@@ -63,7 +63,7 @@ def device_from_text(text: str, where: str = "device.toml") -> Device:
     return device_from_dict(data, where)
 
 
-def _toml():
+def toml_reader():
     try:
         import tomllib
     except ImportError:  # Python 3.10: the same parser as a package
@@ -104,7 +104,7 @@ def _beams(t: "_Table") -> BeamTable:
         if first + (count - 1) * step > 180.0:
             raise t.fail(
                 "step_deg",
-                f"at most {(180.0 - first) / max(count - 1, 1):g} (the fan's last beam past 180)",
+                f"at most {(180.0 - first) / max(count - 1, 1):g} (the last beam within 180 deg)",
                 step,
             )
         # θn = n·step + first in float64, exactly Eq. 1's arithmetic (beams.py takes these values)
@@ -125,10 +125,12 @@ def _timing(t: "_Table", beams: BeamTable) -> Timing:
     steps = t.integer("steps_per_column", 1, MAX_STEPS_PER_COLUMN)
     if "beam_step" in t.data:
         beam_step = t.integers("beam_step", 0, steps - 1, beams.count, beams.count)
-    elif beams.fan is not None and beams.count <= steps:
-        beam_step = tuple(range(beams.count))  # a fan's mirror meets beam n at step n
-    else:
+    elif beams.fan is None:
         raise t.fail("beam_step", f"a list of {beams.count} steps (one a beam) from 0 to {steps - 1}", None)
+    elif beams.count > steps:
+        raise t.fail("steps_per_column", f"at least the fan's {beams.count} beams (one a step)", steps)
+    else:
+        beam_step = tuple(range(beams.count))  # a fan's mirror meets beam n at step n
     return Timing(period, steps, beam_step)
 
 
