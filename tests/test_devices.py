@@ -160,3 +160,15 @@ def test_the_scan_limits_come_from_the_device():
 def test_a_mount_the_scans_do_not_support_yet_is_refused_by_name():
     with pytest.raises(UserError, match="toy4: the scans support a rotating mount .* got spinning"):
         SensorConfig.for_device(table_device("spinning")).validate()
+
+
+def test_the_fallback_reader_reads_the_presets_as_tomllib_does():
+    """Blender 3.4-4.0's Python 3.10 has neither tomllib nor tomli: the add-on reads its
+    presets with simple_toml, which must agree with the real parser."""
+    from wildscan.core.sensors import simple_toml
+
+    for path in PRESETS_DIR.glob("*.toml"):
+        text = path.read_text(encoding="utf-8")
+        assert simple_toml.loads(text) == toml_reader().loads(text), path.name
+    with pytest.raises(simple_toml.TOMLDecodeError, match="line 2: .*install tomli"):
+        simple_toml.loads("[a]\nx = true\n")

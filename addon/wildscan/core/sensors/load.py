@@ -64,15 +64,15 @@ def device_from_text(text: str, where: str = "device.toml") -> Device:
 
 
 def toml_reader():
+    """tomllib, or on Python 3.10 the same parser as a package (tomli), or, with neither (the
+    Python of Blender 3.4-4.0), the plain TOML of the presets (simple_toml.py)."""
     try:
         import tomllib
-    except ImportError:  # Python 3.10: the same parser as a package
+    except ImportError:
         try:
             import tomli as tomllib
         except ImportError:
-            raise UserError(
-                "reading a device file needs Python 3.11 or the tomli package (pip install tomli)"
-            ) from None
+            from . import simple_toml as tomllib
     return tomllib
 
 
