@@ -34,8 +34,9 @@ from ..hits import RayHits
 @dataclass(frozen=True)
 class Rays:
     """The rays a scan cast: origins (3,) shared or (N, 3), unit directions (N, 3) in the
-    world frame, cast to `max_range`; `times` (N,) seconds after the scan's start when the
-    path knows them (the motion sweep), else None."""
+    world frame, cast to `max_range`; `times` (N,) each ray's time, seconds since the run's
+    first column (a drive's start), where the path has them (the motion sweep; a static
+    scan gives None)."""
 
     origins: np.ndarray
     directions: np.ndarray
