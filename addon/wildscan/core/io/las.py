@@ -21,11 +21,14 @@ from __future__ import annotations
 
 import datetime
 import io
+from pathlib import Path
 
 import numpy as np
 
+from ... import __version__
 from ..classes import BY_ID, COLOR_BY_ID, WATER_ID
 from ..label_schemes import SchemeError, ids_by_class_id
+from .writer import ScanFile, ScanOutput, Writer
 
 # WildScan class -> ASPRS classification code (LAS 1.4 R15 table 17), checked at import like the
 # label schemes (core/label_schemes.py): every class of core/classes.py needs one entry.
@@ -142,6 +145,30 @@ def las_bytes(
     out = io.BytesIO()
     las.write(out)
     return out.getvalue()
+
+
+def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
+    """The format table's LAS writer (formats.py). In the world frame the offsets are the
+    optical centre rounded to the metre, so the scale's 0.1 mm steps hold far from the origin."""
+    cloud = scan.cloud
+    fields = {"instance": cloud.instance, "ring": cloud.ring, "sweep": cloud.sweep, "range": cloud.range}
+    fields.update(cloud.extra)  # the realistic model's echo, echoes, label_purity, mixed
+    if scan.hag is not None:
+        fields["hag"] = scan.hag
+    offsets = np.zeros(3)
+    if cloud.frame == "world":
+        offsets = np.round(np.asarray(scan.metadata["placement"]["optical_centre"], dtype=np.float64))
+    mapped = scan.labels.map(cloud.label)
+    return {"las": las_bytes(cloud.xyz, cloud.intensity, cloud.label, mapped, fields, __version__, offsets)}
+
+
+WRITER = Writer(
+    name="las",
+    writes="LAS 1.4: ASPRS classification, intensity, class colours; WildScan label, instance as extra bytes",
+    files=(ScanFile("las", ".las", "las"),),
+    scan_labels="wildscan",
+    encode=encode,
+)
 
 
 def asprs_table_rows() -> list[tuple[int, str, str]]:
