@@ -164,6 +164,7 @@ def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
 
 WRITER = Writer(
     name="las",
+    title="LAS 1.4",
     writes="LAS 1.4: ASPRS classification, intensity, class colours; WildScan label, instance as extra bytes",
     files=(ScanFile("las", ".las", "las"),),
     scan_labels="wildscan",

@@ -337,6 +337,7 @@ def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
 
 WRITER = Writer(
     name="ply",
+    title="PLY",
     writes="PLY: x y z, intensity, WildScan label, instance, class colour, ring, sweep, range; JSON sidecar",
     files=(ScanFile("ply", ".ply", "ply"), ScanFile("ply_sidecar", ".json", "ply")),
     scan_labels="wildscan",

@@ -80,6 +80,7 @@ def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
 
 WRITER = Writer(
     name="semantickitti",
+    title="SemanticKITTI",
     writes="SemanticKITTI: velodyne .bin (x y z remission) + .label (SemanticKITTI class, instance)",
     files=(
         ScanFile("velodyne", ".bin", "velodyne"),

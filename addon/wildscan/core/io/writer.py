@@ -44,12 +44,14 @@ class ScanOutput:
 
 @dataclass(frozen=True)
 class Writer:
-    """A format: its name (--format NAME, a dataset's `formats`), what it writes, its files per
-    scan (the first is the one --out names, the others go beside it with their own suffixes),
-    the label ids a single scan in it carries, and `encode(scan, paths) -> {kind: bytes}`
-    (paths: kind -> where each file goes, which a file may mention, as a PLY's sidecar does)."""
+    """A format: its name (--format NAME, a dataset's `formats`), its title (the add-on's
+    export menu), what it writes, its files per scan (the first is the one --out names, the
+    others go beside it with their own suffixes), the label ids a single scan in it carries,
+    and `encode(scan, paths) -> {kind: bytes}` (paths: kind -> where each file goes, which a
+    file may mention, as a PLY's sidecar does)."""
 
     name: str
+    title: str
     writes: str
     files: tuple[ScanFile, ...]
     scan_labels: str  # the label scheme (core/label_schemes.py) of `wildscan scan --format NAME`
