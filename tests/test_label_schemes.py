@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pytest
 
-from wildscan.core.classes import ALL_ELEMENTS, class_by_name
+from wildscan.core.classes import ALL_ELEMENTS, ElementClass, class_by_name
 from wildscan.core.io.las import ASPRS_BY_CLASS, asprs_codes
 from wildscan.core.label_schemes import OTHER, SCHEMES, SchemeError, ids_by_class_id, scheme
 
@@ -128,3 +128,12 @@ def test_a_class_added_to_the_table_but_not_to_the_schemes_stops_the_import():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.returncode != 0
     assert "SchemeError: label scheme 'semantickitti' has no id for class 'log'" in done.stderr
+
+
+def test_two_classes_with_one_reflectivity_stop_the_import():
+    """Labels come from intensities (the paper): a new class needs a reflectivity of its own."""
+    from wildscan.core.classes import _check_table
+
+    twin = ElementClass(14, "log", 90.0, (1, 2, 3))  # trunk's 90
+    with pytest.raises(ValueError, match=r"share the reflectivity \[90.0\]"):
+        _check_table((*ALL_ELEMENTS, twin))
