@@ -255,9 +255,11 @@ class WILDSCAN_OT_scan(Operator):
 
 
 def _format_items():
-    from ..core.io.formats import WRITERS
+    """The Format menu: the table's formats (core/io/formats.py), the default first."""
+    from ..core.io.formats import DEFAULT_FORMAT, WRITERS
 
-    return [(name, w.title, w.writes) for name, w in WRITERS.items()]
+    names = sorted(WRITERS, key=lambda name: name != DEFAULT_FORMAT)  # stable: the table's order after
+    return [(name, WRITERS[name].title, WRITERS[name].writes) for name in names]
 
 
 def _scan_file_globs() -> str:
