@@ -183,7 +183,7 @@ def test_register_unregister_register_leaves_exactly_one_of_everything():
     wildscan.register()
     assert hasattr(bpy.types.Scene, "wildscan") and len(our_handlers()) == 1
     assert draw._state["handle"] is not None
-    for op in ("generate_world", "aerial_view", "scan", "export_ply"):
+    for op in ("generate_world", "aerial_view", "scan", "export_scan", "export_ply"):
         assert getattr(bpy.ops.wildscan, op).idname() == f"WILDSCAN_OT_{op}"
 
 
@@ -478,6 +478,36 @@ def test_export_mistakes_are_reports(scene, tmp_path):
     # a user message, not an internal-error report (issue 9, fault 5)
     assert_rejected(bpy.ops.wildscan.export_ply, "longer than", filepath=str(tmp_path / ("x" * 300 + ".ply")))
     assert not any(tmp_path.iterdir())
+
+
+def test_export_writes_every_format_of_the_table_with_the_same_points(scene, tmp_path):
+    """The add-on's export goes through the format table (core/io/formats.py) like `wildscan scan`."""
+    import laspy
+
+    generate()
+    use_pose(*find_valid_pose())
+    configure()
+    assert bpy.ops.wildscan.scan() == {"FINISHED"}
+    ply = tmp_path / "s.ply"
+    assert bpy.ops.wildscan.export_scan(filepath=str(ply), format="ply") == {"FINISHED"}
+    assert bpy.ops.wildscan.export_scan(filepath=str(tmp_path / "s.las"), format="las") == {"FINISHED"}
+    assert bpy.ops.wildscan.export_scan(filepath=str(tmp_path / "k.bin"), format="semantickitti") == {
+        "FINISHED"
+    }
+    records, _ = read_ply(ply)
+    las = laspy.read(tmp_path / "s.las")
+    assert np.array_equal(np.asarray(las.wildscan_label), records["label"])
+    assert np.allclose(las.x, records["x"], atol=las.header.scales[0])
+    velodyne = np.fromfile(tmp_path / "k.bin", dtype="<f4").reshape(-1, 4)
+    assert np.array_equal(velodyne[:, 2], records["z"])
+    assert (tmp_path / "k.label").stat().st_size == 4 * len(records)
+    assert_rejected(
+        bpy.ops.wildscan.export_scan, "must end in .las", filepath=str(tmp_path / "x.ply"), format="las"
+    )
+    assert_rejected(
+        bpy.ops.wildscan.export_scan, "ply only", filepath=str(tmp_path / "x.las"), format="las", ascii=True
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["k.bin", "k.label", "s.json", "s.las", "s.ply"]
 
 
 def test_aerial_view_without_a_world_is_a_report(scene):

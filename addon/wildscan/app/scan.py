@@ -53,15 +53,25 @@ def scan_current_scene(
     return run_scan(backend_, pose, sensor, frame, z_start, progress)
 
 
-def check_scan(pose: Pose, sensor: SensorConfig, z_start: float | None, out: str | os.PathLike) -> Path:
+def check_scan(
+    pose: Pose,
+    sensor: SensorConfig,
+    z_start: float | None,
+    out: str | os.PathLike,
+    fmt: str = "ply",
+    ascii: bool = False,
+) -> Path:
     """Everything a scan request could get wrong, checked before a world is opened or built:
-    the sensor settings, the pose, the start height and the output file. The PLY path."""
-    from ..core.io.ply import check_output_path
+    the sensor settings, the pose, the start height, the format and the output file (core/io/
+    formats.py: --out names the format's first file). The resolved --out."""
+    from ..core.io import formats
 
     sensor.validate()
     pose.validate()
     check_z_start(z_start)
-    return check_output_path(out)
+    w = formats.writer(fmt)
+    formats.check_ascii(w, ascii)
+    return formats.check_scan_output(w, out)
 
 
 def open_scan_world(
@@ -86,11 +96,14 @@ def write_scan(
     seed: int | None,
     world: str | None,
     ascii: bool = False,
+    fmt: str = "ply",
     **extra,
-) -> tuple[Path, Path]:
-    """The scan's PLY and JSON sidecar, its metadata saying which world it saw (the seed it
-    was built from, the .blend it was read from) plus `extra` (the demo's zone)."""
-    from ..core.io.ply import write_scan_files
+) -> list[Path]:
+    """The scan's files in format `fmt` (PLY: the PLY and its JSON sidecar), --out first, its
+    metadata saying which world it saw (the seed it was built from, the .blend it was read
+    from) plus `extra` (the demo's zone)."""
+    from ..core.io import formats
 
     metadata = dict(result.metadata, seed=seed, world=world, **extra)
-    return write_scan_files(out, result.cloud, metadata, ascii=ascii)
+    w = formats.writer(fmt)
+    return formats.write_scan(w, formats.single_scan(w, result.cloud, metadata, ascii), out)

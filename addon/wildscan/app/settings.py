@@ -60,6 +60,8 @@ SETTINGS: dict[str, Setting] = {
     "ros2_storage": Setting("--ros2-storage"),
     # outputs
     "out": Setting("--out", "File"),
+    "format": Setting("--format", "Format"),
+    "ascii": Setting("--ascii", "ASCII"),
     # the benchmark
     "suite": Setting("--suite"),
     "details": Setting("--details"),

@@ -119,7 +119,9 @@ def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
         metavar="N",
         help="a worker count to time; repeat (default: 1 and 2)",
     )
-    p.add_argument("--format", default="semantickitti", choices=("semantickitti", "las", "ply"))
+    from ..core.io.formats import FORMATS
+
+    p.add_argument("--format", default="semantickitti", choices=FORMATS)
     options.add(p, "vegetation")
 
 

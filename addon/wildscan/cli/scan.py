@@ -7,11 +7,25 @@ import argparse
 from . import options
 from .options import ArgumentParser
 
-HELP = "scan a world from a pose and write a labeled PLY"
+HELP = "scan a world from a pose and write a labeled PLY (or LAS, SemanticKITTI)"
 DESCRIPTION = (
     "Stand the emulated Hokuyo UTM-30LX-EW on the ground at a pose, turn it 180 deg in steps of r_h, "
-    "and write every returned point with its class to a PLY (plus a JSON sidecar)."
+    "and write every returned point with its class to a PLY (plus a JSON sidecar), or in another format "
+    "with --format."
 )
+
+
+def _format_help() -> str:
+    from ..core.io.formats import DEFAULT_FORMAT, WRITERS
+
+    files = "; ".join(
+        f"{name}: {' + '.join('SCAN' + f.suffix for f in w.scan_files)}" for name, w in WRITERS.items()
+    )
+    return (
+        f"file format (default {DEFAULT_FORMAT}); --out names the first file, the others go beside it: "
+        f"{files}. SemanticKITTI's .label carries SemanticKITTI's class ids, LAS the ASPRS classes and "
+        "WildScan's ids"
+    )
 
 
 def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
@@ -37,12 +51,16 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
     for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
         options.add(p, name)
+    from ..core.io.formats import DEFAULT_FORMAT, FORMATS
+
+    p.add_argument("--format", choices=FORMATS, default=DEFAULT_FORMAT, help=_format_help())
     p.add_argument("--ascii", action="store_true", help="write an ASCII PLY instead of binary little-endian")
     options.add(
         p,
         "out",
         metavar="SCAN.ply",
-        help="the labeled point cloud to write; its metadata goes beside it as SCAN.json",
+        help="the labeled point cloud to write, ending in the format's suffix (.ply, .las, .bin); a PLY's "
+        "metadata goes beside it as SCAN.json",
     )
     p.add_argument("--quiet", action="store_true", help="print only the files written, no progress")
 
@@ -55,7 +73,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
     from .output import Progress, StageProgress, print_class_counts, print_echo_summary, say
 
     pose, sensor, vegetation = Pose(*args.pose), options.sensor_of(args), options.vegetation_of(args)
-    out = check_scan(pose, sensor, args.z_start, args.out)
+    out = check_scan(pose, sensor, args.z_start, args.out, args.format, args.ascii)
     geometry, provenance = None, {}
     if args.geometry is not None:
         geometry, provenance = load_scan_geometry(args.geometry, args.backend)
@@ -80,7 +98,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         seed, blend = scene_provenance()
         extra = {}
     seed = seed if args.seed is None else args.seed
-    ply, sidecar = write_scan(out, result, seed, blend, ascii=args.ascii, **extra)
+    first, *beside = write_scan(out, result, seed, blend, ascii=args.ascii, fmt=args.format, **extra)
 
     p = result.placement
     say(
@@ -88,10 +106,11 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         f"placed at ({p.optical_centre[0]:.3f}, {p.optical_centre[1]:.3f}, {p.optical_centre[2]:.3f}) "
         f"roll {p.roll_deg:.2f} deg, pitch {p.pitch_deg:.2f} deg",
     )
-    print(f"wrote {ply} ({len(result.cloud):,} points of {result.beams:,} beams, frame {args.frame})")
+    print(f"wrote {first} ({len(result.cloud):,} points of {result.beams:,} beams, frame {args.frame})")
     if sensor.realistic and not args.quiet:
         print_echo_summary(result.metadata["echoes"], len(result.cloud))
-    print(f"wrote {sidecar}")
+    for path in beside:
+        print(f"wrote {path}")
     if not args.quiet:
         print_class_counts(result.cloud.class_counts())
     untagged = len(result.untagged_objects)

@@ -49,6 +49,19 @@ WATER = ElementClass(13, "water", 120.0, (0, 0, 0))
 WATER_ID = WATER.id
 
 ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER)
+
+
+def _check_table(elements: tuple[ElementClass, ...]) -> None:
+    """Ids and names must be unique, and so must reflectivities: the paper labels a return by
+    its intensity (label_from_reflectivity), which needs Table I to be a bijection."""
+    for what in ("id", "name", "reflectivity"):
+        values = [getattr(c, what) for c in elements]
+        twice = sorted({v for v in values if values.count(v) > 1})
+        if twice:
+            raise ValueError(f"core/classes.py: two classes share the {what} {twice}")
+
+
+_check_table(ALL_ELEMENTS)
 BY_ID: dict[int, ElementClass] = {c.id: c for c in ALL_ELEMENTS}
 NUM_IDS = max(BY_ID) + 1
 

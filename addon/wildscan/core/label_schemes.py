@@ -3,22 +3,49 @@ RELLIS-3D or GOOSE, so a model trained on one of those datasets reads our scans 
 Numpy only.
 
 Every WildScan class (classes.py, plus water, which appears only in the bird's-eye
-grids) maps to one id of the scheme. A class with no counterpart maps to the scheme's
-"other" id and the table says so. The label lists and learning maps follow each dataset's
-published label configuration (semantic-kitti-api's `semantic-kitti-all.yaml`, RELLIS-3D's
-`rellis.yaml`, GOOSE's 64-class `goose_label_mapping.csv` order); colours are BGR as in
-those files (GOOSE's colours are WildScan's own, which the GOOSE files do not fix here).
+grids) maps to one id of the scheme, by name: each scheme is a dict `{"trunk": 71, ...}`
+checked when this module is imported, so a class missing from a scheme (or a name that is
+no class) stops the import with a message naming the scheme and the class. A class with no
+counterpart maps to OTHER, the scheme's "other" id, and the table says so. The label
+lists and learning maps follow each dataset's published label configuration
+(semantic-kitti-api's `semantic-kitti-all.yaml`, RELLIS-3D's `rellis.yaml`, GOOSE's
+64-class `goose_label_mapping.csv` order); colours are BGR as in those files (GOOSE's
+colours are WildScan's own, which the GOOSE files do not fix here).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .classes import ALL_ELEMENTS, BY_ID, CLASSES, WATER_ID
 
 SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
+OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
+
+
+class SchemeError(ValueError):
+    """A class table that does not cover the classes of core/classes.py exactly."""
+
+
+def ids_by_class_id(scheme_name: str, by_class: dict[str, int | str], other: int | None) -> dict[int, int]:
+    """WildScan id -> the scheme's id, from a dict by class name (OTHER: the scheme's "other"
+    id). SchemeError naming the scheme and the classes unless `by_class` names every class
+    of ALL_ELEMENTS (water included) and nothing else."""
+    names = {c.name for c in ALL_ELEMENTS}
+    missing = [c.name for c in ALL_ELEMENTS if c.name not in by_class]
+    unknown = sorted(set(by_class) - names)
+    if missing or unknown:
+        why = [f"has no id for class {', '.join(map(repr, missing))}"] if missing else []
+        why += [f"names {', '.join(map(repr, unknown))}, which is no class"] if unknown else []
+        raise SchemeError(
+            f"label scheme {scheme_name!r} {' and '.join(why)} (core/classes.py lists "
+            f"{', '.join(c.name for c in ALL_ELEMENTS)}): give every class one entry"
+        )
+    if other is None and OTHER in by_class.values():
+        raise SchemeError(f"label scheme {scheme_name!r} has no other id, yet maps a class to OTHER")
+    return {c.id: (other if by_class[c.name] == OTHER else by_class[c.name]) for c in ALL_ELEMENTS}
 
 
 @dataclass(frozen=True)
@@ -27,14 +54,22 @@ class LabelScheme:
     title: str
     labels: dict[int, str]  # raw id -> name, the ids written to the label files
     colors_bgr: dict[int, tuple[int, int, int]]
-    from_wildscan: dict[int, int]  # WildScan id (0..13, 13 = water) -> raw id
+    by_class: dict[str, int | str]  # WildScan class name -> raw id, or OTHER (the table as written)
     other: int | None  # the id that classes without a counterpart get (None: every class has one)
     learning_map: dict[int, int]
     learning_map_inv: dict[int, int]
     learning_ignore: dict[int, bool]
+    from_wildscan: dict[int, int] = field(init=False, repr=False)  # WildScan id -> raw id, from by_class
+
+    def __post_init__(self):
+        from_wildscan = ids_by_class_id(self.name, self.by_class, self.other)
+        unknown = sorted({raw for raw in from_wildscan.values() if raw not in self.labels})
+        if unknown:
+            raise SchemeError(f"label scheme {self.name!r} maps classes to ids it does not list: {unknown}")
+        object.__setattr__(self, "from_wildscan", from_wildscan)  # frozen: set once, here
 
     def lookup(self) -> np.ndarray:
-        """uint16 table indexed by WildScan id (0..13) giving the raw id."""
+        """uint16 table indexed by WildScan id giving the raw id."""
         table = np.zeros(max(BY_ID) + 1, dtype=np.uint16)
         for wildscan_id, raw in self.from_wildscan.items():
             table[wildscan_id] = raw
@@ -45,7 +80,7 @@ class LabelScheme:
 
     def is_other(self, wildscan_id: int) -> bool:
         """Whether this class has no counterpart in the scheme (it got the "other" id)."""
-        return wildscan_id in _NO_COUNTERPART.get(self.name, ())
+        return self.by_class[BY_ID[wildscan_id].name] == OTHER
 
 
 def _bgr(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
@@ -63,7 +98,7 @@ _WILDSCAN = LabelScheme(
     title="WildScan (paper Table I)",
     labels={c.id: c.name for c in ALL_ELEMENTS},
     colors_bgr={c.id: _bgr(c.color) for c in ALL_ELEMENTS if c.id != WATER_ID} | {WATER_ID: (255, 128, 0)},
-    from_wildscan=_identity(BY_ID),
+    by_class={c.name: c.id for c in ALL_ELEMENTS},
     other=None,
     learning_map={**_identity(c.id for c in CLASSES), 0: 0, WATER_ID: 0},
     learning_map_inv={0: 0, **_identity(c.id for c in CLASSES)},
@@ -105,10 +140,23 @@ _SEMANTICKITTI = LabelScheme(
     title="SemanticKITTI",
     labels=_SK_LABELS,
     colors_bgr=_SK_COLORS,
-    # unlabeled, terrain, trunk, treetop, table, bush, fence, bench, low grass, rock, high grass,
-    # wire, pole, water
-    from_wildscan=dict(enumerate((0, 72, 71, 70, 99, 70, 51, 99, 72, 99, 72, 99, 80, 99))),
-    other=99,
+    by_class={
+        "unlabeled": 0,
+        "terrain": 72,  # terrain
+        "trunk": 71,  # trunk
+        "treetop": 70,  # vegetation
+        "table": OTHER,
+        "bush": 70,  # vegetation
+        "fence": 51,  # fence
+        "bench": OTHER,
+        "low grass": 72,  # terrain (SemanticKITTI labels grass as terrain)
+        "rock": OTHER,
+        "high grass": 72,  # terrain
+        "wire": OTHER,
+        "pole": 80,  # pole
+        "water": OTHER,
+    },
+    other=99,  # other-object
     # the single-scan (19-class) learning map of semantic-kitti.yaml: moving objects as static
     learning_map=_SK_LEARNING_MAP,
     learning_map_inv=_SK_LEARNING_MAP_INV,
@@ -146,8 +194,23 @@ _RELLIS3D = LabelScheme(
     title="RELLIS-3D",
     labels=_RELLIS_LABELS,
     colors_bgr=_RELLIS_COLORS,
-    from_wildscan=dict(enumerate((0, 1, 4, 4, 9, 19, 18, 9, 3, 34, 3, 9, 5, 6))),
-    other=9,
+    by_class={
+        "unlabeled": 0,  # void
+        "terrain": 1,  # dirt
+        "trunk": 4,  # tree
+        "treetop": 4,  # tree
+        "table": OTHER,
+        "bush": 19,  # bush
+        "fence": 18,  # fence
+        "bench": OTHER,
+        "low grass": 3,  # grass
+        "rock": 34,  # rubble
+        "high grass": 3,  # grass
+        "wire": OTHER,
+        "pole": 5,  # pole
+        "water": 6,  # water
+    },
+    other=9,  # object
     learning_map=_RELLIS_LEARNING_MAP,
     learning_map_inv={v: k for k, v in _RELLIS_LEARNING_MAP.items() if v or k == 0},
     learning_ignore={v: v == 0 for v in sorted(set(_RELLIS_LEARNING_MAP.values()))},
@@ -165,14 +228,30 @@ _GOOSE_NAMES = (
     "high_grass", "scenery_vegetation", "sky", "water", "wire", "outlier", "heavy_machinery", "container",
     "hedge", "barrel", "pipe", "tree_root", "military_vehicle",
 )  # fmt: skip
-_GOOSE_FROM_WILDSCAN = dict(enumerate((0, 31, 28, 27, 4, 17, 41, 4, 50, 40, 51, 55, 45, 54)))
+_GOOSE_BY_CLASS: dict[str, int | str] = {
+    "unlabeled": 0,  # undefined
+    "terrain": 31,  # soil
+    "trunk": 28,  # tree_trunk
+    "treetop": 27,  # tree_crown
+    "table": OTHER,
+    "bush": 17,  # bush
+    "fence": 41,  # fence
+    "bench": OTHER,
+    "low grass": 50,  # low_grass
+    "rock": 40,  # rock
+    "high grass": 51,  # high_grass
+    "wire": 55,  # wire
+    "pole": 45,  # pole
+    "water": 54,  # water
+}
+_GOOSE_OTHER = 4  # obstacle
 
 
 def _goose_colors() -> dict[int, tuple[int, int, int]]:
     colors = {i: (160, 160, 160) for i in range(len(_GOOSE_NAMES))}
-    for wildscan_id, raw in _GOOSE_FROM_WILDSCAN.items():
-        if raw != 4:
-            colors[raw] = _WILDSCAN.colors_bgr[wildscan_id]
+    for c in ALL_ELEMENTS:  # in id order: where classes share an id, the last one's colour
+        if _GOOSE_BY_CLASS[c.name] != OTHER:
+            colors[_GOOSE_BY_CLASS[c.name]] = _WILDSCAN.colors_bgr[c.id]
     colors[0] = (0, 0, 0)
     return colors
 
@@ -182,21 +261,14 @@ _GOOSE = LabelScheme(
     title="GOOSE",
     labels=dict(enumerate(_GOOSE_NAMES)),
     colors_bgr=_goose_colors(),
-    from_wildscan=_GOOSE_FROM_WILDSCAN,
-    other=4,
+    by_class=_GOOSE_BY_CLASS,
+    other=_GOOSE_OTHER,
     learning_map=_identity(range(len(_GOOSE_NAMES))),
     learning_map_inv=_identity(range(len(_GOOSE_NAMES))),
     learning_ignore={i: i == 0 for i in range(len(_GOOSE_NAMES))},
 )
 
 SCHEMES: dict[str, LabelScheme] = {s.name: s for s in (_WILDSCAN, _SEMANTICKITTI, _RELLIS3D, _GOOSE)}
-
-# WildScan classes that have no counterpart in a scheme, and so get its "other" id.
-_NO_COUNTERPART: dict[str, tuple[int, ...]] = {
-    "semantickitti": (4, 7, 9, 11, WATER_ID),  # table, bench, rock, wire, water
-    "rellis3d": (4, 7, 11),  # table, bench, wire
-    "goose": (4, 7),  # table, bench
-}
 
 
 def scheme(name: str) -> LabelScheme:

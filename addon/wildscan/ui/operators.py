@@ -2,15 +2,18 @@
 the `wildscan` command and show the outcome.
 
 Scripting: set `bpy.context.scene.wildscan.<setting>`, then call
-bpy.ops.wildscan.generate_world(), .aerial_view(), .scan(), .export_ply(filepath=...).
+bpy.ops.wildscan.generate_world(), .aerial_view(), .scan(), .export_scan(filepath=..., format=...)
+(formats: core/io/formats.py; .export_ply(filepath=...) is export_scan for PLY only).
 
 Every operator checks what the user could get wrong before it changes anything; a
 mistake is one ERROR report (RuntimeError for a script) and the scene is left as it
 was. Logic imports are lazy (inside execute), as in Blender's own add-ons.
 """
 
+import os
+
 import bpy
-from bpy.props import BoolProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, StringProperty
 from bpy.types import Operator
 from bpy_extras.io_utils import ExportHelper
 
@@ -20,7 +23,7 @@ from .feedback import Progress, internal_error
 AERIAL_MARGIN = 1.15  # the aerial view shows the world with this much room around it
 MARKER_SIZE_OF_WORLD = 0.04  # the marker's cross spans this fraction of the world's extent each way
 MIN_MARKER_SIZE = 0.5  # m
-DEFAULT_EXPORT_NAME = "wildscan_scan.ply"
+DEFAULT_EXPORT_STEM = "wildscan_scan"
 
 
 def tag_view3d_redraw(context) -> None:
@@ -251,36 +254,56 @@ class WILDSCAN_OT_scan(Operator):
         return {"FINISHED"}
 
 
-class WILDSCAN_OT_export_ply(Operator, ExportHelper):
-    bl_idname = "wildscan.export_ply"
-    bl_label = "Export PLY"
-    bl_description = (
-        "Write the scan's labeled point cloud to a PLY file (plus its JSON sidecar) in the chosen frame"
-    )
-    bl_options = {"REGISTER"}
+def _format_items():
+    """The Format menu: the table's formats (core/io/formats.py), the default first."""
+    from ..core.io.formats import DEFAULT_FORMAT, WRITERS
 
-    filename_ext = ".ply"
-    filter_glob: StringProperty(default="*.ply", options={"HIDDEN"})
+    names = sorted(WRITERS, key=lambda name: name != DEFAULT_FORMAT)  # stable: the table's order after
+    return [(name, WRITERS[name].title, WRITERS[name].writes) for name in names]
+
+
+def _scan_file_globs() -> str:
+    from ..core.io.formats import WRITERS
+
+    return ";".join(sorted({f"*{w.suffix}" for w in WRITERS.values()}))
+
+
+class _ExportScan:
+    """What the export operators share (a mixin: Blender refuses a subclass of a registered
+    operator); each declares its own `format` and `filter_glob`."""
+
+    bl_options = {"REGISTER"}
+    filename_ext = ".ply"  # ExportHelper's; `check` follows the chosen format instead
     ascii: BoolProperty(
-        name="ASCII", description="Write an ASCII PLY instead of binary little-endian", default=False
+        name="ASCII", description="PLY only: an ASCII PLY instead of binary little-endian", default=False
     )
 
     def invoke(self, context, event):
+        from ..core.io.formats import WRITERS
         from .scene import current_cloud
 
         if current_cloud(context) is None:
             self.report({"ERROR"}, "No scan to export: press Scan first")
             return {"CANCELLED"}
         if not self.filepath:
-            import os
-
             folder = os.path.dirname(bpy.data.filepath) if bpy.data.filepath else ""
-            self.filepath = os.path.join(folder, DEFAULT_EXPORT_NAME)
+            self.filepath = os.path.join(folder, DEFAULT_EXPORT_STEM + WRITERS[self.format].suffix)
         return ExportHelper.invoke(self, context, event)
+
+    def check(self, context):
+        """In the file browser: the file name takes the chosen format's suffix."""
+        from ..core.io.formats import WRITERS
+
+        stem, suffix = os.path.splitext(self.filepath)
+        wanted = WRITERS[self.format].suffix
+        if not os.path.basename(stem) or suffix.lower() == wanted:
+            return False
+        self.filepath = stem + wanted
+        return True
 
     def execute(self, context):
         from ..core.errors import UserError
-        from ..core.io.ply import check_output_path, write_scan_files
+        from ..core.io import formats
         from .scene import current_cloud
 
         obj = current_cloud(context)
@@ -288,16 +311,44 @@ class WILDSCAN_OT_export_ply(Operator, ExportHelper):
             self.report({"ERROR"}, "No scan to export: press Scan first")
             return {"CANCELLED"}
         try:
-            out = check_output_path(bpy.path.abspath(self.filepath))
+            w = formats.writer(self.format)
+            formats.check_ascii(w, self.ascii)
+            out = formats.check_scan_output(w, bpy.path.abspath(self.filepath))
             cloud, metadata = cloud_for_export(obj, context.scene.wildscan.frame)
-            ply, sidecar = write_scan_files(out, cloud, metadata, ascii=self.ascii)
+            first, *beside = formats.write_scan(w, formats.single_scan(w, cloud, metadata, self.ascii), out)
         except UserError as e:
             self.report({"ERROR"}, panel_message(e))
             return {"CANCELLED"}
         except Exception as e:
             return internal_error(self, "exporting the scan", e)
-        self.report({"INFO"}, f"Wrote {ply} ({len(cloud):,} points, {cloud.frame} frame) and {sidecar.name}")
+        also = f" and {', '.join(p.name for p in beside)}" if beside else ""
+        self.report({"INFO"}, f"Wrote {first} ({len(cloud):,} points, {cloud.frame} frame){also}")
         return {"FINISHED"}
+
+
+class WILDSCAN_OT_export_scan(_ExportScan, Operator, ExportHelper):
+    bl_idname = "wildscan.export_scan"
+    bl_label = "Export"
+    bl_description = (
+        "Write the scan's labeled point cloud in the chosen format and frame: PLY (plus its JSON "
+        "sidecar), LAS 1.4 or SemanticKITTI (.bin + .label beside it)"
+    )
+
+    filter_glob: StringProperty(default=_scan_file_globs(), options={"HIDDEN"})
+    format: EnumProperty(name="Format", description="File format", items=_format_items(), default="ply")
+
+
+class WILDSCAN_OT_export_ply(_ExportScan, Operator, ExportHelper):
+    """export_scan for PLY only, under the name scripts have called since the first release."""
+
+    bl_idname = "wildscan.export_ply"
+    bl_label = "Export PLY"
+    bl_description = (
+        "Write the scan's labeled point cloud to a PLY file (plus its JSON sidecar) in the chosen frame"
+    )
+
+    filter_glob: StringProperty(default="*.ply", options={"HIDDEN"})
+    format: EnumProperty(name="Format", items=[("ply", "PLY", "PLY and its JSON sidecar")], default="ply")
 
 
 def cloud_for_export(obj, frame: str):
@@ -322,5 +373,6 @@ CLASSES = (
     WILDSCAN_OT_add_pose_marker,
     WILDSCAN_OT_aerial_view,
     WILDSCAN_OT_scan,
+    WILDSCAN_OT_export_scan,
     WILDSCAN_OT_export_ply,
 )

@@ -146,7 +146,7 @@ class VIEW3D_PT_wildscan_scan(_WildScanPanel, Panel):
         row = layout.row(align=True)
         row.scale_y = 1.4
         row.operator("wildscan.scan", icon="PLAY")
-        row.operator("wildscan.export_ply", icon="EXPORT")
+        row.operator("wildscan.export_scan", icon="EXPORT")
         col = layout.column(align=True)
         col.use_property_split = True
         col.use_property_decorate = False

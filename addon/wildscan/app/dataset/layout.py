@@ -6,6 +6,8 @@ import os
 import re
 from pathlib import Path
 
+from ...core.io.formats import WRITERS
+
 MANIFEST = "manifest.jsonl"
 DATASET_JSON = "dataset.json"
 CARD = "CARD.md"
@@ -15,15 +17,10 @@ LOCK = ".wildscan-dataset.lock"
 # core.io.files.temp_path names temporary files ".NAME.tmp-PID.EXT"
 TEMP_NAME = re.compile(r"^\..+\.tmp-\d+(\.[A-Za-z0-9]+)?$")
 
-# kind -> (folder, suffix) of the per-scan files, by format (the bird's-eye grid always)
+# format -> (kind, folder, suffix) of its per-scan files (core/io/formats.py), and the
+# bird's-eye grid every scan has
 SCAN_FILES: dict[str, tuple[tuple[str, str, str], ...]] = {
-    "semantickitti": (
-        ("velodyne", "velodyne", ".bin"),
-        ("labels", "labels", ".label"),
-        ("hag", "hag", ".bin"),
-    ),
-    "las": (("las", "las", ".las"),),
-    "ply": (("ply", "ply", ".ply"), ("ply_sidecar", "ply", ".json")),
+    **{name: tuple((f.kind, f.folder, f.suffix) for f in w.files) for name, w in WRITERS.items()},
     "bev": (("bev", "bev", ".npy"),),
 }
 

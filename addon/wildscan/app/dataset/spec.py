@@ -18,12 +18,15 @@ from ...core import sensor as S
 from ...core.errors import UserError
 from ...core.frames import FRAMES
 from ...core.io.files import user_path
+from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
 from ...core.rng import stage_rng, stage_seed
 from ...core.world import DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 
-FORMATS = ("semantickitti", "las", "ply")
+# what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
+# changes no existing spec's files or config hash
+DEFAULT_FORMATS = ("semantickitti", "las", "ply")
 SPLITS = ("train", "val", "test")
 MAX_SCANS_PER_WORLD = 100_000
 MAX_WORLDS = 100_000
@@ -66,7 +69,7 @@ class DatasetSpec:
     detail: str = "default"
     vegetation: str = DEFAULT_VEGETATION
     scans_per_world: int = 50
-    formats: tuple[str, ...] = FORMATS
+    formats: tuple[str, ...] = DEFAULT_FORMATS
     label_scheme: str = "wildscan"
     split: tuple[tuple[str, float], ...] = (("train", 0.8), ("val", 0.1), ("test", 0.1))
     poses: PoseSpec = field(default_factory=PoseSpec)
@@ -231,7 +234,7 @@ def _seeds(t: _Table) -> tuple[int, ...]:
 
 
 def _formats(t: _Table) -> tuple[str, ...]:
-    value = t.get("formats", list(FORMATS))
+    value = t.get("formats", list(DEFAULT_FORMATS))
     if (
         not isinstance(value, list)
         or not value

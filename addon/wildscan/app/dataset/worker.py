@@ -301,51 +301,28 @@ def _class_counts(labels: np.ndarray) -> dict[str, int]:
 
 
 def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result) -> dict[str, bytes]:
-    """Relative path -> bytes of every file of one scan."""
-    from ...core.io import semantickitti as sk
+    """Relative path -> bytes of every file of one scan: the bird's-eye grid, then each format's
+    files from the format table (core/io/formats.py), in the spec's order."""
+    from ...core.io.formats import WRITERS
+    from ...core.io.writer import ScanOutput
 
     cloud, placement, frame = result.cloud, result.placement, row["sensor"]["frame"]
     labels = scheme(spec.label_scheme)
     world = world_points(cloud.xyz, placement, frame)
     hag = height_above_ground(world, context.plan.ground)
-    mapped = labels.map(cloud.label)
     paths = scan_paths(spec.formats, row["sequence"], row["scan"])
     grid = bev_grid(context.top_classes, context.plan.ground, placement, EXTENT, context.z_range)
     files = {paths["bev"]: npy_bytes(map_top_class(grid, labels.lookup()))}
-    if "semantickitti" in spec.formats:
-        ranks = sk.instance_ranks(context.instances, cloud.instance)
-        files[paths["velodyne"]] = sk.scan_bytes(cloud.xyz, cloud.intensity)
-        files[paths["labels"]] = sk.label_bytes(mapped, ranks)
-        files[paths["hag"]] = sk.float_bytes(hag)
-    if "las" in spec.formats:
-        files[paths["las"]] = _las(cloud, mapped, hag, placement, frame)
-    if "ply" in spec.formats:
-        files.update(_ply(paths, cloud, hag, row, result.metadata))
+    scan = ScanOutput(cloud, _metadata(row, result.metadata), labels, context.instances, hag)
+    for name in spec.formats:
+        encoded = WRITERS[name].encode(scan, {kind: Path(path) for kind, path in paths.items()})
+        files.update((paths[kind], data) for kind, data in encoded.items())
     return files
 
 
-def _las(cloud, mapped, hag, placement, frame) -> bytes:
-    from ...core.io.las import las_bytes
-
-    fields = {
-        "instance": cloud.instance,
-        "ring": cloud.ring,
-        "sweep": cloud.sweep,
-        "range": cloud.range,
-        "hag": hag,
-        **cloud.extra,  # the realistic model's echo, echoes, label_purity, mixed
-    }
-    offsets = np.round(placement.optical_centre) if frame == "world" else np.zeros(3)
-    return las_bytes(cloud.xyz, cloud.intensity, cloud.label, mapped, fields, __version__, offsets)
-
-
-def _ply(paths, cloud, hag, row, metadata) -> dict[str, bytes]:
-    from dataclasses import replace
-
-    from ...core.io.ply import scan_file_bytes
-
-    # The header keeps to short lines (readers with fixed line buffers): the four lasers'
-    # record stays out; the placement is summed up.
+def _metadata(row: dict, metadata: dict) -> dict:
+    """A dataset scan's metadata: the header keeps to short lines (readers with fixed line
+    buffers): the four lasers' record stays out; the placement is summed up."""
     meta = {k: v for k, v in metadata.items() if k not in ("placement", "classes")}
     meta.update(
         seed=row["seed"],
@@ -358,9 +335,7 @@ def _ply(paths, cloud, hag, row, metadata) -> dict[str, bytes]:
             "zone": row["zone"],
         },
     )
-    with_hag = replace(cloud, extra={**cloud.extra, "hag": hag})  # keeps the realistic model's fields
-    ply, sidecar = scan_file_bytes(Path(paths["ply"]), with_hag, meta)
-    return {paths["ply"]: ply, paths["ply_sidecar"]: sidecar}
+    return meta
 
 
 def write_scan(root: Path, files: dict[str, bytes]) -> list[dict]:

@@ -29,6 +29,8 @@ import numpy as np
 from ...core.errors import UserError
 from ...core.io import semantickitti as sk
 from ...core.io.files import fsync_dir, user_path, write_durably
+from ...core.io.formats import WRITERS
+from ...core.io.writer import ScanOutput
 
 DRIVE_JSON = "drive.json"
 TRAJECTORY = "trajectory.tum"
@@ -141,10 +143,12 @@ def check_out_dir(text) -> Path:
 # SemanticKITTI
 
 
-def kitti_scan(stage: Staging, index: int, cloud, mapped_labels: np.ndarray, ranks: np.ndarray) -> None:
-    paths = scan_files(index)
-    stage.write(paths["velodyne"], sk.scan_bytes(cloud.xyz, cloud.intensity))
-    stage.write(paths["labels"], sk.label_bytes(mapped_labels, ranks))
+def stage_format(stage: Staging, name: str, scan: ScanOutput, paths: dict[str, str]) -> None:
+    """Stage the files of `scan` in format `name` (core/io/formats.py); `paths`: the format's
+    kinds of file -> where each goes in DIR."""
+    encoded = WRITERS[name].encode(scan, {kind: stage.dir / path for kind, path in paths.items()})
+    for kind, data in encoded.items():
+        stage.write(paths[kind], data)
 
 
 def kitti_sequence(stage: Staging, pose_matrices: list[np.ndarray], start_times: list[float]) -> None:

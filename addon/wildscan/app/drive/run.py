@@ -18,8 +18,8 @@ import numpy as np
 from ... import __version__
 from ...core.classes import class_table_dict
 from ...core.groundtruth import pose_matrix
-from ...core.io.ply import scan_file_bytes
 from ...core.io.tum import tum_text
+from ...core.io.writer import ScanOutput
 from ...core.label_schemes import scheme
 from ...core.motion.placements import Motion, place_all
 from ...core.motion.sweep import Sweep, sweep
@@ -194,22 +194,22 @@ class _Context:
         }
 
     def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:
-        """The raw and deskewed PLY files of 3D scan `index` and its SemanticKITTI files."""
+        """The raw and deskewed PLY files of 3D scan `index` and its SemanticKITTI files
+        (the format table's writers, core/io/formats.py)."""
         start = self.motion.placements[result.k0]
         paths = files.scan_files(index)
         frame = self.request.frame
         clouds = {}
         for kind, cloud in (("raw", result.raw), ("deskewed", result.deskewed)):
             clouds[kind] = replace(cloud, xyz=points_in_frame(cloud.xyz, start, frame), frame=frame)
-            ply, sidecar = scan_file_bytes(
-                stage.dir / paths[kind], clouds[kind], self.metadata(index, result, kind)
-            )
-            stage.write(paths[kind], ply)
-            stage.write(paths[f"{kind}_sidecar"], sidecar)
+            scan = ScanOutput(clouds[kind], self.metadata(index, result, kind), self.labels)
+            ply = {"ply": paths[kind], "ply_sidecar": paths[f"{kind}_sidecar"]}
+            files.stage_format(stage, "ply", scan, ply)
         deskewed = clouds["deskewed"]
-        mapped = self.labels.map(deskewed.label)
-        files.kitti_scan(stage, index, deskewed, mapped, _ranks(self.world_instances, deskewed.instance))
-        np.add.at(self.class_points, mapped, 1)
+        scan = ScanOutput(deskewed, {}, self.labels, world_instances=self.world_instances)
+        kitti = {"velodyne": paths["velodyne"], "labels": paths["labels"]}
+        files.stage_format(stage, "semantickitti", scan, kitti)
+        np.add.at(self.class_points, self.labels.map(deskewed.label), 1)
         self.pose_matrices.append(pose_matrix(start, frame))
         self.start_times.append(float(self.motion.times[result.k0]))
         self.scans.append(
@@ -254,12 +254,6 @@ class _Context:
             "files": sorted(listed),
         }
         stage.write(files.DRIVE_JSON, files.json_bytes(summary))
-
-
-def _ranks(world_instances: np.ndarray, instances: np.ndarray) -> np.ndarray:
-    from ...core.io.semantickitti import instance_ranks
-
-    return instance_ranks(world_instances, instances)
 
 
 class _Rays:

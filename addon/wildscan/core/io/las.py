@@ -4,7 +4,7 @@ Classification is an ASPRS code (LAS 1.4 R15, table 17); WildScan classes withou
 ASPRS class get user codes from 64 up. The file carries the table itself in a
 Classification Lookup VLR, and extra dimensions (LAS "extra bytes") keep what ASPRS
 codes lose: `wildscan_label`, `label` (the dataset's label scheme), `instance`, `ring`,
-`sweep`, `range` and `hag` (height above the true terrain). Intensity is the scan's
+`sweep`, `range` and, in a dataset, `hag` (height above the true terrain). Intensity is the scan's
 (paper model: the element's Table I reflectivity, 15..100); colours are the class colours
 (16-bit).
 
@@ -21,27 +21,34 @@ from __future__ import annotations
 
 import datetime
 import io
+from pathlib import Path
 
 import numpy as np
 
-from ..classes import BY_ID, COLOR_BY_ID
+from ... import __version__
+from ..classes import BY_ID, COLOR_BY_ID, WATER_ID
+from ..label_schemes import SchemeError, ids_by_class_id
+from .writer import ScanFile, ScanOutput, Writer
 
-# WildScan id -> ASPRS classification code
-ASPRS_CODES: dict[int, int] = {
-    0: 1,  # unlabeled -> unclassified
-    1: 2,  # terrain (and flooring) -> ground
-    2: 64,  # trunk (user code)
-    3: 5,  # treetop -> high vegetation
-    4: 65,  # table (user code)
-    5: 4,  # bush -> medium vegetation
-    6: 66,  # fence (user code)
-    7: 67,  # bench (user code)
-    8: 3,  # low grass -> low vegetation
-    9: 68,  # rock (user code)
-    10: 4,  # high grass -> medium vegetation
-    11: 14,  # wire -> wire conductor (phase)
-    12: 15,  # pole -> transmission tower
+# WildScan class -> ASPRS classification code (LAS 1.4 R15 table 17), checked at import like the
+# label schemes (core/label_schemes.py): every class of core/classes.py needs one entry.
+ASPRS_BY_CLASS: dict[str, int] = {
+    "unlabeled": 1,  # unclassified
+    "terrain": 2,  # (and flooring) ground
+    "trunk": 64,  # user code
+    "treetop": 5,  # high vegetation
+    "table": 65,  # user code
+    "bush": 4,  # medium vegetation
+    "fence": 66,  # user code
+    "bench": 67,  # user code
+    "low grass": 3,  # low vegetation
+    "rock": 68,  # user code
+    "high grass": 4,  # medium vegetation
+    "wire": 14,  # wire conductor (phase)
+    "pole": 15,  # transmission tower
+    "water": 9,  # water: never written (a beam that hits water returns no point), so not in ASPRS_NAMES
 }
+ASPRS_CODES: dict[int, int] = ids_by_class_id("asprs (core/io/las.py)", ASPRS_BY_CLASS, None)  # id -> code
 ASPRS_NAMES: dict[int, str] = {
     1: "unclassified",
     2: "ground",
@@ -56,6 +63,9 @@ ASPRS_NAMES: dict[int, str] = {
     67: "bench",
     68: "rock",
 }
+_UNNAMED = sorted({code for i, code in ASPRS_CODES.items() if i != WATER_ID and code not in ASPRS_NAMES})
+if _UNNAMED:  # a point's code must be named in the file's Classification Lookup VLR
+    raise SchemeError(f"ASPRS codes {_UNNAMED} (ASPRS_BY_CLASS, core/io/las.py) have no name in ASPRS_NAMES")
 FIXED_DATE = datetime.date(2000, 1, 1)  # LAS wants a creation date; a fixed one keeps bytes stable
 SCALE = 1e-4  # m per integer step of x, y, z
 
@@ -110,12 +120,14 @@ def las_bytes(
     version: str,
     offsets=(0.0, 0.0, 0.0),
 ) -> bytes:
-    """One scan as LAS 1.4 bytes. `fields` holds instance, ring, sweep, range and hag, and
-    for a realistic-model scan echo, echoes, label_purity and mixed."""
+    """One scan as LAS 1.4 bytes. `fields` holds instance, ring, sweep and range, hag where
+    the terrain is known (datasets; without it the file has no `hag` dimension), and for a
+    realistic-model scan echo, echoes, label_purity and mixed."""
     import laspy
 
     realistic = "echo" in fields
-    dimensions = EXTRA_DIMENSIONS + (REALISTIC_DIMENSIONS if realistic else ())
+    dimensions = tuple(d for d in EXTRA_DIMENSIONS if d[0] != "hag" or "hag" in fields)
+    dimensions += REALISTIC_DIMENSIONS if realistic else ()
     las = laspy.LasData(_header(version, np.asarray(offsets), dimensions))
     xyz = np.asarray(xyz, dtype=np.float64)
     las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
@@ -133,6 +145,31 @@ def las_bytes(
     out = io.BytesIO()
     las.write(out)
     return out.getvalue()
+
+
+def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
+    """The format table's LAS writer (formats.py). In the world frame the offsets are the
+    optical centre rounded to the metre, so the scale's 0.1 mm steps hold far from the origin."""
+    cloud = scan.cloud
+    fields = {"instance": cloud.instance, "ring": cloud.ring, "sweep": cloud.sweep, "range": cloud.range}
+    fields.update(cloud.extra)  # the realistic model's echo, echoes, label_purity, mixed
+    if scan.hag is not None:
+        fields["hag"] = scan.hag
+    offsets = np.zeros(3)
+    if cloud.frame == "world":
+        offsets = np.round(np.asarray(scan.metadata["placement"]["optical_centre"], dtype=np.float64))
+    mapped = scan.labels.map(cloud.label)
+    return {"las": las_bytes(cloud.xyz, cloud.intensity, cloud.label, mapped, fields, __version__, offsets)}
+
+
+WRITER = Writer(
+    name="las",
+    title="LAS 1.4",
+    writes="LAS 1.4: ASPRS classification, intensity, class colours; WildScan label, instance as extra bytes",
+    files=(ScanFile("las", ".las", "las"),),
+    scan_labels="wildscan",
+    encode=encode,
+)
 
 
 def asprs_table_rows() -> list[tuple[int, str, str]]:

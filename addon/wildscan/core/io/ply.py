@@ -16,6 +16,7 @@ import io
 import json
 import os
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +27,7 @@ from ..errors import UserError
 from ..pointcloud import PointCloud
 from . import files
 from .files import atomic_outputs, write_durably, writing_to
+from .writer import ScanFile, ScanOutput, Writer
 
 # numpy kind+size -> PLY type name (the names plyfile, PCL and CloudCompare all read).
 _PLY_TYPE_BY_CODE = {
@@ -321,6 +323,27 @@ def scan_file_bytes(
     body = io.BytesIO()
     _write_vertices(body, records, ascii)
     return header + body.getvalue(), _sidecar_bytes(Path(ply_path), cloud, metadata, ascii)
+
+
+def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
+    """The format table's PLY writer (formats.py): the PLY and its JSON sidecar, with a
+    dataset's height above terrain as the optional `hag` field."""
+    cloud = scan.cloud
+    if scan.hag is not None:
+        cloud = replace(cloud, extra={**cloud.extra, "hag": scan.hag})  # keeps the realistic model's fields
+    ply, sidecar = scan_file_bytes(Path(paths["ply"]), cloud, scan.metadata, scan.ascii)
+    return {"ply": ply, "ply_sidecar": sidecar}
+
+
+WRITER = Writer(
+    name="ply",
+    title="PLY",
+    writes="PLY: x y z, intensity, WildScan label, instance, class colour, ring, sweep, range; JSON sidecar",
+    files=(ScanFile("ply", ".ply", "ply"), ScanFile("ply_sidecar", ".json", "ply")),
+    scan_labels="wildscan",
+    encode=encode,
+    ascii=True,
+)
 
 
 # --------------------------------------------------------------------------- reading

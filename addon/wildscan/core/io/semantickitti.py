@@ -15,10 +15,12 @@ instance ids (1-based), so it fits 16 bits and is the same object across one seq
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 
 from ..label_schemes import LabelScheme
+from .writer import ScanFile, ScanOutput, Writer
 
 REMISSION_SCALE = 0.01  # reflectivity (Table I) -> remission
 MAX_INSTANCE = 0xFFFF
@@ -58,6 +60,36 @@ def instance_ranks(world_instances: np.ndarray, instances: np.ndarray) -> np.nda
     inst = np.asarray(instances, dtype=np.int64)
     rank = np.searchsorted(world, inst) + 1
     return np.where(inst > 0, rank, 0).astype(np.uint32)
+
+
+def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
+    """The format table's SemanticKITTI writer (formats.py): the velodyne .bin and the .label,
+    and a dataset's `hag` file. Instances rank among the world's (the same object across a
+    sequence), or among the scan's own when the world is not known (a single scan)."""
+    cloud = scan.cloud
+    world = cloud.instance if scan.world_instances is None else scan.world_instances
+    ranks = instance_ranks(world, cloud.instance)
+    files = {
+        "velodyne": scan_bytes(cloud.xyz, cloud.intensity),
+        "labels": label_bytes(scan.labels.map(cloud.label), ranks),
+    }
+    if scan.hag is not None:
+        files["hag"] = float_bytes(scan.hag)
+    return files
+
+
+WRITER = Writer(
+    name="semantickitti",
+    title="SemanticKITTI",
+    writes="SemanticKITTI: velodyne .bin (x y z remission) + .label (SemanticKITTI class, instance)",
+    files=(
+        ScanFile("velodyne", ".bin", "velodyne"),
+        ScanFile("labels", ".label", "labels"),
+        ScanFile("hag", ".bin", "hag", ground_truth=True),
+    ),
+    scan_labels="semantickitti",
+    encode=encode,
+)
 
 
 def _matrix_line(matrix: np.ndarray) -> str:
