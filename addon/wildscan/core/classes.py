@@ -77,7 +77,9 @@ NUM_IDS = max(BY_ID) + 1
 REFLECTIVITY_BY_ID = np.array(
     [BY_ID[i].reflectivity if i in BY_ID else np.nan for i in range(NUM_IDS)], dtype=np.float32
 )
-COLOR_BY_ID = np.array([BY_ID[i].color if i in BY_ID else (255, 255, 255) for i in range(NUM_IDS)], dtype=np.uint8)
+COLOR_BY_ID = np.array(
+    [BY_ID[i].color if i in BY_ID else (255, 255, 255) for i in range(NUM_IDS)], dtype=np.uint8
+)
 
 # Class names as users write them in the `wildscan_class` custom property;
 # "low grass", "low_grass" and "Low-Grass" all mean the same class.

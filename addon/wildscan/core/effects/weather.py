@@ -76,7 +76,7 @@ def check_value(key: str, value: object) -> float:
 
 
 def parse_settings(text: str) -> dict[str, float]:
-    """"rain=10,fog=200" -> {"rain": 10.0, "fog": 200.0} (each key at most once; "" or
+    """ "rain=10,fog=200" -> {"rain": 10.0, "fog": 200.0} (each key at most once; "" or
     "none": no weather)."""
     text = str(text).strip()
     if text.lower() in ("", "none", "clear"):
@@ -87,7 +87,8 @@ def parse_settings(text: str) -> dict[str, float]:
         key = key.lower()
         if not eq or not key:
             raise UserError(
-                f"entry {part.strip()!r} is not KEY=VALUE; write e.g. rain=10,fog=200 (keys: {', '.join(KEYS)})",
+                f"entry {part.strip()!r} is not KEY=VALUE; write e.g. rain=10,fog=200 "
+                f"(keys: {', '.join(KEYS)})",
                 setting="weather",
             )
         if key in out:
