@@ -208,3 +208,40 @@ def test_a_scan_in_motion_sees_particles_and_consecutive_2d_scans_see_different_
     # the head turns between 2D scans, so compare rings: which beams met a flake differs from scan to scan
     by_scan = [set(cloud.ring[flakes & (cloud.sweep == m)]) for m in range(2)]
     assert by_scan[0] != by_scan[1]
+
+
+def test_a_weather_table_is_checked_drawn_per_scan_and_left_out_of_a_clear_specs_hash():
+    from wildscan.app.dataset.spec import DatasetSpec, draw_weather, spec_from_dict, spec_from_json
+
+    spec = spec_from_dict({"weather": {"rain": [5, 50], "fog": 300}})
+    assert spec.weather == (("fog", 300.0), ("rain", (5.0, 50.0)))
+    draws = [draw_weather(spec, 1, i)["rain"] for i in range(4)]
+    assert all(5 <= d <= 50 for d in draws) and len(set(draws)) == 4
+    assert draws == [draw_weather(spec, 1, i)["rain"] for i in range(4)]
+    assert spec_from_json(spec.to_dict()) == spec
+    assert "weather" not in DatasetSpec().to_dict()  # a clear spec's config hash is unchanged
+    assert spec.config_hash() != DatasetSpec().config_hash()
+    for bad, words in (
+        ({"rain": 900}, "weather.rain: rain=900 is out of range"),
+        ({"hail": 1}, "unknown key"),
+    ):
+        with pytest.raises(UserError, match=words):
+            spec_from_dict({"weather": bad})
+
+
+def test_a_dataset_in_rain_writes_particles_and_its_card_gives_their_share(tmp_path):
+    import json
+
+    from dataset_helpers import wildscan
+
+    spec = tmp_path / "SPEC.toml"
+    spec.write_text(
+        'seeds = [1]\nscans_per_world = 1\nformats = ["ply"]\n[poses]\nzones = { park = 1 }\n'
+        "[sensor]\nrh = 6.0\n[weather]\nrain = [150, 200]\nfog = 100\n"
+    )
+    run = wildscan("dataset", str(spec), "--out", str(tmp_path / "out"), "--workers", "1")
+    assert run.returncode == 0, run.stderr
+    card = json.loads((tmp_path / "out" / "dataset.json").read_text())
+    share = card["totals"]["particle_share"]
+    assert 0 < share < 1 and card["totals"]["class_points"]["particle"] > 0
+    assert "of points are particles" in (tmp_path / "out" / "CARD.md").read_text()
