@@ -46,11 +46,23 @@ def scan_current_scene(
     progress: Progress | None = None,
     notify: Callable[[str], None] = print,
     geometry=None,
+    weather: dict[str, float] | None = None,
 ) -> ScanResult:
+    """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air."""
     sensor.validate()
     pose.validate()
+    effects = scan_effects(weather, sensor)
     backend_ = make_scene_backend(backend, pose, sensor, notify, geometry)
-    return run_scan(backend_, pose, sensor, frame, z_start, progress)
+    return run_scan(backend_, pose, sensor, frame, z_start, progress, effects)
+
+
+def scan_effects(weather: dict[str, float] | None, sensor: SensorConfig):
+    """The effects of a scan in `weather` with `sensor`: its device's numbers, its noise seed
+    (the same seed, the same particles); clear air when there is no weather."""
+    from ..core.effects import CLEAR_AIR, Effects, Weather
+
+    found = Weather.of(weather or {}, sensor.noise_seed, sensor.device)
+    return CLEAR_AIR if found is None else Effects((found,))
 
 
 def check_scan(

@@ -45,6 +45,7 @@ SETTINGS: dict[str, Setting] = {
     "echo_separation": Setting("--echo-separation", "Echo separation"),
     "frame": Setting("--frame", "Frame"),
     "backend": Setting("--backend", "Ray caster"),
+    "weather": Setting("--weather", "Weather"),
     # a drive (wildscan drive)
     "trail": Setting("--trail"),
     "waypoints": Setting("--waypoints"),

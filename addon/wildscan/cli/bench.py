@@ -1,4 +1,4 @@
-"""`wildscan bench [--suite backends|world|drive|realism|far]` and `wildscan bench-world`
+"""`wildscan bench [--suite backends|world|drive|realism|far|weather]` and `wildscan bench-world`
 (= `bench --suite world`)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world", "drive", "realism", "far")
+SUITES = ("backends", "world", "drive", "realism", "far", "weather")
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
@@ -59,7 +59,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "`wildscan bench-world`; drive: a 60 s drive along the trail with both ROS bags on the "
         "--seed world's trail, stepped and continuous head; realism: vegetation porosity, echoes, "
         "realistic scan speed, build time and memory; far: the largest point error of every backend "
-        "and frame with the scene 0 m to 999 km from the origin (README 'Far from the origin')",
+        "and frame with the scene 0 m to 999 km from the origin (README 'Far from the origin'); weather: "
+        "each effect's lost returns on a wall at known ranges and its maximum range against the model's "
+        "curve, and the default world in each (docs/weather.md)",
     )
     options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
     options.add(
@@ -120,6 +122,11 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         _only_for_backends(args, also=("details",))
         bench_realism(args.seed, args.quick)
         return 0
+    if args.suite == "weather":
+        from ..bench.weather import TOLERANCE, bench_weather
+
+        _only_for_backends(args, also=("details",))
+        return 0 if bench_weather(args.seed, args.quick)["worst"] <= TOLERANCE else 1
     if args.suite == "world":
         from ..bench.config import check_details
 

@@ -93,6 +93,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "default, is still air)",
     )
     p.add_argument("--wind-seed", type=non_negative_int, default=0, metavar="N", help="seed of the sway (0)")
+    from .weather import add_weather
+
+    add_weather(p)
     options.add(p, "out", metavar="DIR", help="folder to write into (created if missing)")
     p.add_argument(
         "--bag",
@@ -114,7 +117,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from .output import Progress
 
     same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
-    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed")
+    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "weather")
     request = DriveRequest(
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,

@@ -51,6 +51,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
     for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
         options.add(p, name)
+    from .weather import add_weather
+
+    add_weather(p)
     from ..core.io.formats import DEFAULT_FORMAT, FORMATS
 
     p.add_argument("--format", choices=FORMATS, default=DEFAULT_FORMAT, help=_format_help())
@@ -90,6 +93,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         progress=Progress("scanning", args.quiet),
         notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
         geometry=geometry,
+        weather=args.weather,
     )
     if geometry is not None:
         seed, blend = provenance.get("seed"), provenance.get("world")

@@ -48,7 +48,15 @@ CLASSES: tuple[ElementClass, ...] = (
 WATER = ElementClass(13, "water", 120.0, (0, 0, 0))
 WATER_ID = WATER.id
 
-ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER)
+# Weather's returns (core/effects/weather.py): a beam returned by a raindrop, a snowflake, fog or
+# dust before any surface. A label like any other, but only weather makes it, so the class tables
+# of files list it only when weather is on (a clear-air file keeps its bytes). Its reflectivity
+# is the intensity the paper model reports for such a return; like every class's it must be
+# unique (labels are read back from intensities). Id 14 is kept for the next ground class.
+PARTICLE = ElementClass(15, "particle", 2.0, (150, 200, 255))
+PARTICLE_ID = PARTICLE.id
+
+ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, PARTICLE)
 
 
 def _check_table(elements: tuple[ElementClass, ...]) -> None:
@@ -65,13 +73,17 @@ _check_table(ALL_ELEMENTS)
 BY_ID: dict[int, ElementClass] = {c.id: c for c in ALL_ELEMENTS}
 NUM_IDS = max(BY_ID) + 1
 
-# Lookup tables indexed by internal class id.
-REFLECTIVITY_BY_ID = np.array([BY_ID[i].reflectivity for i in range(NUM_IDS)], dtype=np.float32)
-COLOR_BY_ID = np.array([BY_ID[i].color for i in range(NUM_IDS)], dtype=np.uint8)
+# Lookup tables indexed by internal class id (an id no class has yet: reflectivity nan, white).
+REFLECTIVITY_BY_ID = np.array(
+    [BY_ID[i].reflectivity if i in BY_ID else np.nan for i in range(NUM_IDS)], dtype=np.float32
+)
+COLOR_BY_ID = np.array(
+    [BY_ID[i].color if i in BY_ID else (255, 255, 255) for i in range(NUM_IDS)], dtype=np.uint8
+)
 
 # Class names as users write them in the `wildscan_class` custom property;
 # "low grass", "low_grass" and "Low-Grass" all mean the same class.
-_BY_NAME: dict[str, ElementClass] = {c.name: c for c in (*CLASSES, WATER)}
+_BY_NAME: dict[str, ElementClass] = {c.name: c for c in (*CLASSES, WATER)}  # a tag names no particle
 TAG_NAMES: tuple[str, ...] = tuple(c.name for c in (*CLASSES, WATER))
 
 
@@ -164,7 +176,7 @@ def label_from_reflectivity(intensity: np.ndarray) -> np.ndarray:
     matches no class is a programming error and raises.
     """
     intensity = np.asarray(intensity, dtype=np.float32)
-    order = np.argsort(REFLECTIVITY_BY_ID)
+    order = np.array(sorted(BY_ID, key=lambda i: BY_ID[i].reflectivity))
     sorted_refl = REFLECTIVITY_BY_ID[order]
     pos = np.clip(np.searchsorted(sorted_refl, intensity), 0, len(sorted_refl) - 1)
     if not np.all(sorted_refl[pos] == intensity):
@@ -178,16 +190,21 @@ def colors_of(labels: np.ndarray) -> np.ndarray:
     return COLOR_BY_ID[np.asarray(labels, dtype=np.intp)]
 
 
-def class_table_lines() -> list[str]:
-    """One line per PLY label, for file headers and sidecars."""
+def _labels(particles: bool) -> tuple[ElementClass, ...]:
+    return (UNLABELED, *CLASSES, PARTICLE) if particles else (UNLABELED, *CLASSES)
+
+
+def class_table_lines(particles: bool = False) -> list[str]:
+    """One line per PLY label, for file headers and sidecars; `particles`: weather is on (or a
+    point is a particle), so the table lists the particle class too."""
     return [
         f"{c.id} {c.name.replace(' ', '_')} reflectivity={c.reflectivity:g} rgb={','.join(map(str, c.color))}"
-        for c in (UNLABELED, *CLASSES)
+        for c in _labels(particles)
     ]
 
 
-def class_table_dict() -> list[dict]:
+def class_table_dict(particles: bool = False) -> list[dict]:
     return [
         {"id": c.id, "name": c.name, "reflectivity": c.reflectivity, "color": list(c.color)}
-        for c in (UNLABELED, *CLASSES)
+        for c in _labels(particles)
     ]

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .classes import ALL_ELEMENTS, BY_ID, CLASSES, WATER_ID
+from .classes import ALL_ELEMENTS, BY_ID, CLASSES, PARTICLE_ID, WATER_ID
 
 SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
 OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
@@ -100,9 +100,10 @@ _WILDSCAN = LabelScheme(
     colors_bgr={c.id: _bgr(c.color) for c in ALL_ELEMENTS if c.id != WATER_ID} | {WATER_ID: (255, 128, 0)},
     by_class={c.name: c.id for c in ALL_ELEMENTS},
     other=None,
-    learning_map={**_identity(c.id for c in CLASSES), 0: 0, WATER_ID: 0},
-    learning_map_inv={0: 0, **_identity(c.id for c in CLASSES)},
-    learning_ignore={0: True, **{c.id: False for c in CLASSES}},
+    # weather's particles are a class to learn (to filter them), not noise to ignore
+    learning_map={**_identity(c.id for c in CLASSES), 0: 0, WATER_ID: 0, PARTICLE_ID: PARTICLE_ID},
+    learning_map_inv={0: 0, **_identity(c.id for c in CLASSES), PARTICLE_ID: PARTICLE_ID},
+    learning_ignore={0: True, **{c.id: False for c in CLASSES}, PARTICLE_ID: False},
 )
 
 # -- SemanticKITTI (semantic-kitti-api, config/semantic-kitti-all.yaml) ------------------------
@@ -155,6 +156,7 @@ _SEMANTICKITTI = LabelScheme(
         "wire": OTHER,
         "pole": 80,  # pole
         "water": OTHER,
+        "particle": 1,  # outlier (SemanticKITTI's label for spurious returns)
     },
     other=99,  # other-object
     # the single-scan (19-class) learning map of semantic-kitti.yaml: moving objects as static
@@ -209,6 +211,7 @@ _RELLIS3D = LabelScheme(
         "wire": OTHER,
         "pole": 5,  # pole
         "water": 6,  # water
+        "particle": 0,  # void: RELLIS-3D has no class for returns from the air
     },
     other=9,  # object
     learning_map=_RELLIS_LEARNING_MAP,
@@ -243,6 +246,7 @@ _GOOSE_BY_CLASS: dict[str, int | str] = {
     "wire": 55,  # wire
     "pole": 45,  # pole
     "water": 54,  # water
+    "particle": 56,  # outlier
 }
 _GOOSE_OTHER = 4  # obstacle
 

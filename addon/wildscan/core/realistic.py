@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import detmath as dm
-from .classes import WATER_ID
+from .classes import PARTICLE_ID, WATER_ID
 from .echoes import Echoes, SubrayReturns, form_echoes
 from .effects import CLEAR_AIR, Effects, Rays
 from .errors import UserError
@@ -108,10 +108,12 @@ def echo_points(
     """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
     world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's.
     The sub-rays' first hits pass through `effects`' medium; following the axis to settle
-    labels (AxisHits) looks at the surfaces alone."""
+    labels (AxisHits) looks at the surfaces alone, so a surface behind a particle keeps its
+    exact label, and a particle's echo is on its particle unless it merged with a surface."""
     s, n, _ = sub_world.shape
     rays = sub_world.reshape(-1, 3)
-    hits = effects.medium(Rays(origin, rays, cast_range), cast(origin, rays, cast_range, True))
+    clear = cast(origin, rays, cast_range, True)
+    hits = effects.medium(Rays(origin, rays, cast_range), clear)
     returns = subray_returns(hits, sub_world)
     weights = subray_weights(s)
     echoes = form_echoes(returns, weights, sensor.echo_separation, sensor.echoes)
@@ -119,8 +121,13 @@ def echo_points(
     keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
     echoes, measured = echoes.subset(keep), measured[keep]
     number, count = _numbers(echoes.beam, n)
-    axis = AxisHits(returns, sub_world[0], origin, cast_range)
+    surfaces = returns if hits is clear else subray_returns(clear, sub_world)
+    axis = AxisHits(surfaces, sub_world[0], origin, cast_range)
     on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False))
+    particle = echoes.label == PARTICLE_ID
+    if particle.any():  # a pure particle echo lies on its particle; its instance is the effect's code
+        on_surface[particle] = echoes.purity[particle] >= 1.0
+        instance[particle] = echoes.instance[particle]
     per_beam = np.bincount(echoes.beam, minlength=n)
     stats = {
         "subrays_per_beam": s,
@@ -128,6 +135,8 @@ def echo_points(
         "mixed_points": int((~on_surface).sum()),
         "water_subrays": int((returns.class_id == WATER_ID).sum()),
     }
+    if hits is not clear:
+        stats["particle_points"] = int(particle.sum())
     return RealisticPoints(
         beam=echoes.beam,
         range=measured,

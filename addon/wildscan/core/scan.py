@@ -13,7 +13,8 @@ import numpy as np
 
 from .. import __version__
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
-from .effects import CLEAR_AIR, Effects, Rays
+from .effects import CLEAR_AIR, Effects, Rays, weather_of
+from .effects.weather import weather_fields
 from .frames import check_frame, to_world
 from .hits import RayHits
 from .leveling import leveling_matrix
@@ -108,6 +109,12 @@ def measure(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
     return Returns(keep, measured, intensity, label, hits.instance)
 
 
+def with_weather_field(cloud: PointCloud) -> None:
+    """Give a cloud scanned in weather its `weather` field (which effect made each particle;
+    0: a surface) and its particles instance 0 (their hits carried the effect's code)."""
+    cloud.instance, cloud.extra["weather"] = weather_fields(cloud.label, cloud.instance)
+
+
 def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str) -> np.ndarray:
     """A scan's points in its output frame: leveled by Eq. 2 itself (the paper's leveling),
     the world frame by the frame conversion every other user of frames shares."""
@@ -182,7 +189,7 @@ def run_scan(
         **{k: v for k, v in facts.items() if k != "hits"},
         "points": int(len(cloud)),
         "untagged_objects_hit": sorted(untagged),
-        "classes": class_table_dict(),
+        "classes": class_table_dict(particles=weather_of(effects) is not None),
     }
     if effects:  # clear air says nothing, so scans without effects keep their bytes
         metadata["effects"] = effects.describe()
@@ -209,6 +216,8 @@ def _paper_cloud(
     cloud = returns.cloud(
         _points(placement, frame, sensor, dirs_world, returns.keep, returns.range), ring, sweep, frame
     )
+    if weather_of(effects) is not None:
+        with_weather_field(cloud)
     facts = {
         "returns": int(hits.hit.sum()),
         "water_returns_dropped": int((hits.class_id == WATER_ID).sum()),
@@ -250,6 +259,8 @@ def _realistic_cloud(
             "mixed": pts.mixed.astype(np.uint8),
         },
     )
+    if weather_of(effects) is not None:
+        with_weather_field(cloud)
     beams_hit = int(len(np.unique(pts.beam)))
     facts = {
         "returns": int(len(pts.beam)),

@@ -10,7 +10,7 @@ from importlib import metadata
 from pathlib import Path
 
 from ... import __version__
-from ...core.classes import BY_ID, CLASSES
+from ...core.classes import BY_ID, CLASSES, PARTICLE
 from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
@@ -44,6 +44,8 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
     rows = list(manifest.rows.values())
     ok = [r for r in rows if r["status"] == "ok"]
     class_points = {c.name: 0 for c in (BY_ID[0], *CLASSES)}
+    if spec.weather:  # weather's particles, a class of their own (a clear dataset's card keeps its bytes)
+        class_points[PARTICLE.name] = 0
     class_scans = dict.fromkeys(class_points, 0)
     ranges = [0] * RANGE_BINS
     zones: dict[str, dict[str, int]] = {}
@@ -67,7 +69,16 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
         "scan_seconds": sum(r.get("seconds", 0.0) for r in rows),
         "failures": sorted({r["reason"] for r in rows if r["status"] != "ok"}),
         **_echo_totals(ok),
+        **_particle_totals(spec, ok, class_points),
     }
+
+
+def _particle_totals(spec: DatasetSpec, ok: list[dict], class_points: dict) -> dict:
+    """The share of the points that are weather's particles (a dataset with [weather] only)."""
+    if not spec.weather:
+        return {}
+    points = sum(r["points"] for r in ok)
+    return {"particle_share": class_points[PARTICLE.name] / points if points else 0.0}
 
 
 def _echo_totals(ok: list[dict]) -> dict:
@@ -145,6 +156,18 @@ def _echo_lines(t: dict) -> list[str]:
     ]
 
 
+def _weather_lines(spec: DatasetSpec, t: dict) -> list[str]:
+    if "particle_share" not in t:
+        return []
+    drawn = ", ".join(
+        f"{k}={v if not isinstance(v, tuple) else f'{v[0]:g}..{v[1]:g}'}" for k, v in spec.weather
+    )
+    return [
+        f"Weather ({drawn}; docs/weather.md): {_pct(t['particle_share'])} of points are particles "
+        "(class particle: returns from rain, snow, fog or dust)."
+    ]
+
+
 def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]]) -> str:
     t = data["totals"]
     lines = [
@@ -157,6 +180,7 @@ def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]])
         f"Scans written: {t['scans_ok']:,} of {t['scans_planned']:,} "
         f"({t['scans_failed']:,} without a valid pose); {t['points']:,} points; {t['bytes'] / 1e9:.2f} GB.",
         *_echo_lines(t),
+        *_weather_lines(spec, t),
         "",
         "## Classes",
         "",

@@ -74,9 +74,14 @@ class DatasetSpec:
     split: tuple[tuple[str, float], ...] = (("train", 0.8), ("val", 0.1), ("test", 0.1))
     poses: PoseSpec = field(default_factory=PoseSpec)
     sensor: SensorSpec = field(default_factory=SensorSpec)
+    # [weather]: key (core/effects/weather.py KEYS) -> a value or a range [lo, hi] drawn per scan
+    weather: tuple[tuple[str, Value], ...] = ()
 
     def to_dict(self) -> dict:
-        return json.loads(json.dumps(asdict(self)))
+        out = json.loads(json.dumps(asdict(self)))
+        if not self.weather:  # a spec without weather keeps its dict, so its config hash
+            del out["weather"]
+        return out
 
     def config_hash(self) -> str:
         """SHA-256 of the spec with every default filled in and the WildScan version."""
@@ -139,6 +144,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         "split",
         "poses",
         "sensor",
+        "weather",
     )
     d = DatasetSpec()
     spec = replace(
@@ -152,8 +158,32 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         split=_split(top.table("split", dict(d.split))),
         poses=_poses(top.table("poses", {})),
         sensor=_sensor(top.table("sensor", {})),
+        weather=_weather(top.table("weather", {})),
     )
     return spec
+
+
+def _weather(t: "_Table") -> tuple[tuple[str, Value], ...]:
+    """[weather]: each key of core/effects/weather.py a value or a range [lo, hi] of values."""
+    from ...core.effects.weather import KEYS, check_value
+
+    t.only(*KEYS)
+    out = []
+    for key in KEYS:
+        value = t.get(key, None)
+        if value is None:
+            continue
+        bounds = value if isinstance(value, list) else [value]
+        try:
+            if len(bounds) not in (1, 2) or any(isinstance(v, (list, dict, str)) for v in bounds):
+                raise UserError("a number or a range [lo, hi]")
+            checked = [check_value(key, v) for v in bounds]
+        except UserError as e:
+            raise UserError(f"{t.where}: {t.name(key)}: {e.message}") from None
+        if len(checked) == 2 and checked[0] > checked[1]:
+            raise t.fail(key, "a range [lo, hi] with lo <= hi", value)
+        out.append((key, (checked[0], checked[1]) if len(checked) == 2 else checked[0]))
+    return tuple(out)
 
 
 class _Table:
@@ -416,6 +446,17 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
     ).validate()
 
 
+def draw_weather(spec: "DatasetSpec", seed: int, index: int) -> dict[str, float]:
+    """The weather of scan `index` of world `seed`: fixed values as given, ranges drawn from a
+    stream of their own (seeded by world seed, key and scan index)."""
+    out = {}
+    for key, value in spec.weather:
+        if isinstance(value, tuple):
+            value = float(stage_rng(seed, f"dataset.weather.{key}.{index}").uniform(value[0], value[1]))
+        out[key] = value
+    return out
+
+
 def spec_from_json(data: dict) -> DatasetSpec:
     """The inverse of DatasetSpec.to_dict (specs travel to Dask workers as plain data)."""
 
@@ -433,4 +474,5 @@ def spec_from_json(data: dict) -> DatasetSpec:
         split=tuple((k, v) for k, v in data["split"]),
         poses=PoseSpec(poses["strategy"], tuple((k, v) for k, v in poses["zones"]), poses["min_distance"]),
         sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
+        weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
     )

@@ -42,7 +42,7 @@ from ...core.posesampler import NoPose, ScanPose, sample_poses
 from ...core.scan import run_scan
 from ...core.world import EXTENT, WorldPlan, plan_world
 from .layout import scan_paths
-from .spec import DatasetSpec, draw_sensor, spec_from_json
+from .spec import DatasetSpec, draw_sensor, draw_weather, spec_from_json
 
 TERRAIN_ID = class_by_name("terrain").id
 RANGE_BIN = 0.5  # m, the range histogram kept per scan (dataset card)
@@ -228,6 +228,12 @@ def base_row(spec: DatasetSpec, seed: int, index: int) -> dict:
     }
 
 
+def _effects(weather: dict, sensor):
+    from ..scan import scan_effects
+
+    return scan_effects(weather, sensor)
+
+
 def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -> dict:
     t0 = time.perf_counter()
     row = base_row(spec, context.seed, index)
@@ -238,8 +244,13 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
     sensor = draw_sensor(spec.sensor, context.seed, index)
     frame = spec.sensor.frame
     row["sensor"] = sensor_row(sensor, frame)
+    weather = draw_weather(spec, context.seed, index)
+    if weather:
+        row["weather"] = weather
     try:
-        result = run_scan(context.backend, choice.pose, sensor, frame, choice.z_start)
+        result = run_scan(
+            context.backend, choice.pose, sensor, frame, choice.z_start, None, _effects(weather, sensor)
+        )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
     placement = result.placement

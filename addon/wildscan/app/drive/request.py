@@ -41,6 +41,7 @@ class DriveRequest:
     ros2_storage: str = "mcap"
     wind: float = 0.0  # peak sway of the treetops, degrees (0: no wind)
     wind_seed: int = 0
+    weather: dict | None = None  # key -> value (core/effects/weather.py); None or {}: clear air
 
     @property
     def bags(self) -> tuple[str, ...]:
@@ -101,6 +102,7 @@ class DriveRequest:
             "ros2_storage": self.ros2_storage,
             "wind": self.wind,
             "wind_seed": self.wind_seed,
+            **({"weather": dict(self.weather)} if self.weather else {}),  # clear air: the same dict
         }
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ... import __version__
 from ...core.classes import class_table_dict
+from ...core.effects import Effects
 from ...core.groundtruth import pose_matrix
 from ...core.io.tum import tum_text
 from ...core.io.writer import ScanOutput
@@ -78,6 +79,10 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
     effects = drive_effects(request.wind, request.wind_seed)
+    if request.weather:  # drops fall and dust drifts: every ray of the drive draws its own particles
+        from ..scan import scan_effects
+
+        effects = Effects(effects.items + scan_effects(request.weather, sensor).items)
     backend = _backend(request, effects, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times)
@@ -190,7 +195,7 @@ class _Context:
                 "head": request.head,
                 "wind": request.wind,
             },
-            "classes": class_table_dict(),
+            "classes": class_table_dict(particles=bool(request.weather)),
         }
 
     def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:

@@ -36,12 +36,14 @@ class Rays:
     """The rays a scan cast: origins (3,) shared or (N, 3), unit directions (N, 3) in the
     world frame, cast to `max_range`; `times` (N,) each ray's time, seconds since the run's
     first column (a drive's start), where the path has them (the motion sweep; a static
-    scan gives None)."""
+    scan gives None); `index0` the number of the first ray in its run (a drive's rays are
+    numbered from its start), so an effect's random draws can be keyed on each ray."""
 
     origins: np.ndarray
     directions: np.ndarray
     max_range: float
     times: np.ndarray | None = None
+    index0: int = 0
 
 
 class ObjectMotion(Protocol):

@@ -47,6 +47,7 @@ ASPRS_BY_CLASS: dict[str, int] = {
     "wire": 14,  # wire conductor (phase)
     "pole": 15,  # transmission tower
     "water": 9,  # water: never written (a beam that hits water returns no point), so not in ASPRS_NAMES
+    "particle": 18,  # high noise (returns from the air: rain, snow, fog, dust)
 }
 ASPRS_CODES: dict[int, int] = ids_by_class_id("asprs (core/io/las.py)", ASPRS_BY_CLASS, None)  # id -> code
 ASPRS_NAMES: dict[int, str] = {
@@ -57,6 +58,7 @@ ASPRS_NAMES: dict[int, str] = {
     5: "high vegetation",
     14: "wire conductor",
     15: "transmission tower",
+    18: "high noise",
     64: "trunk",
     65: "table",
     66: "fence",

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
-from ..effects import CLEAR_AIR, Effects, Rays
+from ..effects import CLEAR_AIR, Effects, Rays, weather_of
 from ..pointcloud import PointCloud
-from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame
+from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame, with_weather_field
 from ..sensors import SensorConfig, directions_at
 from .placements import Motion
 from .rotations import rotate
@@ -75,7 +75,8 @@ def sweep(
     hits = cast_in_chunks(backend, origins, dirs_world, cast_range, ks, progress)
     if effects.changes_medium:  # the beams' times since the drive's start, for the medium
         drive_times = beam_times(ks, timing=device.timing).ravel()
-        hits = effects.medium(Rays(origins, dirs_world, cast_range, drive_times), hits)
+        first_ray = k0 * device.beams.count  # the drive's rays are numbered from its start
+        hits = effects.medium(Rays(origins, dirs_world, cast_range, drive_times, first_ray), hits)
 
     returns = measure(hits, noise, sensor)
     keep, rho = returns.keep, returns.range[returns.keep]
@@ -88,6 +89,9 @@ def sweep(
     start = motion.placements[k0]
     raw = returns.cloud(points_in_frame(raw_sensor, start, frame), ring, sweep_index, frame, time=times)
     deskewed = returns.cloud(points_in_frame(true_sensor, start, frame), ring, sweep_index, frame, time=times)
+    if weather_of(effects) is not None:
+        with_weather_field(raw)
+        with_weather_field(deskewed)
     return Sweep(k0, k1, returns, raw, deskewed, times)
 
 
