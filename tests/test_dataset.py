@@ -218,6 +218,34 @@ def test_the_label_config_loads_in_semantic_kitti_api_form(dataset):
     assert all(len(c) == 3 for c in config["color_map"].values())
 
 
+# sha256 of each scheme's label config for a clear dataset, as the code before the particle class
+# wrote it (content {2: 0.5}, train [0], valid [1]): a clear dataset keeps every byte.
+CLEAR_LABEL_CONFIGS = {
+    "wildscan": "322e6ce01ff36c612eb72e89442114065396d5d7aeab91b7c49109757a98344c",
+    "semantickitti": "26827f6a89e8135a7ac4e2bc91f29244b77e8afb8eba50bf49dbbe935dcc7331",
+    "rellis3d": "6a5d9b0b9813add47752afa945e939b740f3c7e2638927aca284e5356c59c974",
+    "goose": "994b29fad5092bdf8fc08218abb7a887d5812fe713aea7331a6c637a3032fd93",
+}
+
+
+@pytest.mark.parametrize("name", sorted(CLEAR_LABEL_CONFIGS))
+def test_a_clear_label_config_keeps_the_bytes_of_before_the_particle_class(name):
+    import hashlib
+
+    from wildscan.core.io.semantickitti import label_config_yaml
+
+    args = (SCHEMES[name], {2: 0.5}, {"train": [0], "valid": [1]}, "WildScan dataset")
+    clear = label_config_yaml(*args).encode()
+    assert hashlib.sha256(clear).hexdigest() == CLEAR_LABEL_CONFIGS[name]
+    weather = yaml.safe_load(label_config_yaml(*args, particles=True))
+    particle = SCHEMES[name].from_wildscan[15]
+    assert particle in weather["labels"] and particle in weather["color_map"]
+
+
+def test_a_clear_datasets_label_config_does_not_list_the_particle_class(dataset):
+    assert "particle" not in (dataset / "labels.yaml").read_text()
+
+
 def test_an_independent_semantickitti_reader_loads_every_scan(dataset):
     scheme = SCHEMES["semantickitti"]
     config = yaml.safe_load((dataset / "labels.yaml").read_text())

@@ -245,3 +245,4 @@ def test_a_dataset_in_rain_writes_particles_and_its_card_gives_their_share(tmp_p
     share = card["totals"]["particle_share"]
     assert 0 < share < 1 and card["totals"]["class_points"]["particle"] > 0
     assert "of points are particles" in (tmp_path / "out" / "CARD.md").read_text()
+    assert '15: "particle"' in (tmp_path / "out" / "labels.yaml").read_text()  # listed with weather

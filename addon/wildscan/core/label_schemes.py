@@ -60,6 +60,10 @@ class LabelScheme:
     learning_map_inv: dict[int, int]
     learning_ignore: dict[int, bool]
     from_wildscan: dict[int, int] = field(init=False, repr=False)  # WildScan id -> raw id, from by_class
+    # What a label config without weather lists (the bytes it had before the particle class):
+    # not the raw ids only weather's particles use, and these colours where theirs differ.
+    weather_ids: tuple[int, ...] = ()
+    clear_colors_bgr: dict[int, tuple[int, int, int]] | None = None
 
     def __post_init__(self):
         from_wildscan = ids_by_class_id(self.name, self.by_class, self.other)
@@ -77,6 +81,20 @@ class LabelScheme:
 
     def map(self, wildscan_ids: np.ndarray) -> np.ndarray:
         return self.lookup()[np.asarray(wildscan_ids, dtype=np.intp)]
+
+    def config_tables(self, particles: bool) -> dict[str, dict]:
+        """The tables of a label config (labels.yaml): as they are with weather's particles,
+        without them (`particles` False) as they were before the particle class."""
+        tables = dict(
+            labels=self.labels,
+            color_map=self.colors_bgr if particles else self.clear_colors_bgr or self.colors_bgr,
+            learning_map=self.learning_map,
+            learning_map_inv=self.learning_map_inv,
+            learning_ignore=self.learning_ignore,
+        )
+        if particles:
+            return tables
+        return {name: {k: v for k, v in t.items() if k not in self.weather_ids} for name, t in tables.items()}
 
     def is_other(self, wildscan_id: int) -> bool:
         """Whether this class has no counterpart in the scheme (it got the "other" id)."""
@@ -104,6 +122,7 @@ _WILDSCAN = LabelScheme(
     learning_map={**_identity(c.id for c in CLASSES), 0: 0, WATER_ID: 0, PARTICLE_ID: PARTICLE_ID},
     learning_map_inv={0: 0, **_identity(c.id for c in CLASSES), PARTICLE_ID: PARTICLE_ID},
     learning_ignore={0: True, **{c.id: False for c in CLASSES}, PARTICLE_ID: False},
+    weather_ids=(PARTICLE_ID,),
 )
 
 # -- SemanticKITTI (semantic-kitti-api, config/semantic-kitti-all.yaml) ------------------------
@@ -251,9 +270,10 @@ _GOOSE_BY_CLASS: dict[str, int | str] = {
 _GOOSE_OTHER = 4  # obstacle
 
 
-def _goose_colors() -> dict[int, tuple[int, int, int]]:
+def _goose_colors(particles: bool = True) -> dict[int, tuple[int, int, int]]:
     colors = {i: (160, 160, 160) for i in range(len(_GOOSE_NAMES))}
-    for c in ALL_ELEMENTS:  # in id order: where classes share an id, the last one's colour
+    elements = ALL_ELEMENTS if particles else [c for c in ALL_ELEMENTS if c.id != PARTICLE_ID]
+    for c in elements:  # in id order: where classes share an id, the last one's colour
         if _GOOSE_BY_CLASS[c.name] != OTHER:
             colors[_GOOSE_BY_CLASS[c.name]] = _WILDSCAN.colors_bgr[c.id]
     colors[0] = (0, 0, 0)
@@ -265,6 +285,7 @@ _GOOSE = LabelScheme(
     title="GOOSE",
     labels=dict(enumerate(_GOOSE_NAMES)),
     colors_bgr=_goose_colors(),
+    clear_colors_bgr=_goose_colors(particles=False),  # outlier (56) grey, as before weather
     by_class=_GOOSE_BY_CLASS,
     other=_GOOSE_OTHER,
     learning_map=_identity(range(len(_GOOSE_NAMES))),

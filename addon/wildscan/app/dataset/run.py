@@ -311,7 +311,8 @@ def _labels_yaml(spec: DatasetSpec, totals: dict) -> str:
     by_split = {"train": [], "valid": [], "test": []}
     for seed in spec.seeds:
         by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
-    return sk.label_config_yaml(s, content, by_split, f"WildScan dataset, config {spec.config_hash()[:16]}")
+    title = f"WildScan dataset, config {spec.config_hash()[:16]}"
+    return sk.label_config_yaml(s, content, by_split, title, particles=bool(spec.weather))
 
 
 # ---------------------------------------------------------------------------------------

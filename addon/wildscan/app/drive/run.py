@@ -241,7 +241,9 @@ class _Context:
         total = self.class_points.sum()
         content = {k: float(self.class_points[k] / total) if total else 0.0 for k in self.labels.labels}
         splits = {"train": [0], "valid": [], "test": []}
-        stage.write("labels.yaml", label_config_yaml(self.labels, content, splits, "WildScan drive").encode())
+        weather = bool(self.request.weather)
+        config = label_config_yaml(self.labels, content, splits, "WildScan drive", particles=weather)
+        stage.write("labels.yaml", config.encode())
         listed = stage.files() + [files.DRIVE_JSON]
         summary = {
             "wildscan_version": __version__,

@@ -113,17 +113,23 @@ def _yaml_map(name: str, mapping: dict, value=lambda v: str(v)) -> list[str]:
 
 
 def label_config_yaml(
-    scheme: LabelScheme, content: dict[int, float], splits: dict[str, list[int]], title: str
+    scheme: LabelScheme,
+    content: dict[int, float],
+    splits: dict[str, list[int]],
+    title: str,
+    particles: bool = False,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
-    learning_map, learning_map_inv, learning_ignore, split by sequence number)."""
+    learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
+    the data has weather, so weather's particle class is listed (without: the bytes of before it)."""
+    t = scheme.config_tables(particles)
     lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
-    lines += _yaml_map("labels", scheme.labels, json.dumps)
-    lines += _yaml_map("color_map", scheme.colors_bgr, lambda c: f"[{c[0]}, {c[1]}, {c[2]}]")
-    lines += _yaml_map("content", {k: content.get(k, 0.0) for k in scheme.labels}, repr)
-    lines += _yaml_map("learning_map", scheme.learning_map)
-    lines += _yaml_map("learning_map_inv", scheme.learning_map_inv)
-    lines += _yaml_map("learning_ignore", scheme.learning_ignore, lambda b: "True" if b else "False")
+    lines += _yaml_map("labels", t["labels"], json.dumps)
+    lines += _yaml_map("color_map", t["color_map"], lambda c: f"[{c[0]}, {c[1]}, {c[2]}]")
+    lines += _yaml_map("content", {k: content.get(k, 0.0) for k in t["labels"]}, repr)
+    lines += _yaml_map("learning_map", t["learning_map"])
+    lines += _yaml_map("learning_map_inv", t["learning_map_inv"])
+    lines += _yaml_map("learning_ignore", t["learning_ignore"], lambda b: "True" if b else "False")
     lines.append("split:")
     for key in ("train", "valid", "test"):
         lines.append(f"  {key}: [{', '.join(str(s) for s in splits.get(key, []))}]")
