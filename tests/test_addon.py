@@ -467,6 +467,52 @@ def test_invalid_settings_give_a_report_naming_the_problem_and_change_nothing(sc
     assert_rejected(bpy.ops.wildscan.scan, match)
 
 
+def test_the_weather_fields_scan_as_scan_current_scene_in_that_weather(scene):
+    from wildscan.core.classes import PARTICLE_ID
+    from wildscan.core.effects.weather import KEYS
+    from wildscan.ui.scene import read_cloud
+
+    weather = settings().weather
+    for key, (_, _, _, high) in KEYS.items():  # the command line's limits are the fields' range
+        assert weather.bl_rna.properties[key].soft_max == high and getattr(weather, key) == 0.0
+    generate()
+    pose = find_valid_pose()
+    use_pose(*pose)
+    configure()
+    weather.rain, weather.fog = 100.0, 60.0
+    assert bpy.ops.wildscan.scan() == {"FINISHED"}
+    panel = read_cloud(the_cloud())
+    cli = scan_current_scene(Pose(*pose), sensor_config(), "leveled", weather=dict(rain=100, fog=60)).cloud
+    assert (panel.label == PARTICLE_ID).sum() > 100
+    assert np.array_equal(panel.to_structured(), cli.to_structured())
+    assert np.array_equal(panel.extra["weather"], cli.extra["weather"])
+
+
+@pytest.mark.parametrize(
+    "key, value, message",
+    [
+        ("rain", 600.0, "--weather rain='600' is out of range; rain is 0 to 500 mm/h"),
+        ("fog", 2.0, "--weather fog='2' is out of range; fog is 0 (none) or 5 to 100000 m of visibility"),
+        ("snow", -1.0, "--weather snow='-1' is out of range; snow is 0 to 100 mm/h of melted snow"),
+    ],
+)
+def test_a_weather_field_out_of_range_gets_the_command_lines_message(scene, key, value, message):
+    import re
+
+    from wildscan.app.settings import command_line_message
+    from wildscan.core.effects.weather import parse_settings
+    from wildscan.core.errors import UserError
+
+    with pytest.raises(UserError) as cli:
+        parse_settings(f"{key}={value:g}")
+    assert command_line_message(cli.value) == message
+    generate()
+    use_pose(*find_valid_pose())
+    configure()
+    setattr(settings().weather, key, value)
+    assert_rejected(bpy.ops.wildscan.scan, re.escape(message.replace("--weather", "Weather")) + "$")
+
+
 def test_export_mistakes_are_reports(scene, tmp_path):
     generate()
     assert_rejected(bpy.ops.wildscan.export_ply, "No scan to export", filepath=str(tmp_path / "x.ply"))

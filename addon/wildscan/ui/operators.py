@@ -211,6 +211,7 @@ class WILDSCAN_OT_scan(Operator):
         from . import status
         from .properties import pose_from, sensor_from, z_start_from
         from .scene import add_cloud, pose_marker
+        from .weather import weather_from
 
         scene = context.scene
         settings = scene.wildscan
@@ -221,9 +222,17 @@ class WILDSCAN_OT_scan(Operator):
             z_start = z_start_from(settings)
             frame = check_frame(settings.frame)
             backend = check_backend_name(settings.backend)
+            weather = weather_from(settings)
             with Progress(context, "WildScan: scanning") as progress:
                 result = scan_current_scene(
-                    pose, sensor, frame, z_start, backend, progress=progress.scan, notify=notes.append
+                    pose,
+                    sensor,
+                    frame,
+                    z_start,
+                    backend,
+                    progress=progress.scan,
+                    notify=notes.append,
+                    weather=weather,
                 )
             metadata = dict(result.metadata, seed=_world_seed(scene), world=bpy.data.filepath or None)
             obj = add_cloud(scene, result.cloud, metadata, keep_previous=settings.keep_previous)

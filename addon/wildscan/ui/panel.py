@@ -105,6 +105,7 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         from ..app.settings import panel_message
         from ..core.errors import UserError
         from .properties import sensor_from
+        from .weather import draw_weather, weather_from
 
         s = context.scene.wildscan
         layout = self.layout
@@ -126,7 +127,9 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         row.prop(s, "noise")
         col.prop(s, "noise_seed")
         layout.prop(s, "frame")
+        draw_weather(layout, s)
         try:
+            weather_from(s)
             sensor = sensor_from(s).validate()
         except UserError as e:
             box = layout.box()

@@ -22,6 +22,8 @@ from ..core import sensor as S
 from ..core.classes import TAG_NAMES
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
+from .weather import CLASSES as WEATHER_CLASSES
+from .weather import WildScanWeather
 
 _DETAIL_TEXT = {
     "low": "Fewer, coarser elements: quick to build and scan",
@@ -231,6 +233,7 @@ class WildScanSettings(PropertyGroup):
         "instead of the Noise below",
         default=True,
     )
+    weather: PointerProperty(type=WildScanWeather, name=label("weather"))  # ui/weather.py
     frame: EnumProperty(
         name=label("frame"),
         description="Coordinate frame of the exported points",
@@ -277,7 +280,7 @@ class WildScanSettings(PropertyGroup):
     )
 
 
-CLASSES = (WildScanSettings,)
+CLASSES = (*WEATHER_CLASSES, WildScanSettings)  # a group before the settings that hold it
 
 
 def attach() -> None:
