@@ -41,6 +41,7 @@ from ..hits import MISS_CLASS, MISS_INSTANCE, RayHits
 from ..rng import stage_rng
 from . import particles as P
 from .base import Effect, Effects, Rays
+from .dust_cloud import Cylinder, first_events, optical_depth, parse_region, surface_lost
 
 # key -> (code in the `weather` field, unit, lowest, highest). 0 is "off" for every key.
 KEYS: dict[str, tuple[int, str, float, float]] = {
@@ -75,14 +76,18 @@ def check_value(key: str, value: object) -> float:
     return number
 
 
-def parse_settings(text: str) -> dict[str, float]:
+REGION = "dust_at"  # the settings' key of a dust cloud: [X, Y, RADIUS] or [X, Y, RADIUS, TOP] (dust_cloud.py)
+
+
+def parse_settings(text: str) -> dict:
     """ "rain=10,fog=200" -> {"rain": 10.0, "fog": 200.0} (each key at most once; "" or
-    "none": no weather)."""
+    "none": no weather); "dust=0.5@12,-3,8[,4]" -> {"dust": 0.5, "dust_at": [12, -3, 8(, 4)]},
+    a dust cloud (the numbers after @ run on to the next KEY=VALUE)."""
     text = str(text).strip()
     if text.lower() in ("", "none", "clear"):
         return {}
-    out: dict[str, float] = {}
-    for part in text.split(","):
+    out: dict = {}
+    for part in _entries(text):
         key, eq, value = (s.strip() for s in part.partition("="))
         key = key.lower()
         if not eq or not key:
@@ -93,8 +98,25 @@ def parse_settings(text: str) -> dict[str, float]:
             )
         if key in out:
             raise UserError(f"names {key} twice", setting="weather")
-        out[key] = check_value(key, value)
+        value, at, region = value.partition("@")
+        if at and key != "dust":
+            why = f"{part.strip()!r}: only dust takes a region (dust=C@X,Y,RADIUS[,TOP])"
+            raise UserError(why, setting="weather")
+        out[key] = check_value(key, value.strip())
+        if at:
+            out[REGION] = parse_region(region).describe()
     return out
+
+
+def _entries(text: str) -> list[str]:
+    """The KEY=VALUE entries of `text`: split at commas, a region's numbers kept with its entry."""
+    entries: list[str] = []
+    for part in text.split(","):
+        if entries and "=" not in part and "@" in entries[-1]:
+            entries[-1] += "," + part
+        else:
+            entries.append(part)
+    return entries
 
 
 @dataclass(frozen=True)
@@ -103,6 +125,7 @@ class Component:
 
     key: str
     value: float
+    region: Cylinder | None = None  # dust only: a cloud, clear air outside (dust_cloud.py)
 
     @property
     def code(self) -> int:
@@ -161,7 +184,9 @@ class Weather(Effect):
     def of(settings: dict[str, float], seed: int = 0, device=None) -> "Weather | None":
         """The weather of `settings` (key -> value) for `device` (core/sensors; None: the
         UTM-30LX-EW's numbers); None when every value is 0 (clear air: today's bytes)."""
-        comps = tuple(Component(k, float(settings[k])) for k in KEYS if settings.get(k, 0))
+        region = Cylinder(*settings[REGION]) if settings.get(REGION) else None
+        keys = [k for k in KEYS if settings.get(k, 0)]
+        comps = tuple(Component(k, float(settings[k]), region if k == "dust" else None) for k in keys)
         if not comps:
             return None
         extra = {}
@@ -175,14 +200,24 @@ class Weather(Effect):
 
     @property
     def extinction(self) -> float:
-        return sum(c.extinction for c in self.components)
+        """alpha (1/m) of the air everywhere (a dust cloud's only inside it: dust_cloud.py)."""
+        return sum(c.extinction for c in self.components if c.region is None)
+
+    @property
+    def everywhere(self) -> tuple[Component, ...]:
+        return tuple(c for c in self.components if c.region is None)
+
+    @property
+    def cloud(self) -> Component | None:
+        return next((c for c in self.components if c.region is not None), None)
 
     @property
     def max_range(self) -> float:
         return P.max_range(self.extinction, self.detection_range)
 
     def describe(self) -> dict:
-        return {**{c.key: c.value for c in self.components}, "seed": self.seed}
+        cloud = {REGION: self.cloud.region.describe()} if self.cloud else {}
+        return {**{c.key: c.value for c in self.components}, **cloud, "seed": self.seed}
 
     def grid(self, cast_range: float) -> np.ndarray:
         count = max(2, int(math.ceil((cast_range - self.min_range) / GRID_STEP)) + 1)
@@ -199,7 +234,7 @@ class Weather(Effect):
         event before it, or past R_max), for the paper model's thin ray."""
         r = np.asarray(comp_ranges, dtype=np.float64)
         grid = self.grid(float(r.max()) + GRID_STEP)
-        total = sum(self.cumulative(c, grid) for c in self.components)
+        total = sum(self.cumulative(c, grid) for c in self.everywhere)
         kept = dm.exp(-dm.interp(r, grid, total))
         return np.where(r > self.max_range, 1.0, 1.0 - kept)
 
@@ -232,16 +267,78 @@ class Weather(Effect):
         code = np.zeros(count, dtype=np.int32)
         seen = np.zeros(count, dtype=bool)
         intensity = np.zeros(count, dtype=np.float32)
+        cloud = CloudPaths.of(self, rays, count)
         for comp in self.components:
-            r = self.events(comp, count, rays.index0, grid)
+            if comp.region is None:
+                r = self.events(comp, count, rays.index0, grid)
+            else:
+                r = cloud.events(self, comp, rays.index0)
             nearer = r < first
             first[nearer], code[nearer] = r[nearer], comp.code
-            seen[nearer] = r[nearer] <= self.echo_range(comp)
+            seen[nearer] = cloud.seen(self, comp, r[nearer], nearer)
             intensity[nearer] = np.float32(comp.reflectance(self.cell) * TABLE_UNITS)
         takes = first < hits.distance
         echo = takes & seen
-        gone = (takes & ~seen) | (~takes & hits.hit & (hits.distance > self.max_range))
+        gone = (takes & ~seen) | (~takes & hits.hit & cloud.beyond_range(self, hits.distance))
         return _replaced(hits, echo, gone, first, code, intensity, rays)
+
+
+@dataclass(frozen=True)
+class CloudPaths:
+    """Where each ray is inside the dust cloud (dust_cloud.py): its segment [t0, t1] within the
+    cast range, `inside` the rays that have one. No cloud: no ray is inside, and every test
+    below is the uniform air's (the bytes of a weather without a cloud)."""
+
+    t0: np.ndarray
+    t1: np.ndarray
+    inside: np.ndarray
+    alpha: float  # the cloud's extinction, 1/m
+
+    @staticmethod
+    def of(weather: "Weather", rays: Rays, count: int) -> "CloudPaths":
+        comp = weather.cloud
+        if comp is None:
+            return CloudPaths(np.zeros(count), np.zeros(count), np.zeros(count, dtype=bool), 0.0)
+        t0, t1 = comp.region.segments(rays.origins, rays.directions)
+        t0, t1 = np.maximum(t0, weather.min_range), np.minimum(t1, rays.max_range)
+        return CloudPaths(t0, t1, t0 < t1, comp.extinction)
+
+    def tau(self, weather: "Weather", r: np.ndarray, rows) -> np.ndarray:
+        return optical_depth(r, weather.extinction, self.alpha, self.t0[rows], self.t1[rows])
+
+    def events(self, weather: "Weather", comp: Component, index0: int) -> np.ndarray:
+        """Each ray's first event in the cloud (inf: none); the draws as Weather.events'."""
+        rng = stage_rng(weather.seed, f"weather.{comp.key}")
+        if index0:
+            rng.bit_generator.advance(int(index0))
+        e = -dm.log(1.0 - rng.random(len(self.t0)))
+        r = np.full(len(self.t0), np.inf)
+        rows = np.flatnonzero(self.inside)
+        r[rows] = first_events(
+            e[rows], self.t0[rows], self.t1[rows], weather.extinction, self.alpha, weather, GRID_STEP
+        )
+        return r
+
+    def seen(self, weather: "Weather", comp: Component, r: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Whether events of `comp` at ranges r (of the rays `rows` selects) echo: within the echo
+        range, or through the cloud within the budget of the drop's reflectance."""
+        out = r <= weather.echo_range(comp)
+        through = self.inside[rows] & (r > self.t0[rows])
+        if comp.drops and through.any():
+            idx = np.flatnonzero(rows)[through]
+            budget = weather.detection_range * math.sqrt(comp.reflectance(weather.cell) / P.RHO_REF)
+            out[through] = ~surface_lost(r[through], self.tau(weather, r[through], idx), budget)
+        return out
+
+    def beyond_range(self, weather: "Weather", distance: np.ndarray) -> np.ndarray:
+        """Surfaces past the budget: beyond R_max of the air, or through the cloud past r e^tau = R_DET."""
+        out = distance > weather.max_range
+        through = self.inside & (distance > self.t0) & np.isfinite(distance)
+        if through.any():
+            idx = np.flatnonzero(through)
+            tau = self.tau(weather, distance[idx], idx)
+            out[idx] = surface_lost(distance[idx], tau, weather.detection_range)
+        return out
 
 
 def _replaced(hits: RayHits, echo, gone, distance, code, intensity, rays: Rays) -> RayHits:
