@@ -332,3 +332,35 @@ def test_a_signal_mid_drive_ends_it_and_leaves_nothing(tmp_path, signum, code, s
     assert proc.returncode == code, err
     assert err.strip().splitlines()[-1].endswith(says) and "Traceback" not in err
     assert list(out.iterdir()) == []
+
+
+def test_a_drive_in_weather_writes_the_weather_field_in_both_bags_readable_by_rosbags(tmp_path):
+    """--weather with --bag both: every PointCloud2 lists the `weather` field, rosbags reads it
+    from the ROS 1 and the ROS 2 bag, and it equals the raw PLY's; the clear drive's layout
+    (above) keeps its 32 bytes a point."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    from wildscan.core.io.rosbag import WEATHER_POINT_DTYPE
+
+    out = tmp_path / "d"
+    sensor = SensorConfig(rh_deg=RH)
+    request = DriveRequest(str(out), seed=SEED, detail="low", trail=True, sensor=sensor, scans=None)
+    from dataclasses import replace
+
+    request = replace(_limited(request, out), weather={"snow": 30.0, "fog": 60.0})
+    run_drive(request, say=lambda text: None)
+    raw, _ = read_ply(out / "raw" / "000001.ply")
+    assert (raw["weather"] > 0).sum() > 10
+    for bag in (out / "drive.bag", out / "drive_ros2"):
+        with AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as reader:
+            clouds = [
+                reader.deserialize(data, conn.msgtype)
+                for conn, _, data in reader.messages()
+                if conn.topic == "/points"
+            ]
+        cloud = clouds[-1]
+        assert [f.name for f in cloud.fields][-1] == "weather" and cloud.point_step == 36, bag
+        points = np.frombuffer(bytes(cloud.data), dtype=WEATHER_POINT_DTYPE)
+        assert np.array_equal(points["weather"], raw["weather"])
+        assert np.array_equal(points["label"], raw["label"])

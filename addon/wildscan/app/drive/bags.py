@@ -103,7 +103,13 @@ class BagFeed:
         stamp, recorded = result.k0 * self.ns_per_scan, result.k1 * self.ns_per_scan
         for topic, cloud in (("/points", result.raw), ("/points_deskewed", result.deskewed)):
             records = point_records(
-                cloud.xyz, cloud.intensity, cloud.ring, cloud.extra["time"], cloud.label, cloud.instance
+                cloud.xyz,
+                cloud.intensity,
+                cloud.ring,
+                cloud.extra["time"],
+                cloud.label,
+                cloud.instance,
+                cloud.extra.get("weather"),  # in weather only: a clear drive keeps its bytes
             )
             for bag in self.bags:
                 bag.points(topic, stamp, recorded, records)

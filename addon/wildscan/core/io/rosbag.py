@@ -29,7 +29,7 @@ ROS2_STORAGES = ("mcap", "sqlite3")
 ODOM, BASE_LINK, SENSOR, LASER = "odom", "base_link", "sensor", "laser"
 
 # sensor_msgs/PointField datatypes
-_UINT16, _UINT32, _FLOAT32 = 4, 6, 7
+_UINT8, _UINT16, _UINT32, _FLOAT32 = 2, 4, 6, 7
 # (name, offset, PointField datatype, numpy type): 32 bytes a point, every field aligned
 POINT_FIELDS = (
     ("x", 0, _FLOAT32, "<f4"),
@@ -50,6 +50,18 @@ POINT_DTYPE = np.dtype(
         "itemsize": POINT_STEP,
     }
 )
+# In weather the points carry the `weather` field too (core/effects/weather.py: 0 a surface, the
+# effect's code on a particle), after the others so a clear-air cloud keeps its 32-byte layout.
+WEATHER_FIELD = ("weather", 32, _UINT8, "u1")
+WEATHER_POINT_STEP = 36  # 33 bytes, padded to keep every point 4-aligned
+WEATHER_POINT_DTYPE = np.dtype(
+    {
+        "names": [f[0] for f in (*POINT_FIELDS, WEATHER_FIELD)],
+        "formats": [f[3] for f in (*POINT_FIELDS, WEATHER_FIELD)],
+        "offsets": [f[1] for f in (*POINT_FIELDS, WEATHER_FIELD)],
+        "itemsize": WEATHER_POINT_STEP,
+    }
+)
 # tf2_msgs is not in rosbags' ROS 1 type store: its definition as ROS 1 has it
 _TF_MESSAGE_ROS1 = "geometry_msgs/TransformStamped[] transforms\n"
 
@@ -66,9 +78,12 @@ def require_rosbags(setting: str = "bag") -> None:
         ) from None
 
 
-def point_records(xyz, intensity, ring, time, label, instance) -> np.ndarray:
-    """A cloud's PointCloud2 data as records of POINT_DTYPE (the padding bytes zero)."""
-    out = np.zeros(len(xyz), dtype=POINT_DTYPE)
+def point_records(xyz, intensity, ring, time, label, instance, weather=None) -> np.ndarray:
+    """A cloud's PointCloud2 data as records of POINT_DTYPE, or WEATHER_POINT_DTYPE with the
+    `weather` field when it is given (the padding bytes zero)."""
+    out = np.zeros(len(xyz), dtype=POINT_DTYPE if weather is None else WEATHER_POINT_DTYPE)
+    if weather is not None:
+        out["weather"] = weather
     xyz = np.asarray(xyz, dtype=np.float32)
     out["x"], out["y"], out["z"] = xyz[:, 0], xyz[:, 1], xyz[:, 2]
     out["intensity"], out["ring"], out["time"] = intensity, ring, time
@@ -211,11 +226,12 @@ class DriveBag:
         self._write("/laser2D", message, stamp_ns)
 
     def points(self, topic: str, stamp_ns: int, bag_ns: int, records: np.ndarray) -> None:
-        """One 3D scan's PointCloud2 (records of POINT_DTYPE) in frame `sensor`."""
+        """One 3D scan's PointCloud2 (records of POINT_DTYPE or WEATHER_POINT_DTYPE) in frame `sensor`."""
         t = self.types
+        layout = (*POINT_FIELDS, WEATHER_FIELD) if "weather" in records.dtype.names else POINT_FIELDS
         fields = [
             t["sensor_msgs/msg/PointField"](name=name, offset=offset, datatype=datatype, count=1)
-            for name, offset, datatype, _ in POINT_FIELDS
+            for name, offset, datatype, _ in layout
         ]
         message = t["sensor_msgs/msg/PointCloud2"](
             header=self._header(topic, stamp_ns, SENSOR),
@@ -223,8 +239,8 @@ class DriveBag:
             width=len(records),
             fields=fields,
             is_bigendian=False,
-            point_step=POINT_STEP,
-            row_step=POINT_STEP * len(records),
+            point_step=records.dtype.itemsize,
+            row_step=records.dtype.itemsize * len(records),
             data=np.frombuffer(records.tobytes(), dtype=np.uint8),
             is_dense=True,
         )
