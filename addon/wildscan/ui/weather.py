@@ -49,10 +49,11 @@ CLASSES = (WildScanWeather,)
 
 
 def _number(value: float) -> str:
-    """The number the user typed (properties.typed_value), as the command line would read it."""
-    from .properties import typed_value
+    """The number the user typed, as the command line would read it: the shortest decimal of
+    Blender's single-precision value (properties.typed_value, which imports this module)."""
+    import numpy as np
 
-    typed = typed_value(value)
+    typed = float(str(np.float32(value)))
     return f"{typed:g}" if float(f"{typed:g}") == typed else repr(typed)
 
 
