@@ -250,6 +250,7 @@ def test_a_backend_without_normals_is_refused_for_the_realistic_model():
 
     class NoNormals:
         name = "blender"
+        capabilities = frozenset()
 
         def cast(self, origins, directions, max_range):
             raise AssertionError("must not be reached")

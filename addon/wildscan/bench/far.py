@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.backend import RayBackend
+
 OFFSETS = (0.0, 1e2, 1e3, 2e3, 4e3, 1e4, 1e5, 999_000.0)
 QUICK_OFFSETS = (0.0, 1e3, 1e4, 999_000.0)
 FRAMES = ("sensor", "leveled", "world")
@@ -102,11 +104,12 @@ class _Unnamed:
 
     name = "measured"
 
-    def __init__(self, backend):
+    def __init__(self, backend: RayBackend):
         self.cast = backend.cast
+        self.capabilities = backend.capabilities
 
 
-def unchecked_scan(backend, pose, sensor, frame: str):
+def unchecked_scan(backend: RayBackend, pose, sensor, frame: str):
     """What a refused scan would have written: scanned in the sensor frame by the backend
     under another name, its points then taken to `frame` as run_scan would."""
     from dataclasses import replace

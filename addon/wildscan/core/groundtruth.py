@@ -24,6 +24,7 @@ from collections.abc import Callable
 import numpy as np
 
 from . import detmath as dm
+from .backend import RayBackend
 from .leveling import rot_z
 from .placement import Placement
 
@@ -98,7 +99,7 @@ def bev_grid(
     return grid
 
 
-def backend_top_classes(backend) -> Callable[[np.ndarray, float], np.ndarray]:
+def backend_top_classes(backend: RayBackend) -> Callable[[np.ndarray, float], np.ndarray]:
     """`top_classes` for any ray backend (downward casts, class of each first hit)."""
 
     def top(origins: np.ndarray, max_range: float) -> np.ndarray:

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import detmath as dm
+from .backend import RayBackend, with_normals
 from .classes import WATER_ID
 from .echoes import Echoes, SubrayReturns, form_echoes
 from .errors import UserError
@@ -49,11 +50,10 @@ class RealisticPoints:
     stats: dict
 
 
-def check_backend(backend) -> None:
-    if not getattr(backend, "supports_normals", False):
-        name = getattr(backend, "name", type(backend).__name__)
+def check_backend(backend: RayBackend) -> None:
+    if with_normals(backend) is None:
         raise UserError(
-            f"{name} cannot give surface normals, which the realistic model needs; use embree or bvh "
+            f"{backend.name} cannot give surface normals, which the realistic model needs; use embree or bvh "
             "(or auto)",
             setting="backend",
         )

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core import detmath as dm
+from ...core.backend import SCAN_TIMES, RayBackend
 from ...core.hits import RayHits
 from ...core.motion.timing import SCAN_PERIOD
 from ...core.motion.wind import SWAYING_IDS, Sway, Wind, pivots_of
@@ -25,8 +26,9 @@ PLANE_SLACK = 0.3  # m
 class SwayingScene:
     """Static triangles in `static`, swaying ones rebuilt per 2D scan with `make(geometry)`."""
 
-    def __init__(self, static, swaying: SceneGeometry, sway: Sway, make, rh_deg: float):
+    def __init__(self, static: RayBackend, swaying: SceneGeometry, sway: Sway, make, rh_deg: float):
         self.name = f"{static.name}+wind"
+        self.capabilities = frozenset({SCAN_TIMES})  # cast_scans; no normals (the paper model)
         self.static = static
         self.swaying = swaying
         self.sway = sway

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..backend import RayBackend, with_scan_times
 from ..pointcloud import PointCloud
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame
 from ..sensor import BEAMS_PER_2D_SCAN, SensorConfig, directions_at
@@ -48,7 +49,7 @@ class Sweep:
 
 
 def sweep(
-    backend,
+    backend: RayBackend,
     motion: Motion,
     k0: int,
     k1: int,
@@ -83,13 +84,14 @@ def sweep(
     return Sweep(k0, k1, returns, raw, deskewed, times)
 
 
-def cast_in_chunks(backend, origins, dirs, max_range, ks, progress):
-    """All rays, in chunks of whole 2D scans. A backend with `cast_scans` (a scene that moves
-    with time: wind.py) is told which 2D scan each chunk's rows belong to."""
+def cast_in_chunks(backend: RayBackend, origins, dirs, max_range, ks, progress):
+    """All rays, in chunks of whole 2D scans. A backend that casts at scan times (a scene
+    that moves with time: wind.py) is told which 2D scan each chunk's rows belong to."""
     from ..hits import RayHits
 
     per_chunk = max(1, CAST_CHUNK // BEAMS_PER_2D_SCAN) * BEAMS_PER_2D_SCAN
-    timed = getattr(backend, "cast_scans", None)
+    timed_backend = with_scan_times(backend)
+    timed = None if timed_backend is None else timed_backend.cast_scans
     parts = []
     for start in range(0, len(dirs), per_chunk):
         stop = min(start + per_chunk, len(dirs))
