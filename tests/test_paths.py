@@ -111,7 +111,7 @@ def test_a_full_disk_while_renaming_names_the_file_and_leaves_nothing(tmp_path, 
 
 
 def test_blenders_save_message_is_reworded_to_name_the_users_file():
-    from wildscan.app.world import blender_save_reason
+    from wildscan.blender.scene_io import blender_save_reason
 
     tmp = Path("/d/.w.tmp-12.blend")
     said = RuntimeError(f"Error: Cannot open file {tmp}@ for writing: No space left on device\n")

@@ -157,7 +157,7 @@ def _world_objects():
 
 
 def test_regenerating_replaces_a_renamed_world_and_keeps_the_users_objects():
-    from wildscan.app.world import replacing_generated
+    from wildscan.blender.replace import replacing_generated
     from wildscan.blender.testworld import build_test_world
 
     fresh_scene()
