@@ -54,17 +54,6 @@ def spread_subset(count: int, size: int | None) -> np.ndarray:
 # agreement with the reference
 
 
-def agreement(hits, reference) -> dict:
-    """Per-ray agreement of two RayHits over the same rays (fractions)."""
-    c = agreement_counts(hits, reference)
-    n = max(c["rays"], 1)
-    return {
-        "label_agreement": c["labels_same"] / n if c["rays"] else 1.0,
-        "range_agreement": c["ranges_ok"] / n if c["rays"] else 1.0,
-        "max_range_diff_m": c["max_range_diff_m"],
-    }
-
-
 def agreement_counts(hits, reference) -> dict:
     """Counts over the same rays: same label (class and instance; two misses agree), and
     same label with ranges within RANGE_TOLERANCE; `disagree` indexes the rays that fail."""

@@ -24,12 +24,11 @@ from .hits import RayHits
 
 NORMALS = "normals"
 SCAN_TIMES = "scan_times"
-CAPABILITIES = frozenset({NORMALS, SCAN_TIMES})
 
 
 class RayBackend(Protocol):
     name: str  # as the scan's metadata and its messages name it ("embree", "bvh", "blender", ...)
-    capabilities: frozenset[str]  # a subset of CAPABILITIES
+    capabilities: frozenset[str]  # of NORMALS, SCAN_TIMES: what it can do beyond `cast`
 
     def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
         """origins (N,3) or (3,) world metres; directions (N,3) unit vectors; hits beyond

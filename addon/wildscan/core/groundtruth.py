@@ -24,7 +24,6 @@ from collections.abc import Callable
 import numpy as np
 
 from . import detmath as dm
-from .backend import RayBackend
 from .leveling import rot_z
 from .placement import Placement
 
@@ -97,17 +96,6 @@ def bev_grid(
     top = np.asarray(top_classes(origins, start - z_range[0] + _ABOVE)).reshape(uu.shape)
     grid["top_class"] = np.where(inside, top, 0)
     return grid
-
-
-def backend_top_classes(backend: RayBackend) -> Callable[[np.ndarray, float], np.ndarray]:
-    """`top_classes` for any ray backend (downward casts, class of each first hit)."""
-
-    def top(origins: np.ndarray, max_range: float) -> np.ndarray:
-        down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), origins.shape)
-        hits = backend.cast(origins, down, max_range)
-        return np.where(hits.hit, hits.class_id, 0)
-
-    return top
 
 
 def map_top_class(grid: np.ndarray, lookup: np.ndarray) -> np.ndarray:

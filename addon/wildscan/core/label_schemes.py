@@ -43,10 +43,6 @@ class LabelScheme:
     def map(self, wildscan_ids: np.ndarray) -> np.ndarray:
         return self.lookup()[np.asarray(wildscan_ids, dtype=np.intp)]
 
-    def is_other(self, wildscan_id: int) -> bool:
-        """Whether this class has no counterpart in the scheme (it got the "other" id)."""
-        return wildscan_id in _NO_COUNTERPART.get(self.name, ())
-
 
 def _bgr(rgb: tuple[int, int, int]) -> tuple[int, int, int]:
     return rgb[2], rgb[1], rgb[0]
@@ -191,27 +187,6 @@ _GOOSE = LabelScheme(
 
 SCHEMES: dict[str, LabelScheme] = {s.name: s for s in (_WILDSCAN, _SEMANTICKITTI, _RELLIS3D, _GOOSE)}
 
-# WildScan classes that have no counterpart in a scheme, and so get its "other" id.
-_NO_COUNTERPART: dict[str, tuple[int, ...]] = {
-    "semantickitti": (4, 7, 9, 11, WATER_ID),  # table, bench, rock, wire, water
-    "rellis3d": (4, 7, 11),  # table, bench, wire
-    "goose": (4, 7),  # table, bench
-}
-
 
 def scheme(name: str) -> LabelScheme:
     return SCHEMES[name]
-
-
-def mapping_table_rows() -> list[tuple[str, ...]]:
-    """(WildScan id and name, then per scheme "id name" with "(other)" where it has no counterpart),
-    one row per WildScan class: the README's mapping table."""
-    rows = []
-    for wildscan_id in sorted(BY_ID):
-        cells = [f"{wildscan_id} {BY_ID[wildscan_id].name}"]
-        for name in SCHEME_NAMES[1:]:
-            s = SCHEMES[name]
-            raw = s.from_wildscan[wildscan_id]
-            cells.append(f"{raw} {s.labels[raw]}" + (" (other)" if s.is_other(wildscan_id) else ""))
-        rows.append(tuple(cells))
-    return rows

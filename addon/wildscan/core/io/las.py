@@ -133,12 +133,3 @@ def las_bytes(
     out = io.BytesIO()
     las.write(out)
     return out.getvalue()
-
-
-def asprs_table_rows() -> list[tuple[int, str, str]]:
-    """(ASPRS code, its name, the WildScan classes it holds): the README's LAS table."""
-    rows = []
-    for code, name in sorted(ASPRS_NAMES.items()):
-        held = [BY_ID[w].name for w, c in ASPRS_CODES.items() if c == code]
-        rows.append((code, name, ", ".join(held)))
-    return rows

@@ -42,11 +42,6 @@ def beam_fractions() -> np.ndarray:
     return np.arange(BEAMS_PER_2D_SCAN, dtype=np.float64) / STEPS_PER_TURN
 
 
-def scan_times(k: np.ndarray) -> np.ndarray:
-    """Start time (s) of 2D scans k: its first beam."""
-    return np.asarray(k, dtype=np.float64) * SCAN_PERIOD
-
-
 def beam_times(k: np.ndarray, since: int = 0) -> np.ndarray:
     """(K, 1080) time of every beam of 2D scans k, in seconds after the start of 2D scan
     `since` (the drive's start by default, a 3D scan's first 2D scan for its points)."""
