@@ -475,7 +475,7 @@ def test_export_mistakes_are_reports(scene, tmp_path):
     assert bpy.ops.wildscan.scan() == {"FINISHED"}
     assert_rejected(bpy.ops.wildscan.export_ply, "does not exist", filepath=str(tmp_path / "no" / "x.ply"))
     assert_rejected(bpy.ops.wildscan.export_ply, "must end in .ply", filepath=str(tmp_path / "x.txt"))
-    # a user message, not an internal-error report (issue 9, fault 5)
+    # a too-long name is a user message, not an internal-error report
     assert_rejected(bpy.ops.wildscan.export_ply, "longer than", filepath=str(tmp_path / ("x" * 300 + ".ply")))
     assert not any(tmp_path.iterdir())
 

@@ -18,7 +18,7 @@ The rules:
 3. No import cycle even through lazy imports. Lazy imports are how Blender add-ons keep
    bpy out of import time, and they never fail at load time, but a module whose function
    imports a module whose function imports it back is still two modules knotted into one
-   (the issue's cli.py <-> demo.py). One exception: the package root (wildscan/__init__.py)
+   (as cli.py <-> demo.py once were). One exception: the package root (wildscan/__init__.py)
    holds the version and bl_info and imports nothing at module level (checked), and
    register() lazily imports ui/, so edges into the root are leaves, not knots: they are
    left out of this graph.

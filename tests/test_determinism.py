@@ -1,4 +1,4 @@
-"""Issue 9, fault 8: the same inputs give the same bytes on every machine.
+"""The same inputs give the same bytes on every machine.
 
 numpy, glibc and OpenBLAS pick their code by CPU at run time, and each can be told to
 pick another on this machine: NPY_DISABLE_CPU_FEATURES (numpy's AVX-512, AVX2/FMA, AVX
@@ -10,7 +10,7 @@ AVX-512). Each run prints full-precision hashes of a world (every element's floa
 vertices unrounded, the terrain grid, the sites), its scan geometry, its world.json, and
 the PLY and JSON bytes of scans with noise, in the leveled and world frames
 (tests/determinism_probe.py); every run must print the same. The emulated runs add a
-short drive (issue 12: moving, turning, continuous head, wind, noise) and hash every file
+short drive (moving, turning, continuous head, wind, noise) and hash every file
 it writes: PLYs raw and deskewed, TUM trajectory, SemanticKITTI poses, both bags.
 """
 

@@ -1,5 +1,5 @@
 """`wildscan drive`: timing, trajectories, raw vs deskewed clouds, and the static scan it
-reduces to when the robot stands still (issue 12)."""
+reduces to when the robot stands still."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """`wildscan drive` outputs: ROS bags read back by rosbags (ROS 2) and Debian's python3-rosbag
-(ROS 1), SemanticKITTI, determinism, user mistakes, interrupts, wind (issue 12)."""
+(ROS 1), SemanticKITTI, determinism, user mistakes, interrupts, wind."""
 
 from __future__ import annotations
 

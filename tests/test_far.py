@@ -1,4 +1,4 @@
-"""Far from the origin (issue 9, fault 7): inside the stated range every backend and frame
+"""Far from the origin: inside the stated range every backend and frame
 meets 1e-4 m; outside it a world-frame or scene.ray_cast scan is refused; scene.ray_cast's
 float32 answer on a very large single face never beats the float64 refinement."""
 

@@ -1,4 +1,4 @@
-"""Ctrl-C and SIGTERM at any moment (issue 9, fault 2): every command that writes, in the
+"""Ctrl-C and SIGTERM at any moment: every command that writes, in the
 bpy wheel and in a real Blender, ends with exit 130 / 143, one true line saying what it
 completed, and no temporary or partial file.
 

@@ -1,4 +1,4 @@
-"""Paths and names as users type them (issue 9, fault 5): every path option is read by one
+"""Paths and names as users type them: every path option is read by one
 function (core/io/files.user_path) and checked before any work; a legal long name is
 written; a failed write names the file that failed and why."""
 

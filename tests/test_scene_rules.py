@@ -1,4 +1,4 @@
-"""Users' own scenes (issue 9, faults 3, 4 and 6): which objects a scan sees, wrong tags,
+"""Users' own scenes: which objects a scan sees, wrong tags,
 a renamed world, and per-object reflectivity. bpy wheel, a few runs of Debian's Blender."""
 
 from __future__ import annotations
