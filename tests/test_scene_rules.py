@@ -33,7 +33,7 @@ def _down(backend, xs):
     return make_backend(backend, notify=None).cast(origins, np.tile([0.0, 0.0, -1.0], (len(xs), 1)), 10.0)
 
 
-# -- fault 3: what exists ------------------------------------------------------------------
+# -- what exists --------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -86,7 +86,7 @@ def test_the_addons_display_toggles_do_not_change_what_is_scanned():
         wildscan.unregister()
 
 
-# -- fault 4: wrong tags ---------------------------------------------------------------------
+# -- wrong tags -----------------------------------------------------------------------------
 
 BAD_TAGS = [
     ("wildscan_class", "rocks"),
@@ -149,7 +149,7 @@ def test_the_command_line_exits_2_on_a_misspelled_tag(tmp_path):
     assert not out.exists()
 
 
-# -- fault 6: a renamed world ---------------------------------------------------------------
+# -- a renamed world -----------------------------------------------------------------------
 
 
 def _world_objects():
