@@ -30,7 +30,7 @@ import ast
 from dataclasses import dataclass
 from pathlib import Path
 
-from scene_helpers import REPO
+from tests.helpers.scene_helpers import REPO
 
 PACKAGE_DIR = REPO / "addon" / "wildscan"
 ROOT = "wildscan"

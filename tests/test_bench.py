@@ -18,6 +18,8 @@ import pytest
 from wildscan.bench import config, primitives, report
 from wildscan.core.errors import UserError
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 FAST = ("embree", "bvh")
 ALL = ("blender",) + FAST
 

@@ -16,15 +16,6 @@ import numpy as np
 import plyfile
 import pytest
 import yaml
-from dataset_helpers import (
-    SMALL_SPEC,
-    manifest_rows,
-    read_kitti_calib,
-    read_kitti_labels,
-    read_kitti_poses,
-    read_kitti_scan,
-    wildscan,
-)
 
 from wildscan.app.dataset.spec import draw_sensor, spec_from_dict
 from wildscan.core.classes import BY_ID
@@ -33,7 +24,21 @@ from wildscan.core.io.las import ASPRS_CODES
 from wildscan.core.label_schemes import SCHEMES
 from wildscan.core.placement import COLUMN_HEIGHT
 
-from reader_helpers import cloudcompare_env, parse_ascii_pcd, parse_cloudcompare_asc, require_tool
+from tests.helpers.dataset_helpers import (
+    SMALL_SPEC,
+    manifest_rows,
+    read_kitti_calib,
+    read_kitti_labels,
+    read_kitti_poses,
+    read_kitti_scan,
+    wildscan,
+)
+from tests.helpers.reader_helpers import (
+    cloudcompare_env,
+    parse_ascii_pcd,
+    parse_cloudcompare_asc,
+    require_tool,
+)
 
 # --------------------------------------------------------------------------- the spec
 

@@ -13,10 +13,11 @@ import laspy
 import numpy as np
 import plyfile
 import pytest
-from dataset_helpers import manifest_rows, read_kitti_scan, wildscan
 
 from wildscan.app.dataset.spec import draw_sensor, load_spec, spec_from_dict
 from wildscan.core.io.ply import read_ply
+
+from tests.helpers.dataset_helpers import manifest_rows, read_kitti_scan, wildscan
 
 TINY_REALISTIC = """\
 seeds = [1]

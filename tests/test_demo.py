@@ -9,7 +9,7 @@ from plyfile import PlyData
 from wildscan.core.classes import CLASSES
 from wildscan.core.world import ZONES
 
-from scene_helpers import WILDSCAN, run
+from tests.helpers.scene_helpers import WILDSCAN, run
 
 
 def test_demo_builds_the_world_its_map_and_a_scan_with_preview_per_zone(tmp_path):

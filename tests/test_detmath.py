@@ -19,8 +19,8 @@ import pytest
 from wildscan.core import detmath as dm
 from wildscan.core.detmath import _core
 
-from detmath_reference import pi, reference, ulp_error
-from scene_helpers import REPO
+from tests.helpers.detmath_reference import pi, reference, ulp_error
+from tests.helpers.scene_helpers import REPO
 
 RNG = np.random.default_rng(20260522)
 

@@ -17,7 +17,9 @@ from pathlib import Path
 
 import pytest
 
-from scene_helpers import BLENDER, REPO, WILDSCAN, save_seed_2_low
+from tests.helpers.scene_helpers import BLENDER, REPO, WILDSCAN, save_seed_2_low
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 CODES = {signal.SIGINT: (130, "interrupted"), signal.SIGTERM: (143, "terminated")}
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose

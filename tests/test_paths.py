@@ -14,7 +14,7 @@ import pytest
 from wildscan.core.errors import UserError
 from wildscan.core.io import files
 
-from scene_helpers import WILDSCAN, run, save_seed_2_low, user_error_line
+from tests.helpers.scene_helpers import WILDSCAN, run, save_seed_2_low, user_error_line
 
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose
 TOO_LONG = "n" * 300  # over NAME_MAX (255 bytes) on every file system we write to
@@ -80,7 +80,7 @@ def test_a_full_disk_while_writing_the_map_names_the_map(tmp_path, monkeypatch):
     from wildscan.app.world import make_world
     from wildscan.viz import aerial_map
 
-    from scene_helpers import fresh_scene
+    from tests.helpers.scene_helpers import fresh_scene
 
     def full_disk(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))

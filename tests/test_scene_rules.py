@@ -9,7 +9,6 @@ import subprocess
 import bpy
 import numpy as np
 import pytest
-import visibility_probe
 
 from wildscan.blender.mesh import GENERATED, mesh_object, wildscan_collection
 from wildscan.core.classes import class_by_name
@@ -17,7 +16,8 @@ from wildscan.core.errors import UserError
 from wildscan.core.world.shapes import primitives
 from wildscan.raycast.select import make_backend
 
-from scene_helpers import BLENDER, REPO, WILDSCAN, fresh_scene, run, user_error_line
+from tests.helpers import visibility_probe
+from tests.helpers.scene_helpers import BLENDER, REPO, WILDSCAN, fresh_scene, run, user_error_line
 
 BACKENDS = ("embree", "bvh", "blender")
 ROCK = class_by_name("rock").id
@@ -47,7 +47,7 @@ def test_every_backend_scans_what_the_viewport_shows(backend):
 @pytest.mark.blender_binary
 def test_blender_34_scans_the_same_objects(tmp_path):
     out = tmp_path / "seen.json"
-    probe = REPO / "tests" / "visibility_probe.py"
+    probe = REPO / "tests" / "helpers" / "visibility_probe.py"
     cmd = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "-P", str(probe)]
     proc = subprocess.run(
         [*cmd, "--", str(REPO / "addon"), str(out)], capture_output=True, text=True, timeout=120
