@@ -19,6 +19,8 @@ from wildscan.core.io.ply import read_ply
 
 from tests.helpers.dataset_helpers import manifest_rows, read_kitti_scan, wildscan
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 TINY_REALISTIC = """\
 seeds = [1]
 detail = "low"

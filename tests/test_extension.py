@@ -23,6 +23,8 @@ import wildscan
 
 from tests.helpers.scene_helpers import CANDIDATE_XY, REPO
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 sys.path.insert(0, str(REPO / "tools"))
 try:
     import build_addon

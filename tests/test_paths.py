@@ -25,6 +25,7 @@ def worlds(tmp_path_factory):
     return save_seed_2_low(tmp_path_factory.mktemp("worlds"))
 
 
+@pytest.mark.slow
 def test_a_legal_long_name_is_written_though_its_temporary_name_would_be_too_long(tmp_path, worlds):
     limit = os.pathconf(tmp_path, "PC_NAME_MAX")
     out = tmp_path / ("s" * (limit - len(".json")) + ".ply")  # the sidecar's name is the longest legal
@@ -33,6 +34,7 @@ def test_a_legal_long_name_is_written_though_its_temporary_name_would_be_too_lon
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([out.name, out.with_suffix(".json").name])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args, flag",
     [
@@ -55,6 +57,7 @@ def test_a_name_over_the_limit_is_a_user_mistake_found_before_any_work(tmp_path,
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_every_path_option_takes_a_tilde_the_same_way(tmp_path, worlds):
     home = tmp_path / "home"
     home.mkdir()
@@ -75,6 +78,7 @@ def test_every_path_option_takes_a_tilde_the_same_way(tmp_path, worlds):
     assert not (tmp_path / "~").exists()
 
 
+@pytest.mark.slow
 def test_a_full_disk_while_writing_the_map_names_the_map(tmp_path, monkeypatch):
     """matplotlib's write error names no file: the world's files must not take the blame."""
     from wildscan.app.world import make_world

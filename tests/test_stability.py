@@ -39,6 +39,8 @@ from tests.helpers.backend_scenes import (
     world_geometry,
 )
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 RANGE_TOL = 1e-4
 DEFAULT = resolve_backend("auto", notify=None)
 
