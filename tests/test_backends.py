@@ -98,6 +98,7 @@ def primitives():
     return truth, casts
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_every_backend_matches_the_exact_facets(primitives, backend):
     truth, casts = primitives
@@ -167,6 +168,7 @@ def _on_cylinder(points):
 # -- label agreement on the test world -------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_backends_agree_on_the_test_world():
     from wildscan.blender.testworld import build_test_world
     from wildscan.core.placement import Pose, place

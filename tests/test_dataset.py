@@ -95,6 +95,7 @@ def test_a_bad_key_or_value_names_the_key_and_what_is_allowed(data, words):
         assert word in message
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "text, key",
     [

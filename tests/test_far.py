@@ -91,6 +91,7 @@ def test_scene_ray_cast_on_a_100_km_single_face_gives_the_float64_distance():
     assert np.abs(hits.distance[seen] - exact[seen]).max() < 1e-6
 
 
+@pytest.mark.slow
 def test_bench_far_prints_the_range_table_with_its_refusals(capsys):
     from wildscan import cli
 

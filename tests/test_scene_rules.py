@@ -57,6 +57,7 @@ def test_blender_34_scans_the_same_objects(tmp_path):
     assert seen == {"blender": visibility_probe.expected(), "bvh": visibility_probe.expected()}
 
 
+@pytest.mark.slow
 def test_the_addons_display_toggles_do_not_change_what_is_scanned():
     """'Show world', 'In front' and the point size are display only; a scan cloud in the
     scene (loose points) is never scanned."""
@@ -129,6 +130,7 @@ def test_documented_variants_of_names_and_whole_floats_are_accepted(backend):
     assert hits.instance.tolist() == [1, 2, 3, 4]
 
 
+@pytest.mark.slow
 def test_the_command_line_exits_2_on_a_misspelled_tag(tmp_path):
     from wildscan.blender.testworld import build_test_world
 
