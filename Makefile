@@ -7,7 +7,7 @@ WILDSCAN := $(VENV)/bin/wildscan
 STAMP  := $(VENV)/.wildscan-installed
 OUT    ?= out
 
-.PHONY: setup demo test bench addon lint clean
+.PHONY: setup demo test test-fast bench addon lint clean
 
 setup: $(STAMP)
 
@@ -27,6 +27,12 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
+# what a developer runs often (under 90 s on two cores): no Blender binary, no Xvfb, no
+# external readers, nothing marked slow
+FAST_TESTS := not blender_binary and not gui and not external and not slow
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -n 2 -m "$(FAST_TESTS)"
+
 bench: $(STAMP)
 	$(WILDSCAN) bench --out $(OUT)/bench
 
@@ -35,6 +41,7 @@ addon: $(STAMP)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 
 clean:
 	rm -rf $(OUT) dist

@@ -24,21 +24,13 @@ from wildscan.core.io.ply import read_ply
 from wildscan.core.placement import Pose
 from wildscan.core.sensor import SensorConfig
 
-from scene_helpers import REPO, WILDSCAN, fresh_scene
+from tests.helpers.scene_helpers import CANDIDATE_XY, REPO, WILDSCAN, fresh_scene
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 SEED = 5
 RH = 4.0  # 45 2D scans: quick
 SETTINGS = dict(rh=RH, min_range=0.2, max_range=14.0, noise=0.02, noise_seed=11)
-CANDIDATE_XY = [
-    (0.0, 0.0),
-    (2.0, 1.0),
-    (-3.0, 2.0),
-    (4.0, -4.0),
-    (-5.0, -5.0),
-    (6.0, 3.0),
-    (1.0, 7.0),
-    (-8.0, 6.0),
-]
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -521,7 +513,7 @@ def test_export_mistakes_are_reports(scene, tmp_path):
     assert bpy.ops.wildscan.scan() == {"FINISHED"}
     assert_rejected(bpy.ops.wildscan.export_ply, "does not exist", filepath=str(tmp_path / "no" / "x.ply"))
     assert_rejected(bpy.ops.wildscan.export_ply, "must end in .ply", filepath=str(tmp_path / "x.txt"))
-    # a user message, not an internal-error report (issue 9, fault 5)
+    # a too-long name is a user message, not an internal-error report
     assert_rejected(bpy.ops.wildscan.export_ply, "longer than", filepath=str(tmp_path / ("x" * 300 + ".ply")))
     assert not any(tmp_path.iterdir())
 

@@ -15,10 +15,12 @@ The rules:
    (ruff's banned-api rule says the same in core/ruff.toml, for the third-party names.)
 2. No import cycle among module-level imports: such a cycle makes import order matter
    and breaks with a partially initialised module.
-3. No import cycle even through lazy imports. Lazy imports are how Blender add-ons keep
+3. Each layer imports only the layers below it (LAYERS, the table in docs/architecture.md),
+   and the optional pictures (viz/, matplotlib) only lazily.
+4. No import cycle even through lazy imports. Lazy imports are how Blender add-ons keep
    bpy out of import time, and they never fail at load time, but a module whose function
    imports a module whose function imports it back is still two modules knotted into one
-   (the issue's cli.py <-> demo.py). One exception: the package root (wildscan/__init__.py)
+   (as cli.py <-> demo.py once were). One exception: the package root (wildscan/__init__.py)
    holds the version and bl_info and imports nothing at module level (checked), and
    register() lazily imports ui/, so edges into the root are leaves, not knots: they are
    left out of this graph.
@@ -30,7 +32,7 @@ import ast
 from dataclasses import dataclass
 from pathlib import Path
 
-from scene_helpers import REPO
+from tests.helpers.scene_helpers import REPO
 
 PACKAGE_DIR = REPO / "addon" / "wildscan"
 ROOT = "wildscan"
@@ -247,6 +249,40 @@ def test_ruff_bans_the_same_names_in_the_core():
     banned = set(config["lint"]["flake8-tidy-imports"]["banned-api"])
     assert {"bpy", "mathutils", "bmesh", "gpu", "matplotlib", "wildscan.raycast", "wildscan.ui"} <= banned
     assert "TID251" in config["lint"]["extend-select"]
+
+
+# What each layer (a subpackage of wildscan) may import besides itself and the package root:
+# docs/architecture.md's table. Data flows core -> raycast -> blender -> app -> cli/ui.
+LAYERS = {
+    "core": set(),
+    "raycast": {"core"},
+    "blender": {"core"},
+    "viz": {"core"},
+    "app": {"core", "raycast", "blender", "viz"},
+    "bench": {"core", "raycast", "blender", "app", "viz"},
+    "cli": {"core", "raycast", "blender", "app", "bench"},
+    "ui": {"core", "raycast", "blender", "app"},
+}
+LAZY_ONLY = {"viz"}  # matplotlib is an optional extra: nothing may need it to import
+
+
+def layer_of(name: str) -> str | None:
+    parts = name.split(".")
+    return parts[1] if parts[0] == ROOT and len(parts) > 1 else None
+
+
+def test_each_layer_imports_only_the_layers_below_it():
+    assert set(LAYERS) == {p.name for p in PACKAGE_DIR.iterdir() if (p / "__init__.py").is_file()}
+    offences = []
+    for imp in ALL_IMPORTS:
+        source, target = layer_of(imp.source), layer_of(imp.target)
+        if source is None or target is None or source == target:
+            continue
+        if target not in LAYERS[source]:
+            offences.append(f"{imp}: {source}/ may import {', '.join(sorted(LAYERS[source])) or 'nothing'}")
+        elif target in LAZY_ONLY and not imp.lazy:
+            offences.append(f"{imp}: {target}/ is optional, import it inside the function that needs it")
+    assert offences == [], "\n".join(offences)
 
 
 MAX_LINES = 500

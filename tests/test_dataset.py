@@ -16,15 +16,6 @@ import numpy as np
 import plyfile
 import pytest
 import yaml
-from dataset_helpers import (
-    SMALL_SPEC,
-    manifest_rows,
-    read_kitti_calib,
-    read_kitti_labels,
-    read_kitti_poses,
-    read_kitti_scan,
-    wildscan,
-)
 
 from wildscan.app.dataset.spec import draw_sensor, spec_from_dict
 from wildscan.core.classes import BY_ID
@@ -33,7 +24,21 @@ from wildscan.core.io.las import ASPRS_CODES
 from wildscan.core.label_schemes import SCHEMES
 from wildscan.core.placement import COLUMN_HEIGHT
 
-from reader_helpers import cloudcompare_env, parse_ascii_pcd, parse_cloudcompare_asc, require_tool
+from tests.helpers.dataset_helpers import (
+    SMALL_SPEC,
+    manifest_rows,
+    read_kitti_calib,
+    read_kitti_labels,
+    read_kitti_poses,
+    read_kitti_scan,
+    wildscan,
+)
+from tests.helpers.reader_helpers import (
+    cloudcompare_env,
+    parse_ascii_pcd,
+    parse_cloudcompare_asc,
+    require_tool,
+)
 
 # --------------------------------------------------------------------------- the spec
 
@@ -90,6 +95,7 @@ def test_a_bad_key_or_value_names_the_key_and_what_is_allowed(data, words):
         assert word in message
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "text, key",
     [
@@ -162,6 +168,7 @@ def ok_rows(root):
     return [r for r in manifest_rows(root) if r["status"] == "ok"]
 
 
+@pytest.mark.slow
 def test_the_manifest_has_a_complete_row_per_scan(dataset):
     rows = manifest_rows(dataset)
     assert [(r["sequence"], r["scan"]) for r in rows] == [(s, k) for s in ("00", "01") for k in range(3)]
@@ -186,6 +193,7 @@ def test_the_manifest_has_a_complete_row_per_scan(dataset):
     assert {r["zone"] for r in rows} == {"forest", "park", "hills"}
 
 
+@pytest.mark.slow
 def test_splits_never_share_a_world(dataset):
     rows = manifest_rows(dataset)
     split_of = {}
@@ -199,6 +207,7 @@ def test_splits_never_share_a_world(dataset):
     assert train | valid | test == {0, 1}
 
 
+@pytest.mark.slow
 def test_the_label_config_loads_in_semantic_kitti_api_form(dataset):
     config = yaml.safe_load((dataset / "labels.yaml").read_text())
     for key in (
@@ -242,10 +251,12 @@ def test_a_clear_label_config_keeps_the_bytes_of_before_the_particle_class(name)
     assert particle in weather["labels"] and particle in weather["color_map"]
 
 
+@pytest.mark.slow
 def test_a_clear_datasets_label_config_does_not_list_the_particle_class(dataset):
     assert "particle" not in (dataset / "labels.yaml").read_text()
 
 
+@pytest.mark.slow
 def test_an_independent_semantickitti_reader_loads_every_scan(dataset):
     scheme = SCHEMES["semantickitti"]
     config = yaml.safe_load((dataset / "labels.yaml").read_text())
@@ -274,6 +285,7 @@ def test_an_independent_semantickitti_reader_loads_every_scan(dataset):
             assert np.allclose(world[:, 2] - hag, world[:, 2] - ply["hag"], atol=1e-4)
 
 
+@pytest.mark.slow
 def test_hag_is_small_on_the_terrain_and_large_on_tree_crowns(dataset):
     ply = plyfile.PlyData.read(str(dataset / "sequences/00/ply/000000.ply"))["vertex"]
     terrain = ply["label"] == 1
@@ -283,6 +295,7 @@ def test_hag_is_small_on_the_terrain_and_large_on_tree_crowns(dataset):
         assert np.median(ply["hag"][crowns]) > 1.5
 
 
+@pytest.mark.slow
 def test_the_birds_eye_grid_is_300_cells_of_terrain_height_and_top_class(dataset):
     grid = np.load(dataset / "sequences/00/bev/000000.npy")
     assert grid.shape == (300, 300) and grid.dtype.names == ("terrain_z", "top_class")
@@ -292,6 +305,7 @@ def test_the_birds_eye_grid_is_300_cells_of_terrain_height_and_top_class(dataset
     assert (grid["top_class"] == 72).mean() > 0.2  # terrain seen from above somewhere
 
 
+@pytest.mark.slow
 def test_laspy_reads_las_1_4_with_asprs_codes_and_extra_dimensions(dataset):
     import laspy
 
@@ -310,6 +324,7 @@ def test_laspy_reads_las_1_4_with_asprs_codes_and_extra_dimensions(dataset):
     assert las.header.creation_date.year == 2000  # fixed: same scan, same bytes
 
 
+@pytest.mark.slow
 def test_the_laszip_reference_library_reads_the_las_files(dataset):
     import laspy
     import laszip
@@ -329,6 +344,7 @@ def test_the_laszip_reference_library_reads_the_las_files(dataset):
     reader.close_reader()
 
 
+@pytest.mark.slow
 def test_plyfile_reads_the_ply_with_hag_after_the_contract_fields(dataset):
     vertex = plyfile.PlyData.read(str(dataset / "sequences/00/ply/000001.ply"))["vertex"]
     names = [p.name for p in vertex.properties]
@@ -337,6 +353,7 @@ def test_plyfile_reads_the_ply_with_hag_after_the_contract_fields(dataset):
     np.testing.assert_array_equal(vertex["hag"], hag)
 
 
+@pytest.mark.slow
 def test_pcl_reads_the_ply_labels_and_hag(dataset, tmp_path):
     exe = require_tool("pcl_ply2pcd", "pcl-tools")
     ply = dataset / "sequences/01/ply/000000.ply"
@@ -348,6 +365,7 @@ def test_pcl_reads_the_ply_labels_and_hag(dataset, tmp_path):
     np.testing.assert_allclose(columns["hag"], vertex["hag"], rtol=1e-6, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_cloudcompare_loads_every_ply_of_the_dataset_with_its_classes(dataset, tmp_path):
     exe = require_tool("CloudCompare", "cloudcompare")
     env = cloudcompare_env(tmp_path)
@@ -363,6 +381,7 @@ def test_cloudcompare_loads_every_ply_of_the_dataset_with_its_classes(dataset, t
         np.testing.assert_array_equal(columns["label"], vertex["label"])
 
 
+@pytest.mark.slow
 def test_the_card_compares_with_rellis_and_counts_classes(dataset):
     card = (dataset / "CARD.md").read_text()
     for words in ("RELLIS-3D", "| grass |", "Points against range", "Scans per zone and split", "scans/s"):
@@ -403,6 +422,7 @@ def accept_with(backend):
     return accept
 
 
+@pytest.mark.slow
 def test_poses_are_seeded_spread_and_follow_the_zone_quotas(world):
     from wildscan.core.posesampler import sample_poses, zone_quotas
 
@@ -420,6 +440,7 @@ def test_poses_are_seeded_spread_and_follow_the_zone_quotas(world):
     assert len({p.zone for p in uniform}) > 1 and all(p.kind == "random" for p in uniform)
 
 
+@pytest.mark.slow
 def test_a_full_zone_reports_its_scans_instead_of_dropping_them(world):
     from wildscan.core.posesampler import NoPose, sample_poses
 
@@ -430,6 +451,7 @@ def test_a_full_zone_reports_its_scans_instead_of_dropping_them(world):
     assert "no valid pose left in zone cave" in missing[0].reason
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("frame", ["leveled", "sensor"])
 def test_points_of_any_frame_go_back_to_the_world_exactly(world, frame):
     from wildscan.core.groundtruth import pose_matrix, world_points

@@ -13,10 +13,13 @@ import laspy
 import numpy as np
 import plyfile
 import pytest
-from dataset_helpers import manifest_rows, read_kitti_scan, wildscan
 
 from wildscan.app.dataset.spec import draw_sensor, load_spec, spec_from_dict
 from wildscan.core.io.ply import read_ply
+
+from tests.helpers.dataset_helpers import manifest_rows, read_kitti_scan, wildscan
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 TINY_REALISTIC = """\
 seeds = [1]

@@ -15,9 +15,12 @@ from pathlib import Path
 
 import psutil
 import pytest
-from dataset_helpers import assert_same_dataset, manifest_rows, start_wildscan, wildscan
 
 from wildscan.app.dataset.layout import TEMP_NAME
+
+from tests.helpers.dataset_helpers import assert_same_dataset, manifest_rows, start_wildscan, wildscan
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 # Solid crowns: these runs test stopping and resuming, not vegetation, and a porous world
 # takes about five times longer to build (tests/test_dataset.py writes porous ones).

@@ -3,13 +3,16 @@
 import json
 
 import numpy as np
+import pytest
 from matplotlib.image import imread
 from plyfile import PlyData
 
 from wildscan.core.classes import CLASSES
 from wildscan.core.world import ZONES
 
-from scene_helpers import WILDSCAN, run
+from tests.helpers.scene_helpers import WILDSCAN, run
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 
 def test_demo_builds_the_world_its_map_and_a_scan_with_preview_per_zone(tmp_path):

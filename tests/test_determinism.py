@@ -1,4 +1,4 @@
-"""Issue 9, fault 8: the same inputs give the same bytes on every machine.
+"""The same inputs give the same bytes on every machine.
 
 numpy, glibc and OpenBLAS pick their code by CPU at run time, and each can be told to
 pick another on this machine: NPY_DISABLE_CPU_FEATURES (numpy's AVX-512, AVX2/FMA, AVX
@@ -9,8 +9,8 @@ OpenBLAS, Embree's AVX code with 8-wide BVH and no FMA; Haswell: AVX2 and FMA, n
 AVX-512). Each run prints full-precision hashes of a world (every element's float64
 vertices unrounded, the terrain grid, the sites), its scan geometry, its world.json, and
 the PLY and JSON bytes of scans with noise, in the leveled and world frames
-(tests/determinism_probe.py); every run must print the same. The emulated runs add a
-short drive (issue 12: moving, turning, continuous head, wind, noise) and hash every file
+(tests/helpers/determinism_probe.py); every run must print the same. The emulated runs add a
+short drive (moving, turning, continuous head, wind, noise) and hash every file
 it writes: PLYs raw and deskewed, TUM trajectory, SemanticKITTI poses, both bags.
 """
 
@@ -24,9 +24,11 @@ import sys
 
 import pytest
 
-from scene_helpers import REPO
+from tests.helpers.scene_helpers import REPO
 
-PROBE = REPO / "tests" / "determinism_probe.py"
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
+PROBE = REPO / "tests" / "helpers" / "determinism_probe.py"
 AVX512 = "AVX512F AVX512CD AVX512_KNL AVX512_KNM AVX512_SKX AVX512_CLX AVX512_CNL AVX512_ICL"
 NATIVE_VARIANTS = {
     "numpy without AVX-512": {"NPY_DISABLE_CPU_FEATURES": AVX512},

@@ -19,8 +19,8 @@ import pytest
 from wildscan.core import detmath as dm
 from wildscan.core.detmath import _core
 
-from detmath_reference import pi, reference, ulp_error
-from scene_helpers import REPO
+from tests.helpers.detmath_reference import pi, reference, ulp_error
+from tests.helpers.scene_helpers import REPO
 
 RNG = np.random.default_rng(20260522)
 
@@ -214,6 +214,7 @@ def run_probe(code: str, env: dict) -> str:
     return result.stdout.strip()
 
 
+@pytest.mark.slow
 def test_numpy_and_glibc_really_differ_by_instruction_set_here():
     """The premise: without detmath each forced instruction set changes the bits (else the
     next test proves nothing): numpy's exp by its SIMD width, glibc's sin by FMA."""
@@ -226,6 +227,7 @@ def test_numpy_and_glibc_really_differ_by_instruction_set_here():
             assert run_probe(code, env) != native, name
 
 
+@pytest.mark.slow
 def test_the_same_bits_whatever_instruction_set_numpy_and_glibc_use():
     hashes = {name: run_probe(PROBE, env) for name, env in INSTRUCTION_SETS.items()}
     assert len(set(hashes.values())) == 1, hashes

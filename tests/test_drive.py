@@ -1,5 +1,5 @@
 """`wildscan drive`: timing, trajectories, raw vs deskewed clouds, and the static scan it
-reduces to when the robot stands still (issue 12)."""
+reduces to when the robot stands still."""
 
 from __future__ import annotations
 
@@ -42,6 +42,7 @@ def static_fields(cloud_records: np.ndarray) -> bytes:
     return repack_fields(cloud_records[[name for name, _ in PLY_FIELDS]]).tobytes()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("frame", ["sensor", "leveled", "world"])
 @pytest.mark.parametrize("noise", [0.0, 0.015])
 def test_standing_still_equals_the_static_scan(world, tmp_path, frame, noise):
@@ -97,6 +98,7 @@ def drive_straight(backend, speed: float, distance: float, sensor: SensorConfig,
     return motion, sweep.sweep(backend, motion, 0, plan.scans_2d, sensor, head, noise, "world")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("head", ["stepped", "continuous"])
 def test_driving_past_a_pole_skews_the_raw_cloud_and_deskewing_undoes_it(head):
     geometry, (x0, y0, a, h) = pole_world()
@@ -147,6 +149,7 @@ def test_points_time_rises_in_a_drive():
     assert np.all(np.diff(cloud.extra["time"]) > 0)
 
 
+@pytest.mark.slow
 def test_trajectory_matches_the_placement_at_every_2d_scan(world, tmp_path):
     plan, geometry = world
     sensor = SensorConfig(rh_deg=6.0, noise_sigma=0.0)
@@ -186,6 +189,7 @@ def test_schedule_counts_2d_and_3d_scans():
     assert trajectory.schedule(path, 1.0, 180, 2).scans_2d == 360
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("head", ["stepped", "continuous"])
 def test_deskewing_holds_while_the_robot_turns(head):
     """Around bends the attitude turns during every 2D scan: the deskewed pole still stands
@@ -210,6 +214,7 @@ def test_deskewing_holds_while_the_robot_turns(head):
     assert np.abs(np.maximum(np.abs(q[:, 0] - x0), np.abs(q[:, 1] - y0)) - a).max() > 0.05
 
 
+@pytest.mark.slow
 def test_a_seeds_drive_world_has_the_vegetation_asked_for(world):
     from wildscan.app.drive.world import drive_world
 

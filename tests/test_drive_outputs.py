@@ -1,5 +1,5 @@
 """`wildscan drive` outputs: ROS bags read back by rosbags (ROS 2) and Debian's python3-rosbag
-(ROS 1), SemanticKITTI, determinism, user mistakes, interrupts, wind (issue 12)."""
+(ROS 1), SemanticKITTI, determinism, user mistakes, interrupts, wind."""
 
 from __future__ import annotations
 
@@ -15,7 +15,9 @@ from wildscan.app.interrupts import Terminated
 from wildscan.core.io.ply import read_ply
 from wildscan.core.sensor import SensorConfig
 
-from scene_helpers import WILDSCAN, run, user_error_line
+from tests.helpers.scene_helpers import WILDSCAN, run, user_error_line
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 SEED = 1
 RH = 6.0  # 30 2D scans a 3D scan

@@ -14,7 +14,7 @@ from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig
 
-from analytic import AnalyticBackend, Patch
+from tests.helpers.analytic import AnalyticBackend, Patch
 
 TERRAIN, FENCE = 1, 6
 LIMIT = 5.0  # m

@@ -21,7 +21,9 @@ import tomllib
 
 import wildscan
 
-from scene_helpers import REPO
+from tests.helpers.scene_helpers import CANDIDATE_XY, REPO
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 sys.path.insert(0, str(REPO / "tools"))
 try:
@@ -115,8 +117,6 @@ print("SCANNED", result.metadata["backend"], len(result.cloud))
 
 
 def test_installed_in_blender_5_the_extension_scans_with_embree(zips, tmp_path):
-    from test_addon import CANDIDATE_XY
-
     _legacy, extension = zips
     user = (tmp_path / "user").resolve()
     env = dict(os.environ, BLENDER_USER_RESOURCES=str(user), BLENDER_USER_SCRIPTS=str(user / "scripts"))

@@ -10,7 +10,9 @@ import pytest
 
 from wildscan.core.io.ply import read_ply
 
-from scene_helpers import BLENDER, WILDSCAN, run, user_error_line
+from tests.helpers.scene_helpers import BLENDER, WILDSCAN, run, user_error_line
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 PARK_POSE_SEED_2_LOW = ("61.908", "-58.594", "126.6")  # `wildscan poses --seed 2 --detail low --zone park`
 # Runs a wildscan command in a Python where bpy cannot be imported at all.

@@ -18,7 +18,7 @@ from wildscan.core.io.ply import read_ply, write_scan_files
 from wildscan.core.label_schemes import scheme
 from wildscan.core.pointcloud import PointCloud
 
-from scene_helpers import WILDSCAN, user_error_line
+from tests.helpers.scene_helpers import WILDSCAN, user_error_line
 
 PARK_POSE_SEED_2_LOW = ("61.908", "-58.594", "126.6")  # `wildscan poses --seed 2 --detail low --zone park`
 TIMEOUT_S = 300

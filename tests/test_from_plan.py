@@ -33,6 +33,8 @@ from wildscan.raycast.extract import extract_scene
 from wildscan.raycast.from_plan import blender_matrices, blender_order, plan_geometry, world_geometry
 from wildscan.raycast.select import make_backend
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 # each seed and each detail level at least once (every pair, nine worlds, took ~100 s)
 WORLDS = ((0, "low"), (1, "default"), (2, "high"), (1, "low"))
 

@@ -1,6 +1,10 @@
-"""Golden guards (tests/golden_cases.py): a refactor keeps every world and scan byte for byte."""
+"""Golden guards (tests/helpers/golden_cases.py): a refactor keeps every world and scan byte for byte."""
 
-from golden_cases import all_scans, load, world_hashes
+import pytest
+
+from tests.helpers.golden_cases import all_scans, load, world_hashes
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 
 def test_world_content_hashes_of_seeds_0_to_3_at_every_detail_are_unchanged():

@@ -16,10 +16,10 @@ import sys
 
 import pytest
 
-from scene_helpers import BLENDER, REPO
+from tests.helpers.scene_helpers import BLENDER, REPO
 
 # Debian's Blender 3.4 in a real window, under Xvfb
-pytestmark = [pytest.mark.gui, pytest.mark.blender_binary]
+pytestmark = [pytest.mark.gui, pytest.mark.blender_binary, pytest.mark.slow]
 
 GUI_SCRIPT = REPO / "tests" / "gui" / "run_gui.py"
 SCREEN = "1600x1200x24"

@@ -1,4 +1,4 @@
-"""Ctrl-C and SIGTERM at any moment (issue 9, fault 2): every command that writes, in the
+"""Ctrl-C and SIGTERM at any moment: every command that writes, in the
 bpy wheel and in a real Blender, ends with exit 130 / 143, one true line saying what it
 completed, and no temporary or partial file.
 
@@ -17,7 +17,9 @@ from pathlib import Path
 
 import pytest
 
-from scene_helpers import BLENDER, REPO, WILDSCAN, save_seed_2_low
+from tests.helpers.scene_helpers import BLENDER, REPO, WILDSCAN, save_seed_2_low
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 CODES = {signal.SIGINT: (130, "interrupted"), signal.SIGTERM: (143, "terminated")}
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose

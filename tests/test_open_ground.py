@@ -10,6 +10,8 @@ import pytest
 
 from wildscan.core.open_ground import MARGIN, RASTER_CELL, open_ground
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 EXTENT = (-10.0, 10.0, -5.0, 5.0)
 
 

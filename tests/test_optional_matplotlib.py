@@ -6,6 +6,10 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 
 def test_only_the_pictures_need_matplotlib(tmp_path):
     """Every module imports without matplotlib; asking for a map says what is missing."""

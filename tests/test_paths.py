@@ -1,4 +1,4 @@
-"""Paths and names as users type them (issue 9, fault 5): every path option is read by one
+"""Paths and names as users type them: every path option is read by one
 function (core/io/files.user_path) and checked before any work; a legal long name is
 written; a failed write names the file that failed and why."""
 
@@ -14,7 +14,7 @@ import pytest
 from wildscan.core.errors import UserError
 from wildscan.core.io import files
 
-from scene_helpers import WILDSCAN, run, save_seed_2_low, user_error_line
+from tests.helpers.scene_helpers import WILDSCAN, run, save_seed_2_low, user_error_line
 
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose
 TOO_LONG = "n" * 300  # over NAME_MAX (255 bytes) on every file system we write to
@@ -25,6 +25,7 @@ def worlds(tmp_path_factory):
     return save_seed_2_low(tmp_path_factory.mktemp("worlds"))
 
 
+@pytest.mark.slow
 def test_a_legal_long_name_is_written_though_its_temporary_name_would_be_too_long(tmp_path, worlds):
     limit = os.pathconf(tmp_path, "PC_NAME_MAX")
     out = tmp_path / ("s" * (limit - len(".json")) + ".ply")  # the sidecar's name is the longest legal
@@ -33,6 +34,7 @@ def test_a_legal_long_name_is_written_though_its_temporary_name_would_be_too_lon
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([out.name, out.with_suffix(".json").name])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "args, flag",
     [
@@ -55,6 +57,7 @@ def test_a_name_over_the_limit_is_a_user_mistake_found_before_any_work(tmp_path,
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_every_path_option_takes_a_tilde_the_same_way(tmp_path, worlds):
     home = tmp_path / "home"
     home.mkdir()
@@ -75,12 +78,13 @@ def test_every_path_option_takes_a_tilde_the_same_way(tmp_path, worlds):
     assert not (tmp_path / "~").exists()
 
 
+@pytest.mark.slow
 def test_a_full_disk_while_writing_the_map_names_the_map(tmp_path, monkeypatch):
     """matplotlib's write error names no file: the world's files must not take the blame."""
     from wildscan.app.world import make_world
     from wildscan.viz import aerial_map
 
-    from scene_helpers import fresh_scene
+    from tests.helpers.scene_helpers import fresh_scene
 
     def full_disk(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
@@ -111,7 +115,7 @@ def test_a_full_disk_while_renaming_names_the_file_and_leaves_nothing(tmp_path, 
 
 
 def test_blenders_save_message_is_reworded_to_name_the_users_file():
-    from wildscan.app.world import blender_save_reason
+    from wildscan.blender.scene_io import blender_save_reason
 
     tmp = Path("/d/.w.tmp-12.blend")
     said = RuntimeError(f"Error: Cannot open file {tmp}@ for writing: No space left on device\n")

@@ -12,7 +12,7 @@ from wildscan.core.leveling import leveling_matrix, rot_z, sensor_to_world_matri
 from wildscan.core.scan import run_scan
 from wildscan.core.sensor import SensorConfig, beam_directions, elevation_angles_rad
 
-from analytic import AnalyticBackend, Patch, slope_plane
+from tests.helpers.analytic import AnalyticBackend, Patch, slope_plane
 
 TERRAIN, ROCK = 1, 9
 QUIET = SensorConfig(noise_sigma=0.0)

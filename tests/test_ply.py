@@ -22,7 +22,13 @@ from wildscan.core.io import ply
 from wildscan.core.io.ply import check_output_path, read_ply, sidecar_path, write_scan_files
 from wildscan.core.pointcloud import PLY_FIELDS
 
-from reader_helpers import LONG_WORLD, cloudcompare_columns, extreme_metadata, make_cloud, pcl_columns
+from tests.helpers.reader_helpers import (
+    LONG_WORLD,
+    cloudcompare_columns,
+    extreme_metadata,
+    make_cloud,
+    pcl_columns,
+)
 
 FIELD_NAMES = [name for name, _ in PLY_FIELDS]
 EXPECTED_PROPERTY_LINES = [

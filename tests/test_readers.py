@@ -22,8 +22,16 @@ from wildscan.core.classes import COLOR_BY_ID
 from wildscan.core.io.ply import MAX_HEADER_LINE, read_ply, write_scan_files
 from wildscan.core.world.plan import ZONES
 
-from reader_helpers import cloudcompare_columns, extreme_metadata, make_cloud, open3d_read, pcl_columns
-from scene_helpers import BLENDER, WILDSCAN, blender_scan, run
+from tests.helpers.reader_helpers import (
+    cloudcompare_columns,
+    extreme_metadata,
+    make_cloud,
+    open3d_read,
+    pcl_columns,
+)
+from tests.helpers.scene_helpers import BLENDER, WILDSCAN, blender_scan, run
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 SEEDS = (1, 2)
 RH_DEG = "6"

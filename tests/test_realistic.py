@@ -18,7 +18,7 @@ from wildscan.core.world.shapes.primitives import box, merge
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.geometry import SceneGeometry, local_origin
 
-from analytic import AnalyticBackend, Patch
+from tests.helpers.analytic import AnalyticBackend, Patch
 
 TERRAIN, TABLE, FENCE, ROCK = 1, 4, 6, 9
 REALISTIC = S.SensorConfig(model="realistic")
@@ -250,6 +250,7 @@ def test_a_backend_without_normals_is_refused_for_the_realistic_model():
 
     class NoNormals:
         name = "blender"
+        capabilities = frozenset()
 
         def cast(self, origins, directions, max_range):
             raise AssertionError("must not be reached")

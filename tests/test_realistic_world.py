@@ -16,6 +16,8 @@ from wildscan.core.sensor import SensorConfig
 from wildscan.core.world import plan_world
 from wildscan.raycast.from_plan import plan_geometry
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 SEED = 0
 
 

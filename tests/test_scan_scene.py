@@ -13,7 +13,7 @@ from wildscan.core.scan import run_scan
 from wildscan.core.sensor import SensorConfig
 from wildscan.core.world.testworld import plan_test_world
 
-from scene_helpers import (
+from tests.helpers.scene_helpers import (
     BLENDER,
     REPO,
     WILDSCAN,
@@ -23,6 +23,8 @@ from scene_helpers import (
     run,
     user_error_line,
 )
+
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 QUIET_RH2 = SensorConfig(rh_deg=2.0, noise_sigma=0.0)
 

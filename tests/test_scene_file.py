@@ -13,7 +13,6 @@ import zipfile
 import bpy
 import numpy as np
 import pytest
-from test_backends import add_mesh, box_mesh
 
 from wildscan.app.scan import scan_current_scene
 from wildscan.blender.scene_io import empty_scene, open_world
@@ -26,6 +25,8 @@ from wildscan.raycast import scene_file
 from wildscan.raycast.extract import extract_scene
 from wildscan.raycast.geometry import from_triangles
 from wildscan.raycast.scene_file import geometry_file_bytes, load_geometry, load_geometry_file, save_geometry
+
+from tests.helpers.backend_scenes import add_mesh, box_mesh
 
 POSE = Pose(0.0, 0.0, 20.0)
 SENSOR = SensorConfig(rh_deg=2.0)

@@ -1,4 +1,4 @@
-"""Users' own scenes (issue 9, faults 3, 4 and 6): which objects a scan sees, wrong tags,
+"""Users' own scenes: which objects a scan sees, wrong tags,
 a renamed world, and per-object reflectivity. bpy wheel, a few runs of Debian's Blender."""
 
 from __future__ import annotations
@@ -9,7 +9,6 @@ import subprocess
 import bpy
 import numpy as np
 import pytest
-import visibility_probe
 
 from wildscan.blender.mesh import GENERATED, mesh_object, wildscan_collection
 from wildscan.core.classes import class_by_name
@@ -17,7 +16,8 @@ from wildscan.core.errors import UserError
 from wildscan.core.world.shapes import primitives
 from wildscan.raycast.select import make_backend
 
-from scene_helpers import BLENDER, REPO, WILDSCAN, fresh_scene, run, user_error_line
+from tests.helpers import visibility_probe
+from tests.helpers.scene_helpers import BLENDER, REPO, WILDSCAN, fresh_scene, run, user_error_line
 
 BACKENDS = ("embree", "bvh", "blender")
 ROCK = class_by_name("rock").id
@@ -33,7 +33,7 @@ def _down(backend, xs):
     return make_backend(backend, notify=None).cast(origins, np.tile([0.0, 0.0, -1.0], (len(xs), 1)), 10.0)
 
 
-# -- fault 3: what exists ------------------------------------------------------------------
+# -- what exists --------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -47,7 +47,7 @@ def test_every_backend_scans_what_the_viewport_shows(backend):
 @pytest.mark.blender_binary
 def test_blender_34_scans_the_same_objects(tmp_path):
     out = tmp_path / "seen.json"
-    probe = REPO / "tests" / "visibility_probe.py"
+    probe = REPO / "tests" / "helpers" / "visibility_probe.py"
     cmd = [BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "-P", str(probe)]
     proc = subprocess.run(
         [*cmd, "--", str(REPO / "addon"), str(out)], capture_output=True, text=True, timeout=120
@@ -57,6 +57,7 @@ def test_blender_34_scans_the_same_objects(tmp_path):
     assert seen == {"blender": visibility_probe.expected(), "bvh": visibility_probe.expected()}
 
 
+@pytest.mark.slow
 def test_the_addons_display_toggles_do_not_change_what_is_scanned():
     """'Show world', 'In front' and the point size are display only; a scan cloud in the
     scene (loose points) is never scanned."""
@@ -86,7 +87,7 @@ def test_the_addons_display_toggles_do_not_change_what_is_scanned():
         wildscan.unregister()
 
 
-# -- fault 4: wrong tags ---------------------------------------------------------------------
+# -- wrong tags -----------------------------------------------------------------------------
 
 BAD_TAGS = [
     ("wildscan_class", "rocks"),
@@ -129,6 +130,7 @@ def test_documented_variants_of_names_and_whole_floats_are_accepted(backend):
     assert hits.instance.tolist() == [1, 2, 3, 4]
 
 
+@pytest.mark.slow
 def test_the_command_line_exits_2_on_a_misspelled_tag(tmp_path):
     from wildscan.blender.testworld import build_test_world
 
@@ -149,7 +151,7 @@ def test_the_command_line_exits_2_on_a_misspelled_tag(tmp_path):
     assert not out.exists()
 
 
-# -- fault 6: a renamed world ---------------------------------------------------------------
+# -- a renamed world -----------------------------------------------------------------------
 
 
 def _world_objects():
@@ -157,7 +159,7 @@ def _world_objects():
 
 
 def test_regenerating_replaces_a_renamed_world_and_keeps_the_users_objects():
-    from wildscan.app.world import replacing_generated
+    from wildscan.blender.replace import replacing_generated
     from wildscan.blender.testworld import build_test_world
 
     fresh_scene()

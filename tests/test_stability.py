@@ -17,7 +17,16 @@ import math
 
 import numpy as np
 import pytest
-from test_backends import (
+
+from wildscan.core.hits import RayHits
+from wildscan.core.sensor import beam_directions
+from wildscan.raycast.bvh_backend import BVHBackend
+from wildscan.raycast.embree_backend import EmbreeBackend
+from wildscan.raycast.extract import extract_scene
+from wildscan.raycast.reference import check_hits, reference_hits
+from wildscan.raycast.select import resolve_backend
+
+from tests.helpers.backend_scenes import (
     add_mesh,
     box_mesh,
     cylinder_mesh,
@@ -30,13 +39,7 @@ from test_backends import (
     world_geometry,
 )
 
-from wildscan.core.hits import RayHits
-from wildscan.core.sensor import beam_directions
-from wildscan.raycast.bvh_backend import BVHBackend
-from wildscan.raycast.embree_backend import EmbreeBackend
-from wildscan.raycast.extract import extract_scene
-from wildscan.raycast.reference import check_hits, reference_hits
-from wildscan.raycast.select import resolve_backend
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 RANGE_TOL = 1e-4
 DEFAULT = resolve_backend("auto", notify=None)

@@ -15,6 +15,8 @@ from wildscan.core.world.shapes.foliage import BLADE_WIDTH, LEAF_SIZE
 from wildscan.raycast.geometry import from_triangles
 from wildscan.raycast.select import make_backend
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 GOLDEN = Path(__file__).parent / "golden" / "worlds.json"
 KINDS = ("conifer", "broadleaf", "birch")
 

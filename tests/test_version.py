@@ -12,7 +12,7 @@ import tomllib
 
 import wildscan
 
-from scene_helpers import REPO
+from tests.helpers.scene_helpers import REPO
 
 sys.path.insert(0, str(REPO / "tools"))
 try:

@@ -23,7 +23,7 @@ from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig
 
-from analytic import AnalyticBackend, Patch
+from tests.helpers.analytic import AnalyticBackend, Patch
 
 TERRAIN, FENCE, ROCK = 1, 6, 9
 
@@ -232,7 +232,7 @@ def test_a_weather_table_is_checked_drawn_per_scan_and_left_out_of_a_clear_specs
 def test_a_dataset_in_rain_writes_particles_and_its_card_gives_their_share(tmp_path):
     import json
 
-    from dataset_helpers import wildscan
+    from tests.helpers.dataset_helpers import wildscan
 
     spec = tmp_path / "SPEC.toml"
     spec.write_text(

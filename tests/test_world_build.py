@@ -20,6 +20,8 @@ from wildscan.core.world import ZONES, WorldParams
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 SEED = 1
 TWELVE = {c.name for c in BY_ID.values() if 1 <= c.id <= 12}
 # What a scan from a zone's first listed pose must return (paper Table I classes).

@@ -15,6 +15,8 @@ from wildscan.blender.scene_io import BLEND_MAGICS
 from wildscan.cli import main
 from wildscan.core.world import ZONES
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 
 def run(capsys, *argv):
     code = main(list(argv))

@@ -31,6 +31,8 @@ from wildscan.core.world import (
 from wildscan.core.world import heightfield as hf
 from wildscan.core.world.shapes import plants, powerline, primitives, rocks, trees
 
+pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
+
 ALL_TAGS = {
     "terrain",
     "trunk",

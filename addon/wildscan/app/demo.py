@@ -19,7 +19,7 @@ DETAIL = "default"
 POSES_PER_ZONE = 3  # listed in the world's sidecar; the first valid one of each zone is scanned
 # Point counts of the paper's r_h = 1 deg scans (Figs. 8-12), for comparison.
 PAPER_POINTS = {"hills": 83_056, "lake": 63_998, "park": 60_669, "cave": 80_307, "forest": 85_479}
-# What each zone's scan must show (the world issue's acceptance list).
+# What each zone's scan must show (what the demo is accepted on).
 EXPECTED_CLASSES = {
     "hills": ("pole", "wire"),
     "forest": ("trunk", "treetop", "bush"),

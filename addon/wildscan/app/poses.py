@@ -4,6 +4,7 @@ lists them in the world's sidecar, the demo and the benchmark scan from them."""
 
 from __future__ import annotations
 
+from ..core.backend import RayBackend
 from ..core.errors import PoseRejected
 from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, candidate_sites, plan_world
 
@@ -11,7 +12,7 @@ DEFAULT_POSES_PER_ZONE = 5
 MAX_POSE_COUNT = 1000
 
 
-def plan_backend(plan: WorldPlan, notify=None):
+def plan_backend(plan: WorldPlan, notify=None) -> RayBackend:
     """The fastest ray backend over the plan's own triangles (embree, else mathutils' BVH)."""
     from ..raycast.from_plan import plan_geometry
     from ..raycast.select import make_backend
@@ -20,7 +21,7 @@ def plan_backend(plan: WorldPlan, notify=None):
 
 
 def valid_poses(
-    plan: WorldPlan, backend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
+    plan: WorldPlan, backend: RayBackend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
 ) -> dict[str, list[dict]]:
     """Up to `count` poses per zone that `placement.place` accepts: the zone's reserved
     sites first (chosen where its classes are in view), then random candidates."""

@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 from typing import Callable
 
+from ..core.backend import RayBackend
 from ..core.placement import COLUMN_HEIGHT, Pose, check_z_start
 from ..core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
 from ..core.sensors import SensorConfig
@@ -18,7 +19,7 @@ CROP_MARGIN = 1.0  # m
 
 def make_scene_backend(
     name: str, pose: Pose, sensor: SensorConfig, notify: Callable[[str], None] = print, geometry=None
-):
+) -> RayBackend:
     """A ray backend over the current scene, cropped to what a scan from `pose` can reach.
 
     Pass `geometry` (raycast.extract.extract_scene()) to scan many poses of one

@@ -9,15 +9,12 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import time
 from collections.abc import Callable
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.errors import UserError
-from ..core.io.files import atomic_outputs, check_output_path, remove_quietly, writing_to
+from ..core.io.files import atomic_outputs, check_output_path, writing_to
 from ..core.io.ply import sidecar_path
 from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, check_seed, check_vegetation, detail_level
 from .poses import DEFAULT_POSES_PER_ZONE, plan_backend, valid_poses
@@ -47,100 +44,10 @@ def build_in_scene(
 
         empty_scene()
 
-    def build() -> WorldPlan:
-        from ..blender.builder import build_world
+    from ..blender.builder import build_world
+    from ..blender.replace import replacing_generated
 
-        return build_world(seed, detail, progress=progress, vegetation=vegetation)
-
-    return replacing_generated(build)
-
-
-def replacing_generated(build: Callable[[], WorldPlan]) -> WorldPlan:
-    """Run `build()` (which builds a world into the WildScan collection) so that it
-    replaces the world WildScan built before, and a failure leaves that world exactly
-    as it was.
-
-    The previous world is found by what it is, not by its collection's name (a user
-    may rename it): its root collection's marker (blender/mesh.py world_root) and every
-    generated, class-tagged object in the scene, wherever the user moved it. It is set
-    aside while the new one is built: its generated collections, objects and data get
-    temporary names, so the new world gets the same names a first build would. On
-    success the user's own objects and collections in the old root move to the new one
-    and the generated rest is removed; on failure the partial new world is removed and
-    the old one gets its names back.
-    """
-    import bpy
-
-    from ..blender import WORLD_COLLECTION as ROOT
-    from ..blender.mesh import (
-        GENERATED,
-        remove_generated,
-        remove_objects_and_their_meshes,
-        world_element_objects,
-        world_root,
-    )
-
-    old = world_root()
-    strays = world_element_objects()
-    if old is None and not strays:
-        return build()
-    renamed, objects = _set_aside(old, strays, GENERATED)
-    try:
-        result = build()
-    except BaseException:
-        remove_generated(ROOT)
-        for block, name in renamed:
-            block.name = name
-        raise
-    new = bpy.data.collections.get(ROOT)
-    if old is not None and new is not None and new != old:
-        _adopt_user_content(old, new, GENERATED)
-    remove_objects_and_their_meshes(objects)
-    if old is not None:
-        remove_generated(old.name)
-    return result
-
-
-def _set_aside(root, strays: set, generated: str) -> tuple[list, set]:
-    """Give the generated collections under `root` (None: none), the generated objects in
-    them and the `strays` and those objects' generated data temporary names; returns
-    ((datablock, original name) pairs, the objects)."""
-    collections = [] if root is None else [root, *(c for c in root.children_recursive if c.get(generated))]
-    objects = {o for c in collections for o in c.objects if o.get(generated)} | set(strays)
-    data = {o.data for o in objects if o.data is not None and o.data.get(generated)}
-    renamed = []
-    for i, block in enumerate([*collections, *objects, *data]):
-        renamed.append((block, block.name))
-        block.name = f".wildscan-replaced-{i}"
-    return renamed, objects
-
-
-def _parents_of(coll) -> list:
-    import bpy
-
-    parents = [c for c in bpy.data.collections if coll.name in c.children]
-    parents += [s.collection for s in bpy.data.scenes if coll.name in s.collection.children]
-    return parents
-
-
-def _adopt_user_content(old, new, generated: str) -> None:
-    """Give `new` the place and the user content `old` had."""
-    for obj in [o for o in old.objects if not o.get(generated)]:
-        if obj.name not in new.objects:
-            new.objects.link(obj)
-        old.objects.unlink(obj)
-    for child in [c for c in old.children if not c.get(generated)]:
-        if child.name not in new.children:
-            new.children.link(child)
-        old.children.unlink(child)
-    old_parents = _parents_of(old)
-    if old_parents:
-        for parent in old_parents:
-            if new.name not in parent.children:
-                parent.children.link(new)
-        for parent in _parents_of(new):
-            if parent not in old_parents:
-                parent.children.unlink(new)
+    return replacing_generated(lambda: build_world(seed, detail, progress=progress, vegetation=vegetation))
 
 
 # ---------------------------------------------------------------------------------------
@@ -203,6 +110,8 @@ def make_world(
     finals = (blend, sidecar, png) if png is not None else (blend, sidecar)
     with atomic_outputs(*finals) as temps:
         t0 = time.perf_counter()
+        from ..blender.scene_io import save_blend
+
         save_blend(temps[0], blend)
         stage("save .blend", time.perf_counter() - t0)
         if png is not None:
@@ -220,42 +129,3 @@ def make_world(
         with writing_to(sidecar):
             temps[1].write_text(json.dumps(description, indent=1) + "\n")
     return SavedWorld(plan, poses, blend, sidecar, png, time.perf_counter() - t_start)
-
-
-@contextmanager
-def quiet_stdout():
-    """Silence what Blender's C code prints to file descriptor 1."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
-def save_blend(tmp: Path, final: Path) -> None:
-    """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError.
-
-    Blender writes `tmp@` and renames it to `tmp`: that file goes too when the save fails
-    or a signal stops the run, and Blender's message is reworded to name `final`."""
-    import bpy
-
-    try:
-        with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
-            bpy.ops.wm.save_as_mainfile(filepath=str(tmp), check_existing=False, copy=True, compress=True)
-    except RuntimeError as e:
-        raise UserError(f"cannot write {final}: {blender_save_reason(e, tmp)}") from None
-    finally:
-        remove_quietly([Path(f"{tmp}@")])
-
-
-def blender_save_reason(error: RuntimeError, tmp: Path) -> str:
-    """Why Blender could not save, without its temporary names or its "Error:" prefix."""
-    lines = [line.strip() for line in str(error).strip().splitlines() if line.strip()]
-    reason = (lines[0] if lines else "").removeprefix("Error:").strip()
-    if str(tmp) in reason:  # "Cannot open file TMP@ for writing: REASON": keep the reason
-        reason = reason.rsplit(":", 1)[-1].strip() if ":" in reason.split(str(tmp))[-1] else ""
-    return reason or "Blender could not save it"

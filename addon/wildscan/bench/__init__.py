@@ -17,7 +17,7 @@ takes to build a world (bpy wheel). One module per suite:
   realism.py      porous vegetation and the realistic sensor model (suite "realism"): crown and
                   canopy gap fractions (porosity.py), echoes, realistic scan speed beside the
                   paper model's, world build time and memory porous beside solid.
-  targets.py      each goal of issue 5, met or not.
+  targets.py      each speed and accuracy goal of the benchmark, met or not.
 
 backends.py runs the first four (suite "backends", the default) and writes bench.csv,
 bench.png and scaling.md (report.py); config.py holds what a run measures, measure.py the

@@ -1,7 +1,7 @@
 """`wildscan bench --suite drive`: a 60 s drive at 1 m/s along a world's trail, r_h = 1 deg
 (2,400 2D scans, 13 3D scans), with both ROS bags, timed stage by stage.
 
-Target (issue 12, this 2-core machine): under 10 s for the whole drive, world planning
+Target (set for scans in motion, on this 2-core machine): under 10 s for the whole drive, world planning
 and every file included.
 """
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.backend import RayBackend
 from .config import BENCH_COLLECTION, PHASES, RANGE_TOLERANCE, SCAN_RH
 
 # =============================================================================================
@@ -51,17 +52,6 @@ def spread_subset(count: int, size: int | None) -> np.ndarray:
 
 # =============================================================================================
 # agreement with the reference
-
-
-def agreement(hits, reference) -> dict:
-    """Per-ray agreement of two RayHits over the same rays (fractions)."""
-    c = agreement_counts(hits, reference)
-    n = max(c["rays"], 1)
-    return {
-        "label_agreement": c["labels_same"] / n if c["rays"] else 1.0,
-        "range_agreement": c["ranges_ok"] / n if c["rays"] else 1.0,
-        "max_range_diff_m": c["max_range_diff_m"],
-    }
 
 
 def agreement_counts(hits, reference) -> dict:
@@ -141,7 +131,9 @@ class _CastLog:
     """A backend wrapper that notes when each cast ran, to split run_scan into phases: its
     casts before the sweep are the placement lasers, the last one is the sweep."""
 
-    def __init__(self, backend):
+    capabilities = frozenset()  # its cast takes no normals
+
+    def __init__(self, backend: RayBackend):
         self.backend = backend
         self.name = backend.name
         self.calls: list[tuple[float, float, int, object]] = []
@@ -196,7 +188,7 @@ def noise_free(rh_deg: float):
     return SensorConfig(rh_deg=rh_deg, noise_sigma=0.0).validate()
 
 
-def timed_scan(backend, pose, z_start, rh_deg: float, ply_path: Path) -> ScanRun:
+def timed_scan(backend: RayBackend, pose, z_start, rh_deg: float, ply_path: Path) -> ScanRun:
     """One full scan with run_scan (placement, sweep, labels, leveling) and its PLY + JSON
     written with write_scan_files, the way `wildscan scan` does it, timed by phase."""
     from ..core.io.ply import write_scan_files
@@ -226,7 +218,7 @@ def timed_scan(backend, pose, z_start, rh_deg: float, ply_path: Path) -> ScanRun
     return ScanRun(backend.name, phases, t2 - t0, sweep[3], result, rh_deg)
 
 
-def median_scan(backend, pose, z_start, rh_deg: float, ply_path: Path, runs: int) -> ScanRun:
+def median_scan(backend: RayBackend, pose, z_start, rh_deg: float, ply_path: Path, runs: int) -> ScanRun:
     """Per-phase and total medians over `runs` scans."""
     done = [timed_scan(backend, pose, z_start, rh_deg, ply_path) for _ in range(max(1, runs))]
     phases = {k: statistics.median(r.phases[k] for r in done) for k in PHASES}
@@ -276,13 +268,13 @@ def scene_context(scene):
         yield
 
 
-def reference_backend(scene):
+def reference_backend(scene) -> RayBackend:
     from ..raycast.blender_backend import BlenderRayCastBackend, scene_depsgraph
 
     return BlenderRayCastBackend(scene=scene, depsgraph=scene_depsgraph(scene))
 
 
-def fast_backend(name: str, geometry):
+def fast_backend(name: str, geometry) -> RayBackend:
     """A ready fast backend: Embree builds its BVH lazily on the first cast, so one ray is
     cast here and that build is counted with the backend's build time, not the first scan's."""
     from ..raycast.select import make_backend

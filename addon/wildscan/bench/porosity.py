@@ -20,6 +20,8 @@ import math
 
 import numpy as np
 
+from ..core.backend import RayBackend
+
 CROWN_RAY_SPACING = 0.03  # m between the horizontal rays of the crown grid
 CHORD_BAND = (2.5, 3.5)  # m of crown envelope a "3 m crown" ray crosses
 SKY_EYE_HEIGHT = 1.0  # m above the ground
@@ -29,7 +31,7 @@ SKY_RAYS_PER_POINT = 4000
 SKY_REACH = 60.0  # m: farther than any crown above the forest reaches
 
 
-def _backend(vertices: np.ndarray, faces: np.ndarray):
+def _backend(vertices: np.ndarray, faces: np.ndarray) -> RayBackend:
     from ..raycast.geometry import from_triangles
     from ..raycast.select import make_backend
 

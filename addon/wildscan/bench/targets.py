@@ -1,4 +1,4 @@
-"""The goals of issue 5, each met or not, with the figures that decide it."""
+"""The benchmark's speed and accuracy goals, each met or not, with the figures that decide it."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from .report import Report, percent
 
 
 def targets(report: "Report", cfg) -> list[tuple[str, bool | None, str]]:
-    """(goal, met (None: not measured in this run), figures) for each goal of issue 5."""
+    """(goal, met (None: not measured in this run), figures) for each goal."""
     out = []
     default = cfg.fast_backends[0]
     head = report.headline
@@ -119,4 +119,4 @@ def format_targets(items) -> str:
         [("met" if ok else "NOT MET") if ok is not None else "-", goal, figures]
         for goal, ok, figures in items
     ]
-    return "\n== Targets (issue 5)\n" + "\n".join(f"[{m:>7}] {g}\n          {f}" for m, g, f in body)
+    return "\n== Targets\n" + "\n".join(f"[{m:>7}] {g}\n          {f}" for m, g, f in body)

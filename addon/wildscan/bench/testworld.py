@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.backend import RayBackend
 from .config import BENCH_COLLECTION, REFERENCE, SCAN_RH, BenchConfig
 from .measure import (
     Agreement,
@@ -83,7 +84,7 @@ def measure_phases(cfg, whole, scene, pose, z_start, tmp: Path, full_reference: 
     return {"runs": runs, "geometry": geometry, "crop_s": crop_s, "backends": backends}
 
 
-def compare_runs(geometry, backend, run: ScanRun, ref: ScanRun) -> tuple[Agreement, dict]:
+def compare_runs(geometry, backend: RayBackend, run: ScanRun, ref: ScanRun) -> tuple[Agreement, dict]:
     """A full scan against the full reference scan, beam by beam, two ways:
     same rays   the backend re-casts the reference's own rays (its placement): the backends
                 compared as ray casters; disagreements judged by exact float64 brute force;

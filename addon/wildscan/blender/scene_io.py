@@ -1,9 +1,14 @@
-"""Opening worlds for a scan (bpy). Thin: checks what a user could get wrong first."""
+"""Opening and saving worlds (bpy). Thin: checks what a user could get wrong first."""
 
 from __future__ import annotations
 
+import os
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+
 from ..core.errors import UserError
-from ..core.io.files import check_input_file
+from ..core.io.files import check_input_file, remove_quietly
 
 # First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
@@ -49,3 +54,42 @@ def scene_provenance() -> tuple[int | None, str | None]:
     root = world_root()
     seed = root.get(WORLD_SEED_PROP) if root is not None else None
     return (int(seed) if seed is not None else None), (bpy.data.filepath or None)
+
+
+@contextmanager
+def quiet_stdout():
+    """Silence what Blender's C code prints to file descriptor 1."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def save_blend(tmp: Path, final: Path) -> None:
+    """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError.
+
+    Blender writes `tmp@` and renames it to `tmp`: that file goes too when the save fails
+    or a signal stops the run, and Blender's message is reworded to name `final`."""
+    import bpy
+
+    try:
+        with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
+            bpy.ops.wm.save_as_mainfile(filepath=str(tmp), check_existing=False, copy=True, compress=True)
+    except RuntimeError as e:
+        raise UserError(f"cannot write {final}: {blender_save_reason(e, tmp)}") from None
+    finally:
+        remove_quietly([Path(f"{tmp}@")])
+
+
+def blender_save_reason(error: RuntimeError, tmp: Path) -> str:
+    """Why Blender could not save, without its temporary names or its "Error:" prefix."""
+    lines = [line.strip() for line in str(error).strip().splitlines() if line.strip()]
+    reason = (lines[0] if lines else "").removeprefix("Error:").strip()
+    if str(tmp) in reason:  # "Cannot open file TMP@ for writing: REASON": keep the reason
+        reason = reason.rsplit(":", 1)[-1].strip() if ":" in reason.split(str(tmp))[-1] else ""
+    return reason or "Blender could not save it"

@@ -111,7 +111,7 @@ def _verify(folder: str) -> int:
 def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument("--worlds", type=lambda t: _positive(t, "worlds", 10_000), default=20, metavar="N")
     p.add_argument("--scans", type=lambda t: _positive(t, "scans", 10**7), default=1000, metavar="N")
-    p.add_argument("--rh", type=float, default=1.0, metavar="DEG", help="r_h of every scan (default 1)")
+    options.add(p, options.OPTIONS["rh"]._replace(check=options.rh_alone))
     p.add_argument(
         "--workers",
         type=lambda t: _positive(t, "workers", 1024),

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 from ..app.poses import DEFAULT_POSES_PER_ZONE, MAX_POSE_COUNT
-from ..app.settings import flag
+from ..app.settings import SETTINGS, command_line_help, flag
 from ..core import sensor as S
 from ..core.checks import whole_number
 from ..core.errors import UserError
@@ -114,8 +114,20 @@ VEGETATION_HELP = (
 )
 
 
-def _number(setting: str, default: float, metavar: str, help: str) -> Option:
-    return Option(setting, dict(type=finite_float, default=default, metavar=metavar, help=help))
+def _declared(setting: str) -> Option:
+    """The option of a setting declared in full in app/settings.py: its type, default,
+    allowed names, placeholder and help from there. A realistic-model setting defaults to
+    None, so that giving one with the paper model can be told apart (sensor_of)."""
+    known = SETTINGS[setting]
+    default = None if setting in S.REALISTIC_SETTINGS else known.default
+    kwargs: dict[str, Any] = dict(default=default, help=command_line_help(setting))
+    if known.choices is not None:
+        return Option(setting, dict(kwargs, choices=known.choices))
+    kwargs["metavar"] = known.metavar
+    if known.kind is int:
+        low, high, _ = known.limits
+        return Option(setting, kwargs, lambda text: whole_number(text, setting, low, high))
+    return Option(setting, dict(kwargs, type=finite_float))
 
 
 _SHARED = (
@@ -154,77 +166,7 @@ _SHARED = (
             "surface)",
         ),
     ),
-    _number(
-        "rh",
-        S.DEFAULT_RH_DEG,
-        "DEG",
-        f"horizontal resolution r_h in degrees, at least {S.MIN_RH_DEG:g}; 180/r_h must be whole "
-        f"(default {S.DEFAULT_RH_DEG:g}: 180 2D scans, 194,400 beams)",
-    ),
-    _number(
-        "min_range",
-        S.DEFAULT_MIN_RANGE,
-        "M",
-        f"shortest range kept, metres (default {S.DEFAULT_MIN_RANGE:g})",
-    ),
-    _number(
-        "max_range",
-        S.DEFAULT_MAX_RANGE,
-        "M",
-        f"longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g} (default "
-        f"{S.DEFAULT_MAX_RANGE:g}, the UTM-30LX-EW under sunlight)",
-    ),
-    _number(
-        "noise",
-        None,
-        "SIGMA",
-        f"standard deviation of the Gaussian range noise, metres, 0 (off) to {S.MAX_NOISE_SIGMA:g} "
-        f"(default {S.DEFAULT_NOISE_SIGMA:g} with the paper model; with the realistic model the "
-        "datasheet's accuracy, +-30 mm to 10 m and +-50 mm beyond, read as 2 sigma: 0.015 and 0.025)",
-    ),
-    Option(
-        "noise_seed",
-        dict(
-            type=non_negative_int,
-            default=0,
-            metavar="N",
-            help="seed of the range noise, independent of the world seed (default 0)",
-        ),
-    ),
-    Option(
-        "model",
-        dict(
-            choices=S.MODELS,
-            default=S.DEFAULT_MODEL,
-            help="sensor model: paper (one thin ray a beam, intensity = the class reflectivity, as the "
-            "paper; default) or realistic (the beam's footprint, up to 3 echoes a beam with mixed pixels, "
-            "intensity from reflectivity, incidence and range, datasheet noise; adds the PLY fields echo, "
-            "echoes, label_purity and mixed)",
-        ),
-    ),
-    _number(
-        "divergence",
-        None,
-        "MRAD",
-        f"realistic model: full beam divergence in mrad, 0 (a thin ray) to {S.MAX_DIVERGENCE_MRAD:g} "
-        f"(default {S.DEFAULT_DIVERGENCE_MRAD:g}, an estimate: the datasheet gives none)",
-    ),
-    Option(
-        "echoes",
-        dict(
-            metavar="N",
-            help=f"realistic model: most echoes a beam returns, 1 to {S.MAX_ECHOES} (default "
-            f"{S.MAX_ECHOES}, the UTM-30LX-EW's multi-echo)",
-        ),
-        lambda text: whole_number(text, "echoes", 1, S.MAX_ECHOES),
-    ),
-    _number(
-        "echo_separation",
-        None,
-        "M",
-        "realistic model: surfaces farther apart along a beam than this give separate echoes, closer "
-        f"ones merge into one mixed range, metres (default {S.DEFAULT_ECHO_SEPARATION:g})",
-    ),
+    *(_declared(setting) for setting in S.SENSOR_SETTINGS),
     Option(
         "frame",
         dict(
@@ -253,6 +195,13 @@ _SHARED = (
 OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
 SENSOR_OPTIONS = S.SENSOR_SETTINGS
 REALISTIC_ONLY = S.REALISTIC_SETTINGS
+
+
+def rh_alone(value: float) -> float:
+    """r_h checked as the sensor checks it, for a command that takes no other sensor option
+    (SensorConfig.validate checks it for the others)."""
+    S.sweep_count(value)
+    return value
 
 
 def add(parser: ArgumentParser, option: str | Option, group=None, **overrides) -> None:
@@ -300,7 +249,7 @@ def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
         noise_sigma=args.noise,
         noise_seed=args.noise_seed,
         model=model,
-        divergence_mrad=realistic.get("divergence", S.DEFAULT_DIVERGENCE_MRAD),
-        echoes=realistic.get("echoes", S.MAX_ECHOES),
-        echo_separation=realistic.get("echo_separation", S.DEFAULT_ECHO_SEPARATION),
+        divergence_mrad=realistic.get("divergence", SETTINGS["divergence"].default),
+        echoes=realistic.get("echoes", SETTINGS["echoes"].default),
+        echo_separation=realistic.get("echo_separation", SETTINGS["echo_separation"].default),
     )

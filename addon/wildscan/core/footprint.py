@@ -106,8 +106,3 @@ def subrays_around(dirs: np.ndarray, e_u: np.ndarray, e_v: np.ndarray, divergenc
     for k in range(RING):
         out[1 + k] = cos_a * dirs + sin_a * (cos_b[k] * e_u + sin_b[k] * e_v)
     return out
-
-
-def footprint_diameter(range_m: float, divergence_mrad: float) -> float:
-    """The 1/e^2 diameter of the footprint at a range, metres (small-angle)."""
-    return range_m * divergence_mrad * 1e-3

@@ -98,17 +98,6 @@ def bev_grid(
     return grid
 
 
-def backend_top_classes(backend) -> Callable[[np.ndarray, float], np.ndarray]:
-    """`top_classes` for any ray backend (downward casts, class of each first hit)."""
-
-    def top(origins: np.ndarray, max_range: float) -> np.ndarray:
-        down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), origins.shape)
-        hits = backend.cast(origins, down, max_range)
-        return np.where(hits.hit, hits.class_id, 0)
-
-    return top
-
-
 def map_top_class(grid: np.ndarray, lookup: np.ndarray) -> np.ndarray:
     """The grid with `top_class` translated by a label scheme's lookup (indexed by WildScan id)."""
     out = grid.copy()

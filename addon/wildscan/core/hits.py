@@ -1,6 +1,6 @@
 """What a ray backend answers for a batch of rays (numpy only).
 
-`RayHits` is the one result type every backend returns (raycast/base.py defines the
+`RayHits` is the one result type every backend returns (core/backend.py defines the
 backend protocol); it lives in the core because the scan (core/scan.py) consumes it
 and the core imports nothing from raycast/.
 """

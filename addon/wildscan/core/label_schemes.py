@@ -302,7 +302,7 @@ def scheme(name: str) -> LabelScheme:
 
 def mapping_table_rows() -> list[tuple[str, ...]]:
     """(WildScan id and name, then per scheme "id name" with "(other)" where it has no counterpart),
-    one row per WildScan class: the README's mapping table."""
+    one row per WildScan class: the mapping table of docs/formats.md."""
     rows = []
     for wildscan_id in sorted(BY_ID):
         cells = [f"{wildscan_id} {BY_ID[wildscan_id].name}"]

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import detmath as dm
+from .backend import RayBackend
 from .classes import BY_ID, WATER_ID
 from .errors import PoseRejected, UserError
 from .leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
@@ -178,13 +179,13 @@ def laser_xy(pose: Pose) -> np.ndarray:
     return np.column_stack([pose.x + (c * dx - s * dy), pose.y + (s * dx + c * dy)])
 
 
-def probe_ground_z(backend, x: float, y: float) -> float | None:
+def probe_ground_z(backend: RayBackend, x: float, y: float) -> float | None:
     """Height of the first terrain or water surface straight below (x, y), seen from above."""
     z = probe_ground_z_many(backend, np.array([[x, y]]))[0]
     return float(z) if np.isfinite(z) else None
 
 
-def probe_ground_z_many(backend, xy: np.ndarray) -> np.ndarray:
+def probe_ground_z_many(backend: RayBackend, xy: np.ndarray) -> np.ndarray:
     """`probe_ground_z` for many points (K, 2) at once: (K,) heights, NaN where there is no
     terrain or water below. Each layer is one batch of rays over the points still probing,
     so K points cost as many casts as the deepest of them passes surfaces."""
@@ -206,11 +207,11 @@ def probe_ground_z_many(backend, xy: np.ndarray) -> np.ndarray:
     return ground
 
 
-def cast_lasers(backend, pose: Pose, z_start: float) -> tuple[LaserHit, ...]:
+def cast_lasers(backend: RayBackend, pose: Pose, z_start: float) -> tuple[LaserHit, ...]:
     return lasers_of(pose, cast_lasers_many(backend, [pose], np.array([z_start]))[0])
 
 
-def cast_lasers_many(backend, poses, z_starts: np.ndarray):
+def cast_lasers_many(backend: RayBackend, poses, z_starts: np.ndarray):
     """The four lasers of many poses in one batch of rays: RayHits of (K, 4) rays, one row a
     pose (`lasers_of` turns a row into LaserHits)."""
     xy = np.concatenate([laser_xy(pose) for pose in poses]) if len(poses) else np.zeros((0, 2))
@@ -244,7 +245,7 @@ def lasers_of(pose: Pose, row) -> tuple[LaserHit, ...]:
     )
 
 
-def enclosing_element(backend, centre: np.ndarray, yaw_deg: float) -> str | None:
+def enclosing_element(backend: RayBackend, centre: np.ndarray, yaw_deg: float) -> str | None:
     """The class name of an element around `centre` in all four arm directions within
     ENCLOSED_REACH (the sensor would be inside it), or None."""
     heading = rot_z(dm.radians(yaw_deg))
@@ -255,7 +256,7 @@ def enclosing_element(backend, centre: np.ndarray, yaw_deg: float) -> str | None
     return None
 
 
-def place(backend, pose: Pose, z_start: float | None = None) -> Placement:
+def place(backend: RayBackend, pose: Pose, z_start: float | None = None) -> Placement:
     """Stand the structure at `pose`; raise PoseRejected naming each laser that says no."""
     pose.validate()
     if z_start is None:

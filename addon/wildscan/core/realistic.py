@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import detmath as dm
+from .backend import RayBackend, with_normals
 from .classes import PARTICLE_ID, WATER_ID
 from .echoes import Echoes, SubrayReturns, form_echoes
 from .effects import CLEAR_AIR, Effects, Rays
@@ -50,11 +51,10 @@ class RealisticPoints:
     stats: dict
 
 
-def check_backend(backend) -> None:
-    if not getattr(backend, "supports_normals", False):
-        name = getattr(backend, "name", type(backend).__name__)
+def check_backend(backend: RayBackend) -> None:
+    if with_normals(backend) is None:
         raise UserError(
-            f"{name} cannot give surface normals, which the realistic model needs; use embree or bvh "
+            f"{backend.name} cannot give surface normals, which the realistic model needs; use embree or bvh "
             "(or auto)",
             setting="backend",
         )

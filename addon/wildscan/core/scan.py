@@ -1,6 +1,6 @@
 """One labeled 3D scan from a pose: placement, sweep, ranges, labels, leveling. Numpy only.
 
-The scene enters only through `backend.cast` (raycast/base.py; it returns core.hits.RayHits), so this module
+The scene enters only through `backend.cast` (core/backend.py; it returns core.hits.RayHits), so this module
 runs the same with Blender's scene.ray_cast or a fast backend.
 """
 
@@ -12,6 +12,7 @@ from typing import Callable
 import numpy as np
 
 from .. import __version__
+from .backend import RayBackend, with_normals
 from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
@@ -43,7 +44,7 @@ class ScanResult:
 
 
 def cast_in_chunks(
-    backend,
+    backend: RayBackend,
     origin: np.ndarray,
     dirs: np.ndarray,
     max_range: float,
@@ -53,15 +54,25 @@ def cast_in_chunks(
     """Cast all rays, reporting progress between chunks when asked (with each hit's surface
     normal when `normals`: the realistic model's)."""
     pause_here("casting")
-    extra = {"normals": True} if normals else {}
+    cast = _caster(backend, normals)
     if progress is None:
-        return backend.cast(origin, dirs, max_range, **extra)
+        return cast(origin, dirs, max_range)
     parts = []
     total = len(dirs)
     for start in range(0, total, PROGRESS_CHUNK):
-        parts.append(backend.cast(origin, dirs[start : start + PROGRESS_CHUNK], max_range, **extra))
+        parts.append(cast(origin, dirs[start : start + PROGRESS_CHUNK], max_range))
         progress(min(start + PROGRESS_CHUNK, total), total)
     return RayHits.joined(parts)
+
+
+def _caster(backend: RayBackend, normals: bool) -> Callable[[np.ndarray, np.ndarray, float], RayHits]:
+    """The backend's cast, asking for normals when `normals` (run_scan has checked, with
+    realistic.check_backend, that a backend asked for them can give them)."""
+    if not normals:
+        return backend.cast
+    capable = with_normals(backend)
+    assert capable is not None, f"{backend.name} casts no normals"
+    return lambda origins, dirs, max_range: capable.cast(origins, dirs, max_range, normals=True)
 
 
 @dataclass
@@ -153,7 +164,7 @@ def _points(placement: Placement, frame: str, sensor: SensorConfig, dirs_world, 
 
 
 def run_scan(
-    backend,
+    backend: RayBackend,
     pose: Pose,
     sensor: SensorConfig,
     frame: str = "leveled",
@@ -169,7 +180,7 @@ def run_scan(
 
         check_backend(backend)
     placement = place(backend, pose, z_start)
-    check_reach(placement.optical_centre, sensor.max_range, frame, getattr(backend, "name", ""))
+    check_reach(placement.optical_centre, sensor.max_range, frame, backend.name)
     beam_count = sensor.beam_count
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     if sensor.realistic:
@@ -183,7 +194,7 @@ def run_scan(
         "z_start": z_start,
         "frame": frame,
         "sensor": sensor.to_dict(),
-        "backend": getattr(backend, "name", type(backend).__name__),
+        "backend": backend.name,
         "placement": placement.to_dict(),
         "beams": int(beam_count),
         **{k: v for k, v in facts.items() if k != "hits"},
@@ -204,7 +215,13 @@ def run_scan(
 
 
 def _paper_cloud(
-    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress, effects
+    backend: RayBackend,
+    placement: Placement,
+    sensor: SensorConfig,
+    frame: str,
+    cast_range: float,
+    progress,
+    effects: Effects,
 ):
     """The paper's scan: one thin ray a beam, its first hit, intensity = reflectivity."""
     dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)
@@ -228,7 +245,13 @@ def _paper_cloud(
 
 
 def _realistic_cloud(
-    backend, placement: Placement, sensor: SensorConfig, frame: str, cast_range: float, progress, effects
+    backend: RayBackend,
+    placement: Placement,
+    sensor: SensorConfig,
+    frame: str,
+    cast_range: float,
+    progress,
+    effects: Effects,
 ):
     """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
     from .realistic import realistic_points

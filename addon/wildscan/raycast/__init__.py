@@ -1,1 +1,1 @@
-"""Ray backends behind one interface (see base.py)."""
+"""Ray backends behind one interface (core/backend.py RayBackend; what they share: base.py)."""

@@ -1,27 +1,11 @@
-"""The interface every ray backend implements (no bpy here); its result type, RayHits,
-is in core/hits.py.
-
-A backend answers one question: for each ray (origin, unit direction), what is
-the first surface within `max_range`, and which class and instance is it?
+"""What the ray backends share (no bpy here): rays from one origin or many, and the tags
+read from a scanned object. The backend protocol itself, RayBackend, is in core/backend.py
+beside its result type RayHits (core/hits.py).
 """
 
 from __future__ import annotations
 
-from typing import Protocol
-
 import numpy as np
-
-from ..core.hits import RayHits
-
-
-class RayBackend(Protocol):
-    name: str
-
-    def cast(self, origins: np.ndarray, directions: np.ndarray, max_range: float) -> RayHits:
-        """origins (N,3) or (3,) world metres; directions (N,3) unit vectors; hits beyond
-        max_range are misses. A backend whose `supports_normals` is true also takes
-        `normals=True` and then fills `RayHits.normal` (the realistic sensor model needs it)."""
-        ...
 
 
 def broadcast_origins(origins: np.ndarray, n: int) -> np.ndarray:

@@ -195,6 +195,7 @@ def _inside_triangle(a, b, c, n, p) -> np.ndarray:
 
 class BlenderRayCastBackend:
     name = "blender"
+    capabilities = frozenset()  # its cast gives no normals (the realistic model refuses it)
 
     def __init__(self, scene=None, depsgraph=None):
         self.scene = scene if scene is not None else bpy.context.scene

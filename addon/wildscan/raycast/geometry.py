@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import detmath as dm
+from ..core.backend import NORMALS
 from ..core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
 from .blocks import by_blocks
 from .settle import settle
@@ -429,7 +430,7 @@ class RefiningBackend:
         the uploaded triangle, or None)."""
         raise NotImplementedError
 
-    supports_normals = True  # cast(..., normals=True) gives each hit's triangle normal
+    capabilities = frozenset({NORMALS})  # cast(..., normals=True) gives each hit's triangle normal
 
     def cast(
         self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from ..core.backend import RayBackend
 from ..core.checks import one_of
 from ..core.errors import UserError
 
@@ -97,7 +98,7 @@ def make_backend(
     radius: float | None = None,
     geometry=None,
     notify: Callable[[str], None] | None = print,
-):
+) -> RayBackend:
     """A ready backend. For embree/bvh the scene is extracted (cropped to `radius` around
     `center` when both are given) unless `geometry` is passed; a passed geometry is
     cropped the same way, so many poses can share one extraction. Call once per command:

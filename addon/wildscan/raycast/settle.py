@@ -25,6 +25,7 @@ separate objects crossing at the very point a ray hits are not looked for (none 
 from __future__ import annotations
 
 from functools import cached_property
+from typing import Protocol
 
 import numpy as np
 
@@ -171,7 +172,14 @@ def _barycentrics(tris: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.
         return (d22 * p1 - d12 * p2) / det, (d11 * p2 - d12 * p1) / det
 
 
-def settle(backend, settler: Settler, local, dirs, triangle, rough, bary, max_range):
+class FirstHits(Protocol):
+    """What settle needs of a backend over extracted triangles (geometry.RefiningBackend):
+    its own first hits, before any are settled."""
+
+    def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float): ...
+
+
+def settle(backend: FirstHits, settler: Settler, local, dirs, triangle, rough, bary, max_range):
     """The backend's first hits (triangle, rough distance) with every ambiguous one decided
     by `Settler.decide`, re-casting the rays that pass beside their triangle. In place."""
     start = np.zeros(len(triangle))

@@ -16,7 +16,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
 from bpy.types import PropertyGroup
 
-from ..app.settings import label
+from ..app.settings import SETTINGS, label, panel_help
 from ..blender.generate import DETAILS
 from ..core import sensor as S
 from ..core.classes import TAG_NAMES
@@ -24,6 +24,26 @@ from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 from .weather import CLASSES as WEATHER_CLASSES
 from .weather import WildScanWeather
+
+_MODEL_TEXT = {
+    "paper": "One thin ray a beam; intensity is the class reflectivity (as the paper)",
+    "realistic": "The beam's footprint, up to 3 echoes with mixed pixels, physical intensity",
+}
+
+
+def _declared(setting: str, **display) -> dict:
+    """A sensor field's name, tooltip, default and slider range from its one declaration
+    (app/settings.py), with `display` (precision, step, a narrower slider) on top. The
+    slider's range is soft: a value outside it may still be typed, and the Scan operator
+    names it as `wildscan scan` does (module docstring). A whole number's lowest is hard."""
+    known = SETTINGS[setting]
+    fields = dict(name=label(setting), description=panel_help(setting), default=known.default)
+    if known.kind is float:
+        fields.update(soft_min=known.limits.low, soft_max=known.limits.high)
+    elif known.kind is int:
+        fields.update(min=known.limits.low)  # the highest (2^63 - 1) is past a Blender int's
+    return {**fields, **display}
+
 
 _DETAIL_TEXT = {
     "low": "Fewer, coarser elements: quick to build and scan",
@@ -165,67 +185,30 @@ class WildScanSettings(PropertyGroup):
     marker: PointerProperty(type=bpy.types.Object, name="Pose marker", options={"HIDDEN"})
 
     # Sensor
-    rh: FloatProperty(
-        name=label("rh"),
-        description="Horizontal resolution in degrees; 180/r_h must be whole (1 deg: 180 2D scans)",
-        default=S.DEFAULT_RH_DEG,
-        soft_min=0.25,
-        soft_max=10.0,
-        precision=2,
-        step=25,
-    )
-    min_range: FloatProperty(
-        name=label("min_range"),
-        description="Shortest range kept, metres",
-        unit="LENGTH",
-        default=S.DEFAULT_MIN_RANGE,
-        soft_min=0.0,
-        soft_max=S.MAX_RANGE_LIMIT,
-    )
-    max_range: FloatProperty(
-        name=label("max_range"),
-        description=f"Longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g}",
-        unit="LENGTH",
-        default=S.DEFAULT_MAX_RANGE,
-        soft_min=0.1,
-        soft_max=S.MAX_RANGE_LIMIT,
-    )
+    # the sliders stop where values are useful; a value past them may still be typed
+    rh: FloatProperty(**_declared("rh", soft_max=10.0, precision=2, step=25))
+    min_range: FloatProperty(**_declared("min_range", unit="LENGTH"))
+    max_range: FloatProperty(**_declared("max_range", unit="LENGTH"))
+    # the paper model's noise; the realistic model's is the datasheet's unless Datasheet noise is off
     noise: FloatProperty(
-        name=label("noise"),
-        description="Standard deviation of the Gaussian range noise, metres (0 turns it off)",
-        unit="LENGTH",
-        default=S.DEFAULT_NOISE_SIGMA,
-        soft_min=0.0,
-        soft_max=0.1,
-        precision=3,
-        step=0.1,
+        **_declared(
+            "noise", default=S.DEFAULT_NOISE_SIGMA, soft_max=0.1, unit="LENGTH", precision=3, step=0.1
+        )
     )
-    noise_seed: IntProperty(
-        name=label("noise_seed"),
-        description="Seed of the range noise, independent of the world seed",
-        min=0,
-        default=0,
-    )
+    noise_seed: IntProperty(**_declared("noise_seed"))
     model: EnumProperty(
         name=label("model"),
-        description="Which sensor model scans",
-        items=[
-            ("paper", "Paper", "One thin ray a beam; intensity is the class reflectivity (as the paper)"),
-            (
-                "realistic",
-                "Realistic",
-                "The beam's footprint, up to 3 echoes with mixed pixels, physical intensity",
-            ),
-        ],
-        default=S.DEFAULT_MODEL,
+        description=panel_help("model"),
+        items=[(m, m.capitalize(), _MODEL_TEXT[m]) for m in SETTINGS["model"].choices],
+        default=SETTINGS["model"].default,
     )
     divergence: FloatProperty(
-        name=label("divergence"),
-        description="Realistic model: full beam divergence in mrad (0: a thin ray)",
-        default=S.DEFAULT_DIVERGENCE_MRAD,
-        min=0.0,
-        max=S.MAX_DIVERGENCE_MRAD,
-        precision=1,
+        **_declared(
+            "divergence",
+            min=SETTINGS["divergence"].limits.low,
+            max=SETTINGS["divergence"].limits.high,
+            precision=1,
+        )
     )
     datasheet_noise: BoolProperty(
         name="Datasheet noise",

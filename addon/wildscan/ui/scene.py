@@ -88,10 +88,6 @@ def world_objects(scene) -> list:
     return sorted(world_element_objects(scene), key=lambda o: o.name)
 
 
-def in_scene_collection(scene, coll) -> bool:
-    return coll == scene.collection or coll in scene.collection.children_recursive
-
-
 def world_info(scene) -> dict | None:
     """Seed, detail and object count of the generated world in the scene, if any."""
     from ..blender.mesh import world_root

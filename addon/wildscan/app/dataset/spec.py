@@ -23,6 +23,7 @@ from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
 from ...core.rng import stage_rng, stage_seed
 from ...core.world import DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
+from ..settings import SETTINGS
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
 # changes no existing spec's files or config hash
@@ -301,15 +302,8 @@ def _poses(t: _Table) -> PoseSpec:
     )
 
 
-# (key, lowest, highest, unit) of the sensor values that may be ranges
-_SENSOR_LIMITS = {
-    "rh": (S.MIN_RH_DEG, 180.0, "deg dividing 180 into whole 2D scans"),
-    "min_range": (0.0, S.MAX_RANGE_LIMIT, "m"),
-    "max_range": (0.0, S.MAX_RANGE_LIMIT, "m"),
-    "noise": (0.0, S.MAX_NOISE_SIGMA, "m"),
-    "divergence": (0.0, S.MAX_DIVERGENCE_MRAD, "mrad"),
-    "echo_separation": (0.0, S.MAX_ECHO_SEPARATION, "m"),
-}
+# the sensor values that may be numbers or ranges of numbers, with their limits in app/settings.py
+RANGED_SENSOR_KEYS = tuple(k for k in S.SENSOR_SETTINGS if SETTINGS[k].kind is float)
 # the keys of [sensor]: the sensor settings of `wildscan scan` and the frame
 SENSOR_KEYS = (*S.SENSOR_SETTINGS, "frame")
 
@@ -317,7 +311,7 @@ SENSOR_KEYS = (*S.SENSOR_SETTINGS, "frame")
 def _sensor(t: _Table) -> SensorSpec:
     t.only(*SENSOR_KEYS)
     d = SensorSpec()
-    model = t.choice("model", d.model, S.MODELS)
+    model = t.choice("model", d.model, SETTINGS["model"].choices)
     for key in S.REALISTIC_SETTINGS:
         if key in t.data and model != "realistic":
             raise UserError(
@@ -325,7 +319,7 @@ def _sensor(t: _Table) -> SensorSpec:
             )
     values = {
         key: _sensor_value(t, key, getattr(d, key))
-        for key in _SENSOR_LIMITS
+        for key in RANGED_SENSOR_KEYS
         if key != "noise" or t.get(key, None) is not None
     }
     if not any(True for _ in rh_choices(values["rh"])):
@@ -336,25 +330,26 @@ def _sensor(t: _Table) -> SensorSpec:
         raise UserError(
             f"{t.where}: sensor.min_range must stay below sensor.max_range (every value of each range)"
         )
-    if _lo(values["max_range"]) <= 0:
-        raise t.fail(
-            "max_range",
-            f"above 0 and at most {S.MAX_RANGE_LIMIT:g} m (or a range of such)",
-            t.get("max_range", None),
-        )
-    if _lo(values["echo_separation"]) <= 0:
-        raise t.fail(
-            "echo_separation",
-            f"above 0 and at most {S.MAX_ECHO_SEPARATION:g} m (or a range of such)",
-            t.get("echo_separation", None),
-        )
+    for key, value in values.items():
+        _check_open_low(t, key, value)
     return SensorSpec(
         **values,
-        noise_seed=_whole_value(t, "noise_seed", 0, 2**63 - 1, None),
+        noise_seed=_whole_value(t, "noise_seed", None),
         frame=t.choice("frame", d.frame, FRAMES),
         model=model,
-        echoes=_whole_value(t, "echoes", 1, S.MAX_ECHOES, d.echoes),
+        echoes=_whole_value(t, "echoes", d.echoes),
     )
+
+
+def _check_open_low(t: _Table, key: str, value: Value) -> None:
+    """A setting whose lowest value is excluded ((0, 30] m): not there, nor in a range."""
+    low, high, low_open = SETTINGS[key].limits
+    if low_open and _lo(value) <= low:
+        raise t.fail(
+            key,
+            f"above {low:g} and at most {high:g} {SETTINGS[key].unit} (or a range of such)",
+            t.get(key, None),
+        )
 
 
 def _lo(v: Value) -> float:
@@ -366,7 +361,9 @@ def _hi(v: Value) -> float:
 
 
 def _sensor_value(t: _Table, key: str, default: float) -> Value:
-    low, high, unit = _SENSOR_LIMITS[key]
+    setting = SETTINGS[key]
+    low, high, _ = setting.limits
+    unit = f"{setting.unit} {setting.rule}" if key == "rh" else setting.unit
     value = t.get(key, default)
     allowed = f"a number from {low:g} to {high:g} {unit}, or a range [lo, hi] of such numbers"
     if isinstance(value, list):
@@ -382,8 +379,9 @@ def _sensor_value(t: _Table, key: str, default: float) -> Value:
     return float(value)
 
 
-def _whole_value(t: _Table, key: str, low: int, high: int, default):
-    """A whole number from low to high, or a range [lo, hi] of such (drawn per scan)."""
+def _whole_value(t: _Table, key: str, default):
+    """A whole number within the setting's limits, or a range [lo, hi] of such (drawn per scan)."""
+    low, high, _ = SETTINGS[key].limits
     value = t.get(key, default)
     if value is None:
         return None

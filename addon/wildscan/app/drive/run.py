@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import __version__
+from ...core.backend import RayBackend
 from ...core.classes import class_table_dict
 from ...core.effects import Effects
 from ...core.groundtruth import pose_matrix
@@ -86,7 +87,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     backend = _backend(request, effects, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times)
-    check_reach(motion.centre, sensor.max_range, request.frame, getattr(backend, "name", ""))
+    check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
     clock.lap("placement")
 
     from ...core.io.files import output_directory
@@ -130,7 +131,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     )
 
 
-def _backend(request: DriveRequest, effects, cropped, say):
+def _backend(request: DriveRequest, effects: Effects, cropped, say) -> RayBackend:
     from ...raycast.select import make_backend
 
     if effects.scene_mover is None:
@@ -152,12 +153,14 @@ def _groups(scans_2d: int, sweeps: int) -> list[tuple[int, int]]:
 class _Context:
     """What every file of one drive shares, and writing them."""
 
-    def __init__(self, request: DriveRequest, provenance: dict, motion: Motion, instances, backend):
+    def __init__(
+        self, request: DriveRequest, provenance: dict, motion: Motion, instances, backend: RayBackend
+    ):
         self.request = request
         self.provenance = provenance
         self.motion = motion
         self.world_instances = np.unique(np.asarray(instances))
-        self.backend_name = getattr(backend, "name", type(backend).__name__)
+        self.backend_name = backend.name
         self.labels = scheme("semantickitti")
         sigma = request.sensor.fixed_noise  # the paper model's 0.015 m unless --noise says otherwise
         # one generator for the drive: the first 3D scan draws what a static scan draws

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core import detmath as dm
+from ...core.backend import SCAN_TIMES, RayBackend
 from ...core.effects import CLEAR_AIR, Effects, ObjectMotion, Wind
 from ...core.effects.wind import pivots_of
 from ...core.hits import RayHits
@@ -33,9 +34,16 @@ class MovingScene:
     """Static triangles in `static`, moving ones rebuilt per 2D scan with `make(geometry)`."""
 
     def __init__(
-        self, static, swaying: SceneGeometry, sway: ObjectMotion, make, sensor: SensorConfig, name: str
+        self,
+        static: RayBackend,
+        swaying: SceneGeometry,
+        sway: ObjectMotion,
+        make,
+        sensor: SensorConfig,
+        name: str,
     ):
         self.name = f"{static.name}+{name}"
+        self.capabilities = frozenset({SCAN_TIMES})  # cast_scans; no normals (the paper model)
         self.static = static
         self.swaying = swaying
         self.sway = sway

@@ -24,7 +24,6 @@ import numpy as np
 
 from ..errors import UserError
 
-FLAVOURS = ("ros1", "ros2")
 ROS2_STORAGES = ("mcap", "sqlite3")
 ODOM, BASE_LINK, SENSOR, LASER = "odom", "base_link", "sensor", "laser"
 
@@ -89,10 +88,6 @@ def point_records(xyz, intensity, ring, time, label, instance, weather=None) -> 
     out["intensity"], out["ring"], out["time"] = intensity, ring, time
     out["label"], out["instance"] = label, instance
     return out
-
-
-def nanoseconds(seconds: float) -> int:
-    return int(round(seconds * 1e9))
 
 
 class DriveBag:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..backend import RayBackend
 from ..errors import PoseRejected
 from ..placement import (
     LASER_CLEARANCE,
@@ -48,7 +49,7 @@ class Motion:
 
 
 def place_all(
-    backend, times: np.ndarray, xy: np.ndarray, yaw_deg: np.ndarray, distance: np.ndarray
+    backend: RayBackend, times: np.ndarray, xy: np.ndarray, yaw_deg: np.ndarray, distance: np.ndarray
 ) -> Motion:
     """Stand the robot at every instant; PoseRejected naming where and when it cannot."""
     poses = [Pose(float(x), float(y), float(yaw)).validate() for (x, y), yaw in zip(xy, yaw_deg)]

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..backend import RayBackend, with_scan_times
 from ..effects import CLEAR_AIR, Effects, Rays, weather_of
 from ..pointcloud import PointCloud
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame, with_weather_field
@@ -50,7 +51,7 @@ class Sweep:
 
 
 def sweep(
-    backend,
+    backend: RayBackend,
     motion: Motion,
     k0: int,
     k1: int,
@@ -95,15 +96,16 @@ def sweep(
     return Sweep(k0, k1, returns, raw, deskewed, times)
 
 
-def cast_in_chunks(backend, origins, dirs, max_range, ks, progress):
+def cast_in_chunks(backend: RayBackend, origins, dirs, max_range, ks, progress):
     """All rays, in chunks of whole 2D scans (columns: `dirs` holds len(ks) of them). A backend
-    with `cast_scans` (a scene that moves with time: an effect's, app/drive/wind.py) is told
-    which 2D scan each chunk's rows belong to."""
+    that casts at scan times (a scene that moves with time: an effect's, app/drive/wind.py) is
+    told which 2D scan each chunk's rows belong to."""
     from ..hits import RayHits
 
     per_column = len(dirs) // len(ks)
     per_chunk = max(1, CAST_CHUNK // per_column) * per_column
-    timed = getattr(backend, "cast_scans", None)
+    timed_backend = with_scan_times(backend)
+    timed = None if timed_backend is None else timed_backend.cast_scans
     parts = []
     for start in range(0, len(dirs), per_chunk):
         stop = min(start + per_chunk, len(dirs))

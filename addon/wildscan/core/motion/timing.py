@@ -47,11 +47,6 @@ def beam_fractions(timing: Timing = _T) -> np.ndarray:
     return np.asarray(timing.beam_step, dtype=np.float64) / timing.steps_per_column
 
 
-def scan_times(k: np.ndarray, timing: Timing = _T) -> np.ndarray:
-    """Start time (s) of 2D scans k: its first beam."""
-    return np.asarray(k, dtype=np.float64) * timing.column_period_s
-
-
 def beam_times(k: np.ndarray, since: int = 0, timing: Timing = _T) -> np.ndarray:
     """(K, N) time of every beam of 2D scans k, in seconds after the start of 2D scan
     `since` (the drive's start by default, a 3D scan's first 2D scan for its points)."""

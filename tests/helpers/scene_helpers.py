@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 WILDSCAN = str(Path(sys.executable).with_name("wildscan"))
 BLENDER = "/usr/bin/blender"
 
@@ -136,3 +136,17 @@ def save_seed_2_low(directory: Path) -> Path:
             [WILDSCAN, *cmd, "--seed", "2", "--detail", "low", "--quiet"], cwd=directory, check=True
         )
     return directory
+
+
+# Where the add-on tests look for a valid pose of the seed-5 world (test_addon.py, and
+# test_extension.py inside Blender 5), in order: the first one placement accepts is used.
+CANDIDATE_XY = [
+    (0.0, 0.0),
+    (2.0, 1.0),
+    (-3.0, 2.0),
+    (4.0, -4.0),
+    (-5.0, -5.0),
+    (6.0, 3.0),
+    (1.0, 7.0),
+    (-8.0, 6.0),
+]

@@ -1,6 +1,6 @@
 """One plane per visibility case, and which of them each ray backend scans (bpy; Blender
 3.4 and 5.0). Imported by tests/test_scene_rules.py, and run inside Debian's Blender:
-`blender -b --factory-startup -P tests/visibility_probe.py -- ADDON_DIR OUT.json`."""
+`blender -b --factory-startup -P tests/helpers/visibility_probe.py -- ADDON_DIR OUT.json`."""
 
 from __future__ import annotations
 

@@ -4,9 +4,9 @@ tests/test_determinism.py runs it under forced instruction sets (numpy's, glibc'
 OpenBLAS's) and under QEMU as an older CPU (Embree's too), and wants the same output
 everywhere. Blender-free: plan_world, raycast.from_plan.plan_geometry and Embree.
 
-    python tests/determinism_probe.py [--seed S] [--detail D] [--rh DEG] [--zones a,b] [--drive]
+    python tests/helpers/determinism_probe.py [--seed S] [--detail D] [--rh DEG] [--zones a,b] [--drive]
 
---drive adds a short drive (issue 12) along the world's trail: moving, turning, the
+--drive adds a short drive along the world's trail: moving, turning, the
 continuous head, wind and noise on, both bags; every file it writes is hashed.
 """
 

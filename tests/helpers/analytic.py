@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wildscan.core.backend import NORMALS
 from wildscan.core.hits import RayHits
 from wildscan.raycast.base import broadcast_origins
 
@@ -28,7 +29,7 @@ def slope_plane(z0: float, slope_x: float, slope_y: float, **kw) -> Patch:
 
 class AnalyticBackend:
     name = "analytic"
-    supports_normals = True
+    capabilities = frozenset({NORMALS})
 
     def __init__(self, patches: list[Patch]):
         self.patches = patches

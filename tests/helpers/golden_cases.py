@@ -12,7 +12,7 @@ not move.
 
 Only a deliberate behaviour change may rewrite them, in a commit of its own that says why:
 
-    .venv/bin/python tests/golden_cases.py --write
+    .venv/bin/python tests/helpers/golden_cases.py --write
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-GOLDEN = Path(__file__).parent / "golden"
+GOLDEN = Path(__file__).parents[1] / "golden"
 WORLD_SEEDS = (0, 1, 2, 3)
 DETAILS = ("low", "default", "high")
 VEGETATION = ("porous", "solid")  # porous is the default: its keys carry no suffix
@@ -140,7 +140,7 @@ def write(name: str, values: dict) -> None:
 
 if __name__ == "__main__":
     if sys.argv[1:] != ["--write"]:
-        sys.exit("usage: python tests/golden_cases.py --write   (rewrites tests/golden/*.json)")
+        sys.exit("usage: python tests/helpers/golden_cases.py --write   (rewrites tests/golden/*.json)")
     write("worlds.json", world_hashes())
     write("scans.json", all_scans())
     print(f"wrote {GOLDEN}/worlds.json and scans.json")

@@ -1,0 +1,1 @@
+"""WildScan's tests (a package, so test modules import tests.helpers by name)."""
