@@ -59,7 +59,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "`wildscan bench-world`; drive: a 60 s drive along the trail with both ROS bags on the "
         "--seed world's trail, stepped and continuous head; realism: vegetation porosity, echoes, "
         "realistic scan speed, build time and memory; far: the largest point error of every backend "
-        "and frame with the scene 0 m to 999 km from the origin (README 'Far from the origin')",
+        "and frame with the scene 0 m to 999 km from the origin (docs/accuracy.md 'Far from the origin')",
     )
     options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
     options.add(

@@ -136,7 +136,7 @@ def las_bytes(
 
 
 def asprs_table_rows() -> list[tuple[int, str, str]]:
-    """(ASPRS code, its name, the WildScan classes it holds): the README's LAS table."""
+    """(ASPRS code, its name, the WildScan classes it holds): the LAS table of docs/formats.md."""
     rows = []
     for code, name in sorted(ASPRS_NAMES.items()):
         held = [BY_ID[w].name for w, c in ASPRS_CODES.items() if c == code]
