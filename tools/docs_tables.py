@@ -117,7 +117,12 @@ def write_table(name: str) -> bool:
 def main(argv: list[str]) -> int:
     if argv == ["--write"]:
         for name, (path, _) in TABLES.items():
-            print(f"{'rewrote' if write_table(name) else 'unchanged'} {name} in {path.relative_to(REPO)}")
+            try:
+                changed = write_table(name)
+            except ValueError as e:
+                print(f"{path.relative_to(REPO)}: {e}", file=sys.stderr)
+                return 1
+            print(f"{'rewrote' if changed else 'unchanged'} {name} in {path.relative_to(REPO)}")
         return 0
     if argv:
         print(__doc__, file=sys.stderr)
