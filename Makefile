@@ -7,7 +7,7 @@ WILDSCAN := $(VENV)/bin/wildscan
 STAMP  := $(VENV)/.wildscan-installed
 OUT    ?= out
 
-.PHONY: setup demo test test-fast bench addon lint clean
+.PHONY: setup demo test test-fast bench addon lint docs clean
 
 setup: $(STAMP)
 
@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml addon/wildscan/__init__.py
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest pytest-xdist plyfile ruff \
-		dask distributed laspy laszip tqdm pyyaml psutil rosbags open3d
+		dask distributed laspy laszip tqdm pyyaml psutil rosbags open3d mkdocs mkdocs-material
 	$(PY) -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
 
@@ -39,9 +39,13 @@ bench: $(STAMP)
 addon: $(STAMP)
 	$(PY) tools/build_addon.py
 
+# the documentation site (mkdocs.yml): strict, so a broken link fails
+docs: $(STAMP)
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --quiet --site-dir site
+
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
 clean:
-	rm -rf $(OUT) dist
+	rm -rf $(OUT) dist site

@@ -18,7 +18,7 @@ from wildscan.raycast.blender_backend import BlenderRayCastBackend
 from wildscan.raycast.select import make_backend
 
 BACKENDS = ("embree", "bvh", "blender")
-INSIDE = 2000.0  # m: the far edge of the range (README "Far from the origin")
+INSIDE = 2000.0  # m: the far edge of the range (docs/accuracy.md "Far from the origin")
 FAR = 999_000.0  # m: about the largest pose accepted
 
 
@@ -85,7 +85,7 @@ def test_scene_ray_cast_on_a_100_km_single_face_gives_the_float64_distance():
     on_wall = (origin[2] + exact * dirs[:, 2] > 0.01) & (origin[2] + exact * dirs[:, 2] < 11.99)
     hits = BlenderRayCastBackend(depsgraph=bpy.context.evaluated_depsgraph_get()).cast(origin, dirs, 200.0)
     # which face is still scene.ray_cast's float32 choice (a few rays slip past this face:
-    # README "Far from the origin"); every distance it reports on it is the float64 one
+    # docs/accuracy.md "Far from the origin"); every distance it reports on it is the float64 one
     seen = on_wall & (np.abs(hits.distance - exact) < 0.5)
     assert seen.sum() > 0.95 * on_wall.sum() > 3000
     assert np.abs(hits.distance[seen] - exact[seen]).max() < 1e-6

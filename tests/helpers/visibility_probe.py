@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import sys
 
-# name -> (x of its plane, whether the laser sees it: README "Which objects a scan sees")
+# name -> (x of its plane, whether the laser sees it: docs/scanning.md "Which objects a scan sees")
 CASES = {
     "plain": (0, True),
     "hidden_object": (2, False),  # eye icon (hide_set)

@@ -65,6 +65,13 @@ def make_demo_world(seed: int, out: Path, progress: StageProgress | None = None)
     return make_world(seed, DETAIL, out / "world.blend", out / "map.png", POSES_PER_ZONE, progress)
 
 
+def pose_label(pose: Pose, z_start: float | None) -> str:
+    """A pose as the demo's table shows it: metres to a decimetre, yaw to a degree, and a
+    mark for a pose that starts its lasers under a roof (the README's table uses it too)."""
+    where = f"({pose.x:.1f}, {pose.y:.1f}, {pose.yaw_deg:.0f})"
+    return where + (" z_start" if z_start is not None else "")
+
+
 def first_pose_per_zone(poses: dict[str, list[dict]]) -> dict[str, dict]:
     return {zone: found[0] for zone, found in poses.items() if found}
 

@@ -181,6 +181,7 @@ SETTINGS: dict[str, Setting] = {
     "backends": Setting("--backends"),
     "runs": Setting("--runs"),
     "reference_rays": Setting("--reference-rays"),
+    "markdown": Setting("--markdown"),
 }
 
 

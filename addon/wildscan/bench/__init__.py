@@ -23,10 +23,11 @@ backends.py runs the first four (suite "backends", the default) and writes bench
 bench.png and scaling.md (report.py); config.py holds what a run measures, measure.py the
 timing and agreement helpers.
 
-scene.ray_cast costs 30-700 us a ray here, so elsewhere it casts --reference-rays rays spread
-evenly over each scan and its full-scan time is extrapolated (marked '~'). Every disagreement
-with it is judged against the exact float64 brute force (raycast.geometry.check_hits) to say
-whose answer is wrong. Timings run with the garbage collector paused, as timeit does.
+scene.ray_cast is slow (its cost a ray grows with the objects), so elsewhere it casts
+--reference-rays rays spread evenly over each scan and its full-scan time is extrapolated
+(marked '~'). Every disagreement with it is judged against the exact float64 brute force
+(raycast.geometry.check_hits) to say whose answer is wrong. Timings run with the garbage
+collector paused, as timeit does.
 
 Everything is built in scenes of its own, removed afterwards: the user's scenes are never
 touched. Results: bench.csv, bench.png and scaling.md in --out (written together, all or none).

@@ -19,7 +19,7 @@ SCAN_RH = 1.0
 ANALYTIC_TARGET_M = 1e-4
 # "Flat in the number of objects", made measurable: over the object-count steps (30x the
 # objects, and with them 12x the triangles and more hits in reach) the scan time may at most
-# double; scene.ray_cast's time a ray grows ~40x there.
+# double, where scene.ray_cast's time a ray grows with the objects.
 FLAT_TARGET = 2.0
 BEAM_STEPS = (4.0, 2.0, 1.0, 0.5, 0.25)
 QUICK_BEAM_STEPS = (4.0, 1.0, 0.25)

@@ -13,6 +13,7 @@ stderr saying which files it had completed (those stay; no temporary or partial 
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import traceback
 from collections.abc import Callable
@@ -94,6 +95,7 @@ def build_blender_parser(command: str) -> ArgumentParser:
 def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:
     args = parser.parse_args(argv)  # a malformed command line exits 2 here, in one line
     where = f"blender_scripts/{args.command}.py" if in_blender else f"wildscan {args.command}"
+    args.command_line = typed_command(argv, where, in_blender)  # `bench --markdown` records it
     with stopping_on_signals(), recording_written() as written:
         try:
             options.apply_checks(parser.command_parsers[args.command], args)
@@ -107,6 +109,13 @@ def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:
         except (KeyboardInterrupt, Terminated) as stop:
             sys.stderr.write(f"{where}: {stopped_message(stop, written)}\n")
             return stop_code(stop)
+
+
+def typed_command(argv: list[str], where: str, in_blender: bool) -> str:
+    """The command as the user typed it (shell-quoted)."""
+    if in_blender:
+        return f"blender -b -P {where} -- {shlex.join(argv)}".rstrip()
+    return shlex.join(["wildscan", *argv])
 
 
 def stopped_message(stop: BaseException, written: list) -> str:

@@ -59,9 +59,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "`wildscan bench-world`; drive: a 60 s drive along the trail with both ROS bags on the "
         "--seed world's trail, stepped and continuous head; realism: vegetation porosity, echoes, "
         "realistic scan speed, build time and memory; far: the largest point error of every backend "
-        "and frame with the scene 0 m to 999 km from the origin (README 'Far from the origin'); weather: "
-        "each effect's lost returns on a wall at known ranges and its maximum range against the model's "
-        "curve, and the default world in each (docs/weather.md)",
+        "and frame with the scene 0 m to 999 km from the origin (docs/accuracy.md 'Far from the origin'); "
+        "weather: each effect's lost returns on a wall at known ranges and its maximum range against the "
+        "model's curve, and the default world in each (docs/weather.md)",
     )
     options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
     options.add(
@@ -95,6 +95,13 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         metavar="DIR",
         help=f"directory for bench.csv, bench.png and scaling.md (default {DEFAULT_OUT})",
     )
+    options.add(
+        p,
+        Option("markdown", dict(metavar="FILE.md"), _markdown_file),
+        help="also write what the suite prints, with the date, the machine, the WildScan version and "
+        "this command, into FILE.md: created, or its section of this suite replaced (the rest of the "
+        "page is kept), whole or not at all. docs/benchmarks.md is made this way",
+    )
     p.add_argument(
         "--quick",
         action="store_true",
@@ -103,7 +110,34 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     )
 
 
+def _markdown_file(text: str):
+    """A page the run can write, and read first when it exists (its other sections are kept)."""
+    import os
+
+    from ..core.errors import UserError
+    from ..core.io.files import check_output_path
+
+    path = check_output_path(text, ".md", "markdown")
+    if path.exists() and not os.access(path, os.R_OK):
+        raise UserError(f"{path}: cannot read it (permission denied)", setting="markdown")
+    return path
+
+
 def run(args: argparse.Namespace, in_blender: bool = False) -> int:
+    if args.markdown is None:
+        return _run_suite(args)
+    from ..bench.markdown import printed_copy, run_facts, write_markdown
+
+    facts = run_facts(getattr(args, "command_line", "wildscan bench"))
+    with printed_copy() as printed:
+        code = _run_suite(args)
+    if code == 0:
+        written = write_markdown(args.markdown, args.suite, facts, printed.getvalue())
+        print(f"wrote {written} (section of suite {args.suite})")
+    return code
+
+
+def _run_suite(args: argparse.Namespace) -> int:
     if args.suite == "far":
         from ..bench.far import OFFSETS, QUICK_OFFSETS, bench_far
 

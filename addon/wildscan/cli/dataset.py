@@ -16,7 +16,7 @@ HELP, DESCRIPTION = (
     "code reads (SemanticKITTI, LAS 1.4, PLY), with a manifest of every file (size, SHA-256), a dataset card "
     "and ground truth for traversability (height above terrain per point, a bird's-eye grid per scan). Runs "
     "on a local Dask cluster, or on an existing one with --scheduler; rerunning the same command into the "
-    "same --out resumes and gives the bytes of one uninterrupted run. See README 'Datasets' for the spec "
+    "same --out resumes and gives the bytes of one uninterrupted run. See docs/datasets.md for the spec "
     "keys.",
 )
 BENCH_HELP, BENCH_DESCRIPTION = (
@@ -35,7 +35,7 @@ def _positive(text: str, setting: str, high: int = 1_000_000) -> int:
 
 
 def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("spec", nargs="?", metavar="SPEC.toml", help="the dataset spec (README 'Datasets')")
+    p.add_argument("spec", nargs="?", metavar="SPEC.toml", help="the dataset spec (docs/datasets.md)")
     p.add_argument(
         "--out", metavar="DIR", help="the dataset folder (created if missing; rerun into it to resume)"
     )

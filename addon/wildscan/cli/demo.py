@@ -50,11 +50,8 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     scans = []
     for scan in demo.scan_zones(args.seed, world, sensor, args.backend):
         scans.append(scan)
-        pose = scan.pose
         paper = f"{demo.PAPER_POINTS[scan.zone]:,}" if scan.zone in demo.PAPER_POINTS else "-"
-        where = f"({pose.x:.1f}, {pose.y:.1f}, {pose.yaw_deg:.0f})" + (
-            " z_start" if scan.z_start is not None else ""
-        )
+        where = demo.pose_label(scan.pose, scan.z_start)
         print(f"  {scan.zone:<7} {where:<28} {len(scan.cloud):>8,} {paper:>8}  {', '.join(scan.classes)}")
     absent = demo.classes_in_no_scan(scans)
     print(

@@ -19,7 +19,7 @@ DESCRIPTION = (
     "every 25 ms and the head turns r_h per 2D scan. Every beam has its own time and pose. Writes into DIR, "
     "per 3D scan, the raw cloud (as a driver gives it) and the deskewed cloud (every point where it is) as "
     "PLY with a per-point time, a SemanticKITTI sequence of the deskewed scans, the ground-truth trajectory "
-    "(TUM) and ROS 1 / ROS 2 bags (README 'Scans in motion')."
+    "(TUM) and ROS 1 / ROS 2 bags (docs/motion.md)."
 )
 
 

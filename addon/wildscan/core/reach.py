@@ -1,8 +1,8 @@
 """How far from the world origin a scan still meets 1e-4 m, and the refusal beyond. Numpy only.
 
-Measured by `wildscan bench --suite far` (README "Far from the origin"): the fast backends
-(embree, bvh) cast in float32 relative to a local origin near the scan and refine in
-float64, so sensor- and leveled-frame points meet 1e-4 m (0.65 um measured) anywhere poses
+Checked by `wildscan bench --suite far` (docs/accuracy.md "Far from the origin"): the fast
+backends (embree, bvh) cast in float32 relative to a local origin near the scan and refine in
+float64, so sensor- and leveled-frame points meet 1e-4 m anywhere poses
 are accepted (+-1e6 m, placement.MAX_COORDINATE). Two things are float32 in world
 coordinates and stop short of that:
 

@@ -232,7 +232,7 @@ class BlenderRayCastBackend:
         check_scene_tags(self.depsgraph)
         copies = InstanceCopies(self.depsgraph)
         # The loop allocates several objects per ray; with generational GC on, each
-        # collection walks the growing lists below, which costs ~30% of the run.
+        # collection walks the growing lists below, a large share of the run for nothing.
         gc_was_enabled = gc.isenabled()
         gc.disable()
         try:

@@ -66,8 +66,8 @@ class BVHBackend(RefiningBackend):
         ray_cast = self._tree.ray_cast
         far = float(max_range) + _FAR_SLACK
         # Each ray_cast allocates a result tuple, so the garbage collector would run every
-        # few hundred rays and walk all of Blender's Python objects: pausing it makes the
-        # loop 2x faster. Rays go to Python floats a chunk at a time to bound memory.
+        # few hundred rays and walk all of Blender's Python objects: pausing it spares the
+        # loop that walk. Rays go to Python floats a chunk at a time to bound memory.
         was_enabled = gc.isenabled()
         gc.disable()
         try:

@@ -1,6 +1,6 @@
 """Read the evaluated Blender scene once into a numpy `SceneGeometry` (bpy).
 
-What is read: every mesh-like object the laser sees (`scanned`; README "Which objects
+What is read: every mesh-like object the laser sees (`scanned`; docs/scanning.md "Which objects
 a scan sees"): what the viewport shows, as `scene.ray_cast` sees it, with modifiers
 evaluated and instances (collection instances, instancing by vertices/faces,
 geometry-node instances) expanded, via

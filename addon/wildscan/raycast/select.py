@@ -6,14 +6,13 @@ Backends (all give the same labels; see tests/test_backends.py):
   blender  Blender's own scene.ray_cast: the reference, slowest, cost grows with objects.
   auto     the default: the first of embree, bvh, blender that can be imported.
 
-Why embree is the default (`wildscan bench`, this 2-core machine; README "Speed and
-accuracy" has the tables): a full r_h = 1 deg scan, placement to PLY written, takes
-0.029 s with embree, 0.13 s with bvh and 47 s with scene.ray_cast on the default
-world (1,587x and 366x); embree stays nearly flat in the number of objects (0.024 ->
-0.036 s from 151 to 4,501) while scene.ray_cast's cost a ray grows 33x; labels and
-ranges agree with scene.ray_cast on 99.9995 % of rays; and with sealed edges
-(geometry.pad_triangles) it has no leaks in the stability suite, where
-scene.ray_cast leaks 19 of 10,703 rays aimed at shared edges and vertices.
+Why embree is the default: it casts a whole scan's rays in one batch from numpy, so it
+is by far the fastest of the three and its time stays nearly flat in the number of
+objects, while scene.ray_cast's cost a ray grows with them (`wildscan bench` measures
+both, docs/benchmarks.md has its output); its labels and ranges agree with
+scene.ray_cast's; and with sealed edges (geometry.pad_triangles) it has no leaks in the
+stability suite (tests/test_stability.py), where scene.ray_cast lets some rays aimed at
+shared edges and vertices through.
 
 A missing module is not an error: the next backend in FALLBACK_ORDER is used and
 `notify` gets one line saying which and why. Imports of bpy, mathutils and

@@ -111,7 +111,7 @@ def _view3d_spaces() -> list:
 
 # "Show world" is display only: it switches the viewports' mesh visibility filter (the
 # viewport's Object Types Visibility), which no scan reads. Hiding the world's collection
-# (its eye icon) would hide it from the laser too (README "Which objects a scan sees").
+# (its eye icon) would hide it from the laser too (docs/scanning.md "Which objects a scan sees").
 def _get_show_world(self):
     spaces = _view3d_spaces()
     return not spaces or spaces[0].show_object_viewport_mesh

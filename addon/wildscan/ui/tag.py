@@ -24,7 +24,7 @@ UNTAGGED_SHOWN = 8  # the panel lists this many untagged meshes, then a count
 
 
 def scanned_objects(scene) -> list:
-    """The scene's own mesh-like objects a scan sees (README "Which objects a scan sees"),
+    """The scene's own mesh-like objects a scan sees (docs/scanning.md "Which objects a scan sees"),
     WildScan's scan clouds aside."""
     return [
         o

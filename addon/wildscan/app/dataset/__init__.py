@@ -1,5 +1,5 @@
 """`wildscan dataset`: many worlds x many poses, resumable, on Dask, in the formats training
-code reads (README "Datasets")."""
+code reads (docs/datasets.md)."""
 
 from .run import Interrupted, RunReport, VerifyReport, run_dataset, verify_dataset
 from .spec import DatasetSpec, load_spec, spec_from_dict

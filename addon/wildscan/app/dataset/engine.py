@@ -73,8 +73,8 @@ class Engine:
                     f"--scheduler {self.scheduler}: cannot reach a Dask scheduler there ({e})"
                 ) from None
             return
-        # Workers sample their task's stack every 10 ms for the dashboard's profile, which
-        # a local cluster here does not serve: about 4 % of a run on this 2-core machine.
+        # Workers sample their task's stack for the dashboard's profile, which a local
+        # cluster here does not serve: time taken from the scans for nothing.
         with dask.config.set({"distributed.worker.profile.enabled": False}):
             self.cluster = LocalCluster(
                 n_workers=self.workers or os.cpu_count() or 1,

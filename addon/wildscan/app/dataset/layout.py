@@ -1,4 +1,4 @@
-"""Where everything of a dataset lives inside its output folder (README "Datasets")."""
+"""Where everything of a dataset lives inside its output folder (docs/datasets.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""SPEC.toml: what a dataset is made of (a contract: README "Datasets" lists every key).
+"""SPEC.toml: what a dataset is made of (a contract: docs/datasets.md lists every key).
 
 Every key is optional with a default; an unknown key or a bad value is a UserError
 naming the key and what is allowed. Sensor values may be a fixed value or a range

@@ -73,7 +73,7 @@ class WorldContext:
 
 # The worker's last world, kept for the next batch of the same world (a world's batches
 # follow each other in the queue). One only, freed before the next is built: a porous world
-# holds about 1 GB, and a second held while building doubled a worker's peak memory.
+# is most of a worker's memory, and holding a second while building would double its peak.
 _last_world: dict[tuple, WorldContext] = {}
 
 
@@ -94,7 +94,7 @@ def world_context(spec: DatasetSpec, seed: int) -> WorldContext:
 def _keep_freed_memory() -> None:
     """Undo what Dask's nanny sets for its workers (MALLOC_TRIM_THRESHOLD_=65536): with it,
     glibc hands every large array back to the OS and page-faults it in again on the next
-    scan, which made scans 1.8x slower. Fixed thresholds keep freed arrays for reuse."""
+    scan, which slows every scan. Fixed thresholds keep freed arrays for reuse."""
     if not os.environ.get("MALLOC_TRIM_THRESHOLD_"):
         return
     try:
@@ -354,8 +354,9 @@ def write_scan(root: Path, files: dict[str, bytes]) -> list[dict]:
     finals = [root / rel for rel in files]
     for folder in {p.parent for p in finals}:
         folder.mkdir(parents=True, exist_ok=True)
-    # No fsync per file (it cost 7 ms a scan): after a power cut the next run re-checks every
-    # file against the manifest's SHA-256 and writes again any that did not survive.
+    # No fsync per file (a flush to disk per file would cost more than writing them): after a
+    # power cut the next run re-checks every file against the manifest's SHA-256 and writes
+    # again any that did not survive.
     with atomic_outputs(*finals) as temps:
         for tmp, data in zip(temps, files.values(), strict=True):
             tmp.write_bytes(data)

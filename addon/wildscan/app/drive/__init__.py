@@ -1,5 +1,5 @@
 """`wildscan drive`: the robot drives along a path while the head turns; every beam has its
-own time and pose (README "Scans in motion").
+own time and pose (docs/motion.md).
 
     request.py  what a drive asks for, checked before any work
     world.py    the world's triangles, its trail, the path, one crop around all of it

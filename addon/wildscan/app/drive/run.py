@@ -56,7 +56,7 @@ class DriveReport:
 
 
 def run_drive(request: DriveRequest, progress=None, say=print) -> DriveReport:
-    """Drive as `request` says and write its files into `request.out` (README "Scans in motion").
+    """Drive as `request` says and write its files into `request.out` (docs/motion.md).
     `progress(done, total)` hears of the rays cast; `say` gets one-line news. SIGTERM ends it
     as Ctrl-C does, with Interrupted (code 143); either way nothing is left in the folder."""
     try:

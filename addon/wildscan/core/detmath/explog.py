@@ -46,8 +46,8 @@ def _log_kernel(f, k):
     return k * LN2_HI - ((hfsq - (s * (hfsq + r) + k * LN2_LO)) - f)
 
 
-# The same two kernels on arrays, operation for operation, in place (fewer temporaries:
-# 2-3x faster on the big arrays of a world's terrain and a scan's noise). The test that the
+# The same two kernels on arrays, operation for operation, in place (fewer temporaries
+# on the big arrays of a world's terrain and a scan's noise). The test that the
 # scalar path gives the array path's bits holds them to the scalar kernels above.
 
 

@@ -1,7 +1,7 @@
 """ROS bags of a drive, ROS 1 (`.bag`) and ROS 2 (rosbag2: mcap or sqlite3), written with the
 `rosbags` library: no ROS installation needed (imported lazily; the `drive` extra).
 
-Topics (README "Scans in motion" documents them for users):
+Topics (docs/motion.md documents them for users):
 
     /laser2D          sensor_msgs/LaserScan   every 2D scan, frame `laser`
     /points           sensor_msgs/PointCloud2 every 3D scan, the raw cloud, frame `sensor`

@@ -474,8 +474,8 @@ def fit_grid(
     Spacing comes from the curvature estimate; the error is then measured at
     random points against the analytic field, and all spacings shrink until the
     measurement agrees (rarely more than one extra round). Random points miss
-    the true worst spot between them (1M points find up to 1.3x the max that
-    100k find), so the sampled max must stay within FIT_MARGIN of `tol`.
+    the true worst spot between them (a denser sample finds a larger max),
+    so the sampled max must stay within FIT_MARGIN of `tol`.
     """
     px, cx, py, cy = curvature_profiles(field_fn, extent, probe)
     points = error_sample_points(extent, samples, rng)

@@ -17,7 +17,7 @@ line (4.4 cm at 10 m, 2.2 cm at 5 m) and its footprint about as wide (core/footp
 How porous: the leaf area per crown volume (LEAF_AREA_DENSITY, m^2/m^3) is chosen so
 that a horizontal beam through 3 m of crown passes with probability 20-50 % and the sky
 seen from under the forest canopy is 15-35 % (`wildscan bench --suite realism`
-measures both; README "Vegetation"). For random leaf angles Beer-Lambert's gap fraction
+measures both; docs/validation.md "Vegetation"). For random leaf angles Beer-Lambert's gap fraction
 is exp(-G * LAD * path) with G = 0.5; clustering leaves along branches leaves more gaps
 than that.
 

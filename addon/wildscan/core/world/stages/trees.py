@@ -45,7 +45,7 @@ class TreeParams:
     variants: int = 2
     # Porous vegetation grows the forest as real forests stand, its canopy closed (about 500
     # stems a hectare, crowns touching), so the sky seen from under it is what canopy
-    # gap-fraction studies report (README "Vegetation"); the solid world keeps the paper
+    # gap-fraction studies report (docs/validation.md "Vegetation"); the solid world keeps the paper
     # world's open stand above.
     porous_density: Density = (
         ("forest", 50.0),
