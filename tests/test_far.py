@@ -28,6 +28,7 @@ def inside_rows():
     return measure_offset(INSIDE, BACKENDS, rh_deg=10.0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 @pytest.mark.parametrize("frame", ("sensor", "leveled", "world"))
 def test_every_backend_and_frame_meets_1e4_m_at_the_edge_of_the_range(inside_rows, backend, frame):

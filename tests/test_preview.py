@@ -95,6 +95,7 @@ def test_default_size_is_1200_by_800(tmp_path):
     assert mpimg.imread(out).shape[:2] == (800, 1200)
 
 
+@pytest.mark.slow
 def test_class_colours_of_the_cloud_appear_where_the_points_are(tmp_path):
     out = render_preview(scene(), tmp_path / "scan.png", size=SIZE)
     pixels = plot_region(out)
@@ -132,6 +133,7 @@ def test_near_points_cover_far_ones(tmp_path, near_first):
     assert not has_colour(pixels, BY_ID[WIRE].color)
 
 
+@pytest.mark.slow
 def test_far_stray_points_do_not_shrink_the_view(tmp_path):
     base = scene()
     strays = np.array([[900.0, 0, 0], [-700, 500, 40], [0, -1000, -30], [300, 800, 200]])
@@ -156,6 +158,7 @@ def test_view_angles_change_the_picture(tmp_path):
     assert a.read_bytes() != b.read_bytes()
 
 
+@pytest.mark.slow
 def test_empty_cloud_still_writes_an_image(tmp_path):
     out = render_preview(cloud_of(np.zeros((0, 3)), []), tmp_path / "empty.png", title="nothing", size=SIZE)
     pixels = plot_region(out)
@@ -165,6 +168,7 @@ def test_empty_cloud_still_writes_an_image(tmp_path):
     assert len(np.unique(pixels.reshape(-1, 3), axis=0)) > 2
 
 
+@pytest.mark.slow
 def test_non_finite_points_are_left_out(tmp_path):
     empty = render_preview(cloud_of(np.zeros((0, 3)), []), tmp_path / "empty.png", size=SIZE)
     nan = render_preview(cloud_of([[np.nan, 0, 0], [0, np.inf, 1]], TRUNK), tmp_path / "nan.png", size=SIZE)

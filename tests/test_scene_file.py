@@ -57,6 +57,7 @@ def ply_of(result, path) -> bytes:
     return ply.read_bytes()
 
 
+@pytest.mark.slow
 def test_scans_of_the_loaded_geometry_equal_scans_of_the_extracted_one(extracted, tmp_path):
     path = save_geometry(extracted, tmp_path / "users.npz", {"blend": "users.blend"})
     loaded, header = load_geometry_file(path)

@@ -4,14 +4,11 @@ is built from it in ui/properties.py; test_addon.py registers and uses it)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-
 import pytest
 
 from wildscan.app.dataset.spec import spec_from_dict
 from wildscan.app.settings import SETTINGS, command_line_help
-from wildscan.cli import build_parser
+from wildscan.cli import build_parser, main
 from wildscan.core import sensor as S
 from wildscan.core.errors import UserError
 
@@ -54,17 +51,11 @@ def test_a_spec_value_just_past_the_declared_limits_is_refused(setting):
     spec_from_dict({"sensor": {**sensor, setting: high if setting != "min_range" else low}})
 
 
-def test_bench_dataset_rh_is_the_shared_option_and_checked_before_any_work():
+def test_bench_dataset_rh_is_the_shared_option_and_checked_before_any_work(capsys):
     """bench-dataset's --rh was its own float option: 0.7 (not dividing 180) went on to a
     spec check that named SPEC.toml's sensor.rh, not the option typed."""
-    proc = subprocess.run(
-        [sys.executable, "-m", "wildscan.cli", "bench-dataset", "--rh", "0.7"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert proc.returncode == 2
-    assert proc.stderr.strip().splitlines() == [
+    assert main(["bench-dataset", "--rh", "0.7"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
         "wildscan bench-dataset: error: --rh must divide 180 into a whole number of 2D scans "
         "(e.g. 0.25, 0.5, 1, 2, 4), got 0.7 (180/0.7 = 257.143)"
     ]
