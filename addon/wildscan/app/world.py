@@ -9,16 +9,16 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import time
 from collections.abc import Callable
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..blender.scene_io import quiet_stdout
 from ..core.errors import UserError
 from ..core.io.files import atomic_outputs, check_output_path, remove_quietly, writing_to
 from ..core.io.ply import sidecar_path
+from ..core.signals import deferred
 from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, check_seed, check_vegetation, detail_level
 from .poses import DEFAULT_POSES_PER_ZONE, plan_backend, valid_poses
 
@@ -222,20 +222,6 @@ def make_world(
     return SavedWorld(plan, poses, blend, sidecar, png, time.perf_counter() - t_start)
 
 
-@contextmanager
-def quiet_stdout():
-    """Silence what Blender's C code prints to file descriptor 1."""
-    sys.stdout.flush()
-    saved = os.dup(1)
-    try:
-        with open(os.devnull, "w") as devnull:
-            os.dup2(devnull.fileno(), 1)
-        yield
-    finally:
-        os.dup2(saved, 1)
-        os.close(saved)
-
-
 def save_blend(tmp: Path, final: Path) -> None:
     """Save the current file as a copy at `tmp`; Blender reports failure as RuntimeError.
 
@@ -244,7 +230,9 @@ def save_blend(tmp: Path, final: Path) -> None:
     import bpy
 
     try:
-        with quiet_stdout():  # Blender's own "Info: Saved copy as ..." line
+        # quiet: Blender's own "Info: Saved copy as ..." line; deferred: Blender swallows a
+        # KeyboardInterrupt raised in its save handlers
+        with quiet_stdout(), deferred():
             bpy.ops.wm.save_as_mainfile(filepath=str(tmp), check_existing=False, copy=True, compress=True)
     except RuntimeError as e:
         raise UserError(f"cannot write {final}: {blender_save_reason(e, tmp)}") from None

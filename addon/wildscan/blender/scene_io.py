@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import sys
+from contextlib import contextmanager, nullcontext
+
 from ..core.errors import UserError
 from ..core.io.files import check_input_file
+from ..core.signals import deferred
 
 # First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
@@ -21,12 +26,29 @@ def check_blend_file(path: str) -> str:
     return path
 
 
-def open_world(path: str) -> None:
+@contextmanager
+def quiet_stdout():
+    """Silence what Blender's C code prints to file descriptor 1."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def open_world(path: str, quiet: bool = False) -> None:
+    """Open the .blend at `path`; `quiet`: without Blender's "Read blend: ..." line."""
     import bpy
 
     path = check_blend_file(path)
     try:
-        bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+        # deferred: Blender swallows a KeyboardInterrupt raised in its load handlers
+        with quiet_stdout() if quiet else nullcontext(), deferred():
+            bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
     except RuntimeError as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else "unknown error"
         raise UserError(f"{path}: Blender could not open it ({first})", setting="world") from None
@@ -36,7 +58,8 @@ def empty_scene() -> None:
     """Start from an empty factory scene so a seed-built world holds nothing else."""
     import bpy
 
-    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with deferred():  # Blender swallows a KeyboardInterrupt raised in its load handlers
+        bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
 def scene_provenance() -> tuple[int | None, str | None]:
