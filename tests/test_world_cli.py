@@ -133,3 +133,25 @@ def test_a_scan_and_a_world_of_the_same_name_do_not_replace_each_others_sidecar(
     )
     assert code == 2 and "describes another kind of output" in err
     assert (tmp_path / "w.json").read_bytes() == before and not (tmp_path / "w.ply").exists()
+
+
+def test_quiet_scan_and_extract_of_a_blend_print_only_the_files_written(tmp_path):
+    """Blender prints "Read blend: ..." on file descriptor 1 when the wheel opens a .blend."""
+    from scene_helpers import WILDSCAN
+
+    def wildscan(*argv):
+        done = subprocess.run([WILDSCAN, *argv], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.splitlines()
+
+    wildscan("world", "--seed", "3", "--detail", "low", "--quiet", "--out", "w.blend")
+    scan = wildscan(
+        "scan", "--world", "w.blend", "--pose", "0", "0", "0", "--rh", "6", "--quiet", "--out", "s.ply"
+    )
+    assert [line.split(" (")[0] for line in scan] == [
+        f"wrote {tmp_path / 's.ply'}",
+        f"wrote {tmp_path / 's.json'}",
+    ]
+    assert wildscan("extract", "--world", "w.blend", "--quiet", "--out", "g.npz") == [
+        f"wrote {tmp_path / 'g.npz'}"
+    ]

@@ -114,7 +114,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from .output import Progress
 
     same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
-    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed")
+    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "quiet")
     request = DriveRequest(
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,

@@ -41,6 +41,7 @@ class DriveRequest:
     ros2_storage: str = "mcap"
     wind: float = 0.0  # peak sway of the treetops, degrees (0: no wind)
     wind_seed: int = 0
+    quiet: bool = False  # no progress, nor Blender's "Read blend" line
 
     @property
     def bags(self) -> tuple[str, ...]:
