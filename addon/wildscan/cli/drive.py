@@ -66,6 +66,15 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         metavar="N",
         help="3D scans to take (default: as many as fit along the path; 1 standing still)",
     )
+    options.add(
+        p,
+        "z_start",
+        help="world height in metres where the four downward placement lasers start at every instant "
+        "of the drive, as `wildscan scan --z-start` at its pose: give one under an overhang to drive "
+        "inside the cave (`wildscan poses --zone cave` lists one per pose); it must stay above the "
+        "ground and under the roof along the path. Default: found at every instant by a probe from "
+        "above (the first terrain surface, which over the cave is its roof)",
+    )
     p.add_argument(
         "--head",
         choices=HEAD_MODES,
@@ -114,7 +123,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from .output import Progress
 
     same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
-    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "quiet")
+    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "z_start", "quiet")
     request = DriveRequest(
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,

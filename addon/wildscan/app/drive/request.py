@@ -10,6 +10,7 @@ from ...core.errors import UserError
 from ...core.frames import check_frame
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
+from ...core.placement import check_z_start
 from ...core.sensor import SensorConfig
 from ...core.world import DEFAULT_VEGETATION, check_vegetation
 
@@ -41,6 +42,7 @@ class DriveRequest:
     ros2_storage: str = "mcap"
     wind: float = 0.0  # peak sway of the treetops, degrees (0: no wind)
     wind_seed: int = 0
+    z_start: float | None = None  # where the placement lasers start (under a roof), or probed
     quiet: bool = False  # no progress, nor Blender's "Read blend" line
 
     @property
@@ -60,6 +62,7 @@ class DriveRequest:
         if (self.start is not None) != (self.distance is not None):
             raise UserError("{from} X Y YAW and {distance} M go together", related=("from", "distance"))
         check_speed(self.speed)
+        check_z_start(self.z_start)
         if self.scans is not None and not 1 <= self.scans <= MAX_SCANS_3D:
             raise UserError(f"must be from 1 to {MAX_SCANS_3D:,}, got {self.scans}", setting="scans")
         check_head(self.head)

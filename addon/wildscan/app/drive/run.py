@@ -78,7 +78,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1)
     backend = _backend(request, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
-    motion = place_all(backend, times, xy, yaw, request.speed * times)
+    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
     check_reach(motion.centre, sensor.max_range, request.frame, getattr(backend, "name", ""))
     clock.lap("placement")
 
