@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ...core.checks import one_of
+from ...core.checks import one_of, whole_number
 from ...core.errors import UserError
 from ...core.frames import check_frame
 from ...core.motion.timing import check_head
@@ -63,8 +63,8 @@ class DriveRequest:
             raise UserError("{from} X Y YAW and {distance} M go together", related=("from", "distance"))
         check_speed(self.speed)
         check_z_start(self.z_start)
-        if self.scans is not None and not 1 <= self.scans <= MAX_SCANS_3D:
-            raise UserError(f"must be from 1 to {MAX_SCANS_3D:,}, got {self.scans}", setting="scans")
+        if self.scans is not None:
+            whole_number(self.scans, "scans", 1, MAX_SCANS_3D)
         check_head(self.head)
         self.sensor.validate()
         check_paper_model(self.sensor)
