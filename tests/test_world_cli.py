@@ -155,3 +155,29 @@ def test_quiet_scan_and_extract_of_a_blend_print_only_the_files_written(tmp_path
     assert wildscan("extract", "--world", "w.blend", "--quiet", "--out", "g.npz") == [
         f"wrote {tmp_path / 'g.npz'}"
     ]
+
+
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("１.５", "expected a number (digits 0-9, a point for decimals), got '１.５'"),  # full-width digits
+        ("²", "expected a number (digits 0-9, a point for decimals), got '²'"),
+        ("1_0", "expected a number (digits 0-9, a point for decimals), got '1_0'"),
+        ("1,5", "expected a number with a decimal point, got '1,5' (write 1.5)"),
+        ("-1,5", "expected a number with a decimal point, got '-1,5' (write -1.5)"),  # not an option
+    ],
+)
+def test_numbers_are_ascii_decimals_and_a_comma_is_told_to_be_a_point(tmp_path, capsys, value, message):
+    for argv in (["--pose", value, "0", "0"], ["--pose", "0", "0", "0", "--max-range", value]):
+        with pytest.raises(SystemExit) as exited:  # argparse's own exit, in one line
+            main(["scan", "--seed", "1", *argv, "--out", str(tmp_path / "s.ply")])
+        err = capsys.readouterr().err
+        assert exited.value.code == 2 and err.count("\n") == 1 and message in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_numbers_as_people_type_them_still_parse(capsys):
+    from wildscan.cli import build_parser
+
+    args = build_parser().parse_args(["scan", "--seed", "1", "--pose", "-1e3", ".5", "-.5", "--out", "s.ply"])
+    assert args.pose == [-1000.0, 0.5, -0.5]
