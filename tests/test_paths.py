@@ -130,3 +130,32 @@ def test_user_path_reads_what_users_type(tmp_path, monkeypatch):
         files.user_path(tmp_path / TOO_LONG / "a.ply", "out")
     long_final = tmp_path / ("x" * 250 + ".ply")
     assert len(files.temp_path(long_final).name.encode()) < files.name_max(tmp_path)
+
+
+def deep_folder(root: Path, at_least: int) -> Path:
+    """A folder under `root` whose absolute path is at least `at_least` bytes long."""
+    folder = root
+    while len(os.fsencode(str(folder))) < at_least:
+        folder = folder / ("d" * 100)
+    folder.mkdir(parents=True)
+    return folder
+
+
+def test_an_existing_world_by_a_path_longer_than_blender_reads_is_called_too_long(tmp_path, worlds):
+    world = deep_folder(tmp_path, 1024) / "w.blend"
+    world.write_bytes((worlds / "w.blend").read_bytes())
+    done = run([WILDSCAN, "scan", "--world", str(world), *SCAN, "--out", str(tmp_path / "s.ply")])
+    assert done.returncode == 2
+    line = user_error_line(done)
+    assert (
+        "too long for Blender" in line and "at most 1023 bytes" in line and "no such file" not in line.lower()
+    )
+    assert not (tmp_path / "s.ply").exists()
+
+
+def test_a_world_out_path_blender_cannot_write_is_refused_before_any_work(tmp_path):
+    out = deep_folder(tmp_path, 1010) / "w.blend"
+    done = run([WILDSCAN, "world", "--seed", "2", "--detail", "low", "--quiet", "--out", str(out)])
+    assert done.returncode == 2
+    assert "too long for Blender" in user_error_line(done)
+    assert not any(out.parent.iterdir())

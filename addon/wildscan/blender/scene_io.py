@@ -12,10 +12,14 @@ from ..core.signals import deferred
 
 # First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")
+# Blender keeps a file's path in a buffer of FILE_MAX = 1024 bytes, the final NUL included
+# (BLI_path_util.h, 3.4 to 5.0): a longer path is cut short and the cut one "does not exist".
+BLENDER_FILE_MAX = 1024
 
 
 def check_blend_file(path: str) -> str:
     path = str(check_input_file(path, (".blend",), "world"))
+    check_blender_path_length(path, "world")
     try:
         with open(path, "rb") as f:
             head = f.read(8)
@@ -38,6 +42,19 @@ def quiet_stdout():
     finally:
         os.dup2(saved, 1)
         os.close(saved)
+
+
+def check_blender_path_length(path: str, setting: str, written_as: str | None = None) -> None:
+    """UserError when Blender would cut `path` (absolute) short and not find the file;
+    `written_as`: the longer name Blender really writes first (a temporary one)."""
+    size, longest = len(os.fsencode(path)), len(os.fsencode(written_as or path))
+    if longest >= BLENDER_FILE_MAX:
+        raise UserError(
+            f"{path}: the path is {size} bytes, too long for Blender, which reads and writes files by "
+            f"paths of at most {BLENDER_FILE_MAX - 1 - (longest - size)} bytes here (its FILE_MAX): "
+            "use a shorter path (move the file or link it from one)",
+            setting=setting,
+        )
 
 
 def open_world(path: str, quiet: bool = False) -> None:
