@@ -67,8 +67,29 @@ def open_world(path: str, quiet: bool = False) -> None:
         with quiet_stdout() if quiet else nullcontext(), deferred():
             bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
     except RuntimeError as e:
+        newer = newer_blender_than_this(path)
+        if newer:
+            raise UserError(f"{path}: {newer}", setting="world") from None
         first = str(e).strip().splitlines()[0] if str(e).strip() else "unknown error"
         raise UserError(f"{path}: Blender could not open it ({first})", setting="world") from None
+
+
+def newer_blender_than_this(path: str) -> str | None:
+    """Why this Blender could not open `path` when a newer Blender wrote it (Blender itself
+    says only "not a blend file"), with how to make one it opens; None otherwise."""
+    import bpy
+
+    from .blend_header import blend_version
+
+    written, running = blend_version(path), tuple(bpy.app.version[:2])
+    if written is None or written <= running:
+        return None
+    return (
+        f"written by Blender {written[0]}.{written[1]}, which this Blender {bpy.app.version_string} cannot "
+        "open: build the world with this Blender itself (blender -b -P blender_scripts/world.py -- "
+        "--seed S --out FILE.blend, run by this same blender binary), or scan this file with the newer "
+        "Blender or the bpy wheel (wildscan scan --world FILE.blend)"
+    )
 
 
 def empty_scene() -> None:
