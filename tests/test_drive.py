@@ -226,3 +226,30 @@ def test_a_seeds_drive_world_has_the_vegetation_asked_for(world):
     assert solid.triangle_count == plan_geometry(plan_world(SEED, DETAIL, vegetation="solid")).triangle_count
     assert solid.triangle_count != porous.triangle_count
     np.testing.assert_array_equal(trail, plan.layout.trail.path)  # the layout does not depend on it
+
+
+def test_a_drive_from_inside_the_cave_with_z_start_stays_under_the_roof(world, tmp_path):
+    """The probe from above finds the cave's roof first: without --z-start the drive stands on
+    it; with the z_start `wildscan poses` gives, every instant stands on the cave's floor."""
+    from wildscan.app.poses import valid_poses
+
+    plan, geometry = world
+    backend = make_backend("auto", geometry=geometry, notify=None)
+    inside = next(p for p in valid_poses(plan, backend, zones=("cave",))["cave"] if p.get("z_start"))
+    common = dict(
+        seed=SEED,
+        detail=DETAIL,
+        start=(inside["x"], inside["y"], inside["yaw"]),
+        distance=1.0,
+        speed=0.5,
+        scans=1,
+        sensor=SensorConfig(rh_deg=6.0),
+        bag="none",
+    )
+    z = {}
+    for name, z_start in (("probed", None), ("under", inside["z_start"])):
+        run_drive(DriveRequest(out=str(tmp_path / name), z_start=z_start, **common), say=lambda text: None)
+        z[name] = read_tum((tmp_path / name / "trajectory.tum").read_text())[:, 3]  # optical centre z
+    assert np.all(z["under"] < inside["z_start"]), z["under"]
+    assert np.allclose(z["under"], inside["optical_centre_z"], atol=0.1)
+    assert np.all(z["probed"] > inside["z_start"] + 0.5)  # on the roof: what --z-start avoids

@@ -366,3 +366,46 @@ def test_a_drive_in_weather_writes_the_weather_field_in_both_bags_readable_by_ro
         points = np.frombuffer(bytes(cloud.data), dtype=WEATHER_POINT_DTYPE)
         assert np.array_equal(points["weather"], raw["weather"])
         assert np.array_equal(points["label"], raw["label"])
+
+
+def test_scans_states_one_allowed_range_in_its_help_and_every_message(tmp_path):
+    said = set()
+    for value in ("-1", "0", "10001"):
+        proc = run(
+            [WILDSCAN, "drive", "--seed", str(SEED), "--trail", "--scans", value, "--out", str(tmp_path)]
+        )
+        assert proc.returncode == 2
+        said.add(user_error_line(proc).split("must be ")[1].split(", got")[0])
+    try:
+        DriveRequest(out=str(tmp_path), seed=SEED, trail=True, scans=0).check()
+    except Exception as e:  # the API says it as the command line does
+        said.add(str(e).split("must be ")[1].split(", got")[0])
+    assert said == {"a whole number from 1 to 10000"}
+    help_text = run([WILDSCAN, "drive", "--help"]).stdout
+    assert "3D scans to take, 1 to 10000" in " ".join(help_text.split())
+
+
+def test_a_re_drive_without_bags_leaves_no_empty_bag_folder_and_keeps_a_users_file(tmp_path):
+    from wildscan.app.drive.files import remove_emptied_folders
+
+    out = tmp_path / "out"
+    for bag in ("ros2", "none"):
+        request = DriveRequest(
+            out=str(out),
+            seed=SEED,
+            detail="low",
+            trail=True,
+            scans=1,
+            sensor=SensorConfig(rh_deg=RH),
+            bag=bag,
+        )
+        run_drive(request, say=lambda text: None)
+        if bag == "ros2":
+            assert any((out / "drive_ros2").iterdir())
+    assert not (out / "drive_ros2").exists()
+    assert (out / "raw" / "000000.ply").exists()
+    # a folder that holds a file of the user's is never removed
+    (out / "mine").mkdir()
+    (out / "mine" / "notes.txt").write_text("mine")
+    remove_emptied_folders(out, "mine/drive.bag")
+    assert (out / "mine" / "notes.txt").read_text() == "mine"

@@ -141,3 +141,43 @@ def test_blender_34_extracts_the_open_file_and_the_wheel_scans_it_as_blender_doe
     from_file = run([WILDSCAN, "scan", "--geometry", str(scene), *pose, "--out", str(tmp_path / "g.ply")])
     assert from_file.returncode == 0, from_file.stderr
     assert points(tmp_path / "g.ply") == points(tmp_path / "b.ply")
+
+
+def test_a_blends_header_names_the_blender_that_wrote_it(tmp_path):
+    import gzip
+
+    from wildscan.blender.blend_header import _unzstd_with_libzstd, blend_version, header_version
+
+    assert header_version(b"BLENDER-v304REND") == (3, 4)  # 3.4, 64-bit, little-endian
+    assert header_version(b"BLENDER_V279REND") == (2, 79)  # 32-bit, big-endian
+    assert header_version(b"BLENDER17-01v0500") == (5, 0)  # the header bpy 5.0.1 writes
+    assert header_version(b"PK\x03\x04") is None
+    (tmp_path / "old.blend").write_bytes(gzip.compress(b"BLENDER-v279REND" + bytes(64)))
+    assert blend_version(tmp_path / "old.blend") == (2, 79)
+    new = tmp_path / "new.blend"
+    saved = run(
+        [
+            sys.executable,
+            "-c",
+            f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={str(new)!r}, compress=True)",
+        ]
+    )
+    assert saved.returncode == 0, saved.stderr
+    assert blend_version(tmp_path / "new.blend") == (5, 0)
+    # a Blender's own Python may have no zstandard module: libzstd through ctypes reads it too
+    data = (tmp_path / "new.blend").read_bytes()
+    assert data[:4] == b"\x28\xb5\x2f\xfd" and _unzstd_with_libzstd(data, 17) == b"BLENDER17-01v0500"
+
+
+@pytest.mark.blender_binary
+def test_blender_34_given_a_newer_blend_says_which_blender_wrote_it_and_what_to_do(tmp_path):
+    blend = tmp_path / "new.blend"
+    saved = run([sys.executable, "-c", f"import bpy; bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})"])
+    assert saved.returncode == 0, saved.stderr
+    cmd = [BLENDER, "-b", "--factory-startup", "-P", "blender_scripts/scan.py", "--", "--world", str(blend)]
+    done = run([*cmd, "--pose", "0", "0", "0", "--out", str(tmp_path / "s.ply")])
+    assert done.returncode == 2
+    line = user_error_line(done)
+    assert "written by Blender 5.0, which this Blender 3.4" in line, line
+    assert "blender -b -P blender_scripts/world.py" in line and "not a blend file" not in line
+    assert not (tmp_path / "s.ply").exists()

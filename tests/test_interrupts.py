@@ -77,6 +77,7 @@ def worlds(tmp_path_factory):
 
 
 WHEEL_CASES = [
+    ("scan-world", "starting", signal.SIGINT),  # the first thing the `wildscan` script does
     ("world", "bpy-import", signal.SIGINT),
     ("world", "writing", signal.SIGTERM),
     ("world", "writing", signal.SIGINT),
@@ -131,6 +132,7 @@ def blender_world(tmp_path_factory):
 @pytest.mark.parametrize(
     "script, moment, sig",
     [
+        ("scan", "starting", signal.SIGINT),  # Blender's own handler would ignore it
         ("world", "writing", signal.SIGINT),
         ("world", "writing", signal.SIGTERM),
         ("scan", "casting", signal.SIGINT),
@@ -212,3 +214,72 @@ def test_one_ctrl_c_in_a_real_blender_stops_the_scan_with_130(tmp_path, blender_
     done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert (done.returncode, done.stderr) == (130, "blender_scripts/scan.py: interrupted; nothing written\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["wrapper.py"]
+
+
+# Blender runs Python handlers while it opens a file, and prints and swallows whatever they
+# raise: a Ctrl-C landing in one would be lost and the scan written. The handler below is
+# that moment, made certain: it signals the process from inside Blender's file read.
+IN_LOAD_HANDLER = """
+import os, runpy, signal, sys
+sys.path.insert(0, {addon!r})
+import bpy
+
+@bpy.app.handlers.persistent
+def signal_while_loading(*_):
+    os.kill(os.getpid(), signal.SIGINT)
+
+bpy.app.handlers.load_post.append(signal_while_loading)
+{run}
+"""
+
+
+def test_a_ctrl_c_while_the_wheel_reads_the_blend_is_not_swallowed(tmp_path, worlds):
+    args = ["scan", "--world", str(worlds / "w.blend"), *SCAN, "--out", "s.ply"]
+    code = IN_LOAD_HANDLER.format(
+        addon=str(REPO / "addon"), run=f"from wildscan.cli import main; sys.exit(main({args!r}))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True)
+    assert (done.returncode, done.stderr) == (130, "wildscan scan: interrupted; nothing written\n")
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.blender_binary
+def test_a_ctrl_c_while_blender_reads_the_world_is_not_swallowed(tmp_path, blender_world):
+    """`blender -b -P scan.py -- --world W`: the .blend is read by the script, in Blender 3.4."""
+    script = str(REPO / "blender_scripts" / "scan.py")
+    wrapper = tmp_path / "wrapper.py"
+    wrapper.write_text(IN_LOAD_HANDLER.format(addon=str(REPO / "addon"), run=f"runpy.run_path({script!r})"))
+    args = ["--world", str(blender_world), *SCAN, "--backend", "bvh", "--out", str(tmp_path / "s.ply")]
+    cmd = [BLENDER, "-b", "--factory-startup", "-P", str(wrapper), "--", *args]
+    done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stderr) == (130, "blender_scripts/scan.py: interrupted; nothing written\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["wrapper.py"]
+
+
+# The `wildscan` script's first second is spent importing; a Ctrl-C there used to end in a
+# traceback from inside an import. The finder below signals the process while the world
+# planner (imported by the command line's modules) is being imported.
+DURING_IMPORT = """
+import os, signal, sys
+sys.path.insert(0, {addon!r})
+sys.argv[0] = os.path.join(os.path.dirname(sys.executable), "wildscan")
+
+class SignalOnImport:
+    def find_spec(self, name, path, target=None):
+        if name == "wildscan.core.world":
+            sys.meta_path.remove(self)
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, SignalOnImport())
+from wildscan.cli import main
+sys.exit(main({args!r}))
+"""
+
+
+def test_a_ctrl_c_while_the_command_line_imports_exits_130_in_one_line(tmp_path, worlds):
+    args = ["scan", "--geometry", str(worlds / "w.npz"), *SCAN, "--out", "s.ply"]
+    code = DURING_IMPORT.format(addon=str(REPO / "addon"), args=args)
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True)
+    assert (done.returncode, done.stderr) == (130, "wildscan scan: interrupted; nothing written\n")
+    assert not any(tmp_path.iterdir())

@@ -134,3 +134,75 @@ def test_user_path_reads_what_users_type(tmp_path, monkeypatch):
         files.user_path(tmp_path / TOO_LONG / "a.ply", "out")
     long_final = tmp_path / ("x" * 250 + ".ply")
     assert len(files.temp_path(long_final).name.encode()) < files.name_max(tmp_path)
+
+
+def deep_folder(root: Path, at_least: int) -> Path:
+    """A folder under `root` whose absolute path is at least `at_least` bytes long."""
+    folder = root
+    while len(os.fsencode(str(folder))) < at_least:
+        folder = folder / ("d" * 100)
+    folder.mkdir(parents=True)
+    return folder
+
+
+def test_an_existing_world_by_a_path_longer_than_blender_reads_is_called_too_long(tmp_path, worlds):
+    world = deep_folder(tmp_path, 1024) / "w.blend"
+    world.write_bytes((worlds / "w.blend").read_bytes())
+    done = run([WILDSCAN, "scan", "--world", str(world), *SCAN, "--out", str(tmp_path / "s.ply")])
+    assert done.returncode == 2
+    line = user_error_line(done)
+    assert (
+        "too long for Blender" in line and "at most 1023 bytes" in line and "no such file" not in line.lower()
+    )
+    assert not (tmp_path / "s.ply").exists()
+
+
+def test_a_world_out_path_blender_cannot_write_is_refused_before_any_work(tmp_path):
+    out = deep_folder(tmp_path, 1010) / "w.blend"
+    done = run([WILDSCAN, "world", "--seed", "2", "--detail", "low", "--quiet", "--out", str(out)])
+    assert done.returncode == 2
+    assert "too long for Blender" in user_error_line(done)
+    assert not any(out.parent.iterdir())
+
+
+def blocked_on_a_lock(pid: int) -> bool:
+    """Whether process `pid` waits for a lock another holds (/proc/locks lists it with ->)."""
+    return any(
+        line.split()[1] == "->" and line.split()[6] == str(pid)
+        for line in Path("/proc/locks").read_text().splitlines()
+        if len(line.split()) > 6
+    )
+
+
+def test_two_scans_to_the_same_out_at_once_leave_one_scans_ply_and_sidecar_together(tmp_path, worlds):
+    """A stops after renaming its PLY, before its sidecar; B writes the same --out meanwhile.
+    B must wait for A's group (else B's PLY and then A's sidecar would be left side by side)."""
+    import json
+    import time
+
+    from wildscan.core.io.ply import read_ply
+
+    resume = tmp_path / "resume"
+    scan = [WILDSCAN, "scan", "--geometry", str(worlds / "w.npz"), "--rh", "4", "--quiet", "--out", "s.ply"]
+    env = dict(os.environ, WILDSCAN_TEST_PAUSE_AT="renamed", WILDSCAN_TEST_RESUME=str(resume))
+    first = subprocess.Popen(
+        [*scan, "--pose", "0", "0", "0"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True
+    )
+    assert first.stderr.readline().startswith("wildscan-test-pause renamed")
+    second = subprocess.Popen(
+        [*scan, "--pose", "0", "0", "90"], cwd=tmp_path, stderr=subprocess.PIPE, text=True
+    )
+    deadline = time.monotonic() + 120
+    while second.poll() is None and not blocked_on_a_lock(second.pid):  # an event: B done, or B waiting
+        assert time.monotonic() < deadline, "the second scan neither finished nor waited"
+        time.sleep(0.01)  # the poll's interval, not a guess at how long anything takes
+    resume.touch()
+    assert first.wait(timeout=120) == 0 and second.wait(timeout=120) == 0, (
+        first.stderr.read(),
+        second.stderr.read(),
+    )
+    sidecar = json.loads((tmp_path / "s.json").read_text())
+    cloud, _ = read_ply(tmp_path / "s.ply")
+    assert sidecar["point_count"] == len(cloud)
+    assert sidecar["pose"]["yaw_deg"] == 90.0  # B's group, written whole after A's
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["resume", "s.json", "s.ply"]

@@ -188,3 +188,72 @@ def test_files_that_are_not_geometry_are_refused(tmp_path):
         load_geometry(tmp_path / "notes.npz")
     with pytest.raises(UserError, match="no such file"):
         load_geometry(tmp_path / "absent.npz", setting="scene")
+
+
+def one_triangle_file(tmp_path):
+    g = from_triangles(np.eye(3)[None], class_id=1, instance=2, object_names=("a",))
+    return save_geometry(g, tmp_path / "g.npz")
+
+
+@pytest.mark.parametrize("cut", [0.3, 0.6, 0.99])
+def test_a_truncated_file_is_called_damaged_not_foreign(tmp_path, cut):
+    data = one_triangle_file(tmp_path).read_bytes()
+    (tmp_path / "cut.npz").write_bytes(data[: int(len(data) * cut)])
+    with pytest.raises(UserError, match="damaged or truncated.*save it again") as error:
+        load_geometry(tmp_path / "cut.npz")
+    assert "not a WildScan" not in str(error.value)
+
+
+def test_a_flipped_bit_in_an_array_is_called_damaged(tmp_path):
+    data = bytearray(one_triangle_file(tmp_path).read_bytes())
+    at = (
+        data.index(b"\x93NUMPY", data.index(b"vertices.npy")) + 130
+    )  # past the 128-byte .npy header: a vertex value
+    data[at] ^= 0x10
+    (tmp_path / "flipped.npz").write_bytes(bytes(data))
+    with pytest.raises(UserError, match=r"damaged or truncated \(Bad CRC-32"):
+        load_geometry(tmp_path / "flipped.npz")
+
+
+@pytest.mark.parametrize(
+    "entry, value, message",
+    [
+        (
+            "class_id.npy",
+            np.array([14], dtype="<i2"),
+            r"class_id\.npy holds 14 at triangle 0; allowed 0 to 13",
+        ),
+        ("class_id.npy", np.array([-1], dtype="<i2"), r"class_id\.npy holds -1 .*allowed 0 to 13"),
+        ("instance.npy", np.array([-5], dtype="<i4"), r"instance\.npy holds -5 .*allowed 0 to 2147483647"),
+    ],
+)
+def test_class_ids_and_instances_out_of_range_are_refused_naming_the_array(tmp_path, entry, value, message):
+    bad = rewrite(one_triangle_file(tmp_path), tmp_path / "bad.npz", replace={entry: npy(value)})
+    with pytest.raises(UserError, match=message):
+        load_geometry(bad)
+
+
+def test_scanning_a_file_with_a_class_id_out_of_range_exits_2_in_one_line(tmp_path):
+    from scene_helpers import WILDSCAN
+
+    bad = rewrite(
+        one_triangle_file(tmp_path),
+        tmp_path / "bad.npz",
+        replace={"class_id.npy": npy(np.array([99], dtype="<i2"))},
+    )
+    cmd = [
+        WILDSCAN,
+        "scan",
+        "--geometry",
+        str(bad),
+        "--pose",
+        "0",
+        "0",
+        "0",
+        "--out",
+        str(tmp_path / "s.ply"),
+    ]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.count("\n") == 1 and "class_id.npy holds 99" in done.stderr, done.stderr
+    assert not (tmp_path / "s.ply").exists()

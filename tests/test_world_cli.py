@@ -135,3 +135,51 @@ def test_a_scan_and_a_world_of_the_same_name_do_not_replace_each_others_sidecar(
     )
     assert code == 2 and "describes another kind of output" in err
     assert (tmp_path / "w.json").read_bytes() == before and not (tmp_path / "w.ply").exists()
+
+
+def test_quiet_scan_and_extract_of_a_blend_print_only_the_files_written(tmp_path):
+    """Blender prints "Read blend: ..." on file descriptor 1 when the wheel opens a .blend."""
+    from scene_helpers import WILDSCAN
+
+    def wildscan(*argv):
+        done = subprocess.run([WILDSCAN, *argv], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.splitlines()
+
+    wildscan("world", "--seed", "3", "--detail", "low", "--quiet", "--out", "w.blend")
+    scan = wildscan(
+        "scan", "--world", "w.blend", "--pose", "0", "0", "0", "--rh", "6", "--quiet", "--out", "s.ply"
+    )
+    assert [line.split(" (")[0] for line in scan] == [
+        f"wrote {tmp_path / 's.ply'}",
+        f"wrote {tmp_path / 's.json'}",
+    ]
+    assert wildscan("extract", "--world", "w.blend", "--quiet", "--out", "g.npz") == [
+        f"wrote {tmp_path / 'g.npz'}"
+    ]
+
+
+@pytest.mark.parametrize(
+    "value, message",
+    [
+        ("１.５", "expected a number (digits 0-9, a point for decimals), got '１.５'"),  # full-width digits
+        ("²", "expected a number (digits 0-9, a point for decimals), got '²'"),
+        ("1_0", "expected a number (digits 0-9, a point for decimals), got '1_0'"),
+        ("1,5", "expected a number with a decimal point, got '1,5' (write 1.5)"),
+        ("-1,5", "expected a number with a decimal point, got '-1,5' (write -1.5)"),  # not an option
+    ],
+)
+def test_numbers_are_ascii_decimals_and_a_comma_is_told_to_be_a_point(tmp_path, capsys, value, message):
+    for argv in (["--pose", value, "0", "0"], ["--pose", "0", "0", "0", "--max-range", value]):
+        with pytest.raises(SystemExit) as exited:  # argparse's own exit, in one line
+            main(["scan", "--seed", "1", *argv, "--out", str(tmp_path / "s.ply")])
+        err = capsys.readouterr().err
+        assert exited.value.code == 2 and err.count("\n") == 1 and message in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_numbers_as_people_type_them_still_parse(capsys):
+    from wildscan.cli import build_parser
+
+    args = build_parser().parse_args(["scan", "--seed", "1", "--pose", "-1e3", ".5", "-.5", "--out", "s.ply"])
+    assert args.pose == [-1000.0, 0.5, -0.5]

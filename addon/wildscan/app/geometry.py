@@ -25,10 +25,11 @@ def world_geometry_of(
     seed: int | None = None,
     detail: str = "default",
     vegetation: str = DEFAULT_VEGETATION,
+    quiet: bool = False,
 ):
     """(SceneGeometry, metadata) of a world: the world of `seed` at `detail` with
-    `vegetation` planned without Blender, the .blend file `world`, or (neither) the scene
-    Blender has open."""
+    `vegetation` planned without Blender, the .blend file `world` (`quiet`: without
+    Blender's "Read blend" line), or (neither) the scene Blender has open."""
     if seed is not None:
         from ..raycast.from_plan import world_geometry
 
@@ -38,7 +39,7 @@ def world_geometry_of(
     from ..raycast.extract import extract_scene
 
     if world is not None:
-        open_world(world)
+        open_world(world, quiet=quiet)
     scene_seed, blend = scene_provenance()
     return extract_scene(), {"seed": scene_seed, "detail": None, "world": blend}
 
@@ -49,6 +50,7 @@ def extract(
     seed: int | None = None,
     detail: str = "default",
     vegetation: str = DEFAULT_VEGETATION,
+    quiet: bool = False,
 ):
     """Save the geometry of a world (see world_geometry_of) to `out` (.npz); returns
     (path, geometry, metadata). The output path is checked before any work."""
@@ -56,7 +58,7 @@ def extract(
     from ..raycast.scene_file import SUFFIX, save_geometry
 
     check_output_path(out, SUFFIX)
-    geometry, metadata = world_geometry_of(world, seed, detail, vegetation)
+    geometry, metadata = world_geometry_of(world, seed, detail, vegetation, quiet)
     return save_geometry(geometry, out, metadata), geometry, metadata
 
 

@@ -8,25 +8,28 @@ handler too (in `blender -b`, Blender's ignores the first Ctrl-C and exits 2 on 
 second, our user-mistake code, leaving a partial file).
 
 Some moments must not be cut: while the bpy module loads (an exception inside its
-start-up is swallowed or crashes the interpreter). There `deferred()` notes the signal
-and raises it as soon as the moment is over.
+start-up is swallowed or crashes the interpreter) and while Blender reads or writes a
+file (it swallows exceptions raised in its Python handlers). There `deferred()`
+(core/signals.py) notes the signal and raises it as soon as the moment is over.
+
+A process that runs one command (the `wildscan` script, blender_scripts/*.py) calls
+`defer_until_dispatch()` before its slow imports, so a Ctrl-C in its first second is
+noted and ends the run the same way once the command starts.
 """
 
 from __future__ import annotations
 
-import importlib.abc
 import signal
 import sys
 from contextlib import contextmanager
 
 from ..core.pause import pause_here
+from ..core.signals import Terminated, deferred, enter, forget_pending, leave, on_signal, signal_pending
+
+__all__ = ["Terminated", "deferred", "defer_until_dispatch", "started", "stopping_on_signals"]
 
 EXIT_INTERRUPTED = 130  # 128 + SIGINT
 EXIT_TERMINATED = 143  # 128 + SIGTERM
-
-
-class Terminated(BaseException):
-    """SIGTERM, turned into an exception so the run stops as on Ctrl-C."""
 
 
 class Interrupted(Exception):
@@ -62,51 +65,35 @@ def _restore(signum: int, previous) -> None:
 
 
 # ---------------------------------------------------------------------------------------
-# every command: both signals raise, except inside deferred()
+# every command: both signals raise, except inside deferred() (core/signals.py)
 
-_depth = 0  # deferred() blocks entered and not left
-_pending: list[int] = []  # signals received inside them
-
-
-def _raise_for(signum: int):
-    if signum == signal.SIGTERM:
-        raise Terminated()
-    raise KeyboardInterrupt
+# The handlers from before defer_until_dispatch(), while it holds; None otherwise.
+_early: dict | None = None
+_owns_process = False  # the process is this command's own (the console script, a Blender script)
 
 
-def _on_signal(signum, frame):
-    if _depth:
-        _pending.append(signum)
-        return
-    _raise_for(signum)
-
-
-def signal_pending() -> bool:
-    return bool(_pending)
-
-
-def _enter() -> None:
-    global _depth
-    _depth += 1
-
-
-def _leave() -> None:
-    global _depth
-    _depth -= 1
-    if not _depth and _pending:
-        signum = _pending[0]
-        _pending.clear()
-        _raise_for(signum)
-
-
-@contextmanager
-def deferred():
-    """A signal arriving inside the block is raised when the block ends."""
-    _enter()
+def defer_until_dispatch() -> None:
+    """Call first thing in a process that runs one command: from here until the command
+    starts (`started()`), a signal is noted, not raised, so a Ctrl-C during the slow imports
+    and the parsing ends the run as at any other moment (Python would print a traceback
+    from inside an import; Blender's own handler ignores the first Ctrl-C)."""
+    global _early, _owns_process
     try:
-        yield
-    finally:
-        _leave()
+        _early = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    except ValueError:  # not the main thread
+        return
+    _owns_process = True
+    enter()
+    pause_here("starting", until=signal_pending)
+
+
+def started() -> None:
+    """The command has begun under stopping_on_signals: a signal noted since
+    defer_until_dispatch() is raised here, inside the command's error handling."""
+    global _early
+    if _early is not None:
+        _early = None
+        leave()
 
 
 def stop_code(stop: BaseException) -> int:
@@ -118,7 +105,7 @@ def stopping_on_signals():
     """Inside the block SIGINT raises KeyboardInterrupt and SIGTERM Terminated (deferred
     while bpy loads); the handlers before it are restored after it."""
     try:
-        previous = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        previous = _early or {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     except ValueError:  # not the main thread (the add-on's operators): leave signals alone
         yield
         return
@@ -129,11 +116,14 @@ def stopping_on_signals():
     finally:
         sys.meta_path.remove(finder)
         for s, handler in previous.items():
-            _restore(s, handler)
-        _pending.clear()
+            if _owns_process:  # the command is over and has said what it wrote: a signal
+                signal.signal(s, signal.SIG_IGN)  # now (bpy's teardown) would only hide it
+            else:
+                _restore(s, handler)
+        forget_pending()
 
 
-class _DeferBpyImport(importlib.abc.MetaPathFinder):
+class _DeferBpyImport:
     """Finds bpy as the other finders do, with a loader that defers signals while it loads."""
 
     def find_spec(self, name, path, target=None):
@@ -149,23 +139,23 @@ class _DeferBpyImport(importlib.abc.MetaPathFinder):
         return None
 
 
-class _DeferredLoader(importlib.abc.Loader):
+class _DeferredLoader:
     """Signals wait from the start of create_module to the end of exec_module."""
 
     def __init__(self, loader):
         self._loader = loader
 
     def create_module(self, spec):
-        _enter()
+        enter()
         try:
             pause_here("bpy-import", until=signal_pending)
             return self._loader.create_module(spec)
         except BaseException:
-            _leave()
+            leave()
             raise
 
     def exec_module(self, module):
         try:
             self._loader.exec_module(module)
         finally:
-            _leave()
+            leave()

@@ -88,15 +88,19 @@ def check_scan(
 
 
 def open_scan_world(
-    world: str | None = None, seed: int | None = None, progress=None, vegetation: str = "porous"
+    world: str | None = None,
+    seed: int | None = None,
+    progress=None,
+    vegetation: str = "porous",
+    quiet: bool = False,
 ) -> None:
     """The scene a scan sees: the .blend file `world`, or the world of `seed` built in an
     empty scene (with `vegetation`); with neither, the scene already open (a Blender started
-    with a file)."""
+    with a file). `quiet`: without Blender's "Read blend" line."""
     if world is not None:
         from ..blender.scene_io import open_world
 
-        open_world(world)
+        open_world(world, quiet=quiet)
     elif seed is not None:
         from .world import build_in_scene
 

@@ -14,7 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..core.io.files import atomic_outputs, check_output_path, writing_to
+from ..blender.scene_io import check_blender_path_length
+from ..core.io.files import atomic_outputs, check_output_path, temp_path, writing_to
 from ..core.io.ply import sidecar_path
 from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, check_seed, check_vegetation, detail_level
 from .poses import DEFAULT_POSES_PER_ZONE, plan_backend, valid_poses
@@ -72,6 +73,7 @@ def check_world_outputs(
     """The .blend path (and the map's), or UserError, before anything is built."""
     # A scan's sidecar names its PLY file; a world beside it must not replace it.
     blend = check_output_path(out, ".blend", "out", companions=(".json",), foreign_sidecar_key="ply_file")
+    check_blender_path_length(str(blend), "out", written_as=f"{temp_path(blend)}@")  # save_blend's name
     if map_path is None:
         return blend, None
     png = check_output_path(map_path, ".png", "map")

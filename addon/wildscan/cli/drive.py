@@ -5,6 +5,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..app.drive.request import MAX_SCANS_3D
+from ..core.checks import whole_number
+from ..core.errors import UserError
 from ..core.motion.timing import HEAD_MODES
 from ..core.motion.trajectory import DEFAULT_SPEED, MAX_SPEED
 from . import options
@@ -31,6 +34,14 @@ DRIVE_OVERRIDES = {
         "use `wildscan scan` or `wildscan dataset` for it"
     ),
 }
+
+
+def scans_count(text: str) -> int:
+    """--scans: the one range the request checks too (app/drive/request.py)."""
+    try:
+        return whole_number(text, "", 1, MAX_SCANS_3D)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(e.message) from None
 
 
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
@@ -62,9 +73,19 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     )
     p.add_argument(
         "--scans",
-        type=non_negative_int,
+        type=scans_count,
         metavar="N",
-        help="3D scans to take (default: as many as fit along the path; 1 standing still)",
+        help=f"3D scans to take, 1 to {MAX_SCANS_3D} (default: as many as fit along the path; 1 standing "
+        "still)",
+    )
+    options.add(
+        p,
+        "z_start",
+        help="world height in metres where the four downward placement lasers start at every instant "
+        "of the drive, as `wildscan scan --z-start` at its pose: give one under an overhang to drive "
+        "inside the cave (`wildscan poses --zone cave` lists one per pose); it must stay above the "
+        "ground and under the roof along the path. Default: found at every instant by a probe from "
+        "above (the first terrain surface, which over the cave is its roof)",
     )
     p.add_argument(
         "--head",
@@ -117,7 +138,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from .output import Progress
 
     same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
-    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "weather")
+    same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "weather", "z_start", "quiet")
     request = DriveRequest(
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,

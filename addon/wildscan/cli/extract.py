@@ -31,7 +31,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from .output import say
 
     vegetation = options.vegetation_of(args)
-    path, geometry, _ = extract(args.out, args.world, args.seed, args.detail, vegetation)
+    path, geometry, _ = extract(args.out, args.world, args.seed, args.detail, vegetation, args.quiet)
     say(args, f"{geometry.triangle_count:,} triangles of {len(geometry.object_names):,} objects")
     print(f"wrote {path}")
     return 0

@@ -27,8 +27,13 @@ from ..raycast.select import BACKEND_NAMES
 
 EXIT_USER_ERROR = 2
 
-# argparse takes "-1e3" for an option (it only knows -1 and -1.5 as numbers).
-NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+# argparse takes "-1e3" for an option (it only knows -1 and -1.5 as numbers), and "-1,5"
+# too, ending in "expected 3 arguments" for --pose: anything that starts like a negative
+# number is a value, and its type says what is wrong with it.
+NEGATIVE_NUMBER = re.compile(r"^-(\.?\d|inf(inity)?$|nan$)", re.IGNORECASE)
+# A number as typed on a command line: ASCII digits, a point for decimals. float() alone
+# also takes "1_0", full-width "１.５" and other Unicode digits, which nobody means here.
+DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)(e[+-]?\d+)?|[+-]?(inf|infinity|nan)", re.ASCII | re.IGNORECASE)
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -50,10 +55,16 @@ class ArgumentParser(argparse.ArgumentParser):
 
 
 def finite_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not DECIMAL.fullmatch(text.strip(" ")):
+        if DECIMAL.fullmatch(text.strip(" ").replace(",", ".", 1)):
+            dotted = text.strip(" ").replace(",", ".", 1)
+            raise argparse.ArgumentTypeError(
+                f"expected a number with a decimal point, got {text!r} (write {dotted})"
+            )
+        raise argparse.ArgumentTypeError(
+            f"expected a number (digits 0-9, a point for decimals), got {text!r}"
+        )
+    value = float(text)
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
     return value

@@ -83,7 +83,9 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
     elif args.seed is not None:
         say(args, f"building the world of seed {args.seed}")
     if geometry is None:
-        open_scan_world(args.world, args.seed, progress=StageProgress(args.quiet), vegetation=vegetation)
+        open_scan_world(
+            args.world, args.seed, StageProgress(args.quiet), vegetation=vegetation, quiet=args.quiet
+        )
     result = scan_current_scene(
         pose,
         sensor,

@@ -3,8 +3,11 @@ process stops at the N-th time (default the first) it reaches MOMENT, prints
 `wildscan-test-pause MOMENT` on stderr and waits (up to PAUSE_SECONDS) so a test can send
 SIGINT or SIGTERM at exactly that moment instead of guessing with timers.
 
-The moments: `bpy-import` (while the bpy module loads), `casting` (rays about to be cast),
-`writing` (an output group's temporary files written, not yet renamed into place).
+The moments: `starting` (the first line of the `wildscan` script or a Blender script),
+`bpy-import` (while the bpy module loads), `casting` (rays about to be cast), `writing`
+(an output group's temporary files written, not yet renamed into place), `renamed` (one
+file of a group renamed into place, the others not yet). With WILDSCAN_TEST_RESUME=PATH
+too, the wait also ends when that file exists (a test lets the process go on).
 Without the variable `pause_here` costs one dictionary lookup.
 """
 
@@ -17,6 +20,7 @@ from collections import Counter
 from collections.abc import Callable
 
 ENV = "WILDSCAN_TEST_PAUSE_AT"
+RESUME_ENV = "WILDSCAN_TEST_RESUME"
 PAUSE_SECONDS = 30.0
 MARKER = "wildscan-test-pause"
 _reached: Counter = Counter()
@@ -36,6 +40,7 @@ def pause_here(moment: str, until: Callable[[], bool] = lambda: False) -> None:
         return
     sys.stderr.write(f"{MARKER} {moment}\n")
     sys.stderr.flush()
+    resume = os.environ.get(RESUME_ENV)
     deadline = time.monotonic() + PAUSE_SECONDS
-    while time.monotonic() < deadline and not until():
+    while time.monotonic() < deadline and not until() and not (resume and os.path.exists(resume)):
         time.sleep(0.01)

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from ..core.classes import BY_ID, MAX_INSTANCE, WATER_ID
 from ..core.errors import UserError
 from ..core.io.files import atomic_outputs, check_input_file, check_output_path, write_durably
 from .geometry import SceneGeometry
@@ -54,6 +55,13 @@ ARRAYS = (
 )
 OVERRIDES = ("reflectivity", "<f4", 1)  # version 2
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # the zip format's earliest date: no clock in the bytes
+# A file of ours starts with a zip entry (PK\x03\x04) holding header.json, stored
+# uncompressed, so its first bytes name the format even when the rest is lost.
+_ZIP_ENTRY = b"PK\x03\x04"
+_HEAD_BYTES = 4096
+# What a truncated or altered zip raises while it is opened or read (CRC mismatch, a
+# directory cut short, a flipped compression method, an entry that ends early).
+_DAMAGE = (zipfile.BadZipFile, EOFError, NotImplementedError, zipfile.LargeZipFile)
 
 
 def save_geometry(geometry: SceneGeometry, path, metadata: dict | None = None, setting: str = "out") -> Path:
@@ -115,11 +123,14 @@ def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, 
         return UserError(f"{path}: {why}", setting=setting)
 
     try:
+        ours = _starts_like_a_geometry_file(path)
         with zipfile.ZipFile(path) as zf:
             header = _read_header(zf, fail)
             wanted = ARRAYS + ((OVERRIDES,) if header["version"] >= 2 else ())
             arrays = {name: _read_array(zf, name, dtype, ndim, fail) for name, dtype, ndim in wanted}
-    except zipfile.BadZipFile:
+    except _DAMAGE as e:
+        if ours:
+            raise fail(f"{DAMAGED} ({e}); {SAVE_AGAIN}") from None
         raise fail(f"not a WildScan scene geometry file (save one with a {SUFFIX} name)") from None
     except OSError as e:
         raise fail(f"cannot read it ({e.strerror or e})") from None
@@ -129,11 +140,36 @@ def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, 
     index = arrays["object_index"]
     if names and len(index) and (index.min() < 0 or index.max() >= len(names)):
         raise fail("its triangles name objects that are not listed")
+    _check_range(arrays["class_id"], "class_id", 0, max(BY_ID), fail, f"(class ids, {WATER_ID} water)")
+    _check_range(arrays["instance"], "instance", 0, MAX_INSTANCE, fail, "(instance ids)")
     try:
         geometry = SceneGeometry(object_names=tuple(names), **arrays)
     except ValueError as e:
         raise fail(f"its arrays do not fit together ({e})") from None
     return geometry, header
+
+
+DAMAGED = "the file is damaged or truncated"
+SAVE_AGAIN = "save it again with `wildscan extract`"
+
+
+def _starts_like_a_geometry_file(path: Path) -> bool:
+    """Whether the file begins the way every geometry file WildScan writes does, so a
+    zip error further on means damage (a cut copy, flipped bits), not a foreign file."""
+    with open(path, "rb") as f:
+        head = f.read(_HEAD_BYTES)
+    return head.startswith(_ZIP_ENTRY) and FORMAT.encode() in head
+
+
+def _check_range(values: np.ndarray, name: str, low: int, high: int, fail, what: str) -> None:
+    """Refuse a file whose `name` array holds a value outside [low, high]: a scan would
+    index tables with it (class ids) or store it in an unsigned PLY field (instances)."""
+    bad = np.flatnonzero((values < low) | (values > high))
+    if len(bad):
+        raise fail(
+            f"{name}.npy holds {int(values[bad[0]])} at triangle {int(bad[0])}; "
+            f"allowed {low} to {high} {what}: the file is damaged or was not written by WildScan"
+        )
 
 
 def _read_header(zf: zipfile.ZipFile, fail) -> dict:
@@ -162,7 +198,7 @@ def _read_array(zf: zipfile.ZipFile, name: str, dtype: str, ndim: int, fail) -> 
         with zf.open(f"{name}.npy") as f:
             array = np.lib.format.read_array(f, allow_pickle=False)
     except KeyError:
-        raise fail(f"{name}.npy is missing") from None
+        raise fail(f"{name}.npy is missing: the file is damaged; {SAVE_AGAIN}") from None
     except ValueError as e:
         raise fail(f"{name}.npy is damaged ({e})") from None
     rows_of_three = ndim == 1 or array.shape[1:] == (3,)

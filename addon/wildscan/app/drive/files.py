@@ -13,7 +13,7 @@ Nothing appears in DIR until the drive is complete: every file is written (and s
 under DIR/.wildscan-drive.tmp-PID/, then each is renamed into place. An error, Ctrl-C or
 SIGTERM removes the staging folder; a staging folder a killed run left is removed by the
 next drive into DIR. Files a previous drive into DIR listed in its drive.json that this
-one does not write are removed, so DIR holds one drive.
+one does not write are removed (and the folders they leave empty), so DIR holds one drive.
 """
 
 from __future__ import annotations
@@ -90,6 +90,7 @@ class Staging:
                 os.unlink(self.root / relative)
             except OSError:
                 pass
+            remove_emptied_folders(self.root, relative)
         for folder in folders:
             fsync_dir(folder)
         shutil.rmtree(self.dir, ignore_errors=True)
@@ -97,6 +98,19 @@ class Staging:
 
     def discard(self) -> None:
         shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def remove_emptied_folders(root: Path, relative: str) -> None:
+    """The folders inside `root` that held `relative` (a previous drive's file, now removed),
+    from the innermost out, while they are empty: a re-drive with `--bag none` leaves no empty
+    drive_ros2/. A folder holding anything else (a user's file) stays, as does `root`."""
+    folder = (root / relative).parent
+    while folder != root and root in folder.parents:
+        try:
+            folder.rmdir()  # only ever removes an empty folder
+        except OSError:
+            return
+        folder = folder.parent
 
 
 def remove_stale_staging(root: Path) -> None:

@@ -5,11 +5,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ...core.checks import one_of
+from ...core.checks import one_of, whole_number
 from ...core.errors import UserError
 from ...core.frames import check_frame
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
+from ...core.placement import check_z_start
 from ...core.sensor import SensorConfig
 from ...core.world import DEFAULT_VEGETATION, check_vegetation
 
@@ -42,6 +43,8 @@ class DriveRequest:
     wind: float = 0.0  # peak sway of the treetops, degrees (0: no wind)
     wind_seed: int = 0
     weather: dict | None = None  # key -> value (core/effects/weather.py); None or {}: clear air
+    z_start: float | None = None  # where the placement lasers start (under a roof), or probed
+    quiet: bool = False  # no progress, nor Blender's "Read blend" line
 
     @property
     def bags(self) -> tuple[str, ...]:
@@ -60,8 +63,9 @@ class DriveRequest:
         if (self.start is not None) != (self.distance is not None):
             raise UserError("{from} X Y YAW and {distance} M go together", related=("from", "distance"))
         check_speed(self.speed)
-        if self.scans is not None and not 1 <= self.scans <= MAX_SCANS_3D:
-            raise UserError(f"must be from 1 to {MAX_SCANS_3D:,}, got {self.scans}", setting="scans")
+        check_z_start(self.z_start)
+        if self.scans is not None:
+            whole_number(self.scans, "scans", 1, MAX_SCANS_3D)
         check_head(self.head)
         self.sensor.validate()
         check_paper_model(self.sensor)

@@ -86,7 +86,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
         effects = Effects(effects.items + scan_effects(request.weather, sensor).items)
     backend = _backend(request, effects, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
-    motion = place_all(backend, times, xy, yaw, request.speed * times)
+    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
     check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
     clock.lap("placement")
 

@@ -35,7 +35,7 @@ def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray 
     from ...blender.scene_io import open_world, scene_provenance
     from ...raycast.extract import extract_scene
 
-    open_world(request.world)
+    open_world(request.world, quiet=request.quiet)
     seed, blend = scene_provenance()
     geometry = extract_scene()
     provenance = {"seed": seed, "detail": None, "vegetation": None, "world": blend}

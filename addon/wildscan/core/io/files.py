@@ -220,9 +220,11 @@ def atomic_outputs(*finals: Path):
     try:
         yield temps
         pause_here("writing")
-        for tmp, final in zip(temps, finals, strict=True):
-            os.replace(tmp, final)
-            placed.append(final)
+        with _renaming_in(finals):
+            for tmp, final in zip(temps, finals, strict=True):
+                os.replace(tmp, final)
+                placed.append(final)
+                pause_here("renamed")
     except OSError as e:  # a full disk, a path the OS refuses: the user's to fix
         remove_quietly([*temps, *placed])
         raise UserError(f"cannot write {_target_of(e.filename, temps, finals)}: {e.strerror or e}") from None
@@ -233,6 +235,28 @@ def atomic_outputs(*finals: Path):
         fsync_dir(directory)
     for written in _records:
         written.extend(finals)
+
+
+@contextmanager
+def _renaming_in(finals: tuple[Path, ...]):
+    """Hold an exclusive lock on every folder the group lands in while it is renamed, so two
+    commands writing the same outputs at once place their groups one after the other: a PLY
+    never lands beside the other command's sidecar. The lock is the folder's own (flock on
+    its descriptor), so no lock file is left; where flock is missing (Windows) no lock."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    descriptors = []
+    try:
+        for folder in sorted({str(p.parent) for p in finals}):  # one order: no deadlock
+            descriptors.append(os.open(folder, os.O_RDONLY))
+            fcntl.flock(descriptors[-1], fcntl.LOCK_EX)
+        yield
+    finally:
+        for fd in descriptors:
+            os.close(fd)  # closing releases the lock
 
 
 def _target_of(filename, temps, finals) -> Path:

@@ -49,10 +49,19 @@ class Motion:
 
 
 def place_all(
-    backend: RayBackend, times: np.ndarray, xy: np.ndarray, yaw_deg: np.ndarray, distance: np.ndarray
+    backend: RayBackend,
+    times: np.ndarray,
+    xy: np.ndarray,
+    yaw_deg: np.ndarray,
+    distance: np.ndarray,
+    z_start: float | None = None,
 ) -> Motion:
-    """Stand the robot at every instant; PoseRejected naming where and when it cannot."""
+    """Stand the robot at every instant; PoseRejected naming where and when it cannot.
+    `z_start`: the lasers start at this height at every instant, as `place` does for one
+    pose (a drive under a roof: the probe from above would stand it on the roof)."""
     poses = [Pose(float(x), float(y), float(yaw)).validate() for (x, y), yaw in zip(xy, yaw_deg)]
+    if z_start is not None:
+        return _place_from(backend, poses, np.full(len(poses), float(z_start)), times, distance)
     ground = probe_ground_z_many(backend, xy)
     off = np.flatnonzero(~np.isfinite(ground))
     if len(off):
@@ -60,7 +69,11 @@ def place_all(
         _reject(
             i, times, distance, f"{describe_pose(poses[i])} is off the world: there is no terrain below it"
         )
-    z_start = ground + LASER_CLEARANCE
+    return _place_from(backend, poses, ground + LASER_CLEARANCE, times, distance)
+
+
+def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance) -> Motion:
+    """The placements with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
     placements = []
     for i, (pose, row) in enumerate(zip(poses, rows)):
