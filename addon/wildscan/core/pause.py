@@ -4,7 +4,8 @@ process stops at the N-th time (default the first) it reaches MOMENT, prints
 SIGINT or SIGTERM at exactly that moment instead of guessing with timers.
 
 The moments: `bpy-import` (while the bpy module loads), `casting` (rays about to be cast),
-`writing` (an output group's temporary files written, not yet renamed into place).
+`writing` (an output group's temporary files written, not yet renamed into place), `card`
+(a dataset's scans all recorded, its card about to be written).
 Without the variable `pause_here` costs one dictionary lookup.
 """
 
