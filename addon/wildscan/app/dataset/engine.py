@@ -12,6 +12,7 @@ worker it touches ends the run with a message.
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import logging
 import math
 import os
@@ -24,6 +25,9 @@ from ... import __version__
 from ...core.errors import UserError
 from .cluster import RunFailed, connect_scheduler, start_local_cluster
 
+# what waiting on futures raises once the scheduler is gone (Dask's FuturesCancelledError
+# is a concurrent.futures.CancelledError; a closed comm an OSError)
+_LOST = (asyncio.CancelledError, concurrent.futures.CancelledError, OSError)
 MAX_BATCH = 50  # scans per task: bounds the work a killed run redoes
 POLL_SECONDS = 0.5
 
@@ -88,6 +92,10 @@ class Engine:
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=None,
+                # Without a dashboard Dask still serves its health routes, on port 8787 by
+                # default, and warns on stderr when another run holds it: a free port of
+                # this machine's own, no warning.
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                 silence_logs=logging.CRITICAL,
             )
 
@@ -119,8 +127,8 @@ class Engine:
                 done, pending = wait(pending, timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
             except TimeoutError:
                 done = set()
-            except (asyncio.CancelledError, OSError) as e:  # Dask cancels every future when
-                raise self._lost(e) from None  # the client loses its scheduler
+            except _LOST as e:  # Dask cancels every future when the client loses its scheduler
+                raise self._lost(e) from None
             for f in done:
                 on_batch(futures[f], self._result(f, futures[f]))
                 f.release()
@@ -128,7 +136,9 @@ class Engine:
 
     def _lost(self, error: BaseException) -> RunFailed:
         where = f"the Dask scheduler at {self.scheduler}" if self.scheduler else "the local Dask scheduler"
-        return RunFailed(f"lost the connection to {where} ({type(error).__name__}): did it stop?")
+        return RunFailed(
+            f"lost the connection to {where} ({type(error).__name__}): it stopped, or the network failed"
+        )
 
     def _result(self, future, batch: Batch):
         if future.status == "cancelled":

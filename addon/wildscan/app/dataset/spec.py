@@ -115,10 +115,10 @@ class DatasetSpec:
         given = ", ".join(f"{s} {counts[s]}" for s in SPLITS)
         named = " and ".join(f"{s} (share {shares[s]:g})" for s in empty)
         one = len(empty) == 1
+        seeds = "1 seed gives" if len(self.seeds) == 1 else f"{len(self.seeds)} seeds give"
         return (
             f"{'split' if one else 'splits'} {named} {'gets' if one else 'get'} no world: "
-            f"{len(self.seeds)} seeds give {given}; give more seeds or set "
-            f"{'its share' if one else 'their shares'} to 0"
+            f"{seeds} {given}; give more seeds or set {'its share' if one else 'their shares'} to 0"
         )
 
 
