@@ -158,24 +158,31 @@ def run_dataset(
     limit: int | None = None,
     quiet: bool = False,
     say=print,
+    warn=None,
 ) -> RunReport:
+    """Make or finish the dataset of `spec` in `out`; `say` gets notes for stdout, `warn` a
+    warning (default: one line on stderr)."""
     if scheduler:  # before anything is written: a wrong address is the user's to fix
         probe_scheduler(scheduler)
     root = output_directory(out, "--out")
     fd = lock(root)
     try:
-        return _run_locked(spec, root, workers, scheduler, limit, quiet, say)
+        return _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn or _warn)
     finally:
         unlock(root, fd)
 
 
-def _run_locked(spec, root, workers, scheduler, limit, quiet, say) -> RunReport:
+def _warn(text: str) -> None:
+    sys.stderr.write(f"wildscan dataset: warning: {text}\n")
+
+
+def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn) -> RunReport:
     existing = card.read_dataset_json(root)
     manifest = Manifest.load(root)
     check_same_spec(root, existing, manifest, spec)
     warning = spec.empty_split_warning()
     if warning:  # after the checks: a refused run says one line only
-        sys.stderr.write(f"wildscan dataset: warning: {warning}\n")
+        warn(warning)
     remove_temp_files(root)
     broken = broken_rows(manifest)
     for key, problem in sorted(broken.items()):
@@ -323,6 +330,7 @@ def finalize(state: _State, report: RunReport) -> None:
     complete = all(state.world_rows(seed) is not None for seed in spec.seeds)
     totals = card.totals(spec, state.manifest)
     state.write_text(LABELS_YAML, _labels_yaml(spec, totals))
+    state.save(complete=False)  # every file above listed, should the card never come
     data = state.dataset_json(complete)
     # The card before dataset.json: a run stopped between them leaves `complete: false`
     # (from the run's start), never a complete dataset without its card.
