@@ -6,7 +6,8 @@ A task is one world seed with a batch of its scan indices, so a world is planned
 batch (and once per worker: workers keep their last worlds). A worker that dies mid-task
 is replaced by its nanny and the scheduler runs the task again elsewhere (up to
 `distributed.scheduler.allowed-failures` times, 3 by default); a task that kills every
-worker it touches ends the run with a message.
+worker it touches ends the run with a message. A worker that dies while the cluster starts,
+an address where no scheduler answers and a scheduler that goes away are cluster.py's.
 """
 
 from __future__ import annotations

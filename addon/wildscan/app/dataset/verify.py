@@ -50,7 +50,9 @@ def verify_dataset(out) -> VerifyReport:
     if says_complete and missing:
         rows.insert(0, _missing_line(missing, len(planned_keys)))
     unlisted = unlisted_files(root, {r["path"] for r in records})
-    problems = file_problems + rows + card_problems + [_unlisted_line(root, rel) for rel in unlisted]
+    problems = (
+        file_problems + rows + card_problems + [_unlisted_line(root, rel, says_complete) for rel in unlisted]
+    )
     scans = sum(1 for k in manifest.rows if k in planned_keys)
     complete = says_complete and not missing and not card_problems
     return VerifyReport(
@@ -101,7 +103,10 @@ def unlisted_files(root: Path, listed: set[str]) -> list[str]:
     return out
 
 
-def _unlisted_line(root: Path, rel: str) -> str:
+def _unlisted_line(root: Path, rel: str, says_complete: bool) -> str:
     if TEMP_NAME.match(Path(rel).name):
         return f"{rel}: a temporary file a stopped run left (the next run into {root} removes it)"
-    return f"{rel}: a file neither {MANIFEST} nor {DATASET_JSON} lists"
+    line = f"{rel}: a file neither {MANIFEST} nor {DATASET_JSON} lists"
+    if not says_complete and rel.startswith("sequences/"):  # a batch cut short by a kill
+        line += " (a stopped run may have written it without recording it: the next run writes it again)"
+    return line
