@@ -63,6 +63,9 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"poses": {"zones": {"desert": 1}}}, ["poses.zones.desert", "hills"]),
         ({"seeds": "5..2"}, ["seeds must be", '"A..B"']),
         ({"seeds": [1, 1]}, ["without repeats"]),
+        ({"seeds": "0..30000000"}, ["seeds must be", "30,000,001 worlds"]),  # sized, not expanded
+        ({"seeds": "²..³"}, ["seeds must be", '"²..³"']),  # digits int() refuses
+        ({"seeds": "1..٣"}, ["seeds must be", '"1..٣"']),
         ({"detail": "ultra"}, ["detail must be one of", '"low"']),
         ({"formats": ["kitti"]}, ["formats must be", '"semantickitti"']),
         ({"label_scheme": "nuscenes"}, ["label_scheme", '"rellis3d"']),
@@ -128,6 +131,28 @@ def test_seed_ranges_and_sensor_ranges_draw_per_scan_reproducibly():
     unseeded = spec_from_dict({})
     seeds = {draw_sensor(unseeded.sensor, 4, k).noise_seed for k in range(20)}
     assert len(seeds) == 20  # every scan its own noise unless the spec fixes it
+
+
+def test_a_huge_seed_range_is_refused_in_one_line_before_it_is_expanded(tmp_path):
+    import resource
+
+    def four_gigabytes():  # expanding 2^31 seeds would take 17 GB: a MemoryError here
+        resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+    spec = tmp_path / "spec.toml"
+    spec.write_text('seeds = "0..2147483647"\n')
+    result = wildscan("dataset", str(spec), "--out", str(tmp_path / "out"), preexec_fn=four_gigabytes)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert "seeds must be" in result.stderr and "2,147,483,648 worlds" in result.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_split_with_a_share_but_no_world_is_named_in_a_warning():
+    warning = spec_from_dict({}).empty_split_warning()  # three seeds at 0.8 / 0.1 / 0.1
+    assert "val (share 0.1) and test (share 0.1) get no world" in warning and "\n" not in warning
+    assert "3 seeds give train 3, val 0, test 0" in warning
+    assert spec_from_dict({"seeds": "0..19"}).empty_split_warning() is None
+    assert spec_from_dict({"seeds": [4], "split": {"train": 1.0}}).empty_split_warning() is None
 
 
 def test_splits_are_by_world_and_follow_the_shares():
@@ -283,6 +308,72 @@ def test_an_independent_semantickitti_reader_loads_every_scan(dataset):
             np.testing.assert_allclose(pose[:3, 3], centre, atol=1e-9)
             world = xyz.astype(np.float64) @ pose[:3, :3].T + pose[:3, 3]
             assert np.allclose(world[:, 2] - hag, world[:, 2] - ply["hag"], atol=1e-4)
+
+
+# One world whose cave zone runs out of room at scan 4 while the hills go on: scans 0-3 and 5
+# have a pose, scan 4 has none (tests/test_dataset.py found this layout with seed 1).
+GAP_SPEC = """\
+seeds = [1]
+detail = "low"
+vegetation = "solid"
+scans_per_world = 6
+formats = ["semantickitti"]
+
+[poses]
+zones = { cave = 1, hills = 1 }
+min_distance = 40.0
+
+[sensor]
+rh = 10.0
+"""
+
+
+@pytest.fixture(scope="module")
+def gap_dataset(tmp_path_factory):
+    root = tmp_path_factory.mktemp("gap")
+    (root / "spec.toml").write_text(GAP_SPEC)
+    result = wildscan("dataset", str(root / "spec.toml"), "--out", str(root / "out"), "--workers", "1")
+    assert result.returncode == 0, result.stderr
+    return root / "out", result
+
+
+@pytest.mark.slow
+def test_a_sequence_with_a_failed_scan_reads_back_as_semantic_kitti_api_reads_it(gap_dataset):
+    from wildscan.core.groundtruth import height_above_ground
+    from wildscan.core.world import plan_world
+
+    out, result = gap_dataset
+    assert [r["status"] for r in manifest_rows(out)] == ["ok"] * 4 + ["failed", "ok"]
+    folder = out / "sequences" / "00"
+    # semantic-kitti-api: the sorted file names, and poses.txt by line index
+    scans = sorted((folder / "velodyne").glob("*.bin"))
+    poses = read_kitti_poses(folder / "poses.txt")
+    assert [p.name for p in scans] == [f"{k:06d}.bin" for k in range(5)]  # dense: no gap at 4
+    assert len(poses) == 5
+    assert sorted(p.name for p in (folder / "labels").iterdir()) == [f"{k:06d}.label" for k in range(5)]
+    # line k is the pose of file k: its points land where their recorded height above the
+    # world's terrain says (a neighbour's pose puts them metres off)
+    ground = plan_world(1, "low", vegetation="solid").ground
+    for scan, pose in zip(scans, poses, strict=True):
+        xyz, _ = read_kitti_scan(scan)
+        world = xyz.astype(np.float64) @ pose[:3, :3].T + pose[:3, 3]
+        hag = np.fromfile(folder / "hag" / scan.name, dtype=np.float32)
+        np.testing.assert_allclose(height_above_ground(world, ground), hag, atol=1e-3, err_msg=scan.name)
+    last = manifest_rows(out)[5]
+    assert {f["path"] for f in last["files"]} >= {"sequences/00/velodyne/000004.bin"}
+
+
+@pytest.mark.slow
+def test_the_run_says_what_it_wrote_and_warns_of_empty_splits(gap_dataset):
+    _, result = gap_dataset
+    assert "wrote 5 scans in " in result.stdout and "1 more recorded without a valid pose" in result.stdout
+    assert "complete: 5 of 6 scans, 1 without a valid pose" in result.stdout
+    # one world at the default 0.8 / 0.1 / 0.1: val and test get none, and the run says so
+    warnings = [line for line in result.stderr.splitlines() if "warning" in line]
+    assert warnings == [
+        "wildscan dataset: warning: splits val (share 0.1) and test (share 0.1) get no world: 1 seed "
+        "gives train 1, val 0, test 0; give more seeds or set their shares to 0"
+    ]
 
 
 @pytest.mark.slow

@@ -4,12 +4,15 @@ uninterrupted run, nothing partial is ever visible, and --verify catches a chang
 
 from __future__ import annotations
 
+import http.server
 import json
 import os
 import shutil
 import signal
+import socketserver
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -68,6 +71,51 @@ def wait_for_rows(out: Path, job: subprocess.Popen, timeout: float = 120.0) -> N
         time.sleep(0.02)
 
 
+def wait_until(condition, what: str, job: subprocess.Popen | None = None, timeout: float = 120.0):
+    """Poll `condition()` until it returns something true (an event: a file, a line, a
+    process), failing after `timeout` or when `job` ends first."""
+    t0 = time.monotonic()
+    while True:
+        found = condition()
+        if found:
+            return found
+        if job is not None:
+            assert job.poll() is None, f"the job ended before {what}: {job.communicate()}"
+        assert time.monotonic() - t0 < timeout, f"no {what} in {timeout:g} s"
+        time.sleep(0.005)
+
+
+def worker_processes(job: subprocess.Popen) -> list[psutil.Process]:
+    """The local cluster's worker processes (multiprocessing's spawn children) of `job`."""
+    try:
+        children = psutil.Process(job.pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        return []
+    out = []
+    for p in children:
+        try:
+            if "spawn_main" in " ".join(p.cmdline()):
+                out.append(p)
+        except psutil.Error:  # gone between the listing and the look
+            pass
+    return out
+
+
+def at_least(n: int, found: list) -> list | None:
+    return found if len(found) >= n else None
+
+
+def scan_files_on_disk(out: Path) -> list[str]:
+    """Files under sequences/ (temporary or renamed): a worker is writing a scan."""
+    return [name for _, _, names in os.walk(out / "sequences") for name in names]
+
+
+def one_line(stderr: str) -> str:
+    lines = stderr.splitlines()
+    assert len(lines) == 1, stderr
+    return lines[0]
+
+
 def assert_nothing_partial(out: Path, clean: Path) -> None:
     """Every visible file is complete: listed in the manifest with its checksum, or (written
     by a batch the kill cut short) equal to the clean run's file."""
@@ -124,6 +172,7 @@ def test_limit_runs_part_of_the_job_and_the_next_run_finishes_it(spec, clean, tm
     assert json.loads((out / "dataset.json").read_text())["complete"] is False
     second = wildscan("dataset", str(spec), "--out", str(out), "--quiet")
     assert second.returncode == 0 and "wrote 7 scans" in second.stdout
+    assert "5 were there from before, re-checked" in second.stdout  # the final line says it all
     assert_same_dataset(clean, out)
     third = wildscan("dataset", str(spec), "--out", str(out), "--quiet")
     assert "wrote 0 scans" in third.stdout  # nothing left: every scan verified and skipped
@@ -153,6 +202,34 @@ def test_verify_passes_on_a_clean_dataset_and_names_a_corrupted_file(clean, tmp_
     assert_same_dataset(clean, copy)
 
 
+def test_verify_checks_the_folder_against_the_spec_not_only_against_the_manifest(clean, tmp_path):
+    copy = tmp_path / "copy"
+    shutil.copytree(clean, copy)
+    manifest = copy / "manifest.jsonl"
+    lines = manifest.read_text().splitlines(keepends=True)
+    manifest.write_text("".join(lines[:-1]))  # the last scan's row gone, its files still there
+    (copy / "sequences/00/velodyne/000099.bin").write_bytes(bytes(16))  # a stray scan
+    (copy / "CARD.md").unlink()
+    bad = wildscan("dataset", "--verify", str(copy))
+    assert bad.returncode == 1
+    assert (
+        f"dataset.json says complete but manifest.jsonl has no row for 1 of the {TOTAL} planned scans "
+        "(scan 3 of sequence 02)" in bad.stderr
+    )
+    assert (
+        "sequences/02/velodyne/000003.bin: a file neither manifest.jsonl nor dataset.json lists" in bad.stderr
+    )
+    assert "sequences/00/velodyne/000099.bin: a file neither" in bad.stderr
+    assert "CARD.md: missing" in bad.stderr
+    assert f"incomplete ({TOTAL - 1} of {TOTAL} scans)" in bad.stdout
+    # a temporary file a stopped run left is named as such
+    shutil.rmtree(copy)
+    shutil.copytree(clean, copy)
+    (copy / "sequences/01/labels/.000001.tmp-4242.label").write_bytes(b"x")
+    temp = wildscan("dataset", "--verify", str(copy))
+    assert temp.returncode == 1 and "a temporary file a stopped run left" in temp.stderr
+
+
 def test_another_spec_into_the_same_folder_is_refused(clean, tmp_path):
     copy = tmp_path / "copy"
     shutil.copytree(clean, copy)
@@ -163,28 +240,45 @@ def test_another_spec_into_the_same_folder_is_refused(clean, tmp_path):
     assert wildscan("dataset", "--verify", str(tmp_path)).returncode == 2
 
 
-def dask_process(*args: str) -> subprocess.Popen:
+def dask_process(*args: str, stderr=subprocess.DEVNULL, env=None) -> subprocess.Popen:
     exe = str(Path(sys.executable).with_name("dask"))
     return subprocess.Popen(
-        [exe, *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        [exe, *args], stdout=subprocess.DEVNULL, stderr=stderr, env=env, start_new_session=True
+    )
+
+
+def stop_processes(*processes) -> None:
+    for p in processes:
+        if p is not None and p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait(timeout=30)
+
+
+def dask_scheduler(folder: Path, *options: str) -> tuple[subprocess.Popen, str]:
+    """`dask scheduler` on a free loopback port, and its address once it is up."""
+    scheduler_file = folder / "scheduler.json"
+    scheduler = dask_process(
+        "scheduler", "--host", "127.0.0.1", "--port", "0", "--scheduler-file", str(scheduler_file), *options
+    )
+    try:
+        wait_until(lambda: scheduler_file.exists(), "scheduler file", scheduler, timeout=60)
+        return scheduler, json.loads(scheduler_file.read_text())["address"]
+    except BaseException:
+        stop_processes(scheduler)
+        raise
+
+
+def dask_worker(address: str, **kw) -> subprocess.Popen:
+    return dask_process(
+        "worker", address, "--nthreads", "1", "--nworkers", "1", "--no-dashboard", "--host", "127.0.0.1", **kw
     )
 
 
 def test_an_existing_dask_scheduler_and_worker_give_the_local_result(spec, clean, tmp_path):
-    scheduler_file = tmp_path / "scheduler.json"
-    scheduler = dask_process(
-        "scheduler", "--host", "127.0.0.1", "--no-dashboard", "--scheduler-file", str(scheduler_file)
-    )
+    scheduler, address = dask_scheduler(tmp_path, "--no-dashboard")
     worker = None
     try:
-        t0 = time.monotonic()
-        while not scheduler_file.exists():
-            assert time.monotonic() - t0 < 60 and scheduler.poll() is None, "dask scheduler did not start"
-            time.sleep(0.1)
-        address = json.loads(scheduler_file.read_text())["address"]
-        worker = dask_process(
-            "worker", address, "--nthreads", "1", "--nworkers", "1", "--no-dashboard", "--host", "127.0.0.1"
-        )
+        worker = dask_worker(address)
         out = tmp_path / "out"
         result = wildscan("dataset", str(spec), "--out", str(out), "--scheduler", address)
         assert result.returncode == 0, result.stderr
@@ -194,33 +288,196 @@ def test_an_existing_dask_scheduler_and_worker_give_the_local_result(spec, clean
             in json.loads((out / "dataset.json").read_text())["runs"][-1]["engine"]
         )
     finally:
-        for p in (worker, scheduler):
-            if p is not None:
-                os.killpg(p.pid, signal.SIGTERM)
-                p.wait(timeout=30)
+        stop_processes(worker, scheduler)
+
+
+def test_a_scheduler_that_dies_mid_run_ends_it_in_one_line_without_temporary_files(spec, tmp_path):
+    scheduler, address = dask_scheduler(tmp_path, "--no-dashboard")
+    log = tmp_path / "worker.log"
+    job = worker = None
+    try:
+        # the worker stops with a scan's temporary files written, not yet renamed
+        with open(log, "w") as stderr:
+            worker = dask_worker(
+                address, stderr=stderr, env=dict(os.environ, WILDSCAN_TEST_PAUSE_AT="writing")
+            )
+        out = tmp_path / "out"
+        job = start_wildscan("dataset", str(spec), "--out", str(out), "--scheduler", address, "--quiet")
+        wait_until(lambda: "wildscan-test-pause writing" in log.read_text(), "worker pause", job)
+        assert temp_files(out)
+        os.killpg(scheduler.pid, signal.SIGKILL)
+        _, stderr = job.communicate(timeout=120)
+    finally:
+        stop_processes(job, worker, scheduler)
+    assert job.returncode == 1
+    assert one_line(stderr).startswith(
+        f"wildscan dataset: error: lost the connection to the Dask scheduler at {address}"
+    )
+    assert f"0 of {TOTAL} scans in the manifest" in stderr
+    assert temp_files(out) == []
+
+
+class _Silent(socketserver.BaseRequestHandler):
+    def handle(self):  # accepts and says nothing until the client gives up
+        self.request.recv(1 << 16)
+        self.request.recv(1 << 16)
+
+
+class _Http(http.server.BaseHTTPRequestHandler):
+    def do_GET(self):
+        self.send_response(200)
+        self.end_headers()
+
+    def log_message(self, *args):  # not on the test's stderr
+        pass
+
+
+class _Talker(socketserver.BaseRequestHandler):
+    def handle(self):  # speaks first, in HTTP: Dask reads "HTTP/1.1" as a frame count
+        self.request.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n" * 3)
+        self.request.recv(1 << 16)
+
+
+def dashboard_port(scheduler: subprocess.Popen, address: str) -> int:
+    """The scheduler's other listening port: its HTTP dashboard (health routes without bokeh)."""
+    own = int(address.rsplit(":", 1)[1])
+
+    def other():
+        ports = {
+            c.laddr.port for c in psutil.Process(scheduler.pid).net_connections("tcp") if c.status == "LISTEN"
+        }
+        return sorted(ports - {own})
+
+    return wait_until(other, "dashboard port", scheduler, timeout=60)[0]
+
+
+def test_a_scheduler_address_where_no_dask_scheduler_answers_is_refused_in_one_line(spec, tmp_path):
+    servers = [
+        socketserver.ThreadingTCPServer(("127.0.0.1", 0), handler) for handler in (_Silent, _Talker)
+    ] + [http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Http)]
+    for server in servers:
+        server.daemon_threads = True
+        threading.Thread(target=server.serve_forever, daemon=True).start()
+    scheduler, address = dask_scheduler(tmp_path, "--dashboard-address", "127.0.0.1:0")
+    jobs = []
+    try:
+        ports = [server.server_address[1] for server in servers] + [dashboard_port(scheduler, address)]
+        for port in ports:  # side by side: each waits up to its 10 s bound
+            out = tmp_path / f"out-{port}"
+            jobs.append(
+                (
+                    start_wildscan(
+                        "dataset", str(spec), "--out", str(out), "--scheduler", f"tcp://127.0.0.1:{port}"
+                    ),
+                    port,
+                    out,
+                )
+            )
+        for job, port, out in jobs:
+            _, stderr = job.communicate(timeout=60)
+            assert job.returncode == 2, stderr
+            line = one_line(stderr)
+            assert line.startswith(f"wildscan dataset: error: --scheduler tcp://127.0.0.1:{port}: "), line
+            assert "not a Dask scheduler" in line or "did not answer as a Dask scheduler" in line, line
+            assert not out.exists()  # refused before anything was written
+    finally:
+        stop_processes(*(job for job, _, _ in jobs), scheduler)
+        for server in servers:
+            server.shutdown()
+            server.server_close()
 
 
 def test_a_worker_killed_mid_run_is_replaced_and_the_result_is_the_same(spec, clean, tmp_path):
     out = tmp_path / "out"
     job = start_wildscan("dataset", str(spec), "--out", str(out), "--workers", "2", "--quiet")
     try:
-        t0 = time.monotonic()
-        workers = []
-        while len(workers) < 2:
-            assert time.monotonic() - t0 < 60 and job.poll() is None
-            workers = [
-                p
-                for p in psutil.Process(job.pid).children(recursive=True)
-                if "spawn" in " ".join(p.cmdline())
-            ]
-            time.sleep(0.05)
-        time.sleep(1.5)  # both are planning or scanning their first world
+        workers = wait_until(lambda: at_least(2, worker_processes(job)), "2 workers", job)
+        # a scan file (temporary or renamed) on disk: the first batches are under way
+        wait_until(lambda: scan_files_on_disk(out), "scan file", job)
         workers[0].kill()
         _, stderr = job.communicate(timeout=240)
     finally:
         if job.poll() is None:
             os.killpg(job.pid, signal.SIGKILL)
     assert job.returncode == 0, stderr
+    assert "Traceback" not in stderr
+    assert_same_dataset(clean, out)
+
+
+def test_a_worker_killed_as_the_local_cluster_starts_is_replaced_and_the_result_is_the_same(
+    spec, clean, tmp_path
+):
+    out = tmp_path / "out"
+    job = start_wildscan("dataset", str(spec), "--out", str(out), "--workers", "2", "--quiet")
+    try:
+        # the first worker process, as soon as it exists: long before it has imported Dask
+        # and its nanny could report it started
+        first = wait_until(lambda: worker_processes(job), "worker process", job)[0]
+        first.kill()
+        stdout, stderr = job.communicate(timeout=240)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    assert job.returncode == 0, stderr
+    assert stderr == "" and f"complete: {TOTAL} of {TOTAL} scans" in stdout
+    assert_same_dataset(clean, out)
+
+
+def test_no_worker_that_can_start_ends_the_run_in_one_line_saying_why(spec, tmp_path):
+    out = tmp_path / "out"
+    env = dict(os.environ, DASK_DISTRIBUTED__WORKER__PRELOAD='["wildscan_test_no_such_module"]')
+    result = wildscan("dataset", str(spec), "--out", str(out), "--workers", "1", env=env)
+    assert result.returncode == 1
+    line = one_line(result.stderr)
+    assert line.startswith("wildscan dataset: error: no local Dask worker could start")
+    assert "ModuleNotFoundError: No module named 'wildscan_test_no_such_module'" in line
+    assert f"0 of {TOTAL} scans in the manifest" in line
+    assert temp_files(out) == []
+
+
+def test_ctrl_c_while_the_local_cluster_starts_says_one_line_and_leaves_no_worker(spec, tmp_path):
+    out = tmp_path / "out"
+    job = start_wildscan("dataset", str(spec), "--out", str(out), "--workers", "2", "--quiet")
+    try:
+        workers = wait_until(lambda: worker_processes(job), "worker process", job)
+        os.killpg(job.pid, signal.SIGINT)  # a terminal's Ctrl-C reaches the whole group
+        _, stderr = job.communicate(timeout=120)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    assert job.returncode == 130
+    assert one_line(stderr) == (
+        f"wildscan dataset: interrupted: 0 of {TOTAL} scans in the manifest (0 written by this run); "
+        "the same command finishes the job"
+    )
+    _, alive = psutil.wait_procs(workers, timeout=30)
+    assert alive == []
+
+
+def test_ctrl_c_after_the_last_scan_leaves_the_dataset_incomplete_until_its_card_is_written(
+    spec, clean, tmp_path
+):
+    out = tmp_path / "out"
+    env = dict(os.environ, WILDSCAN_TEST_PAUSE_AT="card")  # every scan recorded, the card next
+    job = start_wildscan("dataset", str(spec), "--out", str(out), "--workers", "2", "--quiet", env=env)
+    try:
+        assert job.stderr.readline() == "wildscan-test-pause card\n"
+        os.kill(job.pid, signal.SIGINT)
+        _, stderr = job.communicate(timeout=60)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    assert job.returncode == 130
+    assert one_line(stderr).startswith(
+        f"wildscan dataset: interrupted: {TOTAL} of {TOTAL} scans in the manifest"
+    )
+    assert json.loads((out / "dataset.json").read_text())["complete"] is False
+    assert not (out / "CARD.md").exists()
+    verify = wildscan("dataset", "--verify", str(out))
+    assert verify.returncode == 0 and f"incomplete ({TOTAL} of {TOTAL} scans)" in verify.stdout
+    rerun = wildscan("dataset", str(spec), "--out", str(out), "--quiet")
+    assert rerun.returncode == 0 and "wrote 0 scans" in rerun.stdout and (out / "CARD.md").exists()
+    assert f"{TOTAL} were there from before" in rerun.stdout
     assert_same_dataset(clean, out)
 
 

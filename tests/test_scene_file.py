@@ -234,7 +234,7 @@ def test_class_ids_and_instances_out_of_range_are_refused_naming_the_array(tmp_p
 
 
 def test_scanning_a_file_with_a_class_id_out_of_range_exits_2_in_one_line(tmp_path):
-    from scene_helpers import WILDSCAN
+    from tests.helpers.scene_helpers import WILDSCAN
 
     bad = rewrite(
         one_triangle_file(tmp_path),

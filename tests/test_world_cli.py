@@ -139,7 +139,7 @@ def test_a_scan_and_a_world_of_the_same_name_do_not_replace_each_others_sidecar(
 
 def test_quiet_scan_and_extract_of_a_blend_print_only_the_files_written(tmp_path):
     """Blender prints "Read blend: ..." on file descriptor 1 when the wheel opens a .blend."""
-    from scene_helpers import WILDSCAN
+    from tests.helpers.scene_helpers import WILDSCAN
 
     def wildscan(*argv):
         done = subprocess.run([WILDSCAN, *argv], cwd=tmp_path, capture_output=True, text=True, timeout=300)

@@ -57,7 +57,10 @@ def run_once(spec, workers: int) -> BenchRow:
 
     folder = tempfile.mkdtemp(prefix="wildscan-bench-dataset-")
     try:
-        report = run_dataset(spec, folder, workers=workers, quiet=True, say=lambda text: None)
+        # a bench's worlds are not for training: no warning about its splits
+        report = run_dataset(
+            spec, folder, workers=workers, quiet=True, say=lambda text: None, warn=lambda text: None
+        )
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     return BenchRow(

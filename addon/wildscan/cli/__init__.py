@@ -25,7 +25,6 @@ from ..app import interrupts
 if os.path.splitext(os.path.basename(sys.argv[0]))[0] == "wildscan":
     interrupts.defer_until_dispatch()
 
-import argparse  # noqa: E402
 import traceback  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from typing import NamedTuple  # noqa: E402

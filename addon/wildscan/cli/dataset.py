@@ -61,13 +61,14 @@ def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument(
         "--verify",
         metavar="DIR",
-        help="re-check every file of the dataset in DIR against its manifest (size and SHA-256) and exit",
+        help="re-check the dataset in DIR against its spec and manifest (every planned scan, every file's "
+        "size and SHA-256, no file nothing lists) and exit",
     )
     p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
 
 
 def run(args, in_blender: bool = False) -> int:
-    from ..app.dataset import Interrupted, load_spec, run_dataset
+    from ..app.dataset import Interrupted, RunFailed, load_spec, run_dataset
 
     if args.verify is not None:
         if args.spec or args.out or args.workers or args.scheduler or args.limit:
@@ -81,14 +82,27 @@ def run(args, in_blender: bool = False) -> int:
     except Interrupted as e:
         sys.stderr.write(f"wildscan dataset: {e}\n")
         return e.code
-    rate = report.written / report.seconds if report.seconds > 0 else 0.0
-    state = "complete" if report.complete else "incomplete (rerun the same command to continue)"
-    print(
-        f"wrote {report.written:,} scans in {report.seconds:.1f} s ({rate:.1f} scans/s); the dataset in "
-        f"{report.root} is {state}: {report.ok:,} of {report.planned:,} scans, "
-        f"{report.failed:,} without a valid pose"
-    )
+    except RunFailed as e:  # not the user's mistake, and not a bug: one line, exit 1
+        sys.stderr.write(f"wildscan dataset: error: {e}\n")
+        return 1
+    print(_summary(report))
     return 0
+
+
+def _summary(report) -> str:
+    """What this run wrote, what was there before it, and what the dataset now holds."""
+    rate = report.written / report.seconds if report.seconds > 0 else 0.0
+    notes = [f"{rate:.1f} scans/s"]
+    if report.without_pose:
+        notes.append(f"{report.without_pose:,} more recorded without a valid pose")
+    if report.before:
+        notes.append(f"{report.before:,} were there from before, re-checked")
+    state = "complete" if report.complete else "incomplete (rerun the same command to continue)"
+    return (
+        f"wrote {report.written - report.without_pose:,} scans in {report.seconds:.1f} s "
+        f"({'; '.join(notes)}); the dataset in {report.root} is {state}: {report.ok:,} of "
+        f"{report.planned:,} scans, {report.failed:,} without a valid pose"
+    )
 
 
 def _verify(folder: str) -> int:
@@ -100,11 +114,14 @@ def _verify(folder: str) -> int:
     state = "complete" if report.complete else f"incomplete ({report.scans:,} of {report.planned:,} scans)"
     if report.problems:
         print(
-            f"{len(report.problems):,} of {report.checked:,} files differ from the manifest; "
-            f"the dataset is {state}"
+            f"{len(report.problems):,} problems: {report.file_problems:,} of {report.checked:,} files differ "
+            f"from the manifest, {len(report.unlisted):,} files nothing lists; the dataset is {state}"
         )
         return 1
-    print(f"all {report.checked:,} files match the manifest (size and SHA-256); the dataset is {state}")
+    print(
+        f"all {report.checked:,} files match the manifest (size and SHA-256) and every file is listed; "
+        f"the dataset is {state}"
+    )
     return 0
 
 

@@ -6,27 +6,31 @@ A task is one world seed with a batch of its scan indices, so a world is planned
 batch (and once per worker: workers keep their last worlds). A worker that dies mid-task
 is replaced by its nanny and the scheduler runs the task again elsewhere (up to
 `distributed.scheduler.allowed-failures` times, 3 by default); a task that kills every
-worker it touches ends the run with a message.
+worker it touches ends the run with a message. A worker that dies while the cluster starts,
+an address where no scheduler answers and a scheduler that goes away are cluster.py's.
 """
 
 from __future__ import annotations
 
+import asyncio
+import concurrent.futures
 import logging
 import math
 import os
 import uuid
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 
 from ... import __version__
 from ...core.errors import UserError
+from .cluster import RunFailed, connect_scheduler, start_local_cluster
 
+# what waiting on futures raises once the scheduler is gone (Dask's FuturesCancelledError
+# is a concurrent.futures.CancelledError; a closed comm an OSError)
+_LOST = (asyncio.CancelledError, concurrent.futures.CancelledError, OSError)
 MAX_BATCH = 50  # scans per task: bounds the work a killed run redoes
 POLL_SECONDS = 0.5
-
-
-class RunFailed(Exception):
-    """The job cannot go on for a reason that is not the user's (a task keeps killing workers)."""
 
 
 @dataclass
@@ -60,33 +64,41 @@ class Engine:
     cluster: object = None
     ticks: dict[str, int] = field(default_factory=dict)
     token: str = field(default_factory=lambda: uuid.uuid4().hex[:8])  # keeps two runs' tasks apart
+    _quiet: ExitStack = field(default_factory=ExitStack)
 
     def start(self) -> None:
-        import dask
-        from distributed import Client, LocalCluster
+        from distributed import Client
+        from distributed.utils import silence_logging_cmgr
 
+        # Dask logs (at ERROR, with tracebacks) what this run reports itself in one line: a
+        # worker's heartbeat racing the scheduler's shutdown after a run that went well, a
+        # client reconnecting to a scheduler that died; a failed task reaches the user
+        # through its future (_result), a dying worker through Dask's retries.
+        self._quiet.enter_context(silence_logging_cmgr(logging.CRITICAL))
         if self.scheduler:
-            try:
-                self.client = Client(self.scheduler, timeout="15s")
-            except (OSError, TimeoutError, ValueError) as e:
-                raise UserError(
-                    f"--scheduler {self.scheduler}: cannot reach a Dask scheduler there ({e})"
-                ) from None
+            self.client = connect_scheduler(self.scheduler)
             return
+        self.cluster = start_local_cluster(self._local_cluster)
+        self.client = Client(self.cluster)
+
+    def _local_cluster(self):
+        import dask
+        from distributed import LocalCluster
+
         # Workers sample their task's stack for the dashboard's profile, which a local
         # cluster here does not serve: time taken from the scans for nothing.
         with dask.config.set({"distributed.worker.profile.enabled": False}):
-            self.cluster = LocalCluster(
+            return LocalCluster(
                 n_workers=self.workers or os.cpu_count() or 1,
                 threads_per_worker=1,
                 processes=True,
                 dashboard_address=None,
-                # not ERROR: a worker's heartbeat racing the scheduler's shutdown logs a
-                # traceback at ERROR after a run that went well; a failed task reaches the
-                # user through its future (_result), a dying worker through Dask's retries
+                # Without a dashboard Dask still serves its health routes, on port 8787 by
+                # default, and warns on stderr when another run holds it: a free port of
+                # this machine's own, no warning.
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                 silence_logs=logging.CRITICAL,
             )
-        self.client = Client(self.cluster)
 
     def worker_count(self) -> int:
         threads = self.client.nthreads()
@@ -116,12 +128,22 @@ class Engine:
                 done, pending = wait(pending, timeout=POLL_SECONDS, return_when="FIRST_COMPLETED")
             except TimeoutError:
                 done = set()
+            except _LOST as e:  # Dask cancels every future when the client loses its scheduler
+                raise self._lost(e) from None
             for f in done:
                 on_batch(futures[f], self._result(f, futures[f]))
                 f.release()
             on_poll()
 
+    def _lost(self, error: BaseException) -> RunFailed:
+        where = f"the Dask scheduler at {self.scheduler}" if self.scheduler else "the local Dask scheduler"
+        return RunFailed(
+            f"lost the connection to {where} ({type(error).__name__}): it stopped, or the network failed"
+        )
+
     def _result(self, future, batch: Batch):
+        if future.status == "cancelled":
+            raise self._lost(asyncio.CancelledError())
         if future.status == "error":
             exc = future.exception()
             if isinstance(exc, UserError):
@@ -145,3 +167,4 @@ class Engine:
                 except Exception:  # closing after an interrupt: never hide the reason we stop
                     pass
         self.client = self.cluster = None
+        self._quiet.close()

@@ -30,7 +30,8 @@ def sequence_dir(sequence: str) -> str:
 
 
 def scan_paths(formats, sequence: str, index: int) -> dict[str, str]:
-    """kind -> path relative to the output folder of every file of one scan."""
+    """kind -> path relative to the output folder of every file of one scan; `index` is its
+    file number (dense over the scans with a pose: worker.WorldContext.file_numbers)."""
     out = {}
     for fmt in (*formats, "bev"):
         for kind, folder, suffix in SCAN_FILES[fmt]:

@@ -14,19 +14,21 @@ import fcntl
 import hashlib
 import os
 import signal
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...core.errors import UserError
 from ...core.io import semantickitti as sk
-from ...core.io.files import atomic_outputs, output_directory, user_path, write_durably
+from ...core.io.files import atomic_outputs, output_directory, write_durably
 from ...core.label_schemes import scheme
 from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
-from .engine import Batch, Engine, RunFailed, make_batches
+from .cluster import RunFailed, probe_scheduler
+from .engine import Batch, Engine, make_batches
 from .layout import LABELS_YAML, LOCK, remove_temp_files, sequence_files
-from .manifest import Manifest, broken_rows, check_files
+from .manifest import Manifest, broken_rows
 from .progress import ScanProgress
 from .spec import DatasetSpec
 
@@ -37,10 +39,12 @@ class RunReport:
     planned: int
     ok: int
     failed: int
-    written: int
+    written: int  # scans this run recorded in the manifest (each with its files, or its reason)
     seconds: float
     complete: bool
     engine: str
+    before: int = 0  # scans the manifest held (and that were re-checked) when the run began
+    without_pose: int = 0  # of `written`, the scans recorded without a valid pose (no files)
     peak_rss: dict[int, int] = field(default_factory=dict)  # worker pid -> peak resident bytes
     world_build_seconds: float = 0.0
     bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
@@ -154,19 +158,31 @@ def run_dataset(
     limit: int | None = None,
     quiet: bool = False,
     say=print,
+    warn=None,
 ) -> RunReport:
+    """Make or finish the dataset of `spec` in `out`; `say` gets notes for stdout, `warn` a
+    warning (default: one line on stderr)."""
+    if scheduler:  # before anything is written: a wrong address is the user's to fix
+        probe_scheduler(scheduler)
     root = output_directory(out, "--out")
     fd = lock(root)
     try:
-        return _run_locked(spec, root, workers, scheduler, limit, quiet, say)
+        return _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn or _warn)
     finally:
         unlock(root, fd)
 
 
-def _run_locked(spec, root, workers, scheduler, limit, quiet, say) -> RunReport:
+def _warn(text: str) -> None:
+    sys.stderr.write(f"wildscan dataset: warning: {text}\n")
+
+
+def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn) -> RunReport:
     existing = card.read_dataset_json(root)
     manifest = Manifest.load(root)
     check_same_spec(root, existing, manifest, spec)
+    warning = spec.empty_split_warning()
+    if warning:  # after the checks: a refused run says one line only
+        warn(warning)
     remove_temp_files(root)
     broken = broken_rows(manifest)
     for key, problem in sorted(broken.items()):
@@ -179,13 +195,13 @@ def _run_locked(spec, root, workers, scheduler, limit, quiet, say) -> RunReport:
         state.files = dict(existing.get("files", {}))
         state.runs = list(existing.get("runs", []))
     pending = _pending(spec, manifest, limit)
-    state.save()
+    state.save()  # complete: false until finalize has written the card
     report = RunReport(
         root, len(spec.seeds) * spec.scans_per_world, 0, 0, 0, 0.0, False, _engine_name(workers, scheduler)
     )
-    if any(pending.values()):
-        _run_engine(state, pending, workers, scheduler, quiet, report)
-    finalize(state, report)
+    report.before = len(manifest.rows)
+    stop = _run_engine(state, pending, workers, scheduler, quiet, report) if any(pending.values()) else None
+    _finish(state, report, stop)
     return report
 
 
@@ -210,7 +226,6 @@ def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunRe
     engine = Engine(workers, scheduler)
     recorded = len(state.manifest.rows)
     progress = ScanProgress(report.planned, recorded, quiet)
-    written = [0]
     in_flight: dict[str, int] = {}
     t0 = time.perf_counter()
 
@@ -218,7 +233,8 @@ def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunRe
         for row in result["rows"]:
             state.manifest.add(row)
         state.manifest.write()
-        written[0] += len(result["rows"])
+        report.written += len(result["rows"])
+        report.without_pose += sum(1 for row in result["rows"] if row["status"] != "ok")
         in_flight.pop(batch.label, None)
         facts = result["worker"]
         report.peak_rss[facts["pid"]] = max(report.peak_rss.get(facts["pid"], 0), facts["peak_rss_bytes"])
@@ -233,6 +249,7 @@ def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunRe
         progress.update(len(state.manifest.rows) + ticking)
 
     stop: tuple[str, int] | None = None
+    failure: Exception | None = None
     previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         engine.start()
@@ -242,19 +259,31 @@ def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunRe
             in_flight[b.label] = len(b.indices)
         engine.run(state.spec.to_dict(), str(state.root), batches, on_batch, on_poll)
     except KeyboardInterrupt:
-        stop = ("interrupted", 130)
+        stop = STOPPED[KeyboardInterrupt]
     except Terminated:
-        stop = ("terminated", 143)
+        stop = STOPPED[Terminated]
     except (UserError, RunFailed) as e:
+        failure = e
+    finally:  # a bug's traceback too leaves no worker running and no temporary file
         _stop_engine(engine, progress, state, previous)
-        report.written = written[0]
-        raise type(e)(f"{e} ({_written_text(state, report)}; the same command finishes the job)") from None
-    _stop_engine(engine, progress, state, previous)
-    report.written = written[0]
     report.seconds = time.perf_counter() - t0
+    if failure is not None:
+        raise type(failure)(f"{failure}; {_written_text(state, report)}; rerun the same command to continue")
     state.runs.append(_run_record(report))
-    if stop is not None:
+    return stop
+
+
+STOPPED = {KeyboardInterrupt: ("interrupted", 130), Terminated: ("terminated", 143)}
+
+
+def _finish(state: _State, report: RunReport, stop: tuple[str, int] | None) -> None:
+    """finalize; then the stop that ended the scans (or one that cut finalize) as Interrupted,
+    saying what is in the manifest."""
+    try:
         finalize(state, report)
+    except (KeyboardInterrupt, Terminated) as signal_:
+        stop = stop or STOPPED[type(signal_)]
+    if stop is not None:
         raise Interrupted(
             f"{stop[0]}: {_written_text(state, report)}; the same command finishes the job", stop[1]
         )
@@ -264,12 +293,21 @@ def _stop_engine(engine: Engine, progress: ScanProgress, state: _State, previous
     engine.close()
     progress.close()
     signal.signal(signal.SIGTERM, previous)
-    remove_temp_files(state.root)  # the local workers are gone: any temporary file is debris
+    # The local workers are gone, and remote ones lost their scheduler: a temporary file is
+    # debris (a remote worker still finishing a scan renames its own or, finding it gone,
+    # drops the scan: atomic_outputs).
+    remove_temp_files(state.root)
 
 
 def _written_text(state: _State, report: RunReport) -> str:
-    ok = sum(1 for r in state.manifest.rows.values())
-    return f"{ok:,} of {report.planned:,} scans in the manifest, {report.written:,} written by this run"
+    """What the manifest holds and where it came from (this run, or runs before it)."""
+    rows = len(state.manifest.rows)
+    parts = [f"{report.written - report.without_pose:,} written by this run"]
+    if report.without_pose:
+        parts.append(f"{report.without_pose:,} more without a valid pose")
+    if report.before:
+        parts.append(f"{report.before:,} from before")
+    return f"{rows:,} of {report.planned:,} scans in the manifest ({', '.join(parts)})"
 
 
 def _run_record(report: RunReport) -> dict:
@@ -292,8 +330,12 @@ def finalize(state: _State, report: RunReport) -> None:
     complete = all(state.world_rows(seed) is not None for seed in spec.seeds)
     totals = card.totals(spec, state.manifest)
     state.write_text(LABELS_YAML, _labels_yaml(spec, totals))
-    data = state.save(complete)
+    state.save(complete=False)  # every file above listed, should the card never come
+    data = state.dataset_json(complete)
+    # The card before dataset.json: a run stopped between them leaves `complete: false`
+    # (from the run's start), never a complete dataset without its card.
     card.write_card(state.root, spec, data)
+    card.write_dataset_json(state.root, data)
     report.ok, report.failed, report.complete = totals["scans_ok"], totals["scans_failed"], complete
 
 
@@ -313,29 +355,3 @@ def _labels_yaml(spec: DatasetSpec, totals: dict) -> str:
         by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
     title = f"WildScan dataset, config {spec.config_hash()[:16]}"
     return sk.label_config_yaml(s, content, by_split, title, particles=bool(spec.weather))
-
-
-# ---------------------------------------------------------------------------------------
-# --verify
-
-
-@dataclass
-class VerifyReport:
-    root: Path
-    checked: int
-    problems: list[str]
-    scans: int
-    planned: int
-    complete: bool
-
-
-def verify_dataset(out) -> VerifyReport:
-    root = user_path(out, "verify", "a directory name")
-    data = card.read_dataset_json(root) if root.is_dir() else None
-    if data is None:
-        raise UserError(f"--verify {root}: no WildScan dataset there (no dataset.json)")
-    manifest = Manifest.load(root)
-    records = [f for row in manifest.ok_rows() for f in row["files"]] + list(data.get("files", {}).values())
-    problems = [p for p in check_files(root, records) if p]
-    planned = len(data["spec"]["seeds"]) * data["spec"]["scans_per_world"]
-    return VerifyReport(root, len(records), problems, len(manifest.rows), planned, bool(data.get("complete")))

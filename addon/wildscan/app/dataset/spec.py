@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 from dataclasses import asdict, dataclass, field, replace
 
 from ... import __version__
@@ -109,6 +110,25 @@ class DatasetSpec:
                 out[seed] = s
             start += count[s]
         return out
+
+    def empty_split_warning(self) -> str | None:
+        """One line when a split with a share above 0 gets no world (too few seeds for its
+        share: the default three seeds all go to train), else None."""
+        shares = dict(self.split)
+        counts = {s: 0 for s in SPLITS}
+        for split in self.splits().values():
+            counts[split] += 1
+        empty = [s for s in SPLITS if shares.get(s, 0.0) > 0 and counts[s] == 0]
+        if not empty:
+            return None
+        given = ", ".join(f"{s} {counts[s]}" for s in SPLITS)
+        named = " and ".join(f"{s} (share {shares[s]:g})" for s in empty)
+        one = len(empty) == 1
+        seeds = "1 seed gives" if len(self.seeds) == 1 else f"{len(self.seeds)} seeds give"
+        return (
+            f"{'split' if one else 'splits'} {named} {'gets' if one else 'get'} no world: "
+            f"{seeds} {given}; give more seeds or set {'its share' if one else 'their shares'} to 0"
+        )
 
 
 # ---------------------------------------------------------------------------------------
@@ -236,7 +256,9 @@ class _Table:
 
 
 def _show(value) -> str:
-    return json.dumps(value) if isinstance(value, (str, list, dict, bool)) else repr(value)
+    if isinstance(value, (str, list, dict, bool)):
+        return json.dumps(value, ensure_ascii=False)  # "²..³" as written, not escaped
+    return repr(value)
 
 
 def _is_int(v) -> bool:
@@ -247,14 +269,16 @@ def _is_number(v) -> bool:
     return (isinstance(v, (int, float)) and not isinstance(v, bool)) and math.isfinite(v)
 
 
+# "A..B" with ASCII digits only: str.isdigit() also takes "²" or "٣", which int() refuses
+_SEED_RANGE = re.compile(r"\s*([0-9]+)\s*\.\.\s*([0-9]+)\s*")
+
+
 def _seeds(t: _Table) -> tuple[int, ...]:
     value = t.get("seeds", list(DatasetSpec().seeds))
     allowed = f'a list of world seeds (whole numbers from 0 to {MAX_SEED}) or a range "A..B"'
     seeds: list = []
-    if isinstance(value, str) and ".." in value:
-        a, _, b = value.partition("..")
-        if a.strip().isdigit() and b.strip().isdigit() and int(a) <= int(b):
-            seeds = list(range(int(a), int(b) + 1))
+    if isinstance(value, str):
+        seeds = _seed_range(t, value, allowed)
     elif isinstance(value, list):
         seeds = value
     ok = seeds and all(_is_int(s) and 0 <= s <= MAX_SEED for s in seeds) and len(seeds) <= MAX_WORLDS
@@ -262,6 +286,21 @@ def _seeds(t: _Table) -> tuple[int, ...]:
         extra = " without repeats" if ok else ""
         raise t.fail("seeds", f"{allowed}{extra}, at most {MAX_WORLDS:,} worlds", value)
     return tuple(seeds)
+
+
+def _seed_range(t: _Table, value: str, allowed: str) -> list[int]:
+    """The seeds of "A..B" (inclusive), its size checked before a list is made of it (a
+    range of millions would take seconds and gigabytes only to be refused)."""
+    match = _SEED_RANGE.fullmatch(value)
+    if not match or int(match[1]) > int(match[2]):
+        return []
+    a, b = int(match[1]), int(match[2])
+    if b > MAX_SEED or b - a + 1 > MAX_WORLDS:
+        raise UserError(
+            f"{t.where}: seeds must be {allowed} of at most {MAX_WORLDS:,} worlds from 0 to {MAX_SEED}, "
+            f"got {_show(value)} ({b - a + 1:,} worlds)"
+        )
+    return list(range(a, b + 1))
 
 
 def _formats(t: _Table) -> tuple[str, ...]:

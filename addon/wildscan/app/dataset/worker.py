@@ -8,6 +8,10 @@ bird's-eye cell on open ground, where the terrain is the only surface, is not ca
 core/open_ground.py). Every
 file of a scan is written under a temporary name and renamed with the others only when
 all of them are complete; the rows returned say what was written, with sizes and SHA-256.
+
+File numbers are dense per sequence, as a SemanticKITTI loader expects: the scans that have
+a pose are numbered 000000..N-1 in scan order (a scan without one has a manifest row and no
+files), so line k of poses.txt is the pose of file k (WorldContext.file_numbers).
 """
 
 from __future__ import annotations
@@ -59,6 +63,17 @@ class WorldContext:
     z_range: tuple[float, float]
     open_ground: OpenGround
     build_seconds: float
+
+    @functools.cached_property
+    def file_numbers(self) -> list[int]:
+        """The number in the file names of each scan: its place among the world's scans
+        that have a pose. A SemanticKITTI loader (semantic-kitti-api) lists a sequence's
+        files sorted and takes line k of poses.txt for the k-th, so a scan without a pose
+        must leave no gap: files 000000..N-1, one poses.txt line each, in scan order. The
+        poses are the sampler's (the same on every worker), and a pose it kept passed the
+        placement the scan runs again, so only a NoPose scan has no files."""
+        kept = np.cumsum([not isinstance(p, NoPose) for p in self.poses])
+        return [int(n) - 1 for n in kept]
 
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
         """Class of the first surface straight below each origin (0 for none): the terrain
@@ -321,7 +336,7 @@ def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result) -> 
     labels = scheme(spec.label_scheme)
     world = world_points(cloud.xyz, placement, frame)
     hag = height_above_ground(world, context.plan.ground)
-    paths = scan_paths(spec.formats, row["sequence"], row["scan"])
+    paths = scan_paths(spec.formats, row["sequence"], context.file_numbers[row["scan"]])
     grid = bev_grid(context.top_classes, context.plan.ground, placement, EXTENT, context.z_range)
     files = {paths["bev"]: npy_bytes(map_top_class(grid, labels.lookup()))}
     scan = ScanOutput(cloud, _metadata(row, result.metadata), labels, context.instances, hag)
