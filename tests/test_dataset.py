@@ -17,7 +17,8 @@ import plyfile
 import pytest
 import yaml
 
-from wildscan.app.dataset.spec import draw_sensor, spec_from_dict
+from wildscan.app.dataset.draws import draw_sensor
+from wildscan.app.dataset.spec import spec_from_dict
 from wildscan.core.classes import BY_ID
 from wildscan.core.errors import UserError
 from wildscan.core.io.las import ASPRS_CODES

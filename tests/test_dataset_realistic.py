@@ -14,7 +14,8 @@ import numpy as np
 import plyfile
 import pytest
 
-from wildscan.app.dataset.spec import draw_sensor, load_spec, spec_from_dict
+from wildscan.app.dataset.draws import draw_sensor
+from wildscan.app.dataset.spec import load_spec, spec_from_dict
 from wildscan.core.io.ply import read_ply
 
 from tests.helpers.dataset_helpers import manifest_rows, read_kitti_scan, wildscan

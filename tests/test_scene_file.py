@@ -17,6 +17,7 @@ import pytest
 from wildscan.app.scan import scan_current_scene
 from wildscan.blender.scene_io import empty_scene, open_world
 from wildscan.blender.testworld import build_test_world
+from wildscan.core.classes import NUM_IDS
 from wildscan.core.errors import UserError
 from wildscan.core.io.ply import write_scan_files
 from wildscan.core.placement import Pose
@@ -220,10 +221,14 @@ def test_a_flipped_bit_in_an_array_is_called_damaged(tmp_path):
     [
         (
             "class_id.npy",
-            np.array([14], dtype="<i2"),
-            r"class_id\.npy holds 14 at triangle 0; allowed 0 to 13",
+            np.array([NUM_IDS], dtype="<i2"),
+            rf"class_id\.npy holds {NUM_IDS} at triangle 0; allowed 0 to {NUM_IDS - 1}",
         ),
-        ("class_id.npy", np.array([-1], dtype="<i2"), r"class_id\.npy holds -1 .*allowed 0 to 13"),
+        (
+            "class_id.npy",
+            np.array([-1], dtype="<i2"),
+            rf"class_id\.npy holds -1 .*allowed 0 to {NUM_IDS - 1}",
+        ),
         ("instance.npy", np.array([-5], dtype="<i4"), r"instance\.npy holds -5 .*allowed 0 to 2147483647"),
     ],
 )

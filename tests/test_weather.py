@@ -23,23 +23,9 @@ from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig
 
-from tests.helpers.analytic import AnalyticBackend, Patch
+from tests.helpers.analytic import weather_scene as scene
 
 TERRAIN, FENCE, ROCK = 1, 6, 9
-
-
-def scene() -> AnalyticBackend:
-    """Flat ground, a fence 8 m ahead and rock walls 20 to 25 m away all round."""
-    return AnalyticBackend(
-        [
-            Patch((0, 0, 0), (0, 0, 1), TERRAIN),
-            Patch((8, 0, 0), (-1, 0, 0), FENCE, instance=3, xy_box=(7, 9, -4, 4)),
-            Patch((-20, 0, 0), (1, 0, 0), ROCK, instance=4),
-            Patch((25, 0, 0), (-1, 0, 0), ROCK, instance=5),
-            Patch((0, 22, 0), (0, -1, 0), ROCK, instance=6),
-            Patch((0, -22, 0), (0, 1, 0), ROCK, instance=7),
-        ]
-    )
 
 
 def scan(weather: str, model: str = "paper", rh: float = 4.0, noise: float = 0.0):
@@ -211,7 +197,8 @@ def test_a_scan_in_motion_sees_particles_and_consecutive_2d_scans_see_different_
 
 
 def test_a_weather_table_is_checked_drawn_per_scan_and_left_out_of_a_clear_specs_hash():
-    from wildscan.app.dataset.spec import DatasetSpec, draw_weather, spec_from_dict, spec_from_json
+    from wildscan.app.dataset.draws import draw_weather
+    from wildscan.app.dataset.spec import DatasetSpec, spec_from_dict, spec_from_json
 
     spec = spec_from_dict({"weather": {"rain": [5, 50], "fog": 300}})
     assert spec.weather == (("fog", 300.0), ("rain", (5.0, 50.0)))

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_weather import scene
 
 from wildscan.app.scan import scan_effects
 from wildscan.core.classes import PARTICLE_ID
@@ -18,6 +17,8 @@ from wildscan.core.hits import RayHits
 from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig
+
+from tests.helpers.analytic import weather_scene as scene
 
 ORIGIN = np.array([0.0, 0.0, 1.0])
 WALL = 20.0  # m: every beam of the fan hits a wall this far

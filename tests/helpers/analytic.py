@@ -56,3 +56,18 @@ class AnalyticBackend:
             if normals:
                 out.normal[ok] = n / np.linalg.norm(n)
         return out
+
+
+def weather_scene() -> AnalyticBackend:
+    """Flat ground, a fence 8 m ahead and rock walls 20 to 25 m away all round."""
+    terrain, fence, rock = 1, 6, 9  # class ids (core/classes.py)
+    return AnalyticBackend(
+        [
+            Patch((0, 0, 0), (0, 0, 1), terrain),
+            Patch((8, 0, 0), (-1, 0, 0), fence, instance=3, xy_box=(7, 9, -4, 4)),
+            Patch((-20, 0, 0), (1, 0, 0), rock, instance=4),
+            Patch((25, 0, 0), (-1, 0, 0), rock, instance=5),
+            Patch((0, 22, 0), (0, -1, 0), rock, instance=6),
+            Patch((0, -22, 0), (0, 1, 0), rock, instance=7),
+        ]
+    )

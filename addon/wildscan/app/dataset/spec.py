@@ -22,7 +22,7 @@ from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
-from ...core.rng import stage_rng, stage_seed
+from ...core.rng import stage_seed
 from ...core.world import DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ..settings import SETTINGS
 
@@ -434,10 +434,6 @@ def _whole_value(t: _Table, key: str, default):
     return value
 
 
-# ---------------------------------------------------------------------------------------
-# per-scan draws
-
-
 def rh_choices(rh: Value):
     """The r_h values allowed by a fixed value or range: 180/M for whole M."""
     lo, hi = _lo(rh), _hi(rh)
@@ -447,51 +443,6 @@ def rh_choices(rh: Value):
         value = S.SWEEP_DEG / m
         if lo - 1e-9 <= value <= hi + 1e-9:
             yield value
-
-
-def _draw(value, seed: int, index: int, key: str):
-    if not isinstance(value, tuple):
-        return value
-    rng = stage_rng(seed, f"dataset.sensor.{key}.{index}")
-    if key in ("noise_seed", "echoes"):
-        return int(rng.integers(value[0], value[1], endpoint=True))
-    if key == "rh":
-        choices = list(rh_choices(value))
-        return choices[int(rng.integers(len(choices)))]
-    return float(rng.uniform(value[0], value[1]))
-
-
-def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
-    """The sensor of scan `index` of world `seed`: fixed values as given, ranges drawn."""
-    if spec.noise_seed is None:
-        noise_seed = stage_seed(seed, f"dataset.noise.{index}") >> 1  # below 2^63
-    else:
-        noise_seed = _draw(spec.noise_seed, seed, index, "noise_seed")
-    rh = spec.rh if not isinstance(spec.rh, tuple) else _draw(spec.rh, seed, index, "rh")
-    if not isinstance(spec.rh, tuple):
-        rh = next(rh_choices(rh))  # exactly 180/M, as the spec check found it
-    return S.SensorConfig(
-        rh_deg=rh,
-        min_range=_draw(spec.min_range, seed, index, "min_range"),
-        max_range=_draw(spec.max_range, seed, index, "max_range"),
-        noise_sigma=_draw(spec.noise, seed, index, "noise"),
-        noise_seed=noise_seed,
-        model=spec.model,
-        divergence_mrad=_draw(spec.divergence, seed, index, "divergence"),
-        echoes=_draw(spec.echoes, seed, index, "echoes"),
-        echo_separation=_draw(spec.echo_separation, seed, index, "echo_separation"),
-    ).validate()
-
-
-def draw_weather(spec: "DatasetSpec", seed: int, index: int) -> dict[str, float]:
-    """The weather of scan `index` of world `seed`: fixed values as given, ranges drawn from a
-    stream of their own (seeded by world seed, key and scan index)."""
-    out = {}
-    for key, value in spec.weather:
-        if isinstance(value, tuple):
-            value = float(stage_rng(seed, f"dataset.weather.{key}.{index}").uniform(value[0], value[1]))
-        out[key] = value
-    return out
 
 
 def spec_from_json(data: dict) -> DatasetSpec:

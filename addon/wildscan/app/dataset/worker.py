@@ -45,8 +45,9 @@ from ...core.placement import place
 from ...core.posesampler import NoPose, ScanPose, sample_poses
 from ...core.scan import run_scan
 from ...core.world import EXTENT, WorldPlan, plan_world
+from .draws import draw_sensor, draw_weather
 from .layout import scan_paths
-from .spec import DatasetSpec, draw_sensor, draw_weather, spec_from_json
+from .spec import DatasetSpec, spec_from_json
 
 TERRAIN_ID = class_by_name("terrain").id
 RANGE_BIN = 0.5  # m, the range histogram kept per scan (dataset card)
