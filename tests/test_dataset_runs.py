@@ -9,6 +9,7 @@ import json
 import os
 import shutil
 import signal
+import socket
 import socketserver
 import subprocess
 import sys
@@ -351,38 +352,52 @@ def dashboard_port(scheduler: subprocess.Popen, address: str) -> int:
     return wait_until(other, "dashboard port", scheduler, timeout=60)[0]
 
 
+def closed_port() -> int:
+    """A loopback port nothing listens on (bound, then let go)."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 def test_a_scheduler_address_where_no_dask_scheduler_answers_is_refused_in_one_line(spec, tmp_path):
-    servers = [
-        socketserver.ThreadingTCPServer(("127.0.0.1", 0), handler) for handler in (_Silent, _Talker)
-    ] + [http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Http)]
-    for server in servers:
+    servers = {
+        "silent": socketserver.ThreadingTCPServer(("127.0.0.1", 0), _Silent),
+        "talker": socketserver.ThreadingTCPServer(("127.0.0.1", 0), _Talker),
+        "http": http.server.ThreadingHTTPServer(("127.0.0.1", 0), _Http),
+    }
+    for server in servers.values():
         server.daemon_threads = True
         threading.Thread(target=server.serve_forever, daemon=True).start()
+    not_dask = (
+        "what answers there is not a Dask scheduler",
+        "did not answer as a Dask scheduler within 10 s",
+    )
     scheduler, address = dask_scheduler(tmp_path, "--dashboard-address", "127.0.0.1:0")
     jobs = []
     try:
-        ports = [server.server_address[1] for server in servers] + [dashboard_port(scheduler, address)]
-        for port in ports:  # side by side: each waits up to its 10 s bound
+        cases = [
+            (servers["silent"].server_address[1], ("did not answer as a Dask scheduler within 10 s",)),
+            (servers["talker"].server_address[1], ("what answers there is not a Dask scheduler",)),
+            (servers["http"].server_address[1], not_dask),
+            (dashboard_port(scheduler, address), not_dask),
+            (closed_port(), ("cannot reach a Dask scheduler there ([Errno 111] Connection refused)",)),
+        ]
+        for port, _ in cases:  # side by side: each waits up to its 10 s bound
             out = tmp_path / f"out-{port}"
+            where = f"tcp://127.0.0.1:{port}"
             jobs.append(
-                (
-                    start_wildscan(
-                        "dataset", str(spec), "--out", str(out), "--scheduler", f"tcp://127.0.0.1:{port}"
-                    ),
-                    port,
-                    out,
-                )
+                (start_wildscan("dataset", str(spec), "--out", str(out), "--scheduler", where), where, out)
             )
-        for job, port, out in jobs:
+        for (job, where, out), (_, expected) in zip(jobs, cases, strict=True):
             _, stderr = job.communicate(timeout=60)
             assert job.returncode == 2, stderr
             line = one_line(stderr)
-            assert line.startswith(f"wildscan dataset: error: --scheduler tcp://127.0.0.1:{port}: "), line
-            assert "not a Dask scheduler" in line or "did not answer as a Dask scheduler" in line, line
+            assert line.startswith(f"wildscan dataset: error: --scheduler {where}: "), line
+            assert any(words in line for words in expected), line
             assert not out.exists()  # refused before anything was written
     finally:
         stop_processes(*(job for job, _, _ in jobs), scheduler)
-        for server in servers:
+        for server in servers.values():
             server.shutdown()
             server.server_close()
 

@@ -25,6 +25,7 @@ from ..interrupts import Terminated
 
 CLUSTER_STARTS = 3
 PROBE_SECONDS = 10.0
+CONNECT_SHARE = 0.8  # of PROBE_SECONDS, for the TCP connection itself
 CLIENT_TIMEOUT = "15s"
 
 
@@ -158,10 +159,17 @@ def connect_scheduler(address: str):
 def probe_scheduler(address: str, seconds: float = PROBE_SECONDS) -> None:
     """Ask `address` who it is (Dask's `identity`); UserError unless a scheduler answers
     within `seconds`, connect, handshake and reply together."""
+    from distributed.comm import connect  # imported before the clock starts: seconds, here
+
     where = f"--scheduler {address}"
+    connected: list[bool] = []
     try:
-        identity = asyncio.run(asyncio.wait_for(_identity(address, seconds), seconds))
+        identity = asyncio.run(asyncio.wait_for(_identity(connect, address, seconds, connected), seconds))
     except (asyncio.TimeoutError, TimeoutError):
+        if not connected:
+            raise UserError(
+                f"{where}: cannot reach a Dask scheduler there (no connection within {seconds:g} s)"
+            ) from None
         raise UserError(
             f"{where}: something accepts connections there but did not answer as a Dask scheduler "
             f"within {seconds:g} s (is it the dashboard or another server?)"
@@ -169,7 +177,8 @@ def probe_scheduler(address: str, seconds: float = PROBE_SECONDS) -> None:
     except ValueError as e:  # a malformed address
         raise UserError(f"{where}: not a Dask scheduler address ({one_line(e)})") from None
     except (OSError, EOFError) as e:
-        raise UserError(f"{where}: cannot reach a Dask scheduler there ({one_line(e)})") from None
+        cause = root_cause(e)
+        raise UserError(f"{where}: cannot reach a Dask scheduler there ({one_line(cause)})") from None
     except Exception as e:  # its bytes were not Dask's protocol: HTTP read as a frame size, say
         raise UserError(
             f"{where}: what answers there is not a Dask scheduler (it does not speak Dask's "
@@ -182,10 +191,11 @@ def probe_scheduler(address: str, seconds: float = PROBE_SECONDS) -> None:
         )
 
 
-async def _identity(address: str, seconds: float):
-    from distributed.comm import connect
-
-    comm = await connect(address, timeout=seconds)
+async def _identity(connect, address: str, seconds: float, connected: list[bool]):
+    # Dask retries a refused connection until its timeout, then says why: that reason
+    # (a shorter timeout) rather than the overall bound's
+    comm = await connect(address, timeout=seconds * CONNECT_SHARE)
+    connected.append(True)
     try:
         await comm.write({"op": "identity", "reply": True})
         return await comm.read()
