@@ -354,7 +354,7 @@ def test_a_sequence_with_a_failed_scan_reads_back_as_semantic_kitti_api_reads_it
     assert sorted(p.name for p in (folder / "labels").iterdir()) == [f"{k:06d}.label" for k in range(5)]
     # line k is the pose of file k: its points land where their recorded height above the
     # world's terrain says (a neighbour's pose puts them metres off)
-    ground = plan_world(1, "low", vegetation="solid").ground
+    ground = plan_world(1, "low", vegetation="solid").standing_ground()
     for scan, pose in zip(scans, poses, strict=True):
         xyz, _ = read_kitti_scan(scan)
         world = xyz.astype(np.float64) @ pose[:3, :3].T + pose[:3, 3]

@@ -1,16 +1,16 @@
 """Ground truth a real dataset cannot have (numpy only): per point, the height above the
-true terrain surface under it (`hag`), and per scan a bird's-eye grid around the robot of
-the true terrain height and the class seen from straight above.
+ground the robot stands on under it (`hag`), and per scan a bird's-eye grid around the robot
+of that ground's height and the class seen from straight above.
 
-"True terrain" is the world's terrain grid (`WorldPlan.ground`: the triangulated
-heightfield every element stands on), not the points: under a bush or a tree crown
-it is the ground the robot would drive on.
+The ground is `WorldPlan.standing_ground()` (core/world/ground.py): the triangulated terrain
+mesh every element stands on and, on the trail, the top of its flooring; not the points:
+under a bush or a tree crown it is the ground the robot would drive on.
 
 Bird's-eye grid: 300 x 300 cells of 0.1 m, a 30 m square centred on the optical
 centre and aligned with the leveled frame (rows along X, the heading; columns along
 Y, to the left). Cell [i, j] has its centre at x = -14.95 + 0.1 i, y = -14.95 + 0.1 j
 in the leveled frame, so a leveled point falls in cell (floor((x + 15) / 0.1),
-floor((y + 15) / 0.1)). `terrain_z` is the terrain height there in the leveled frame
+floor((y + 15) / 0.1)). `terrain_z` is that ground's height there in the leveled frame
 (metres relative to the optical centre; NaN off the world); `top_class` is the class of
 the first surface a ray straight down from above the world meets at the cell centre
 (0 when it meets nothing), in WildScan ids, water included (13).

@@ -30,7 +30,7 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
 # Optional per-point fields, in file order after `scalar_label`: a cloud carries those it
 # has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract.
 OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
-    ("hag", "<f4"),  # height above the true terrain surface under the point, metres (datasets)
+    ("hag", "<f4"),  # height above the ground the robot stands on under the point, metres (datasets)
     ("time", "<f8"),  # when the point was measured, seconds after its 3D scan's first beam (drives)
     # the realistic sensor model's (core/echoes.py); a paper-model scan has none of them
     ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest

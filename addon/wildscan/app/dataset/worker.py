@@ -76,6 +76,12 @@ class WorldContext:
         kept = np.cumsum([not isinstance(p, NoPose) for p in self.poses])
         return [int(n) - 1 for n in kept]
 
+    @functools.cached_property
+    def ground(self):
+        """The ground the robot stands on (terrain mesh, trail flooring): what `hag` and the
+        bird's-eye `terrain_z` measure from (core/world/ground.py)."""
+        return self.plan.standing_ground()
+
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
         """Class of the first surface straight below each origin (0 for none): the terrain
         on open ground (core/open_ground.py), elsewhere cast like every other ray, so the
@@ -336,9 +342,9 @@ def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result) -> 
     cloud, placement, frame = result.cloud, result.placement, row["sensor"]["frame"]
     labels = scheme(spec.label_scheme)
     world = world_points(cloud.xyz, placement, frame)
-    hag = height_above_ground(world, context.plan.ground)
+    hag = height_above_ground(world, context.ground)
     paths = scan_paths(spec.formats, row["sequence"], context.file_numbers[row["scan"]])
-    grid = bev_grid(context.top_classes, context.plan.ground, placement, EXTENT, context.z_range)
+    grid = bev_grid(context.top_classes, context.ground, placement, EXTENT, context.z_range)
     files = {paths["bev"]: npy_bytes(map_top_class(grid, labels.lookup()))}
     scan = ScanOutput(cloud, _metadata(row, result.metadata), labels, context.instances, hag)
     for name in spec.formats:

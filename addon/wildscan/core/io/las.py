@@ -4,9 +4,9 @@ Classification is an ASPRS code (LAS 1.4 R15, table 17); WildScan classes withou
 ASPRS class get user codes from 64 up. The file carries the table itself in a
 Classification Lookup VLR, and extra dimensions (LAS "extra bytes") keep what ASPRS
 codes lose: `wildscan_label`, `label` (the dataset's label scheme), `instance`, `ring`,
-`sweep`, `range` and, in a dataset, `hag` (height above the true terrain). Intensity is the scan's
-(paper model: the element's Table I reflectivity, 15..100); colours are the class colours
-(16-bit).
+`sweep`, `range` and, in a dataset, `hag` (height above the ground the robot stands on).
+Intensity is the scan's (paper model: the element's Table I reflectivity, 15..100); colours
+are the class colours (16-bit).
 
 Echoes: a realistic-model scan's `echo` (1..3) and `echoes` (how many its beam returned)
 are LAS's own return_number and number_of_returns, and its `label_purity` and `mixed`

@@ -38,7 +38,7 @@ class ScanOutput:
     labels: LabelScheme  # the ids of label files (SemanticKITTI .label, LAS `label`); a PLY's are WildScan's
     # every instance id of the world (SemanticKITTI ranks them); None: rank the scan's own
     world_instances: np.ndarray | None = None
-    hag: np.ndarray | None = None  # height above the true terrain per point, where it is known (datasets)
+    hag: np.ndarray | None = None  # height above the standing ground per point, where known (datasets)
     ascii: bool = False  # PLY only: ASCII instead of binary little-endian
 
 

@@ -22,6 +22,7 @@ from ..placement import Pose
 from .detail import DetailLevel
 from .elements import Element, ElementSet, Prototype
 from .geometry2d import cell_area, darts
+from .ground import StandingGround
 from .heightfield import GridFit, Heightfield
 
 HALF = 75.0
@@ -189,6 +190,17 @@ class WorldPlan(ElementSet):
     def ground(self, x, y):
         """Height of the terrain mesh (not the analytic field): what elements stand on."""
         return self.grid.height_at(x, y)
+
+    def standing_ground(self) -> StandingGround:
+        """The ground the robot stands on (ground.py): the terrain mesh and, on the trail, the
+        top of its flooring, which stands `params.trail.lift` plus the grid's error above it.
+        What `hag` and the bird's-eye `terrain_z` measure from (docs/datasets.md)."""
+        floors = [
+            (self.element_vertices(el), self.prototypes[el.proto].faces)
+            for el in self.elements
+            if el.stage == "trail"
+        ]
+        return StandingGround(self.grid, floors)
 
     def ground_under(self, x, y, radius: float):
         """Lowest terrain height under a disc, so nothing floats on a slope."""
