@@ -216,15 +216,16 @@ def run_probe(code: str, env: dict) -> str:
 
 @pytest.mark.slow
 def test_numpy_and_glibc_really_differ_by_instruction_set_here():
-    """The premise: without detmath each forced instruction set changes the bits (else the
-    next test proves nothing): numpy's exp by its SIMD width, glibc's sin by FMA."""
+    """The premise: without detmath a forced instruction set changes the bits (else the next
+    test proves nothing): numpy's exp by its SIMD width, glibc's sin by FMA."""
     code = "import math, hashlib, numpy as np; x = np.random.default_rng(1).uniform(-40, 40, 100_000); "
     code += "y = np.exp(x).tobytes() + np.array([math.sin(a) for a in x]).tobytes(); "
     code += "print(hashlib.sha256(y).hexdigest())"
     native = run_probe(code, {})
-    for name, env in INSTRUCTION_SETS.items():
-        if env:
-            assert run_probe(code, env) != native, name
+    changed = [name for name, env in INSTRUCTION_SETS.items() if env and run_probe(code, env) != native]
+    # Which ones change the bits depends on the CPU: numpy's exp has a SIMD kernel for AVX-512
+    # only (an AMD EPYC without it gives the same bits either way); glibc's sin by FMA.
+    assert changed, "no forced instruction set changes numpy's or glibc's bits on this CPU"
 
 
 @pytest.mark.slow
