@@ -62,7 +62,8 @@ def run_probe(command: list[str], env: dict, *args: str) -> dict:
         capture_output=True,
         text=True,
         cwd=REPO,
-        timeout=300,
+        # an emulated CPU runs Python tens of times slower, and slower still on a loaded machine
+        timeout=1200,
     )
     assert result.returncode == 0, result.stderr[-2000:]
     return json.loads(result.stdout)
