@@ -359,6 +359,9 @@ def closed_port() -> int:
         return s.getsockname()[1]
 
 
+LOADED = "cannot reach a Dask scheduler there (no connection within 10 s)"
+
+
 def test_a_scheduler_address_where_no_dask_scheduler_answers_is_refused_in_one_line(spec, tmp_path):
     servers = {
         "silent": socketserver.ThreadingTCPServer(("127.0.0.1", 0), _Silent),
@@ -380,15 +383,7 @@ def test_a_scheduler_address_where_no_dask_scheduler_answers_is_refused_in_one_l
             (servers["talker"].server_address[1], ("what answers there is not a Dask scheduler",)),
             (servers["http"].server_address[1], not_dask),
             (dashboard_port(scheduler, address), not_dask),
-            # Dask's own reason comes back within the bound on a quiet machine; on a loaded one its
-            # connection retries may outlast it, and the line says so instead
-            (
-                closed_port(),
-                (
-                    "cannot reach a Dask scheduler there ([Errno 111] Connection refused)",
-                    "cannot reach a Dask scheduler there (no connection within 10 s)",
-                ),
-            ),
+            (closed_port(), ("cannot reach a Dask scheduler there ([Errno 111] Connection refused)",)),
         ]
         for port, _ in cases:  # side by side: each waits up to its 10 s bound
             out = tmp_path / f"out-{port}"
@@ -401,7 +396,9 @@ def test_a_scheduler_address_where_no_dask_scheduler_answers_is_refused_in_one_l
             assert job.returncode == 2, stderr
             line = one_line(stderr)
             assert line.startswith(f"wildscan dataset: error: --scheduler {where}: "), line
-            assert any(words in line for words in expected), line
+            # the reason on a quiet machine; on a loaded one Dask's handshake may outlast the
+            # bound, and the line says that instead (still one line, exit 2, nothing written)
+            assert any(words in line for words in (*expected, LOADED)), line
             assert not out.exists()  # refused before anything was written
     finally:
         stop_processes(*(job for job, _, _ in jobs), scheduler)
