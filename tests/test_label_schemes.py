@@ -115,25 +115,34 @@ def test_a_scheme_naming_no_class_raises():
 
 
 def test_a_class_added_to_the_table_but_not_to_the_schemes_stops_the_import():
-    """What adding class 14 `log` to core/classes.py alone does: the import of the schemes
-    fails and says which scheme lacks which class."""
+    """What adding a class (a hypothetical 16 `moss`) to core/classes.py alone does: the import
+    of the schemes fails and says which scheme lacks which class."""
     code = (
         "import wildscan.core.classes as c\n"
-        "log = c.ElementClass(14, 'log', 85.0, (120, 60, 20))\n"
-        "c.CLASSES += (log,)\n"
-        "c.ALL_ELEMENTS += (log,)\n"
-        "c.BY_ID[14] = log\n"
+        "moss = c.ElementClass(16, 'moss', 87.0, (120, 160, 20))\n"
+        "c.CLASSES += (moss,)\n"
+        "c.ALL_ELEMENTS += (moss,)\n"
+        "c.BY_ID[16] = moss\n"
         "import wildscan.core.label_schemes\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.returncode != 0
-    assert "SchemeError: label scheme 'semantickitti' has no id for class 'log'" in done.stderr
+    assert "SchemeError: label scheme 'semantickitti' has no id for class 'moss'" in done.stderr
+
+
+def test_log_maps_to_each_schemes_deadwood_or_nearest_class():
+    """Class 14 `log` (fallen deadwood): RELLIS-3D's own `log`, SemanticKITTI's trunk, GOOSE's
+    obstacle (neither has deadwood), itself in WildScan's ids."""
+    assert mapped("rellis3d", "log") == 15 and scheme("rellis3d").labels[15] == "log"
+    assert mapped("semantickitti", "log") == 71
+    assert mapped("goose", "log") == 4 and scheme("goose").is_other(14)
+    assert mapped("wildscan", "log") == 14
 
 
 def test_two_classes_with_one_reflectivity_stop_the_import():
     """Labels come from intensities (the paper): a new class needs a reflectivity of its own."""
     from wildscan.core.classes import _check_table
 
-    twin = ElementClass(14, "log", 90.0, (1, 2, 3))  # trunk's 90
+    twin = ElementClass(16, "moss", 90.0, (1, 2, 3))  # trunk's 90
     with pytest.raises(ValueError, match=r"share the reflectivity \[90.0\]"):
         _check_table((*ALL_ELEMENTS, twin))

@@ -52,11 +52,20 @@ WATER_ID = WATER.id
 # dust before any surface. A label like any other, but only weather makes it, so the class tables
 # of files list it only when weather is on (a clear-air file keeps its bytes). Its reflectivity
 # is the intensity the paper model reports for such a return; like every class's it must be
-# unique (labels are read back from intensities). Id 14 is kept for the next ground class.
+# unique (labels are read back from intensities).
 PARTICLE = ElementClass(15, "particle", 2.0, (150, 200, 255))
 PARTICLE_ID = PARTICLE.id
 
-ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, PARTICLE)
+# Fallen deadwood and stumps (docs/ground.md): the class RELLIS-3D calls `log` (rellis.yaml id 15).
+# Not one of the paper's Table I, so like the particle class the tables of files list it only
+# where a world can hold it (a biome with ground cover, core/world/biomes.py) or a point is one:
+# a `paper` world's files keep their bytes. Its reflectivity is a tag as Table I's are (the paper
+# gives each class an arbitrary, unique value, section IV-C); 85 is free and sits beside trunk's
+# 90 because a log is bark and wood like a trunk. Colour: dark brown, apart from terrain's brown.
+LOG = ElementClass(14, "log", 85.0, (92, 51, 23))
+LOG_ID = LOG.id
+
+ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, LOG, PARTICLE)
 
 
 def _check_table(elements: tuple[ElementClass, ...]) -> None:
@@ -83,8 +92,8 @@ COLOR_BY_ID = np.array(
 
 # Class names as users write them in the `wildscan_class` custom property;
 # "low grass", "low_grass" and "Low-Grass" all mean the same class.
-_BY_NAME: dict[str, ElementClass] = {c.name: c for c in (*CLASSES, WATER)}  # a tag names no particle
-TAG_NAMES: tuple[str, ...] = tuple(c.name for c in (*CLASSES, WATER))
+_BY_NAME: dict[str, ElementClass] = {c.name: c for c in (*CLASSES, WATER, LOG)}  # a tag names no particle
+TAG_NAMES: tuple[str, ...] = tuple(c.name for c in (*CLASSES, WATER, LOG))
 
 
 def normalize_name(name: str) -> str:
@@ -190,21 +199,22 @@ def colors_of(labels: np.ndarray) -> np.ndarray:
     return COLOR_BY_ID[np.asarray(labels, dtype=np.intp)]
 
 
-def _labels(particles: bool) -> tuple[ElementClass, ...]:
-    return (UNLABELED, *CLASSES, PARTICLE) if particles else (UNLABELED, *CLASSES)
+def _labels(particles: bool, logs: bool = False) -> tuple[ElementClass, ...]:
+    return (UNLABELED, *CLASSES, *((LOG,) if logs else ()), *((PARTICLE,) if particles else ()))
 
 
-def class_table_lines(particles: bool = False) -> list[str]:
+def class_table_lines(particles: bool = False, logs: bool = False) -> list[str]:
     """One line per PLY label, for file headers and sidecars; `particles`: weather is on (or a
-    point is a particle), so the table lists the particle class too."""
+    point is a particle), so the table lists the particle class too; `logs`: the world has
+    ground cover and deadwood (or a point is a log), so it lists the log class."""
     return [
         f"{c.id} {c.name.replace(' ', '_')} reflectivity={c.reflectivity:g} rgb={','.join(map(str, c.color))}"
-        for c in _labels(particles)
+        for c in _labels(particles, logs)
     ]
 
 
-def class_table_dict(particles: bool = False) -> list[dict]:
+def class_table_dict(particles: bool = False, logs: bool = False) -> list[dict]:
     return [
         {"id": c.id, "name": c.name, "reflectivity": c.reflectivity, "color": list(c.color)}
-        for c in _labels(particles)
+        for c in _labels(particles, logs)
     ]

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .classes import ALL_ELEMENTS, BY_ID, CLASSES, PARTICLE_ID, WATER_ID
+from .classes import ALL_ELEMENTS, BY_ID, CLASSES, LOG_ID, PARTICLE_ID, WATER_ID
 
 SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
 OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
@@ -119,9 +119,15 @@ _WILDSCAN = LabelScheme(
     by_class={c.name: c.id for c in ALL_ELEMENTS},
     other=None,
     # weather's particles are a class to learn (to filter them), not noise to ignore
-    learning_map={**_identity(c.id for c in CLASSES), 0: 0, WATER_ID: 0, PARTICLE_ID: PARTICLE_ID},
-    learning_map_inv={0: 0, **_identity(c.id for c in CLASSES), PARTICLE_ID: PARTICLE_ID},
-    learning_ignore={0: True, **{c.id: False for c in CLASSES}, PARTICLE_ID: False},
+    learning_map={
+        **_identity(c.id for c in CLASSES),
+        0: 0,
+        WATER_ID: 0,
+        LOG_ID: LOG_ID,
+        PARTICLE_ID: PARTICLE_ID,
+    },
+    learning_map_inv={0: 0, **_identity(c.id for c in CLASSES), LOG_ID: LOG_ID, PARTICLE_ID: PARTICLE_ID},
+    learning_ignore={0: True, **{c.id: False for c in CLASSES}, LOG_ID: False, PARTICLE_ID: False},
     weather_ids=(PARTICLE_ID,),
 )
 
@@ -175,6 +181,7 @@ _SEMANTICKITTI = LabelScheme(
         "wire": OTHER,
         "pole": 80,  # pole
         "water": OTHER,
+        "log": 71,  # trunk: SemanticKITTI has no deadwood class; a log is a lying trunk
         "particle": 1,  # outlier (SemanticKITTI's label for spurious returns)
     },
     other=99,  # other-object
@@ -230,6 +237,7 @@ _RELLIS3D = LabelScheme(
         "wire": OTHER,
         "pole": 5,  # pole
         "water": 6,  # water
+        "log": 15,  # log
         "particle": 0,  # void: RELLIS-3D has no class for returns from the air
     },
     other=9,  # object
@@ -265,6 +273,7 @@ _GOOSE_BY_CLASS: dict[str, int | str] = {
     "wire": 55,  # wire
     "pole": 45,  # pole
     "water": 54,  # water
+    "log": OTHER,  # obstacle: GOOSE's 64 classes have no deadwood class; to a robot a log is an obstacle
     "particle": 56,  # outlier
 }
 _GOOSE_OTHER = 4  # obstacle

@@ -47,6 +47,7 @@ ASPRS_BY_CLASS: dict[str, int] = {
     "wire": 14,  # wire conductor (phase)
     "pole": 15,  # transmission tower
     "water": 9,  # water: never written (a beam that hits water returns no point), so not in ASPRS_NAMES
+    "log": 69,  # user code: ASPRS has no deadwood class
     "particle": 18,  # high noise (returns from the air: rain, snow, fog, dust)
 }
 ASPRS_CODES: dict[int, int] = ids_by_class_id("asprs (core/io/las.py)", ASPRS_BY_CLASS, None)  # id -> code
@@ -64,6 +65,7 @@ ASPRS_NAMES: dict[int, str] = {
     66: "fence",
     67: "bench",
     68: "rock",
+    69: "log",
 }
 _UNNAMED = sorted({code for i, code in ASPRS_CODES.items() if i != WATER_ID and code not in ASPRS_NAMES})
 if _UNNAMED:  # a point's code must be named in the file's Classification Lookup VLR
