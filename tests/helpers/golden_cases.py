@@ -2,7 +2,9 @@
 
 `tests/golden/worlds.json` holds the content hash (`plan_hash`, the `hash` of world.json)
 of seeds 0-3 at every detail level, with porous vegetation (the default, "seed/detail") and
-solid ("seed/detail/solid", the worlds from before porous vegetation existed);
+solid ("seed/detail/solid", the worlds from before porous vegetation existed), all of them
+in the `paper` biome (the world from before biomes: no ground cover, no deadwood; the default
+biome `mixed` covers the ground, so `--biome paper` is what reproduces these files);
 `tests/golden/scans.json` the SHA-256 of PLY files scanned through the Blender path (the
 first valid pose of each zone of seed 1 with porous and with solid vegetation, the forest's
 also with the realistic sensor model, and the test world with every ray backend). Each
@@ -32,6 +34,7 @@ TEST_WORLD_SEED = 7
 TEST_WORLD_POSE = (0.0, 0.0, 20.0)
 TEST_WORLD_RH = 2.0  # scene.ray_cast takes ~0.5 s for this scan
 BACKENDS = ("blender", "bvh", "embree")
+BIOME = "paper"  # what the golden files pin (core/world/biomes.py)
 
 
 def sha256(data: bytes) -> str:
@@ -46,7 +49,7 @@ def world_hashes() -> dict[str, str]:
     from wildscan.core.world import plan_hash, plan_world
 
     return {
-        f"{seed}/{detail}{suffix(veg)}": plan_hash(plan_world(seed, detail, vegetation=veg))
+        f"{seed}/{detail}{suffix(veg)}": plan_hash(plan_world(seed, detail, vegetation=veg, biome=BIOME))
         for veg in VEGETATION
         for seed in WORLD_SEEDS
         for detail in DETAILS
@@ -78,7 +81,7 @@ def zone_scans(directory: Path, vegetation: str) -> dict[str, dict]:
     from wildscan.raycast.extract import extract_scene
 
     empty_scene()
-    plan = build_world(SCAN_SEED, vegetation=vegetation)
+    plan = build_world(SCAN_SEED, vegetation=vegetation, biome=BIOME)
     poses = valid_poses(plan, plan_backend(plan), 1)
     geometry = extract_scene()
     sensors = {"": SensorConfig()}

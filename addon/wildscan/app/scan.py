@@ -11,6 +11,7 @@ from ..core.backend import RayBackend
 from ..core.placement import COLUMN_HEIGHT, Pose, check_z_start
 from ..core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
 from ..core.sensors import SensorConfig
+from ..core.world.biomes import DEFAULT_BIOME
 
 # Crop margin around the pose beyond max range: the optical centre sits up to a
 # column height off the pose's xy on tilted ground, plus a little slack.
@@ -52,18 +53,39 @@ def scan_current_scene(
     """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air."""
     sensor.validate()
     pose.validate()
-    effects = scan_effects(weather, sensor)
+    effects = scan_effects(weather, sensor, scene_cover(geometry))
     backend_ = make_scene_backend(backend, pose, sensor, notify, geometry)
     return run_scan(backend_, pose, sensor, frame, z_start, progress, effects)
 
 
-def scan_effects(weather: dict[str, float] | None, sensor: SensorConfig):
+def scan_effects(weather: dict[str, float] | None, sensor: SensorConfig, cover=None):
     """The effects of a scan in `weather` with `sensor`: its device's numbers, its noise seed
-    (the same seed, the same particles); clear air when there is no weather."""
+    (the same seed, the same particles); the world's ground cover first (a CoverGrid: the
+    sward a beam stops in, core/effects/cover.py); clear air when there is neither."""
     from ..core.effects import CLEAR_AIR, Effects, Weather
 
     found = Weather.of(weather or {}, sensor.noise_seed, sensor.device)
-    return CLEAR_AIR if found is None else Effects((found,))
+    items = () if cover is None else (_ground_cover(cover, sensor.noise_seed),)
+    items += () if found is None else (found,)
+    return Effects(items) if items else CLEAR_AIR
+
+
+def _ground_cover(cover, noise_seed: int):
+    from ..core.effects.cover import GroundCover
+
+    return GroundCover(cover, noise_seed)
+
+
+def scene_cover(geometry=None):
+    """The ground cover a scan sees: the geometry's (a plan's, a geometry file's), or with no
+    geometry given the cover the open Blender scene's world carries (None: bare ground)."""
+    if geometry is not None:
+        return geometry.cover
+    try:
+        from ..blender.cover import scene_cover as from_scene
+    except ImportError:  # no bpy: nothing open to read
+        return None
+    return from_scene()
 
 
 def check_scan(
@@ -93,6 +115,7 @@ def open_scan_world(
     progress=None,
     vegetation: str = "porous",
     quiet: bool = False,
+    biome: str = DEFAULT_BIOME,
 ) -> None:
     """The scene a scan sees: the .blend file `world`, or the world of `seed` built in an
     empty scene (with `vegetation`); with neither, the scene already open (a Blender started
@@ -104,7 +127,7 @@ def open_scan_world(
     elif seed is not None:
         from .world import build_in_scene
 
-        build_in_scene(seed, progress=progress, fresh=True, vegetation=vegetation)
+        build_in_scene(seed, progress=progress, fresh=True, vegetation=vegetation, biome=biome)
 
 
 def write_scan(

@@ -47,6 +47,7 @@ SETTINGS: dict[str, Setting] = {
     "seed": Setting("--seed", "Seed"),
     "detail": Setting("--detail", "Detail"),
     "vegetation": Setting("--vegetation", "Vegetation"),
+    "biome": Setting("--biome", "Biome"),
     "zone": Setting("--zone"),
     "world": Setting("--world"),
     "geometry": Setting("--geometry"),

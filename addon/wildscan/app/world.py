@@ -17,7 +17,16 @@ from pathlib import Path
 from ..blender.scene_io import check_blender_path_length
 from ..core.io.files import atomic_outputs, check_output_path, temp_path, writing_to
 from ..core.io.ply import sidecar_path
-from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, check_seed, check_vegetation, detail_level
+from ..core.world import (
+    DEFAULT_BIOME,
+    DEFAULT_VEGETATION,
+    ZONES,
+    WorldPlan,
+    check_biome,
+    check_seed,
+    check_vegetation,
+    detail_level,
+)
 from .poses import DEFAULT_POSES_PER_ZONE, plan_backend, valid_poses
 
 StageProgress = Callable[[str, float], None]  # (stage, seconds) after each stage
@@ -33,6 +42,7 @@ def build_in_scene(
     progress: StageProgress | None = None,
     fresh: bool = False,
     vegetation: str = DEFAULT_VEGETATION,
+    biome: str = DEFAULT_BIOME,
 ) -> WorldPlan:
     """Build the world of `seed` in the current scene, replacing only what WildScan built
     before (the user's own objects stay); if the build fails, the previous world is left
@@ -40,6 +50,7 @@ def build_in_scene(
     check_seed(seed)
     detail_level(detail)
     check_vegetation(vegetation)
+    check_biome(biome)
     if fresh:
         from ..blender.scene_io import empty_scene
 
@@ -48,7 +59,9 @@ def build_in_scene(
     from ..blender.builder import build_world
     from ..blender.replace import replacing_generated
 
-    return replacing_generated(lambda: build_world(seed, detail, progress=progress, vegetation=vegetation))
+    return replacing_generated(
+        lambda: build_world(seed, detail, progress=progress, vegetation=vegetation, biome=biome)
+    )
 
 
 # ---------------------------------------------------------------------------------------
@@ -92,6 +105,7 @@ def make_world(
     progress: StageProgress | None = None,
     fresh: bool = True,
     vegetation: str = DEFAULT_VEGETATION,
+    biome: str = DEFAULT_BIOME,
 ) -> SavedWorld:
     """Build the world of `seed` and save it as a .blend, with its JSON sidecar (zones,
     extents, features, up to `poses_per_zone` valid scan poses a zone) and optionally an
@@ -99,12 +113,13 @@ def make_world(
     check_seed(seed)
     detail_level(detail)
     check_vegetation(vegetation)
+    check_biome(biome)
     blend, png = check_world_outputs(out, map_path)
     sidecar = sidecar_path(blend)
     stage = progress or (lambda _stage, _seconds: None)
 
     t_start = time.perf_counter()
-    plan = build_in_scene(seed, detail, progress, fresh, vegetation)
+    plan = build_in_scene(seed, detail, progress, fresh, vegetation, biome)
     t0 = time.perf_counter()
     poses = valid_poses(plan, plan_backend(plan), poses_per_zone)
     stage("valid poses", time.perf_counter() - t0)

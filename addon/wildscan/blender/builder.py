@@ -19,8 +19,9 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ..core.world import DEFAULT_VEGETATION, WorldParams, WorldPlan, plan_world
+from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION, WorldParams, WorldPlan, plan_world
 from . import WORLD_COLLECTION
+from .cover import store_cover
 from .mesh import (
     GENERATED,
     WORLD_ROOT_PROP,
@@ -52,10 +53,11 @@ def build_world(
     params: WorldParams | None = None,
     collection_name: str = WORLD_COLLECTION,
     vegetation: str = DEFAULT_VEGETATION,
+    biome: str = DEFAULT_BIOME,
 ) -> WorldPlan:
     """Plan the world for `seed` and realise it in the current scene, replacing what a
     previous build made (and nothing else). `progress(stage, seconds)` after each stage."""
-    plan = plan_world(seed, detail, params, progress=progress, vegetation=vegetation)
+    plan = plan_world(seed, detail, params, progress=progress, vegetation=vegetation, biome=biome)
     realise(plan, collection_name, progress)
     return plan
 
@@ -81,6 +83,8 @@ def realise(
     root[WORLD_SEED_PROP] = int(plan.seed)
     root["wildscan_detail"] = plan.detail.name
     root["wildscan_vegetation"] = plan.vegetation
+    root["wildscan_biome"] = plan.biome
+    store_cover(root, plan.cover)
     t0 = _timed(plan, "blender.clear", t0, progress)
 
     used = {el.proto for el in plan.elements}

@@ -22,7 +22,17 @@ from ..core.checks import whole_number
 from ..core.errors import UserError
 from ..core.frames import FRAMES
 from ..core.io.files import check_input_file, check_output_path
-from ..core.world import DEFAULT_VEGETATION, ZONES, check_seed, check_vegetation, check_zone, detail_level
+from ..core.world import (
+    BIOMES,
+    DEFAULT_BIOME,
+    DEFAULT_VEGETATION,
+    ZONES,
+    check_biome,
+    check_seed,
+    check_vegetation,
+    check_zone,
+    detail_level,
+)
 from ..raycast.select import BACKEND_NAMES
 
 EXIT_USER_ERROR = 2
@@ -123,6 +133,11 @@ VEGETATION_HELP = (
     "clusters, separate blades) in a closed-canopy forest; solid: closed shells in an open stand, the "
     "paper's look (exactly the worlds WildScan built before porous vegetation). Default porous"
 )
+BIOME_HELP = (
+    f"{' | '.join(BIOMES)}: the mix of vegetation, ground cover (a sward a beam stops in) and "
+    "deadwood; the zones are the same in every biome. paper: the world from before biomes, bare "
+    f"ground, byte for byte (docs/ground.md). Default {DEFAULT_BIOME}"
+)
 
 
 def _declared(setting: str) -> Option:
@@ -154,6 +169,7 @@ _SHARED = (
     Option(
         "vegetation", dict(default=DEFAULT_VEGETATION, metavar="KIND", help=VEGETATION_HELP), check_vegetation
     ),
+    Option("biome", dict(default=DEFAULT_BIOME, metavar="NAME", help=BIOME_HELP), check_biome),
     _count("poses", "valid scan poses listed per zone in the sidecar"),
     _count("count", f"poses per zone, 1..{MAX_POSE_COUNT}"),
     Option(
@@ -239,6 +255,14 @@ def vegetation_of(args: argparse.Namespace) -> str:
     if args.vegetation is not None and args.seed is None:
         raise UserError("applies to a world built from {seed} only", setting="vegetation", related=("seed",))
     return args.vegetation or DEFAULT_VEGETATION
+
+
+def biome_of(args: argparse.Namespace) -> str:
+    """The biome of the --seed world (default mixed); a mistake without --seed (a saved world
+    has the biome it was built with)."""
+    if getattr(args, "biome", None) is not None and args.seed is None:
+        raise UserError("applies to a world built from {seed} only", setting="biome", related=("seed",))
+    return getattr(args, "biome", None) or DEFAULT_BIOME
 
 
 def sensor_of(args: argparse.Namespace) -> S.SensorConfig:

@@ -49,6 +49,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
+    options.add(p, "biome", default=None, help=f"with --seed: {options.BIOME_HELP}")
     for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
         options.add(p, name)
     from .weather import add_weather
@@ -76,6 +77,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
     from .output import Progress, StageProgress, print_class_counts, print_echo_summary, say
 
     pose, sensor, vegetation = Pose(*args.pose), options.sensor_of(args), options.vegetation_of(args)
+    biome = options.biome_of(args)
     out = check_scan(pose, sensor, args.z_start, args.out, args.format, args.ascii)
     geometry, provenance = None, {}
     if args.geometry is not None:
@@ -84,7 +86,12 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         say(args, f"building the world of seed {args.seed}")
     if geometry is None:
         open_scan_world(
-            args.world, args.seed, StageProgress(args.quiet), vegetation=vegetation, quiet=args.quiet
+            args.world,
+            args.seed,
+            StageProgress(args.quiet),
+            vegetation=vegetation,
+            quiet=args.quiet,
+            biome=biome,
         )
     result = scan_current_scene(
         pose,

@@ -41,6 +41,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "needs matplotlib, which the bpy wheel's venv has and Debian's Blender does not",
     )
     options.add(p, "vegetation")
+    options.add(p, "biome")
     options.add(p, "poses")
     p.add_argument("--quiet", action="store_true", help="print only the files written")
 
@@ -58,6 +59,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         StageProgress(args.quiet),
         fresh=not in_blender,
         vegetation=args.vegetation,
+        biome=args.biome,
     )
     print_saved_world(saved, args.quiet)
     return 0
@@ -69,7 +71,7 @@ def print_saved_world(saved, quiet: bool = False) -> None:
         counts = saved.plan.counts()
         print(
             f"world of seed {saved.plan.seed} ({saved.plan.detail.name} detail, {saved.plan.vegetation} "
-            f"vegetation): {counts['objects']:,} "
+            f"vegetation, {saved.plan.biome} biome): {counts['objects']:,} "
             f"objects sharing {counts['meshes']} meshes, {counts['triangles']:,} triangles, "
             f"built and saved in {saved.seconds:.1f} s"
         )

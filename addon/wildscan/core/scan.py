@@ -200,7 +200,9 @@ def run_scan(
         **{k: v for k, v in facts.items() if k != "hits"},
         "points": int(len(cloud)),
         "untagged_objects_hit": sorted(untagged),
-        "classes": class_table_dict(particles=weather_of(effects) is not None),
+        "classes": class_table_dict(
+            particles=weather_of(effects) is not None, logs=any(e.name == "cover" for e in effects.items)
+        ),
     }
     if effects:  # clear air says nothing, so scans without effects keep their bytes
         metadata["effects"] = effects.describe()

@@ -42,7 +42,7 @@ import numpy as np
 
 from ..core import detmath as dm
 from ..core.classes import class_by_name
-from ..core.world import plan_world
+from ..core.world import DEFAULT_BIOME, plan_world
 from .geometry import SceneGeometry, concatenate, local_origin, world_vertices
 
 
@@ -77,13 +77,16 @@ def plan_geometry(plan) -> SceneGeometry:
         )
     geometry = concatenate(parts, object_names=tuple(el.name for el in elements))
     geometry.offset = local_origin(geometry.vertices, geometry.faces)
+    geometry.cover = plan.cover
     return geometry
 
 
-def world_geometry(seed, detail: str = "default", vegetation: str = "porous") -> SceneGeometry:
+def world_geometry(
+    seed, detail: str = "default", vegetation: str = "porous", biome: str = DEFAULT_BIOME
+) -> SceneGeometry:
     """The scene geometry of the world of `seed` at `detail`, without Blender: what
-    `wildscan world --seed S --detail D --vegetation V` saves, as the scanner sees it."""
-    return plan_geometry(plan_world(seed, detail, vegetation=vegetation))
+    `wildscan world --seed S --detail D --vegetation V --biome B` saves, as the scanner sees it."""
+    return plan_geometry(plan_world(seed, detail, vegetation=vegetation, biome=biome))
 
 
 def blender_order(elements) -> list:

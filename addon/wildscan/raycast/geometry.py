@@ -62,6 +62,8 @@ class SceneGeometry:
     offset:       float64 (3,) local origin for float32 copies (see module docstring).
     reflectivity: float32 (T,) the object's `wildscan_reflectivity` override, nan where the
                   class's reflectivity applies (None given: no override anywhere).
+    cover:        the world's ground cover (core/world/cover.py CoverGrid), not triangles: a
+                  layer the scan's medium walks (core/effects/cover.py); None: bare ground.
     """
 
     vertices: np.ndarray
@@ -72,6 +74,7 @@ class SceneGeometry:
     object_names: tuple[str, ...] = ()
     offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     reflectivity: np.ndarray | None = None
+    cover: object = None
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
@@ -154,6 +157,7 @@ class SceneGeometry:
             object_names=self.object_names,
             offset=self.offset.copy(),
             reflectivity=self.reflectivity[keep],
+            cover=self.cover,
         )
 
     # -- turning triangle hits into RayHits ---------------------------------------------

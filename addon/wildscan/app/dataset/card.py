@@ -178,7 +178,8 @@ def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]])
     lines = [
         f"# WildScan dataset ({'complete' if data['complete'] else 'incomplete: rerun the same command'})",
         "",
-        f"{len(spec.seeds)} worlds (detail {spec.detail}, {spec.vegetation} vegetation) x "
+        f"{len(spec.seeds)} worlds (detail {spec.detail}, {spec.vegetation} vegetation, "
+        f"{spec.biome} biome) x "
         f"{spec.scans_per_world} scans, {spec.sensor.model} sensor model; formats "
         f"{', '.join(spec.formats)}; label ids: {spec.label_scheme}; "
         f"config hash `{data['config_hash'][:16]}`.",

@@ -23,7 +23,7 @@ from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
 from ...core.rng import stage_seed
-from ...core.world import DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
+from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ..settings import SETTINGS
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
@@ -70,6 +70,7 @@ class DatasetSpec:
     seeds: tuple[int, ...] = (0, 1, 2)
     detail: str = "default"
     vegetation: str = DEFAULT_VEGETATION
+    biome: str = DEFAULT_BIOME  # core/world/biomes.py; paper: the world from before biomes
     scans_per_world: int = 50
     formats: tuple[str, ...] = DEFAULT_FORMATS
     label_scheme: str = "wildscan"
@@ -159,6 +160,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         "seeds",
         "detail",
         "vegetation",
+        "biome",
         "scans_per_world",
         "formats",
         "label_scheme",
@@ -173,6 +175,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         seeds=_seeds(top),
         detail=top.choice("detail", d.detail, tuple(DETAILS)),
         vegetation=top.choice("vegetation", d.vegetation, VEGETATION),
+        biome=top.choice("biome", d.biome, BIOMES),
         scans_per_world=top.integer("scans_per_world", d.scans_per_world, 1, MAX_SCANS_PER_WORLD),
         formats=_formats(top),
         label_scheme=top.choice("label_scheme", d.label_scheme, SCHEME_NAMES),
@@ -456,6 +459,7 @@ def spec_from_json(data: dict) -> DatasetSpec:
         seeds=tuple(data["seeds"]),
         detail=data["detail"],
         vegetation=data["vegetation"],
+        biome=data.get("biome", DEFAULT_BIOME),
         scans_per_world=data["scans_per_world"],
         formats=tuple(data["formats"]),
         label_scheme=data["label_scheme"],

@@ -100,7 +100,7 @@ _last_world: dict[tuple, WorldContext] = {}
 
 
 def _world_key(spec: DatasetSpec, seed: int) -> tuple:
-    return (seed, spec.detail, spec.vegetation, spec.scans_per_world, spec.poses)
+    return (seed, spec.detail, spec.vegetation, spec.biome, spec.scans_per_world, spec.poses)
 
 
 def world_context(spec: DatasetSpec, seed: int) -> WorldContext:
@@ -134,7 +134,7 @@ def build_world(spec: DatasetSpec, seed: int) -> WorldContext:
     from ...raycast.from_plan import plan_geometry
 
     t0 = time.perf_counter()
-    plan = plan_world(seed, spec.detail, vegetation=spec.vegetation)
+    plan = plan_world(seed, spec.detail, vegetation=spec.vegetation, biome=spec.biome)
     geometry = plan_geometry(plan)
     backend = _embree(geometry)
 
@@ -250,10 +250,10 @@ def base_row(spec: DatasetSpec, seed: int, index: int) -> dict:
     }
 
 
-def _effects(weather: dict, sensor):
+def _effects(weather: dict, sensor, cover=None):
     from ..scan import scan_effects
 
-    return scan_effects(weather, sensor)
+    return scan_effects(weather, sensor, cover)
 
 
 def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -> dict:
@@ -271,7 +271,13 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         row["weather"] = weather
     try:
         result = run_scan(
-            context.backend, choice.pose, sensor, frame, choice.z_start, None, _effects(weather, sensor)
+            context.backend,
+            choice.pose,
+            sensor,
+            frame,
+            choice.z_start,
+            None,
+            _effects(weather, sensor, context.plan.cover),
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)

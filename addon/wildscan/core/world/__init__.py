@@ -9,7 +9,9 @@ map, pose lists and fast ray casting read it directly.
     pipeline.py     plan_world: the stages in order, WorldParams
     plan.py         WorldPlan (what the stages fill in and the queries they share), Site, plan_hash
     stages/         one module per stage: layout, terrain, poses, lake, cave, trail, park,
-                    powerline, trees, bushes, rocks, grass
+                    powerline, trees, bushes, rocks, grass, deadwood, cover
+    biomes.py       the biomes: how each changes the mix (paper: the world from before biomes)
+    cover.py        the ground cover's grid (the sward layer a beam enters)
     shapes/         the meshes, one module per family (primitives, trees, plants, rocks,
                     furniture, powerline)
     elements.py     Element and Prototype, shared by both worlds
@@ -19,6 +21,7 @@ map, pose lists and fast ray casting read it directly.
     testworld.py    the small fixed test world
 """
 
+from .biomes import BIOMES, DEFAULT_BIOME, check_biome
 from .detail import DETAILS, DetailLevel, detail_level, model_errors
 from .elements import Element, Prototype
 from .pipeline import STAGES, WorldParams, plan_world
@@ -55,6 +58,9 @@ from .stages.trail import TrailParams
 from .stages.trees import TreeParams
 
 __all__ = [
+    "BIOMES",
+    "DEFAULT_BIOME",
+    "check_biome",
     "DEFAULT_VEGETATION",
     "DETAILS",
     "ELEMENT_STAGES",

@@ -4,7 +4,8 @@ Stages and determinism
 ----------------------
 Each stage draws from its own generator `stage_rng(seed, "world.<stage>")`:
 
-    layout -> terrain -> poses -> trail, lake, cave, trees, bushes, rocks, grass, park, powerline
+    layout -> terrain -> poses -> trail, lake, cave, trees, bushes, rocks, grass, park, powerline,
+              deadwood -> cover
 
 The element stages read only what comes before them in that chain (the
 layout, the terrain and the reserved pose sites), never each other, so changing
@@ -20,9 +21,25 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 from ..rng import stage_rng
+from .biomes import DEFAULT_BIOME, biome_of, biome_params
 from .detail import detail_level
 from .plan import DEFAULT_VEGETATION, WorldPlan, check_seed, check_vegetation
-from .stages import bushes, cave, grass, lake, layout, park, poses, powerline, rocks, terrain, trail, trees
+from .stages import (
+    bushes,
+    cave,
+    cover,
+    deadwood,
+    grass,
+    lake,
+    layout,
+    park,
+    poses,
+    powerline,
+    rocks,
+    terrain,
+    trail,
+    trees,
+)
 from .stages.bushes import BushParams
 from .stages.grass import GrassParams
 from .stages.layout import LayoutParams
@@ -55,7 +72,11 @@ class WorldParams:
 
 
 # The stages in the order they run; each reads only what the ones before it made.
-STAGE_MODULES = (layout, terrain, poses, trail, lake, cave, trees, bushes, rocks, grass, park, powerline)
+# deadwood and cover add nothing to a paper world; cover reads the elements before it (crowns
+# shade, rocks and logs leave bare ground).
+STAGE_MODULES = (
+    layout, terrain, poses, trail, lake, cave, trees, bushes, rocks, grass, park, powerline, deadwood, cover
+)  # fmt: skip
 STAGES = tuple(stage.STAGE for stage in STAGE_MODULES)
 
 
@@ -65,11 +86,18 @@ def plan_world(
     params: WorldParams | None = None,
     progress: Callable[[str, float], None] | None = None,
     vegetation: str = DEFAULT_VEGETATION,
+    biome: str = DEFAULT_BIOME,
 ) -> WorldPlan:
     """Plan the whole world for a seed. `progress(stage, seconds)` is called after each stage;
-    `vegetation` is porous (the default) or solid (plan.VEGETATION)."""
+    `vegetation` is porous (the default) or solid (plan.VEGETATION); `biome` one of
+    biomes.BIOMES (paper: the world from before biomes, byte for byte)."""
+    b = biome_of(biome)
     plan = WorldPlan(
-        check_seed(seed), detail_level(detail), params or WorldParams(), check_vegetation(vegetation)
+        check_seed(seed),
+        detail_level(detail),
+        biome_params(b, params or WorldParams()),
+        check_vegetation(vegetation),
+        b.name,
     )
     for stage in STAGE_MODULES:
         t0 = time.perf_counter()

@@ -19,6 +19,8 @@ import numpy as np
 from .. import detmath as dm
 from ..checks import one_of, whole_number
 from ..placement import Pose
+from .biomes import PAPER
+from .cover import CoverGrid
 from .detail import DetailLevel
 from .elements import Element, ElementSet, Prototype
 from .geometry2d import cell_area, darts
@@ -44,6 +46,7 @@ ELEMENT_STAGES = (
     "grass",
     "park",
     "powerline",
+    "deadwood",
 )
 STAGE_INSTANCE_BASE = {name: 10_000 * k for k, name in enumerate(ELEMENT_STAGES)}
 STAGE_INSTANCE_BLOCK = 10_000
@@ -167,6 +170,7 @@ class WorldPlan(ElementSet):
     detail: DetailLevel
     params: Any  # WorldParams (pipeline.py): one parameter dataclass per stage
     vegetation: str = DEFAULT_VEGETATION  # VEGETATION: porous or solid crowns, bushes, high grass
+    biome: str = PAPER  # biomes.BIOMES: the mix of vegetation and ground cover (plan_world's default: mixed)
     layout: Any = None  # stages.layout.Layout: each zone's cell and shape, drawn first
     heightfield: Heightfield | None = None
     grid_fit: GridFit | None = None
@@ -176,6 +180,7 @@ class WorldPlan(ElementSet):
     prototypes: dict[str, Prototype] = field(default_factory=dict)
     elements: list[Element] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    cover: CoverGrid | None = None  # the sward layer (stages/cover.py); None: bare ground (paper)
 
     # -- terrain queries ----------------------------------------------------------------
 
@@ -280,6 +285,12 @@ class WorldPlan(ElementSet):
 
     # -- description --------------------------------------------------------------------
 
+    def cover_facts(self) -> dict:
+        """world.json's ground cover: the grid's cell and the share of the ground under each class."""
+        if self.cover is None:
+            return {}
+        return {"cell": self.cover.cell, "shares": {k: round(v, 4) for k, v in self.cover.shares().items()}}
+
     def zone_features(self, zone: str) -> dict:
         shape = self.layout.zone_shapes().get(zone)
         return shape.features(self) if shape is not None else {}
@@ -302,6 +313,7 @@ class WorldPlan(ElementSet):
             "seed": self.seed,
             "detail": self.detail.name,
             "vegetation": self.vegetation,
+            **({} if self.biome == PAPER else {"biome": self.biome, "cover": self.cover_facts()}),
             "extent": {"xmin": EXTENT[0], "xmax": EXTENT[1], "ymin": EXTENT[2], "ymax": EXTENT[3]},
             "terrain": {
                 "relief": round(float(self.grid.z.max() - self.grid.z.min()), 3),
@@ -321,8 +333,12 @@ class WorldPlan(ElementSet):
 
 
 def plan_hash(plan: WorldPlan, stage: str | None = None) -> str:
-    """SHA-256 over every element's world vertices, faces and tags (optionally one stage's)."""
+    """SHA-256 over every element's world vertices, faces and tags (optionally one stage's),
+    and the ground cover's grid where there is one (stage "cover")."""
     h = hashlib.sha256()
+    if plan.cover is not None and stage in (None, "cover"):
+        h.update(plan.cover.class_id.tobytes())
+        h.update(np.round(plan.cover.height.astype(np.float64), 5).tobytes())
     for el in sorted(plan.elements, key=lambda e: e.name):
         if stage is not None and el.stage != stage:
             continue

@@ -1,0 +1,142 @@
+"""The ground cover of a world as plain data: a sward layer over the terrain (numpy only).
+
+Real natural ground is covered (grass, herbs, ferns, shrubs), and a laser sees that cover as a
+turbid layer it enters and stops in somewhere, not as a surface. So the cover is not millions of
+blade triangles but a grid over the terrain: per cell the class of what grows there (low grass,
+high grass, or undergrowth labelled bush; 0 bare) and the layer's height above the terrain. A
+beam crossing the layer stops in it with a probability per metre (Beer-Lambert on the
+layer's leaf area density, as HELIOS++ does for its vegetation voxels), applied after the cast
+by core/effects/cover.py. stages/cover.py fills the grid in from the terrain and the zones.
+
+Leaf area density (LAD, one-sided leaf area per volume, m^2/m^3) is a class's leaf area index
+(LAI) spread over its height. LAI per biome type from Asner, Scurlock & Hicke (2003), "Global
+synthesis of leaf area index observations", Global Ecology & Biogeography 12:191-205, table 2:
+grasslands 1.7, shrublands 2.1, wetlands 6.3 (the tall grass and reeds by the lake).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..classes import BY_ID, class_by_name
+from .heightfield import interpolate
+
+CELL = 0.5  # m, the cover grid's cell: about a tussock's or a fern's spread
+
+LOW_GRASS = class_by_name("low grass").id
+HIGH_GRASS = class_by_name("high grass").id
+BUSH = class_by_name("bush").id
+COVER_CLASSES = (LOW_GRASS, HIGH_GRASS, BUSH)
+
+# Leaf area index (m^2/m^2; Asner et al. 2003, above) and the layer's typical height (m), so
+# LAD = LAI / height. Heights: a grazed or mown meadow sward 0.1-0.3 m, tall grass and reeds
+# 0.6-1.2 m, fern and bramble undergrowth 0.4-1 m (field descriptions of European grassland
+# and woodland ground flora; the grid's own heights vary around these).
+LAI = {LOW_GRASS: 1.7, HIGH_GRASS: 6.3, BUSH: 2.1}
+TYPICAL_HEIGHT = {LOW_GRASS: 0.25, HIGH_GRASS: 0.8, BUSH: 0.7}
+LAD = {c: LAI[c] / TYPICAL_HEIGHT[c] for c in COVER_CLASSES}  # m^2/m^3
+# Ross's G function: the mean projection of unit leaf area on a plane normal to the beam; 0.5
+# for a spherical (random) leaf angle distribution (Ross 1981, The Radiation Regime and
+# Architecture of Plant Stands; the value HELIOS++ and most canopy models use).
+G_SPHERICAL = 0.5
+# Attenuation per metre of path inside the layer (1/m): Beer-Lambert, P(pass s) = exp(-G LAD s).
+EXTINCTION = np.zeros(max(BY_ID) + 1, dtype=np.float64)
+for _c in COVER_CLASSES:
+    EXTINCTION[_c] = G_SPHERICAL * LAD[_c]
+
+# A cover point's instance: one per class, above every element stage's block (plan.py), so a
+# cover return never shares an instance with an element.
+COVER_INSTANCE_BASE = 900_000
+
+
+@dataclass
+class CoverGrid:
+    """A cover layer over a terrain. Cell (j, i) spans x0 + i*cell .. x0 + (i+1)*cell (and the
+    same in y); `class_id` (ny, nx) uint8 is what grows there (0 none), `height` (ny, nx)
+    float32 the layer's top above the terrain. The terrain is the world's grid mesh (xs, ys,
+    z), the very surface the layer stands on."""
+
+    x0: float
+    y0: float
+    cell: float
+    class_id: np.ndarray
+    height: np.ndarray
+    terrain_xs: np.ndarray
+    terrain_ys: np.ndarray
+    terrain_z: np.ndarray
+
+    def __post_init__(self):
+        self.class_id = np.ascontiguousarray(self.class_id, dtype=np.uint8)
+        self.height = np.ascontiguousarray(self.height, dtype=np.float32)
+        self.height[self.class_id == 0] = 0.0
+        self.terrain_xs = np.asarray(self.terrain_xs, dtype=np.float64)
+        self.terrain_ys = np.asarray(self.terrain_ys, dtype=np.float64)
+        self.terrain_z = np.asarray(self.terrain_z, dtype=np.float64)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.class_id.shape
+
+    def cells(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """(flat cell index, inside the grid) of points."""
+        ny, nx = self.shape
+        i = np.floor((np.asarray(x) - self.x0) / self.cell).astype(np.int64)
+        j = np.floor((np.asarray(y) - self.y0) / self.cell).astype(np.int64)
+        inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        return np.clip(j, 0, ny - 1) * nx + np.clip(i, 0, nx - 1), inside
+
+    def ground(self, x, y) -> np.ndarray:
+        """The terrain's height under points (the surface the layer stands on)."""
+        return interpolate(self.terrain_xs, self.terrain_ys, self.terrain_z, x, y)
+
+    def at(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """(class id, layer height) at points (0, 0 outside the grid)."""
+        flat, inside = self.cells(x, y)
+        cls = np.where(inside, self.class_id.reshape(-1)[flat], 0)
+        height = np.where(inside, self.height.reshape(-1)[flat], 0.0)
+        return cls, height
+
+    def inside_layer(self, points: np.ndarray, margin: float = 1e-6) -> np.ndarray:
+        """Whether points (N, 3) lie inside the layer: over a covered cell, at most its height
+        above the terrain and not below it."""
+        p = np.asarray(points, dtype=np.float64)
+        cls, height = self.at(p[:, 0], p[:, 1])
+        above = p[:, 2] - self.ground(p[:, 0], p[:, 1])
+        return (cls > 0) & (above >= -margin) & (above <= height + margin)
+
+    def shares(self) -> dict[str, float]:
+        """The share of the grid's cells under each cover class (and bare)."""
+        total = self.class_id.size
+        out = {"bare": float((self.class_id == 0).sum()) / total}
+        for c in COVER_CLASSES:
+            out[BY_ID[c].name] = float((self.class_id == c).sum()) / total
+        return out
+
+    def nbytes(self) -> int:
+        return int(self.class_id.nbytes + self.height.nbytes + self.terrain_z.nbytes)
+
+    # -- as plain lists and arrays (a .blend's custom properties, a geometry file) ----------
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        return {
+            "cover_origin": np.array([self.x0, self.y0, self.cell], dtype=np.float64),
+            "cover_class": self.class_id,
+            "cover_height": self.height,
+            "cover_terrain_xs": self.terrain_xs,
+            "cover_terrain_ys": self.terrain_ys,
+            "cover_terrain_z": self.terrain_z,
+        }
+
+    @staticmethod
+    def from_arrays(arrays, shape: tuple[int, int] | None = None) -> CoverGrid:
+        x0, y0, cell = (float(v) for v in np.asarray(arrays["cover_origin"]).reshape(3))
+        xs = np.asarray(arrays["cover_terrain_xs"], dtype=np.float64).reshape(-1)
+        ys = np.asarray(arrays["cover_terrain_ys"], dtype=np.float64).reshape(-1)
+        cls = np.asarray(arrays["cover_class"])
+        height = np.asarray(arrays["cover_height"])
+        if shape is not None:
+            cls, height = cls.reshape(shape), height.reshape(shape)
+        z = np.asarray(arrays["cover_terrain_z"], dtype=np.float64).reshape(len(ys), len(xs))
+        return CoverGrid(x0, y0, cell, cls, height, xs, ys, z)
