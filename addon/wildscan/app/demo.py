@@ -16,6 +16,9 @@ from ..core.sensors import SensorConfig
 from .world import SavedWorld, StageProgress
 
 DETAIL = "default"
+# The paper's world (bare ground, the paper's elements): the demo is the paper's section V, and
+# its point counts are the golden scans' (README's table, tools/docs_tables.py).
+BIOME = "paper"
 POSES_PER_ZONE = 3  # listed in the world's sidecar; the first valid one of each zone is scanned
 # Point counts of the paper's r_h = 1 deg scans (Figs. 8-12), for comparison.
 PAPER_POINTS = {"hills": 83_056, "lake": 63_998, "park": 60_669, "cave": 80_307, "forest": 85_479}
@@ -62,7 +65,9 @@ def prepare(out: str | os.PathLike, rh_deg: float) -> tuple[Path, SensorConfig]:
 def make_demo_world(seed: int, out: Path, progress: StageProgress | None = None) -> SavedWorld:
     from .world import make_world
 
-    return make_world(seed, DETAIL, out / "world.blend", out / "map.png", POSES_PER_ZONE, progress)
+    return make_world(
+        seed, DETAIL, out / "world.blend", out / "map.png", POSES_PER_ZONE, progress, biome=BIOME
+    )
 
 
 def pose_label(pose: Pose, z_start: float | None) -> str:

@@ -68,9 +68,10 @@ class WILDSCAN_OT_generate_world(Operator):
 
         settings = context.scene.wildscan
         seed, detail, vegetation = int(settings.seed), str(settings.detail), str(settings.vegetation)
+        biome = str(settings.biome)
         try:
             with Progress(context, f"WildScan: building the world of seed {seed}") as progress:
-                build_in_scene(seed, detail, progress.stage, vegetation=vegetation)
+                build_in_scene(seed, detail, progress.stage, vegetation=vegetation, biome=biome)
         except UserError as e:
             self.report({"ERROR"}, panel_message(e))
             return {"CANCELLED"}

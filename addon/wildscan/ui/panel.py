@@ -54,6 +54,7 @@ class VIEW3D_PT_wildscan_world(_WildScanPanel, Panel):
         layout.prop(s, "seed")
         layout.prop(s, "detail")
         layout.prop(s, "vegetation")
+        layout.prop(s, "biome")
         layout.operator("wildscan.generate_world", icon="WORLD")
         info = world_info(context.scene)
         if info is None:

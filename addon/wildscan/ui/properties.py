@@ -20,6 +20,7 @@ from ..app.settings import SETTINGS, label, panel_help
 from ..blender.generate import DETAILS
 from ..core import sensor as S
 from ..core.classes import TAG_NAMES
+from ..core.world.biomes import BIOME_TABLE, BIOMES, DEFAULT_BIOME
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 from .weather import CLASSES as WEATHER_CLASSES
@@ -145,6 +146,15 @@ class WildScanSettings(PropertyGroup):
             ("solid", "Solid", "Closed shells in an open stand: the paper's look"),
         ],
         default="porous",
+    )
+    biome: EnumProperty(
+        name=label("biome"),
+        description="The mix of vegetation, ground cover and deadwood (the zones stay the same)",
+        items=[
+            (b, b.capitalize(), BIOME_TABLE[b].summary[:1].upper() + BIOME_TABLE[b].summary[1:])
+            for b in BIOMES
+        ],
+        default=DEFAULT_BIOME,
     )
 
     # Pose

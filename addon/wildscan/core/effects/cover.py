@@ -51,7 +51,7 @@ class GroundCover(Effect):
     def __init__(self, grid: CoverGrid, seed: int = 0):
         self.grid = grid
         self.seed = int(seed)
-        self.top = _LayerTop.of(grid)
+        self.top = grid
 
     def describe(self) -> dict:
         return {"model": "beer-lambert", "step_m": STEP, "cell_m": self.grid.cell, "trampled_m": TRAMPLED}
@@ -67,7 +67,8 @@ class GroundCover(Effect):
         with np.errstate(divide="ignore"):
             t0 = np.where(horizontal > 0, TRAMPLED / horizontal, np.inf)
         # the run from the sensor: rays starting inside the layer past the trampled ground
-        first = np.flatnonzero(self.top.inside(origins + dirs * t0[:, None]) & (t0 < end))
+        probe = origins + dirs * np.minimum(t0, end)[:, None]
+        first = np.flatnonzero(self.top.inside_layer(probe) & (t0 < end))
         t_stop, cls_stop, t_exit = self._forward(origins, dirs, first, t0[first], end[first], depth[0, first])
         # the run that ends at the hit: walked back to where it begins, then forward
         exited = np.full(n, -np.inf)
@@ -109,7 +110,10 @@ class GroundCover(Effect):
             if done.any():
                 a = active[done]
                 over = tau[a] - depth[a]
-                t_stop[a] = t[a] + seg[done] - over / ext[done]  # exact inside the step
+                at = t[a] + seg[done] - over / ext[done]  # exact inside the step
+                # ...unless that falls past the layer's edge within the step: then its middle
+                edge = self.top.class_inside(origins[rays[a]] + dirs[rays[a]] * at[:, None]) != cls[done]
+                t_stop[a] = np.where(edge, mid[done], at)
                 cls_stop[a] = cls[done]
             left = ~inside
             t_exit[active[left]] = t[active[left]]
@@ -137,52 +141,6 @@ class GroundCover(Effect):
             active = active[inside]
         begin[active] = t[active]  # walked back to the floor inside the layer
         return np.where(np.isfinite(begin) & (begin < end), begin, np.inf)
-
-
-class _LayerTop:
-    """The layer's top over a regular grid: the terrain at the cover grid's nodes (bilinear in
-    between) plus each cell's height; built once per grid and kept on it."""
-
-    def __init__(self, grid: CoverGrid):
-        ny, nx = grid.shape
-        xs = grid.x0 + np.arange(nx + 1) * grid.cell
-        ys = grid.y0 + np.arange(ny + 1) * grid.cell
-        self.grid = grid
-        self.nodes = grid.ground(*np.meshgrid(xs, ys))  # (ny+1, nx+1)
-        self.cls = grid.class_id.astype(np.int16)
-        self.height = grid.height.astype(np.float64)
-
-    @staticmethod
-    def of(grid: CoverGrid) -> _LayerTop:
-        top = getattr(grid, "_layer_top", None)
-        if top is None:
-            top = _LayerTop(grid)
-            grid._layer_top = top
-        return top
-
-    def class_inside(self, p: np.ndarray) -> np.ndarray:
-        """The cover class at points (N, 3) inside the layer (at most its top above the
-        terrain, not below it), 0 elsewhere."""
-        g = self.grid
-        ny, nx = self.cls.shape
-        fx = (p[:, 0] - g.x0) / g.cell
-        fy = (p[:, 1] - g.y0) / g.cell
-        i = np.floor(fx).astype(np.int64)
-        j = np.floor(fy).astype(np.int64)
-        out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
-        i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
-        tx, ty = fx - i, fy - j
-        z = self.nodes
-        ground = (z[j, i] * (1 - tx) + z[j, i + 1] * tx) * (1 - ty) + (
-            z[j + 1, i] * (1 - tx) + z[j + 1, i + 1] * tx
-        ) * ty
-        above = p[:, 2] - ground
-        cls = self.cls[j, i]
-        ok = ~out & (above >= -0.05) & (above <= self.height[j, i])
-        return np.where(ok, cls, 0).astype(np.int16)
-
-    def inside(self, p: np.ndarray) -> np.ndarray:
-        return self.class_inside(p) > 0
 
 
 def _with_cover_hits(hits: RayHits, stopped, t_stop, cls_stop, dirs) -> RayHits:

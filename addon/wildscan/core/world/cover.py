@@ -23,6 +23,7 @@ import numpy as np
 from ..classes import BY_ID, class_by_name
 from .heightfield import interpolate
 
+BOTTOM_SLACK = 0.05  # m the layer reaches below its node-sampled terrain (the mesh's own wiggle)
 CELL = 0.5  # m, the cover grid's cell: about a tussock's or a fern's spread
 
 LOW_GRASS = class_by_name("low grass").id
@@ -74,6 +75,7 @@ class CoverGrid:
         self.terrain_xs = np.asarray(self.terrain_xs, dtype=np.float64)
         self.terrain_ys = np.asarray(self.terrain_ys, dtype=np.float64)
         self.terrain_z = np.asarray(self.terrain_z, dtype=np.float64)
+        self._nodes: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -98,13 +100,40 @@ class CoverGrid:
         height = np.where(inside, self.height.reshape(-1)[flat], 0.0)
         return cls, height
 
-    def inside_layer(self, points: np.ndarray, margin: float = 1e-6) -> np.ndarray:
-        """Whether points (N, 3) lie inside the layer: over a covered cell, at most its height
-        above the terrain and not below it."""
+    def class_inside(self, points: np.ndarray) -> np.ndarray:
+        """int16 (N,): the cover class at points (N, 3) inside the layer, 0 elsewhere. The
+        layer is, over each covered cell, from BOTTOM_SLACK below the terrain (the terrain
+        sampled at the grid's nodes, bilinear between them, which the world's mesh follows
+        within centimetres) up to the cell's height above it."""
         p = np.asarray(points, dtype=np.float64)
-        cls, height = self.at(p[:, 0], p[:, 1])
-        above = p[:, 2] - self.ground(p[:, 0], p[:, 1])
-        return (cls > 0) & (above >= -margin) & (above <= height + margin)
+        ny, nx = self.shape
+        fx = (p[:, 0] - self.x0) / self.cell
+        fy = (p[:, 1] - self.y0) / self.cell
+        i = np.floor(fx).astype(np.int64)
+        j = np.floor(fy).astype(np.int64)
+        out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
+        i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
+        tx, ty = fx - i, fy - j
+        z = self.node_ground()
+        ground = (z[j, i] * (1 - tx) + z[j, i + 1] * tx) * (1 - ty) + (
+            z[j + 1, i] * (1 - tx) + z[j + 1, i + 1] * tx
+        ) * ty
+        above = p[:, 2] - ground
+        ok = ~out & (above >= -BOTTOM_SLACK) & (above <= self.height[j, i])
+        return np.where(ok, self.class_id[j, i], 0).astype(np.int16)
+
+    def node_ground(self) -> np.ndarray:
+        """(ny+1, nx+1) the terrain's height at the grid's nodes (computed once)."""
+        if self._nodes is None:
+            ny, nx = self.shape
+            xs = self.x0 + np.arange(nx + 1) * self.cell
+            ys = self.y0 + np.arange(ny + 1) * self.cell
+            self._nodes = self.ground(*np.meshgrid(xs, ys))
+        return self._nodes
+
+    def inside_layer(self, points: np.ndarray) -> np.ndarray:
+        """Whether points (N, 3) lie inside the layer (class_inside)."""
+        return self.class_inside(points) > 0
 
     def shares(self) -> dict[str, float]:
         """The share of the grid's cells under each cover class (and bare)."""

@@ -1,0 +1,106 @@
+"""Biomes, the ground cover (a sward layer a beam stops in) and deadwood (docs/ground.md)."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+
+from wildscan.core.classes import LOG_ID, class_by_name
+from wildscan.core.io.ply import header_comments
+from wildscan.core.world import plan_hash, plan_world
+from wildscan.core.world.cover import BUSH, COVER_INSTANCE_BASE, HIGH_GRASS, LOW_GRASS
+
+from tests.helpers.golden_cases import load
+
+COVER = {LOW_GRASS, HIGH_GRASS, BUSH}
+
+
+@functools.lru_cache(maxsize=4)
+def plan(biome: str):
+    return plan_world(1, biome=biome)
+
+
+@functools.lru_cache(maxsize=2)
+def geometry(biome: str):
+    from wildscan.raycast.from_plan import plan_geometry
+
+    return plan_geometry(plan(biome))
+
+
+def scan(biome: str, zone: str, frame: str = "world", noise: float | None = 0.0):
+    from wildscan.app.poses import plan_backend, valid_poses
+    from wildscan.app.scan import scan_current_scene
+    from wildscan.core.placement import Pose
+    from wildscan.core.sensors import SensorConfig
+
+    p = valid_poses(plan(biome), plan_backend(plan(biome)), 1)[zone][0]
+    sensor = SensorConfig(rh_deg=2.0, noise_sigma=noise)
+    pose = Pose(p["x"], p["y"], p["yaw"])
+    return scan_current_scene(
+        pose, sensor, frame, p.get("z_start"), "embree", geometry=geometry(biome), notify=lambda _: None
+    )
+
+
+def test_the_paper_biome_is_the_world_from_before_biomes_byte_for_byte():
+    assert plan_hash(plan("paper")) == load("worlds.json")["1/default"]
+    assert plan("paper").cover is None
+    assert not plan("paper").elements_of(wildscan_class="log")
+
+
+def test_the_default_biome_covers_the_ground_and_leaves_the_trail_and_water_bare():
+    cover = plan("mixed").cover
+    shares = cover.shares()
+    assert shares["low grass"] > 0.2 and shares["bush"] > 0.05 and shares["high grass"] > 0.05
+    assert shares["bare"] < 0.25
+    trail = plan("mixed").layout.trail
+    x, y = trail.path[:, 0], trail.path[:, 1]
+    cls, height = cover.at(x, y)
+    assert (cls == 0).all() and (height == 0).all()  # on the trail's centre line: bare soil
+
+
+def test_biomes_change_the_mix_not_the_zones():
+    a, b = plan("mixed"), plan("scrub")
+    assert a.layout.cells == b.layout.cells
+    assert np.array_equal(a.grid.z, b.grid.z)
+    assert b.cover.shares()["bush"] > a.cover.shares()["bush"]
+
+
+def test_deadwood_lies_in_the_forest_as_logs():
+    logs = plan("mixed").elements_of(wildscan_class="log")
+    assert sum(e.zone == "forest" for e in logs) >= 10
+    assert all(e.stage == "deadwood" for e in logs)
+
+
+def test_a_cover_point_lies_inside_its_layer_and_the_scan_is_deterministic():
+    result = scan("mixed", "hills")
+    cloud = result.cloud
+    grass = cloud.instance >= COVER_INSTANCE_BASE  # the sward's returns (elements: their own ids)
+    assert grass.mean() > 0.3  # the hills' meadow: most of what the sensor sees
+    assert set(np.unique(cloud.label[grass]).tolist()) <= COVER
+    cover = plan("mixed").cover
+    inside = cover.inside_layer(cloud.xyz[grass])
+    assert inside.all(), cloud.xyz[grass][~inside][:5]
+    cls, _ = cover.at(cloud.xyz[grass, 0], cloud.xyz[grass, 1])
+    assert np.array_equal(cls, cloud.label[grass])  # labelled with the class of its cell
+    again = scan("mixed", "hills").cloud
+    assert np.array_equal(again.xyz, cloud.xyz) and np.array_equal(again.label, cloud.label)
+
+
+def test_a_forest_scan_sees_deadwood_and_its_file_lists_the_log_class():
+    result = scan("mixed", "forest", frame="leveled", noise=None)
+    assert (result.cloud.label == LOG_ID).any() or "log" in str(result.metadata["classes"])
+    lines = header_comments(result.cloud, result.metadata)
+    assert any(line.startswith("class 14 log") for line in lines)
+    paper = scan("paper", "forest", frame="leveled", noise=None)
+    assert not any(line.startswith("class 14") for line in header_comments(paper.cloud, paper.metadata))
+    assert not np.isin(paper.cloud.label, [LOG_ID]).any()
+
+
+@pytest.mark.parametrize("biome", ["meadow", "forest", "scrub"])
+def test_every_biome_plans_cover_and_keeps_the_paper_elements(biome):
+    p = plan_world(2, detail="low", biome=biome)
+    assert p.cover is not None and p.biome == biome
+    assert {e.wildscan_class for e in p.elements} >= {"trunk", "treetop", "bush", "table", "wire", "pole"}
+    assert class_by_name("log").id == LOG_ID
