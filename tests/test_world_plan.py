@@ -47,6 +47,7 @@ ALL_TAGS = {
     "wire",
     "pole",
     "water",
+    "log",  # the default biome's deadwood (core/world/stages/deadwood.py)
 }
 
 
@@ -230,6 +231,8 @@ def test_each_stage_is_a_module_of_its_own():
         "grass",
         "park",
         "powerline",
+        "deadwood",
+        "cover",
     )
     for module in pipeline.STAGE_MODULES:
         assert module.__name__ == f"wildscan.core.world.stages.{module.STAGE}" and callable(module.run)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..core.classes import BY_ID, CLASSES
+from ..core.classes import BY_ID, CLASSES, LOG, PARTICLE
 from ..core.io.files import atomic_outputs
 
 _METADATA = {"Software": None}  # no version stamp: the same data gives the same PNG
@@ -36,9 +36,10 @@ def render_card_figures(
     out = []
 
     fig, (ax1, ax2) = _figure((11, 4), 2)
-    names = [c.name for c in (BY_ID[0], *CLASSES)]
+    shown = [BY_ID[0], *CLASSES, *(c for c in (LOG, PARTICLE) if c.name in t["class_points"])]
+    names = [c.name for c in shown]
     total = max(1, t["points"])
-    colours = [tuple(v / 255 for v in BY_ID[i].color) for i in [0] + [c.id for c in CLASSES]]
+    colours = [tuple(v / 255 for v in c.color) for c in shown]
     ax1.barh(names, [100 * t["class_points"][n] / total for n in names], color=colours, edgecolor="0.3")
     ax1.invert_yaxis()
     ax1.set_xlabel("share of points (%)")

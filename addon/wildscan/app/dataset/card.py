@@ -11,7 +11,7 @@ from importlib import metadata
 from pathlib import Path
 
 from ... import __version__
-from ...core.classes import BY_ID, CLASSES, PARTICLE
+from ...core.classes import BY_ID, CLASSES, LOG, PARTICLE
 from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
@@ -26,7 +26,7 @@ FORMAT = "WildScan dataset 1"
 CATEGORIES = {
     "grass": (("low grass", "high grass"), ("grass",)),
     "bush": (("bush",), ("bush",)),
-    "tree": (("trunk", "treetop"), ("tree", "log")),
+    "tree": (("trunk", "treetop", "log"), ("tree", "log")),
     "ground": (("terrain",), ("dirt", "mud", "puddle", "asphalt", "concrete")),
 }
 _PACKAGES = ("numpy", "embreex", "dask", "distributed", "laspy", "tqdm", "matplotlib")
@@ -46,6 +46,8 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
     rows = list(manifest.rows.values())
     ok = [r for r in rows if r["status"] == "ok"]
     class_points = {c.name: 0 for c in (BY_ID[0], *CLASSES)}
+    if spec.biome != "paper":  # deadwood (a paper dataset's card keeps its bytes)
+        class_points[LOG.name] = 0
     if spec.weather:  # weather's particles, a class of their own (a clear dataset's card keeps its bytes)
         class_points[PARTICLE.name] = 0
     class_scans = dict.fromkeys(class_points, 0)

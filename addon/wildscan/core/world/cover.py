@@ -100,11 +100,10 @@ class CoverGrid:
         height = np.where(inside, self.height.reshape(-1)[flat], 0.0)
         return cls, height
 
-    def class_inside(self, points: np.ndarray) -> np.ndarray:
-        """int16 (N,): the cover class at points (N, 3) inside the layer, 0 elsewhere. The
-        layer is, over each covered cell, from BOTTOM_SLACK below the terrain (the terrain
-        sampled at the grid's nodes, bilinear between them, which the world's mesh follows
-        within centimetres) up to the cell's height above it."""
+    def surface(self, points: np.ndarray):
+        """At points (N, 3): (class, layer height, terrain height, its slope d/dx, d/dy). The
+        terrain here is the world's sampled at the grid's nodes, bilinear in between (the
+        world's mesh follows it within centimetres); outside the grid the class is 0."""
         p = np.asarray(points, dtype=np.float64)
         ny, nx = self.shape
         fx = (p[:, 0] - self.x0) / self.cell
@@ -113,14 +112,23 @@ class CoverGrid:
         j = np.floor(fy).astype(np.int64)
         out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
         i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
-        tx, ty = fx - i, fy - j
+        tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
         z = self.node_ground()
-        ground = (z[j, i] * (1 - tx) + z[j, i + 1] * tx) * (1 - ty) + (
-            z[j + 1, i] * (1 - tx) + z[j + 1, i + 1] * tx
-        ) * ty
-        above = p[:, 2] - ground
-        ok = ~out & (above >= -BOTTOM_SLACK) & (above <= self.height[j, i])
-        return np.where(ok, self.class_id[j, i], 0).astype(np.int16)
+        z00, z10, z01, z11 = z[j, i], z[j, i + 1], z[j + 1, i], z[j + 1, i + 1]
+        ground = (z00 * (1 - tx) + z10 * tx) * (1 - ty) + (z01 * (1 - tx) + z11 * tx) * ty
+        gx = ((z10 - z00) * (1 - ty) + (z11 - z01) * ty) / self.cell
+        gy = ((z01 - z00) * (1 - tx) + (z11 - z10) * tx) / self.cell
+        cls = np.where(out, 0, self.class_id[j, i]).astype(np.int16)
+        height = np.where(out, 0.0, self.height[j, i])
+        return cls, height, ground, gx, gy
+
+    def class_inside(self, points: np.ndarray) -> np.ndarray:
+        """int16 (N,): the cover class at points (N, 3) inside the layer, 0 elsewhere. The
+        layer is, over each covered cell, from BOTTOM_SLACK below the terrain (surface())
+        up to the cell's height above it."""
+        cls, height, ground, _, _ = self.surface(points)
+        above = np.asarray(points, dtype=np.float64)[:, 2] - ground
+        return np.where((above >= -BOTTOM_SLACK) & (above <= height), cls, 0).astype(np.int16)
 
     def node_ground(self) -> np.ndarray:
         """(ny+1, nx+1) the terrain's height at the grid's nodes (computed once)."""
