@@ -35,9 +35,9 @@ class Biome:
     trees: float = 1.0  # factor on the trees stage's densities outside the forest zone
     forest_trees: float = 1.0  # ... in the forest zone
     bushes: float = 1.0  # factor on the bushes stage's densities
-    open_shrub: float = 0.12  # share of open ground under shrubs (bush layer)
+    open_shrub: float = 0.2  # share of open ground under shrubs (bush layer)
     tall_grass: float = 0.15  # share of open, dry ground under tall grass (wet ground is all tall)
-    undergrowth: float = 0.55  # share of shaded ground under undergrowth (ferns, bramble: bush layer)
+    undergrowth: float = 0.7  # share of shaded ground under undergrowth (ferns, bramble: bush layer)
     grass_height: float = 1.0  # factor on the sward's heights
     deadwood: float = 1.0  # factor on the deadwood stage's densities
     summary: str = ""

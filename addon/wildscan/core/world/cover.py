@@ -130,6 +130,11 @@ class CoverGrid:
         above = np.asarray(points, dtype=np.float64)[:, 2] - ground
         return np.where((above >= -BOTTOM_SLACK) & (above <= height), cls, 0).astype(np.int16)
 
+    def use_node_ground(self, nodes: np.ndarray) -> None:
+        """Take the terrain at the nodes as already computed (by the stage that made the grid)."""
+        assert nodes.shape == (self.shape[0] + 1, self.shape[1] + 1)
+        self._nodes = np.asarray(nodes, dtype=np.float64)
+
     def node_ground(self) -> np.ndarray:
         """(ny+1, nx+1) the terrain's height at the grid's nodes (computed once)."""
         if self._nodes is None:

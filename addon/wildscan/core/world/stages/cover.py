@@ -31,9 +31,9 @@ BARE_SLOPE_TAN = 0.7812856265  # tan 38 deg: steeper ground holds no sward (scre
 WET_ABOVE_LAKE = 0.9  # m above the water level: the shore's wet band
 BASIN_DEPTH = 0.5  # m below the mean ground within BASIN_RADIUS: a wet hollow
 BASIN_RADIUS = 8.0  # m
-LAWN_HEIGHT = 0.08  # m: a mown lawn
+LAWN_HEIGHT = 0.12  # m: a park lawn between mowings
 SHADE_GRASS = 0.35  # share of the shaded floor that is not undergrowth under shade grass (rest: litter)
-ZONE_MARGIN = 2.0  # m around a zone's cell where its shape's keep-out is asked (the trail's is costly)
+ZONE_MARGIN = 2.0  # m around a zone's cell where its shape's keep-out is asked
 PATCH = 6.0  # m: the size of a patch of the random fields
 
 
@@ -44,7 +44,9 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     n = int(round(2 * HALF / C.CELL))
     centres = EXTENT[0] + (np.arange(n) + 0.5) * C.CELL
     x, y = np.meshgrid(centres, centres)
-    ground = plan.ground(x, y)
+    corners = EXTENT[0] + np.arange(n + 1) * C.CELL
+    nodes = plan.ground(*np.meshgrid(corners, corners))  # the layer's terrain (CoverGrid.surface)
+    ground = 0.25 * (nodes[:-1, :-1] + nodes[1:, :-1] + nodes[:-1, 1:] + nodes[1:, 1:])
     patch, tall, height_noise = (_smooth_field(rng, n) for _ in range(3))
 
     bare = _bare(plan, x, y, ground)
@@ -72,12 +74,18 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     height[lawn] = LAWN_HEIGHT
     grid = plan.grid
     plan.cover = C.CoverGrid(EXTENT[0], EXTENT[2], C.CELL, cls, height, grid.xs, grid.ys, grid.z)
+    plan.cover.use_node_ground(nodes)
 
 
 def _bare(plan: WorldPlan, x, y, ground) -> np.ndarray:
     need = Clearance(0.0, water_margin=0.05, park_interior=True)
     bare = np.zeros(x.shape, dtype=bool)
+    trail = plan.layout.trail
+    for px, py in trail.path:  # the trail's tread itself (its keep-out's distance is costly)
+        _stamp(bare, px, py, trail.width / 2)
     for zone, shape in plan.layout.zone_shapes().items():  # each shape lies in its zone's cell
+        if shape is trail:
+            continue
         x0, x1, y0, y1 = plan.layout.cells[zone]
         near = (
             (x > x0 - ZONE_MARGIN) & (x < x1 + ZONE_MARGIN) & (y > y0 - ZONE_MARGIN) & (y < y1 + ZONE_MARGIN)
