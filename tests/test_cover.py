@@ -104,3 +104,34 @@ def test_every_biome_plans_cover_and_keeps_the_paper_elements(biome):
     assert p.cover is not None and p.biome == biome
     assert {e.wildscan_class for e in p.elements} >= {"trunk", "treetop", "bush", "table", "wire", "pole"}
     assert class_by_name("log").id == LOG_ID
+
+
+def test_min_scans_with_draws_that_share_of_the_scans_near_the_class():
+    from wildscan.core import detmath as dm
+    from wildscan.core.posesampler import class_scan_indices, sample_poses
+
+    p = plan("paper")
+    poses = sample_poses(p, 20, "zones", {"forest": 1.0}, 2.0, lambda c: True, {"table": 0.2, "wire": 0.25})
+    near = {k: [x for x in poses if getattr(x, "kind", "") == f"near {k}"] for k in ("table", "wire")}
+    assert len(near["table"]) == 4 and len(near["wire"]) == 5
+    tables = np.array([e.location[:2] for e in p.elements_of("table")])
+    for pose in near["table"]:
+        assert dm.hypot(*(tables - [pose.x, pose.y]).T).min() <= 8.0 + 1e-6
+    assert {pose.zone for pose in near["table"]} == {"park"}  # where the tables stand
+    assert sorted(class_scan_indices({"table": 0.2}, 20)) == [2, 7, 12, 17]  # spread evenly
+    again = sample_poses(p, 20, "zones", {"forest": 1.0}, 2.0, lambda c: True, {"table": 0.2, "wire": 0.25})
+    assert again == poses
+
+
+def test_the_spec_reads_biome_and_min_scans_with_and_refuses_what_is_no_class():
+    from wildscan.app.dataset.spec import spec_from_dict, spec_from_json
+    from wildscan.core.errors import UserError
+
+    spec = spec_from_dict({"biome": "scrub", "poses": {"min_scans_with": {"table": 0.2, "low grass": 0.5}}})
+    assert spec.biome == "scrub" and dict(spec.poses.min_scans_with) == {"table": 0.2, "low grass": 0.5}
+    assert spec_from_json(spec.to_dict()) == spec
+    assert "min_scans_with" not in spec_from_dict({}).to_dict()["poses"]  # the config hash of before
+    with pytest.raises(UserError, match="unknown key 'poses.min_scans_with.boulder'"):
+        spec_from_dict({"poses": {"min_scans_with": {"boulder": 0.2}}})
+    with pytest.raises(UserError, match="biome"):
+        spec_from_dict({"biome": "tundra"})

@@ -12,6 +12,12 @@ fence, the power line ...), each with a uniform yaw, then uniform points of the 
 cell. Uniform strategy: uniform points of the whole world; the zone is the cell it falls in.
 A scan that finds no pose in MAX_CANDIDATES candidates is reported (NoPose), and its zone
 is not tried again in that world.
+
+Class-aware poses (`min_scans_with`, class -> share of a world's scans): that share of the scan
+indices (spread evenly over them, so any prefix keeps it) draw their candidates near the
+elements of the class instead (NEAR_MIN..NEAR_MAX metres from one, uniform yaw), so a rare class
+(a table, a wire) is in that share of the scans at least, not confined to its zones. Their zone
+is where the pose falls.
 """
 
 from __future__ import annotations
@@ -30,6 +36,8 @@ from .world.geometry2d import inset
 
 STRATEGIES = ("zones", "uniform")
 MAX_CANDIDATES = 2000  # per scan: beyond this the zone (or world) has no room left
+NEAR_MIN, NEAR_MAX = 2.0, 8.0  # m from an element of the class a class-aware pose is drawn near
+NEAR = "near "  # the stream key (and NoPose zone) of the scans drawn near a class
 
 
 @dataclass(frozen=True)
@@ -108,6 +116,38 @@ def zone_at(plan: WorldPlan, x: float, y: float) -> str:
     return "world"
 
 
+def _class_candidates(plan: WorldPlan, wildscan_class: str) -> Iterator[ScanPose]:
+    """Poses NEAR_MIN..NEAR_MAX metres from a random element of the class (none: nothing)."""
+    rng = stage_rng(plan.seed, f"dataset.poses.near.{wildscan_class}")
+    elements = plan.elements_of(wildscan_class)
+    if not elements:
+        return
+    area = inset(EXTENT, 1.0)
+    while True:
+        el = elements[int(rng.integers(len(elements)))]
+        r = float(rng.uniform(NEAR_MIN, NEAR_MAX))
+        s, c = dm.sincos(float(rng.uniform(0.0, 2.0 * math.pi)))
+        x = round(min(max(el.location[0] + r * c, area[0]), area[1]), 3)
+        y = round(min(max(el.location[1] + r * s, area[2]), area[3]), 3)
+        yaw = round(float(rng.uniform(0.0, 360.0)), 1) % 360.0
+        yield ScanPose(zone_at(plan, x, y), x, y, yaw, f"{NEAR}{wildscan_class}")
+
+
+def class_scan_indices(targets: dict[str, float], count: int) -> dict[int, str]:
+    """Scan index -> the class it is drawn near: ceil(share x count) indices a class, spread
+    evenly, the classes in the order given (an index taken goes to the next free one)."""
+    taken: dict[int, str] = {}
+    for name, share in targets.items():
+        wanted = min(count, math.ceil(share * count - 1e-9))
+        for j in range(wanted):
+            k = int((j + 0.5) * count / wanted)
+            while k in taken and len(taken) < count:
+                k = (k + 1) % count
+            if len(taken) < count:
+                taken[k] = name
+    return taken
+
+
 def _uniform_candidates(plan: WorldPlan) -> Iterator[ScanPose]:
     rng = stage_rng(plan.seed, "dataset.poses.uniform")
     area = inset(EXTENT, 1.0)
@@ -127,14 +167,19 @@ def sample_poses(
     weights: dict[str, float],
     min_distance: float,
     accept: Callable[[ScanPose], bool],
+    min_scans_with: dict[str, float] | None = None,
 ) -> list[ScanPose | NoPose]:
-    """One entry per scan index 0..count-1: its pose, or why there is none."""
+    """One entry per scan index 0..count-1: its pose, or why there is none. `min_scans_with`:
+    class -> share of the scans drawn near that class's elements (module docstring)."""
     if strategy == "uniform":
         zones = ["world"] * count
         streams = {"world": _uniform_candidates(plan)}
     else:
         zones = scan_zones(weights, count)
         streams = {z: _zone_candidates(plan, z) for z in set(zones)}
+    for k, name in class_scan_indices(min_scans_with or {}, count).items():
+        zones[k] = NEAR + name
+        streams.setdefault(zones[k], _class_candidates(plan, name))
     kept: list[ScanPose] = []
     out: list[ScanPose | NoPose] = []
     exhausted: dict[str, str] = {}
@@ -158,7 +203,9 @@ def sample_poses(
 
 def _first_valid(stream, kept, min_distance, accept, plan) -> ScanPose | None:
     for _ in range(MAX_CANDIDATES):
-        c = next(stream)
+        c = next(stream, None)
+        if c is None:  # a class the world has no element of
+            return None
         if not footprint_ok(plan, c.x, c.y, c.yaw_deg, allow_pit=c.z_start is not None):
             continue
         if _far_enough(c, kept, min_distance) and accept(c):

@@ -175,6 +175,25 @@ def _weather_lines(spec: DatasetSpec, t: dict) -> list[str]:
     ]
 
 
+def _scans_with_lines(spec: DatasetSpec, t: dict) -> list[str]:
+    """The share of scans containing each class, beside [poses] min_scans_with where it asks
+    for one (core/posesampler.py: those scans are drawn near the class)."""
+    if not spec.poses.min_scans_with:
+        return []
+    scans = max(1, t["scans_ok"])
+    wanted = dict(spec.poses.min_scans_with)
+    lines = ["", "Scans containing a class, beside [poses] min_scans_with:", ""]
+    lines += ["| class | scans | share of scans | min_scans_with |", "|---|---:|---:|---:|"]
+    for name, n in t["class_scans"].items():
+        target = (
+            f"{_pct(wanted[name])} ({'met' if n / scans >= wanted[name] else 'not met'})"
+            if name in wanted
+            else "-"
+        )
+        lines.append(f"| {name} | {n:,} | {_pct(n / scans)} | {target} |")
+    return lines
+
+
 def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]]) -> str:
     t = data["totals"]
     lines = [
@@ -198,6 +217,7 @@ def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]])
     total = max(1, t["points"])
     for name, n in t["class_points"].items():
         lines.append(f"| {name} | {n:,} | {_pct(n / total)} | {t['class_scans'][name]:,} |")
+    lines += _scans_with_lines(spec, t)
     lines += ["", "Beside RELLIS-3D (share of labeled points; RELLIS-3D's published counts):", ""]
     lines += ["| category | RELLIS-3D | this dataset |", "|---|---:|---:|"]
     for cat, (theirs, ours) in category_shares(t["class_points"]).items():

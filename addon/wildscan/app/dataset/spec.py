@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 from ... import __version__
 from ...core import sensor as S
+from ...core.classes import TAG_NAMES
 from ...core.errors import UserError
 from ...core.frames import FRAMES
 from ...core.io.files import user_path
@@ -32,6 +33,8 @@ DEFAULT_FORMATS = ("semantickitti", "las", "ply")
 SPLITS = ("train", "val", "test")
 MAX_SCANS_PER_WORLD = 100_000
 MAX_WORLDS = 100_000
+# the classes a scan can be drawn near ([poses] min_scans_with): every element class but water
+POSE_CLASSES = tuple(n for n in TAG_NAMES if n != "water")
 DEFAULT_ZONE_WEIGHTS = (
     ("hills", 1.0),
     ("forest", 2.0),
@@ -63,6 +66,8 @@ class PoseSpec:
     strategy: str = "zones"
     zones: tuple[tuple[str, float], ...] = DEFAULT_ZONE_WEIGHTS
     min_distance: float = 2.0
+    # class -> share of a world's scans drawn near its elements (core/posesampler.py)
+    min_scans_with: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -84,6 +89,8 @@ class DatasetSpec:
         out = json.loads(json.dumps(asdict(self)))
         if not self.weather:  # a spec without weather keeps its dict, so its config hash
             del out["weather"]
+        if not self.poses.min_scans_with:  # the same for class-aware poses
+            del out["poses"]["min_scans_with"]
         return out
 
     def config_hash(self) -> str:
@@ -330,7 +337,7 @@ def _split(t: _Table) -> tuple[tuple[str, float], ...]:
 
 
 def _poses(t: _Table) -> PoseSpec:
-    t.only("strategy", "zones", "min_distance")
+    t.only("strategy", "zones", "min_distance", "min_scans_with")
     d = PoseSpec()
     zones = t.table("zones", dict(d.zones))
     zones.only(*ZONES)
@@ -341,7 +348,14 @@ def _poses(t: _Table) -> PoseSpec:
         strategy=t.choice("strategy", d.strategy, STRATEGIES),
         zones=weights,
         min_distance=t.number("min_distance", d.min_distance, 0.0, 50.0),
+        min_scans_with=_min_scans_with(t.table("min_scans_with", {})),
     )
+
+
+def _min_scans_with(t: _Table) -> tuple[tuple[str, float], ...]:
+    """[poses] min_scans_with = { table = 0.2, ... }: a share 0..1 per element class."""
+    t.only(*POSE_CLASSES)
+    return tuple((name, t.number(name, 0.0, 0.0, 1.0)) for name in POSE_CLASSES if name in t.data)
 
 
 # the sensor values that may be numbers or ranges of numbers, with their limits in app/settings.py
@@ -464,7 +478,12 @@ def spec_from_json(data: dict) -> DatasetSpec:
         formats=tuple(data["formats"]),
         label_scheme=data["label_scheme"],
         split=tuple((k, v) for k, v in data["split"]),
-        poses=PoseSpec(poses["strategy"], tuple((k, v) for k, v in poses["zones"]), poses["min_distance"]),
+        poses=PoseSpec(
+            poses["strategy"],
+            tuple((k, v) for k, v in poses["zones"]),
+            poses["min_distance"],
+            tuple((k, v) for k, v in poses.get("min_scans_with", [])),
+        ),
         sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
         weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
     )

@@ -146,7 +146,9 @@ def build_world(spec: DatasetSpec, seed: int) -> WorldContext:
         return True
 
     p = spec.poses
-    poses = sample_poses(plan, spec.scans_per_world, p.strategy, dict(p.zones), p.min_distance, accept)
+    poses = sample_poses(
+        plan, spec.scans_per_world, p.strategy, dict(p.zones), p.min_distance, accept, dict(p.min_scans_with)
+    )
     low, high = geometry.bounds()
     return WorldContext(
         seed=seed,
