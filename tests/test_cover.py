@@ -135,3 +135,39 @@ def test_the_spec_reads_biome_and_min_scans_with_and_refuses_what_is_no_class():
         spec_from_dict({"poses": {"min_scans_with": {"boulder": 0.2}}})
     with pytest.raises(UserError, match="biome"):
         spec_from_dict({"biome": "tundra"})
+
+
+def test_a_dataset_scan_carries_support_and_the_birds_eye_traversability_fields(tmp_path):
+    import plyfile
+
+    from wildscan.app.dataset import worker
+    from wildscan.app.dataset.spec import spec_from_dict
+    from wildscan.core.traversability import HEIGHT_BINS, SUPPORT_TOLERANCE, TERRAIN_ID
+
+    spec = spec_from_dict(
+        {
+            "seeds": [1],
+            "detail": "low",
+            "scans_per_world": 2,
+            "formats": ["ply"],
+            "poses": {"zones": {"cave": 1.0}},
+        }
+    )
+    context = worker.build_world(spec, 1)
+    rows = [worker.scan_one(spec, context, tmp_path, k) for k in range(2)]
+    assert all(r["status"] == "ok" for r in rows)
+    files = {f["path"] for r in rows for f in r["files"]}
+    ply = next(p for p in sorted(files) if p.endswith(".ply"))
+    vertex = plyfile.PlyData.read(str(tmp_path / ply))["vertex"]
+    support = np.asarray(vertex["support"]).astype(bool)
+    assert support.any() and (~support).any()
+    assert (vertex["label"][support] == TERRAIN_ID).all()
+    assert (np.abs(vertex["hag"][support]) <= SUPPORT_TOLERANCE).all()
+    roof = (vertex["label"] == TERRAIN_ID) & (vertex["hag"] > 1.0)  # the cave's roof: terrain, no support
+    assert roof.any() and not support[roof].any()
+    bev = np.load(tmp_path / next(p for p in sorted(files) if "/bev/" in p))
+    assert bev.dtype.names == ("terrain_z", "top_class", "cover_height", "slope", "overhead")
+    inside = np.isfinite(bev["terrain_z"])
+    assert (bev["cover_height"][inside] >= 0).all() and (bev["slope"][inside] >= 0).all()
+    assert np.isfinite(bev["overhead"]).any()  # the cave's roof over the robot
+    assert all(len(v) == len(HEIGHT_BINS) for v in rows[0]["class_heights"].values())

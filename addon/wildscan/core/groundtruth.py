@@ -30,7 +30,16 @@ from .placement import Placement
 BEV_CELL = 0.1  # m
 BEV_SIZE = 30.0  # m, side of the square
 BEV_CELLS = round(BEV_SIZE / BEV_CELL)
-BEV_DTYPE = np.dtype([("terrain_z", "<f4"), ("top_class", "<u2")])
+# terrain_z and top_class; the traversability fields (core/traversability.py) after them
+BEV_DTYPE = np.dtype(
+    [
+        ("terrain_z", "<f4"),
+        ("top_class", "<u2"),
+        ("cover_height", "<f4"),
+        ("slope", "<f4"),
+        ("overhead", "<f4"),
+    ]
+)
 _ABOVE = 1.0  # m above the highest surface where the downward rays start
 
 Ground = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -78,10 +87,12 @@ def bev_grid(
     placement: Placement,
     extent: tuple[float, float, float, float],
     z_range: tuple[float, float],
+    traversability: Callable[[np.ndarray, np.ndarray], dict[str, np.ndarray]] | None = None,
 ) -> np.ndarray:
     """The (300, 300) BEV_DTYPE grid of a scan (see the module docstring).
     `top_classes(origins (N,3), max_range)` gives the class of the first surface straight
-    below each origin (0 for none); `z_range` is the lowest and highest height of any surface."""
+    below each origin (0 for none); `z_range` is the lowest and highest height of any surface;
+    `traversability(x, y)` the traversability fields at world points (NaN without it)."""
     u = bev_cell_centres()
     uu, vv = np.meshgrid(u, u, indexing="ij")
     s, c = dm.sincos(placement.yaw_rad)
@@ -95,6 +106,9 @@ def bev_grid(
     origins = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, start)])
     top = np.asarray(top_classes(origins, start - z_range[0] + _ABOVE)).reshape(uu.shape)
     grid["top_class"] = np.where(inside, top, 0)
+    fields = traversability(x, y) if traversability is not None else {}
+    for name in ("cover_height", "slope", "overhead"):
+        grid[name] = np.where(inside, fields[name], np.nan) if name in fields else np.nan
     return grid
 
 

@@ -31,6 +31,7 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
 # has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract.
 OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
     ("hag", "<f4"),  # height above the ground the robot stands on under the point, metres (datasets)
+    ("support", "u1"),  # 1 on the surface the robot would rest on (core/traversability.py; datasets)
     ("time", "<f8"),  # when the point was measured, seconds after its 3D scan's first beam (drives)
     # the realistic sensor model's (core/echoes.py); a paper-model scan has none of them
     ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest

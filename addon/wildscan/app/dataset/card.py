@@ -74,7 +74,18 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
         "failures": sorted({r["reason"] for r in rows if r["status"] != "ok"}),
         **_echo_totals(ok),
         **_particle_totals(spec, ok, class_points),
+        **_height_totals(ok),
     }
+
+
+def _height_totals(ok: list[dict]) -> dict:
+    """Points of each class per height above the ground (core/traversability.py HEIGHT_BINS)."""
+    heights: dict[str, list[int]] = {}
+    for r in ok:
+        for cid, counts in r.get("class_heights", {}).items():
+            name = BY_ID[int(cid)].name
+            heights[name] = [a + b for a, b in zip(heights.get(name, [0] * len(counts)), counts)]
+    return {"class_heights": heights} if heights else {}
 
 
 def _particle_totals(spec: DatasetSpec, ok: list[dict], class_points: dict) -> dict:
@@ -194,6 +205,23 @@ def _scans_with_lines(spec: DatasetSpec, t: dict) -> list[str]:
     return lines
 
 
+def _height_lines(t: dict) -> list[str]:
+    """Points of each class against height above the ground the robot stands on (hag)."""
+    if "class_heights" not in t:
+        return []
+    from ...core.traversability import HEIGHT_BINS
+
+    lines = ["", "## Points of each class against height above the ground", ""]
+    lines += [
+        "| class | " + " | ".join(f"{b} m" for b in HEIGHT_BINS) + " |",
+        "|---|" + "---:|" * len(HEIGHT_BINS),
+    ]
+    for name, counts in t["class_heights"].items():
+        total = max(1, sum(counts))
+        lines.append(f"| {name} | " + " | ".join(_pct(c / total) for c in counts) + " |")
+    return lines
+
+
 def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]]) -> str:
     t = data["totals"]
     lines = [
@@ -222,6 +250,12 @@ def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]])
     lines += ["| category | RELLIS-3D | this dataset |", "|---|---:|---:|"]
     for cat, (theirs, ours) in category_shares(t["class_points"]).items():
         lines.append(f"| {cat} | {_pct(theirs)} | {_pct(ours)} |")
+    lines += [
+        "",
+        "GOOSE publishes its label mapping but no per-class point counts this card could cite, so "
+        "it is not compared here.",
+    ]
+    lines += _height_lines(t)
     lines += ["", "## Points against range", "", "| range (m) | points |", "|---|---:|"]
     counts = t["range_histogram"]["counts"]
     step = 5  # 2.5 m rows

@@ -44,6 +44,7 @@ from ...core.open_ground import OpenGround, no_open_ground, open_ground
 from ...core.placement import place
 from ...core.posesampler import NoPose, ScanPose, sample_poses
 from ...core.scan import run_scan
+from ...core.traversability import class_height_histogram, support_flags, traversability_fields
 from ...core.world import EXTENT, WorldPlan, plan_world
 from .draws import draw_sensor, draw_weather
 from .layout import scan_paths
@@ -81,6 +82,21 @@ class WorldContext:
         """The ground the robot stands on (terrain mesh, trail flooring): what `hag` and the
         bird's-eye `terrain_z` measure from (core/world/ground.py)."""
         return self.plan.standing_ground()
+
+    def traversability(self, x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
+        """The bird's-eye traversability fields at world points (core/traversability.py)."""
+        cover = self.plan.cover
+        return traversability_fields(
+            x,
+            y,
+            self.ground,
+            None if cover is None else (lambda px, py: cover.at(px, py)[1]),
+            lambda origins, reach: (
+                self.backend.cast(
+                    origins, np.broadcast_to(np.array([0.0, 0.0, 1.0]), origins.shape), reach
+                ).distance
+            ),
+        )
 
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
         """Class of the first surface straight below each origin (0 for none): the terrain
@@ -352,9 +368,19 @@ def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result) -> 
     world = world_points(cloud.xyz, placement, frame)
     hag = height_above_ground(world, context.ground)
     paths = scan_paths(spec.formats, row["sequence"], context.file_numbers[row["scan"]])
-    grid = bev_grid(context.top_classes, context.ground, placement, EXTENT, context.z_range)
+    grid = bev_grid(
+        context.top_classes, context.ground, placement, EXTENT, context.z_range, context.traversability
+    )
     files = {paths["bev"]: npy_bytes(map_top_class(grid, labels.lookup()))}
-    scan = ScanOutput(cloud, _metadata(row, result.metadata), labels, context.instances, hag)
+    scan = ScanOutput(
+        cloud,
+        _metadata(row, result.metadata),
+        labels,
+        context.instances,
+        hag,
+        support=support_flags(cloud.label, hag),
+    )
+    row["class_heights"] = class_height_histogram(cloud.label, hag)
     for name in spec.formats:
         encoded = WRITERS[name].encode(scan, {kind: Path(path) for kind, path in paths.items()})
         files.update((paths[kind], data) for kind, data in encoded.items())

@@ -343,6 +343,8 @@ def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
     cloud = scan.cloud
     if scan.hag is not None:
         cloud = replace(cloud, extra={**cloud.extra, "hag": scan.hag})  # keeps the realistic model's fields
+    if scan.support is not None:
+        cloud = replace(cloud, extra={**cloud.extra, "support": scan.support})
     ply, sidecar = scan_file_bytes(Path(paths["ply"]), cloud, scan.metadata, scan.ascii)
     return {"ply": ply, "ply_sidecar": sidecar}
 
