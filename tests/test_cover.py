@@ -171,3 +171,20 @@ def test_a_dataset_scan_carries_support_and_the_birds_eye_traversability_fields(
     assert (bev["cover_height"][inside] >= 0).all() and (bev["slope"][inside] >= 0).all()
     assert np.isfinite(bev["overhead"]).any()  # the cave's roof over the robot
     assert all(len(v) == len(HEIGHT_BINS) for v in rows[0]["class_heights"].values())
+
+
+def test_a_geometry_file_keeps_the_cover_and_scans_as_the_world_does(tmp_path):
+    from wildscan.raycast.scene_file import load_geometry, save_geometry
+
+    path = save_geometry(geometry("mixed"), tmp_path / "world.npz")
+    loaded = load_geometry(path)
+    assert np.array_equal(loaded.cover.class_id, plan("mixed").cover.class_id)
+    assert np.array_equal(loaded.cover.height, plan("mixed").cover.height)
+
+
+def test_a_biome_that_is_none_is_one_line_and_exit_2(tmp_path):
+    from tests.helpers.scene_helpers import WILDSCAN, run
+
+    proc = run([WILDSCAN, "world", "--seed", "1", "--biome", "tundra", "--out", str(tmp_path / "w.blend")])
+    assert proc.returncode == 2 and "--biome" in proc.stderr and "mixed" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not any(tmp_path.iterdir())

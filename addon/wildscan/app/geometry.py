@@ -14,7 +14,7 @@ import os
 from pathlib import Path
 
 from ..core.errors import UserError
-from ..core.world import DEFAULT_VEGETATION
+from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION
 
 # Backends that cast against SceneGeometry; scene.ray_cast needs the Blender scene itself.
 GEOMETRY_BACKENDS = ("auto", "embree", "bvh")
@@ -26,15 +26,18 @@ def world_geometry_of(
     detail: str = "default",
     vegetation: str = DEFAULT_VEGETATION,
     quiet: bool = False,
+    biome: str = DEFAULT_BIOME,
 ):
     """(SceneGeometry, metadata) of a world: the world of `seed` at `detail` with
-    `vegetation` planned without Blender, the .blend file `world` (`quiet`: without
+    `vegetation` and `biome` planned without Blender, the .blend file `world` (`quiet`: without
     Blender's "Read blend" line), or (neither) the scene Blender has open."""
     if seed is not None:
         from ..raycast.from_plan import world_geometry
 
         metadata = {"seed": seed, "detail": detail, "vegetation": vegetation, "world": None}
-        return world_geometry(seed, detail, vegetation), metadata
+        if biome != DEFAULT_BIOME:  # the default's metadata keeps its keys
+            metadata["biome"] = biome
+        return world_geometry(seed, detail, vegetation, biome), metadata
     from ..blender.scene_io import open_world, scene_provenance
     from ..raycast.extract import extract_scene
 
@@ -51,6 +54,7 @@ def extract(
     detail: str = "default",
     vegetation: str = DEFAULT_VEGETATION,
     quiet: bool = False,
+    biome: str = DEFAULT_BIOME,
 ):
     """Save the geometry of a world (see world_geometry_of) to `out` (.npz); returns
     (path, geometry, metadata). The output path is checked before any work."""
@@ -58,7 +62,7 @@ def extract(
     from ..raycast.scene_file import SUFFIX, save_geometry
 
     check_output_path(out, SUFFIX)
-    geometry, metadata = world_geometry_of(world, seed, detail, vegetation, quiet)
+    geometry, metadata = world_geometry_of(world, seed, detail, vegetation, quiet, biome)
     return save_geometry(geometry, out, metadata), geometry, metadata
 
 

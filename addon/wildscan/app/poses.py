@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from ..core.backend import RayBackend
 from ..core.errors import PoseRejected
-from ..core.world import DEFAULT_VEGETATION, ZONES, WorldPlan, candidate_sites, plan_world
+from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION, ZONES, WorldPlan, candidate_sites, plan_world
 
 DEFAULT_POSES_PER_ZONE = 5
 MAX_POSE_COUNT = 1000
@@ -59,7 +59,8 @@ def poses_of_seed(
     count: int = DEFAULT_POSES_PER_ZONE,
     zones=ZONES,
     vegetation: str = DEFAULT_VEGETATION,
+    biome: str = DEFAULT_BIOME,
 ) -> dict[str, list[dict]]:
     """Valid poses of the world of `seed`, planned (not built): `wildscan poses`."""
-    plan = plan_world(seed, detail, vegetation=vegetation)
+    plan = plan_world(seed, detail, vegetation=vegetation, biome=biome)
     return valid_poses(plan, plan_backend(plan), count, zones)

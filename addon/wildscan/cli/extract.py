@@ -22,6 +22,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     options.add(p, "seed", group=source, help=f"{options.SEED_HELP}: extract the world of this seed")
     options.add(p, "detail", help=f"{options.DETAIL_HELP}, with --seed (default: default)")
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
+    options.add(p, "biome", default=None, help=f"with --seed: {options.BIOME_HELP}")
     options.add(p, "out", metavar="SCENE.npz", help="the geometry file to write")
     p.add_argument("--quiet", action="store_true", help="print only the file written")
 
@@ -31,7 +32,9 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from .output import say
 
     vegetation = options.vegetation_of(args)
-    path, geometry, _ = extract(args.out, args.world, args.seed, args.detail, vegetation, args.quiet)
+    path, geometry, _ = extract(
+        args.out, args.world, args.seed, args.detail, vegetation, args.quiet, options.biome_of(args)
+    )
     say(args, f"{geometry.triangle_count:,} triangles of {len(geometry.object_names):,} objects")
     print(f"wrote {path}")
     return 0

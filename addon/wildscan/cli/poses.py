@@ -18,6 +18,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     options.add(p, "count")
     options.add(p, "detail")
     options.add(p, "vegetation")
+    options.add(p, "biome")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
 
@@ -26,7 +27,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from ..core.world import ZONES
 
     zones = (args.zone,) if args.zone is not None else ZONES
-    poses = poses_of_seed(args.seed, args.detail, args.count, zones, args.vegetation)
+    poses = poses_of_seed(args.seed, args.detail, args.count, zones, args.vegetation, args.biome)
     if args.json:
         doc = {"seed": args.seed, "detail": args.detail, "vegetation": args.vegetation, "poses": poses}
         print(json.dumps(doc, indent=1))

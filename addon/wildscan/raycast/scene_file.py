@@ -21,6 +21,9 @@ order, timestamps and attributes, little-endian arrays, sorted JSON, no compress
 (a deflate stream could differ between zlib versions). The file is written under a
 temporary name and renamed into place, so a failed save leaves nothing.
 
+Version 3 adds a world's ground cover (core/world/cover.py) as `cover_*.npy` entries after
+the rest, with its grid's shape in the header's `cover_shape`; only a world with cover has them.
+
 `version` rises when the layout changes; a file from a newer WildScan is refused
 with a message saying so, never misread.
 """
@@ -41,7 +44,7 @@ from ..core.io.files import atomic_outputs, check_input_file, check_output_path,
 from .geometry import SceneGeometry
 
 FORMAT = "wildscan-scene-geometry"
-VERSION = 2  # the newest this reads; a file without reflectivity overrides is written as 1
+VERSION = 3  # the newest this reads; a file without reflectivity overrides is written as 1
 SUFFIX = ".npz"
 HEADER = "header.json"
 # name, stored dtype, number of dimensions
@@ -77,13 +80,16 @@ def save_geometry(geometry: SceneGeometry, path, metadata: dict | None = None, s
 
 def geometry_file_bytes(geometry: SceneGeometry, metadata: dict | None = None) -> bytes:
     """The bytes `save_geometry` writes."""
-    arrays = ARRAYS + ((OVERRIDES,) if not np.isnan(geometry.reflectivity).all() else ())
+    cover = geometry.cover.to_arrays() if geometry.cover is not None else {}
+    overrides = cover or not np.isnan(geometry.reflectivity).all()  # version 3 has every entry of 2
+    arrays = ARRAYS + ((OVERRIDES,) if overrides else ())
     header = {
         "format": FORMAT,
-        "version": 2 if len(arrays) > len(ARRAYS) else 1,
+        "version": 3 if cover else 2 if len(arrays) > len(ARRAYS) else 1,
         "wildscan_version": __version__,
         "object_names": list(geometry.object_names),
         "metadata": metadata or {},
+        **({"cover_shape": list(geometry.cover.shape)} if cover else {}),
     }
     try:
         header_text = json.dumps(header, sort_keys=True, indent=1, allow_nan=False) + "\n"
@@ -96,6 +102,10 @@ def geometry_file_bytes(geometry: SceneGeometry, metadata: dict | None = None) -
             array = np.ascontiguousarray(getattr(geometry, name), dtype=dtype)
             npy = io.BytesIO()
             np.lib.format.write_array(npy, array, version=(1, 0), allow_pickle=False)
+            _write_entry(zf, f"{name}.npy", npy.getvalue())
+        for name, array in cover.items():
+            npy = io.BytesIO()
+            np.lib.format.write_array(npy, np.ascontiguousarray(array), version=(1, 0), allow_pickle=False)
             _write_entry(zf, f"{name}.npy", npy.getvalue())
     return buffer.getvalue()
 
@@ -128,6 +138,7 @@ def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, 
             header = _read_header(zf, fail)
             wanted = ARRAYS + ((OVERRIDES,) if header["version"] >= 2 else ())
             arrays = {name: _read_array(zf, name, dtype, ndim, fail) for name, dtype, ndim in wanted}
+            cover = _read_cover(zf, header, fail)
     except _DAMAGE as e:
         if ours:
             raise fail(f"{DAMAGED} ({e}); {SAVE_AGAIN}") from None
@@ -143,10 +154,28 @@ def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, 
     _check_range(arrays["class_id"], "class_id", 0, max(BY_ID), fail, f"(class ids, {WATER_ID} water)")
     _check_range(arrays["instance"], "instance", 0, MAX_INSTANCE, fail, "(instance ids)")
     try:
-        geometry = SceneGeometry(object_names=tuple(names), **arrays)
+        geometry = SceneGeometry(object_names=tuple(names), cover=cover, **arrays)
     except ValueError as e:
         raise fail(f"its arrays do not fit together ({e})") from None
     return geometry, header
+
+
+def _read_cover(zf: zipfile.ZipFile, header: dict, fail):
+    """The ground cover a version-3 file carries (None: none)."""
+    shape = header.get("cover_shape")
+    if shape is None:
+        return None
+    from ..core.world.cover import CoverGrid
+
+    names = ("origin", "class", "height", "terrain_xs", "terrain_ys", "terrain_z")
+    try:
+        arrays = {}
+        for n in names:
+            with zf.open(f"cover_{n}.npy") as f:
+                arrays[f"cover_{n}"] = np.lib.format.read_array(f, allow_pickle=False)
+        return CoverGrid.from_arrays(arrays, tuple(int(v) for v in shape))
+    except (KeyError, ValueError) as e:
+        raise fail(f"its ground cover is damaged ({e}); {SAVE_AGAIN}") from None
 
 
 DAMAGED = "the file is damaged or truncated"
