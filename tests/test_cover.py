@@ -188,3 +188,37 @@ def test_a_biome_that_is_none_is_one_line_and_exit_2(tmp_path):
     proc = run([WILDSCAN, "world", "--seed", "1", "--biome", "tundra", "--out", str(tmp_path / "w.blend")])
     assert proc.returncode == 2 and "--biome" in proc.stderr and "mixed" in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1 and not any(tmp_path.iterdir())
+
+
+@pytest.mark.slow
+def test_a_world_built_in_blender_scans_with_its_sward_as_the_plan_does():
+    from wildscan.app.scan import scan_current_scene
+    from wildscan.blender.builder import build_world
+    from wildscan.blender.scene_io import empty_scene
+    from wildscan.core.placement import Pose
+    from wildscan.core.sensors import SensorConfig
+
+    empty_scene()
+    build_world(2, "low", biome="meadow")
+    pose, sensor = Pose(0.0, 0.0, 0.0), SensorConfig(rh_deg=3.0)
+    from wildscan.app.poses import plan_backend, valid_poses
+
+    planned = plan_world(2, "low", biome="meadow")
+    p = next(iter(valid_poses(planned, plan_backend(planned), 1).values()))[0]
+    pose = Pose(p["x"], p["y"], p["yaw"])
+    blender = scan_current_scene(
+        pose, sensor, z_start=p.get("z_start"), backend="embree", notify=lambda _: None
+    )
+    from wildscan.raycast.from_plan import plan_geometry
+
+    plan_scan = scan_current_scene(
+        pose,
+        sensor,
+        z_start=p.get("z_start"),
+        backend="embree",
+        geometry=plan_geometry(planned),
+        notify=lambda _: None,
+    )
+    assert "cover" in blender.metadata["effects"]
+    assert np.array_equal(blender.cloud.xyz, plan_scan.cloud.xyz)
+    assert np.array_equal(blender.cloud.label, plan_scan.cloud.label)

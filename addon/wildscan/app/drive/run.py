@@ -80,10 +80,10 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
     effects = drive_effects(request.wind, request.wind_seed)
-    if request.weather:  # drops fall and dust drifts: every ray of the drive draws its own particles
+    if request.weather or geometry.cover is not None:  # every ray draws its own particles, its sward depth
         from ..scan import scan_effects
 
-        effects = Effects(effects.items + scan_effects(request.weather, sensor).items)
+        effects = Effects(effects.items + scan_effects(request.weather, sensor, geometry.cover).items)
     backend = _backend(request, effects, crop_along(geometry, xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
