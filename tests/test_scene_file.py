@@ -165,7 +165,7 @@ def npy(array) -> bytes:
 @pytest.mark.parametrize(
     "change, message",
     [
-        (dict(header_changes={"version": 3, "wildscan_version": "9.0.0"}), "written by a newer WildScan"),
+        (dict(header_changes={"version": 4, "wildscan_version": "9.0.0"}), "written by a newer WildScan"),
         (dict(header_changes={"format": "something else"}), "not a WildScan scene geometry file"),
         (dict(drop="header.json"), r"no header\.json"),
         (dict(drop="faces.npy"), r"faces\.npy is missing"),
