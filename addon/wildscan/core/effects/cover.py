@@ -71,15 +71,15 @@ class GroundCover(Effect):
         with np.errstate(divide="ignore", invalid="ignore"):
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
             # the run from the sensor, past the trampled ground, until the ray rises out of the layer
-            cls_a, above_a, height_a, rate_a, inside_a = self._layer_at(o, d, t0)
-            inside_a &= t0 < end
+            rows = np.flatnonzero((t0 < end) & self._may_start_inside(rays.origins, o, d, t0))
+            cls_a, above_a, height_a, rate_a, inside_a = self._layer_at(o, d, t0, rows)
             leave = np.where(rate_a > 0, t0 + (height_a - above_a) / rate_a, np.inf)
             leave = np.minimum(np.minimum(leave, t0 + LONGEST_RUN), end)
             stop = _stop(t0, leave, cls_a, u[0], inside_a)
             # the run that ends at the hit, from where the ray came down into the layer
             at = np.maximum(end - BEFORE_HIT, 0.0)
-            cls_b, above_b, height_b, rate_b, inside_b = self._layer_at(o, d, at)
-            inside_b &= np.isfinite(hits.distance) & ~np.isfinite(stop)
+            rows = np.flatnonzero(np.isfinite(hits.distance) & ~np.isfinite(stop))
+            cls_b, above_b, height_b, rate_b, inside_b = self._layer_at(o, d, at, rows)
             back = np.minimum(np.where(rate_b < 0, (height_b - above_b) / -rate_b, LONGEST_RUN), LONGEST_RUN)
             begin = np.maximum(end - back, np.where(inside_a, leave, t0))
             stop_b = _stop(begin, end, cls_b, u[1], inside_b)
@@ -112,16 +112,47 @@ class GroundCover(Effect):
             todo = again[np.isfinite(stop[again])]
         return cls
 
-    def _layer_at(self, o, d, t):
+    def _layer_at(self, o, d, t, rows=None):
         """At distance t along each ray: the cover class, the height above the terrain, the
         layer's height, how fast the height above the terrain changes along the ray (its climb
-        less the terrain's slope along it, per metre) and whether the point is inside the layer."""
+        less the terrain's slope along it, per metre) and whether the point is inside the layer.
+        With `rows`, only those rays are looked at (the others: class 0, outside)."""
+        if rows is not None:
+            n = len(t)
+            part = self._layer_at(o[rows], d[rows], t[rows])
+            full = [
+                np.zeros(n, dtype=np.int16),
+                np.zeros(n),
+                np.zeros(n),
+                np.zeros(n),
+                np.zeros(n, dtype=bool),
+            ]
+            for whole, values in zip(full, part):
+                whole[rows] = values
+            return tuple(full)
         p = o + d * t[:, None]
         cls, height, ground, gx, gy = self.grid.surface(p)
         above = p[:, 2] - ground
         rate = d[:, 2] - (gx * d[:, 0] + gy * d[:, 1])
         inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
         return cls, above, height, rate, inside
+
+    def _may_start_inside(self, origins, o, d, t0) -> np.ndarray:
+        """Rays whose point t0 along (TRAMPLED from a single origin, in x and y) can lie in the
+        layer: not above the highest terrain node plus the tallest cell around the origin (a
+        cheap bound that spares the upward rays). Origins per ray (a drive): every ray."""
+        if np.ndim(origins) != 1:
+            return np.ones(len(t0), dtype=bool)
+        g = self.grid
+        reach = int(np.ceil(TRAMPLED / g.cell)) + 1
+        i = int(np.floor((origins[0] - g.x0) / g.cell))
+        j = int(np.floor((origins[1] - g.y0) / g.cell))
+        ny, nx = g.shape
+        i0, i1, j0, j1 = max(i - reach, 0), min(i + reach + 1, nx), max(j - reach, 0), min(j + reach + 1, ny)
+        if i0 >= i1 or j0 >= j1:
+            return np.zeros(len(t0), dtype=bool)
+        top = g.node_ground()[j0 : j1 + 1, i0 : i1 + 1].max() + g.height[j0:j1, i0:i1].max() + BOTTOM_SLACK
+        return o[:, 2] + d[:, 2] * t0 <= top
 
 
 def _stop(begin, end, cls, u, inside):
