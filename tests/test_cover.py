@@ -222,3 +222,25 @@ def test_a_world_built_in_blender_scans_with_its_sward_as_the_plan_does():
     assert "cover" in blender.metadata["effects"]
     assert np.array_equal(blender.cloud.xyz, plan_scan.cloud.xyz)
     assert np.array_equal(blender.cloud.label, plan_scan.cloud.label)
+
+
+def test_the_realistic_model_puts_pure_sward_echoes_inside_the_layer():
+    """Not every one: an echo's point lies on the beam's axis at the range its sub-rays stopped
+    at, so at the layer's edge a few fall just outside it (the footprint is a few cm wide)."""
+    from wildscan.app.scan import scan_current_scene
+    from wildscan.core.placement import Pose
+    from wildscan.core.sensors import SensorConfig
+
+    p = plan("mixed")
+    from wildscan.app.poses import plan_backend, valid_poses
+
+    pose = valid_poses(p, plan_backend(p), 1)["hills"][0]
+    sensor = SensorConfig(rh_deg=3.0, model="realistic", noise_sigma=0.0)
+    result = scan_current_scene(
+        Pose(pose["x"], pose["y"], pose["yaw"]), sensor, "world", None, "embree", geometry=geometry("mixed"),
+        notify=lambda _: None,
+    )  # fmt: skip
+    cloud = result.cloud
+    pure = (cloud.instance >= COVER_INSTANCE_BASE) & (cloud.extra["mixed"] == 0)
+    assert pure.sum() > 1000
+    assert p.cover.inside_layer(cloud.xyz[pure]).mean() > 0.99

@@ -29,6 +29,7 @@ from .errors import UserError
 from .footprint import subray_directions, subray_weights
 from .hits import RayHits
 from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
+from .world.cover import COVER_INSTANCE_BASE
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
 AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)
@@ -124,10 +125,13 @@ def echo_points(
     surfaces = returns if hits is clear else subray_returns(clear, sub_world)
     axis = AxisHits(surfaces, sub_world[0], origin, cast_range)
     on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False))
+    # a pure echo from a medium lies where the medium returned it: a particle (its instance the
+    # effect's code) or the ground cover's sward (core/effects/cover.py; its instance the cover's)
     particle = echoes.label == PARTICLE_ID
-    if particle.any():  # a pure particle echo lies on its particle; its instance is the effect's code
-        on_surface[particle] = echoes.purity[particle] >= 1.0
-        instance[particle] = echoes.instance[particle]
+    from_medium = particle | (echoes.instance >= COVER_INSTANCE_BASE)
+    if from_medium.any():
+        on_surface[from_medium] = echoes.purity[from_medium] >= 1.0
+        instance[from_medium] = echoes.instance[from_medium]
     per_beam = np.bincount(echoes.beam, minlength=n)
     stats = {
         "subrays_per_beam": s,
