@@ -72,9 +72,6 @@ def extract_scene(depsgraph=None, center=None, radius=None) -> SceneGeometry:
 
     geometry = concatenate(parts, object_names=tuple(names))
     geometry.offset = local_origin(geometry.vertices, geometry.faces, center if crop else None)
-    from ..blender.cover import scene_cover
-
-    geometry.cover = scene_cover(depsgraph.scene)  # the world's sward, kept on its root collection
     return geometry
 
 
