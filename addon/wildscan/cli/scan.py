@@ -49,8 +49,13 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
-    for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
+    from .sensors import add_sensor, device_default
+
+    for name in ("pose", "z_start"):
         options.add(p, name)
+    add_sensor(p)
+    for name in (*options.SENSOR_OPTIONS, "frame", "backend"):
+        options.add(p, name, **device_default(name))
     from .weather import add_weather
 
     add_weather(p)

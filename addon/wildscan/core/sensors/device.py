@@ -159,11 +159,25 @@ class Device:
     optics: Optics
     mount: Mount
     head: Head | None = None  # a rotating head carrying the device (None: none)
+    source: str = ""  # where its numbers come from, in one line (`wildscan sensors` shows it)
 
     @property
     def name(self) -> str:
         """How files name the device: "Hokuyo UTM-30LX-EW"."""
         return f"{self.vendor} {self.model}"
+
+    @property
+    def vertical_fov_deg(self) -> tuple[float, float]:
+        """(lowest, highest) beam elevation above the plane normal to the axis, degrees."""
+        elevation = self.beams.elevation_deg
+        return float(elevation.min()), float(elevation.max())
+
+    @property
+    def sweep_period_s(self) -> float:
+        """The time of one device sweep at its default step (a revolution of a spinning lidar,
+        180 2D scans of the UTM-30LX-EW's head)."""
+        columns = 1 if self.mount.kind == "fixed" else round(self.mount.sweep_deg / self.mount.step_deg)
+        return columns * self.timing.column_period_s
 
     def check_scannable(self) -> "Device":
         """The device as the scan paths support it: its columns turn about the sensor's Z

@@ -53,11 +53,20 @@ def device_named(name: str) -> Device:
     """The preset `name` (presets/NAME.toml)."""
     if name not in preset_names():
         raise UserError(
-            f"must be one of {', '.join(preset_names())}, got {name!r}",
+            f"must be one of {', '.join(preset_names())} or a device file NAME.toml, got {name!r}",
             setting="device",
             allowed=preset_names(),
         )
     return load_device(PRESETS_DIR / f"{name}.toml")
+
+
+def device_choice(text: str) -> Device:
+    """A preset by name, or a device file (a path ending in .toml): what `--sensor` and a
+    dataset spec's `device` take."""
+    text = str(text)
+    if text.lower().endswith(".toml"):
+        return load_device(Path(text).expanduser())
+    return device_named(text)
 
 
 def load_device(path) -> Device:
@@ -93,7 +102,9 @@ def toml_reader():
 
 def device_from_dict(data: dict, where: str = "device.toml") -> Device:
     top = _Table(data, "", where)
-    top.only("id", "vendor", "model", "beams", "timing", "range", "noise", "optics", "mount", "head")
+    top.only(
+        "id", "vendor", "model", "source", "beams", "timing", "range", "noise", "optics", "mount", "head"
+    )
     beams = _beams(top.table("beams"))
     ranges = _ranges(top.table("range"))
     return Device(
@@ -107,6 +118,7 @@ def device_from_dict(data: dict, where: str = "device.toml") -> Device:
         optics=_optics(top.table("optics")),
         mount=_mount(top.table("mount")),
         head=_head(top.table("head")) if "head" in data else None,
+        source=top.text("source") if "source" in data else "",
     )
 
 
