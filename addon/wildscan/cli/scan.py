@@ -9,9 +9,9 @@ from .options import ArgumentParser
 
 HELP = "scan a world from a pose and write a labeled PLY (or LAS, SemanticKITTI)"
 DESCRIPTION = (
-    "Stand the emulated Hokuyo UTM-30LX-EW on the ground at a pose, turn it 180 deg in steps of r_h, "
-    "and write every returned point with its class to a PLY (plus a JSON sidecar), or in another format "
-    "with --format."
+    "Stand the emulated Hokuyo UTM-30LX-EW (or the --sensor device: `wildscan sensors` lists the presets) "
+    "on the ground at a pose, turn it 180 deg in steps of r_h (a spinning lidar: one revolution), and write "
+    "every returned point with its class to a PLY (plus a JSON sidecar), or in another format with --format."
 )
 
 
