@@ -356,3 +356,38 @@ def test_the_default_device_is_the_utm30lx_ew_and_its_fields_are_as_before():
     assert result.cloud.extra == {}
     # its nearest ground point is at the blind cone's edge: 45 deg off straight down
     assert math.isclose(result.cloud.range.min(), 0.723 / math.cos(math.radians(45)), rel_tol=1e-6)
+
+
+# --------------------------------------------------------------------------- a dataset spec's device
+
+
+def test_a_spec_device_list_is_drawn_per_scan_with_each_devices_own_settings():
+    from wildscan.app.dataset.draws import draw_sensor
+    from wildscan.app.dataset.spec import DatasetSpec, spec_from_dict, spec_from_json
+
+    assert "device" not in DatasetSpec().to_dict()["sensor"]  # the default keeps its config hash
+    spec = spec_from_dict({"sensor": {"device": ["vlp16", "os1-64"], "max_range": [50.0, 80.0]}})
+    assert spec.sensor.device == ("vlp16", "os1-64") and spec.sensor.rh is None
+    assert spec_from_json(spec.to_dict()) == spec  # as workers receive it
+    drawn = {draw_sensor(spec.sensor, 1, index).device.id for index in range(12)}
+    assert drawn == {"vlp16", "os1-64"}
+    for index in range(4):
+        sensor = draw_sensor(spec.sensor, 1, index)
+        assert sensor.rh_deg == sensor.device.mount.step_deg and 50.0 <= sensor.max_range <= 80.0
+        assert sensor == draw_sensor(spec.sensor, 1, index)  # the same draw every time
+
+
+@pytest.mark.parametrize(
+    "sensor, says",
+    [
+        ({"device": "vlp99"}, "sensor.device --"),
+        ({"device": "vlp16", "max_range": 150.0}, "with device vlp16, sensor.max_range must be in (0, 100]"),
+        ({"device": "vlp16", "rh": [0.1, 0.2]}, "sensor.rh must be a number"),
+    ],
+)
+def test_a_bad_spec_device_names_the_key(sensor, says):
+    from wildscan.app.dataset.spec import spec_from_dict
+
+    with pytest.raises(UserError) as info:
+        spec_from_dict({"sensor": sensor})
+    assert says.replace("--", "") in str(info.value) and str(info.value).startswith("SPEC.toml: ")
