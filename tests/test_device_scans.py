@@ -380,7 +380,7 @@ def test_a_spec_device_list_is_drawn_per_scan_with_each_devices_own_settings():
 @pytest.mark.parametrize(
     "sensor, says",
     [
-        ({"device": "vlp99"}, "sensor.device --"),
+        ({"device": "vlp99"}, "sensor.device must be one of hdl32e, hdl64e, os1-64, utm30lx-ew, vlp16"),
         ({"device": "vlp16", "max_range": 150.0}, "with device vlp16, sensor.max_range must be in (0, 100]"),
         ({"device": "vlp16", "rh": [0.1, 0.2]}, "sensor.rh must be a number"),
     ],
@@ -390,4 +390,4 @@ def test_a_bad_spec_device_names_the_key(sensor, says):
 
     with pytest.raises(UserError) as info:
         spec_from_dict({"sensor": sensor})
-    assert says.replace("--", "") in str(info.value) and str(info.value).startswith("SPEC.toml: ")
+    assert says in str(info.value) and str(info.value).startswith("SPEC.toml: ")

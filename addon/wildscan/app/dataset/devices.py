@@ -30,7 +30,7 @@ def spec_device(value, where: str) -> str | tuple[str, ...]:
         try:
             device_choice(name).check_scannable()
         except UserError as e:
-            raise UserError(f"{where}: sensor.device {e}") from None
+            raise UserError(f"{where}: sensor.device {e.message if e.setting == 'device' else e}") from None
         out.append(name)
     return out[0] if not isinstance(value, list) else tuple(out)
 
