@@ -20,10 +20,13 @@ from wildscan.core.sensors.load import PRESETS_DIR, device_from_text
 
 from tests.helpers.analytic import AnalyticBackend, Patch
 from tests.helpers.scene_helpers import WILDSCAN, user_error_line
+from tests.test_formats import PARK_POSE_SEED_2_LOW
+from tests.test_formats import geometry as seed_2_low_geometry
+
+geometry = seed_2_low_geometry  # the fixture: seed 2 at low detail as a geometry file
 
 EXAMPLES = PRESETS_DIR.parent / "examples"
 HEAD_EXAMPLE = EXAMPLES / "vlp16-tilted-head.toml"
-PARK_POSE_SEED_2_LOW = ("61.908", "-58.594", "126.6")  # `wildscan poses --seed 2 --detail low --zone park`
 TIMEOUT_S = 300
 MULTI_BEAM = ("vlp16", "hdl32e", "hdl64e", "os1-64")
 
@@ -146,15 +149,6 @@ def test_a_head_stepped_or_continuous_changes_only_where_the_beams_point():
 
 
 # --------------------------------------------------------------------------- through the command line
-
-
-@pytest.fixture(scope="module")
-def geometry(tmp_path_factory):
-    """Seed 2 at low detail as a geometry file (planned without Blender)."""
-    out = tmp_path_factory.mktemp("geometry") / "seed2.npz"
-    done = wildscan("extract", "--seed", "2", "--detail", "low", "--out", str(out), "--quiet")
-    assert done.returncode == 0, done.stderr
-    return out
 
 
 def scan(geometry, out: Path, *extra: str) -> subprocess.CompletedProcess:
