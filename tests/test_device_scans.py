@@ -84,6 +84,23 @@ def test_the_presets_are_listed_with_their_published_tables():
     assert SensorConfig.for_device(os1).sweeps == 1024
 
 
+@pytest.mark.parametrize("name", MULTI_BEAM)
+def test_spinning_lidars_turn_clockwise_as_their_drivers_count_azimuth(name):
+    """Velodyne's driver and Ouster's encoder count azimuth clockwise seen from above: column
+    m of beam i points at -m * step + its offset (counter-clockwise degrees)."""
+    from wildscan.core.sensors import beam_directions
+
+    device = device_named(name)
+    step = device.mount.step_deg
+    dirs, ring, column = beam_directions(step, device)
+    azimuth = np.degrees(np.arctan2(dirs[:, 1], dirs[:, 0]))
+    n = device.beams.count
+    offsets = np.tile(np.asarray(device.beams.azimuth_offset_deg), len(dirs) // n)
+    want = (-column.astype(np.float64) * step + offsets + 180.0) % 360.0 - 180.0
+    assert np.abs((azimuth - want + 180.0) % 360.0 - 180.0).max() < 1e-9
+    assert device_named("utm30lx-ew").mount.direction == "ccw"  # Eq. 1: the head turns by +r_h
+
+
 def test_wildscan_sensors_lists_every_preset_with_its_source():
     done = wildscan("sensors")
     assert done.returncode == 0, done.stderr

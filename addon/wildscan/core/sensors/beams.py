@@ -36,12 +36,16 @@ def _beam_sincos(beams: BeamTable) -> tuple[np.ndarray, np.ndarray]:
     return dm.sincos(from_axis_rad(beams))
 
 
-def _psi_sincos(beams: BeamTable, phi_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _psi_sincos(device: Device, phi_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """sin and cos of ψ for head angles `phi_rad`: (K,) one a column or (K, N) one a beam,
-    returned (K, 1) or (K, N) to broadcast against the beams."""
+    returned (K, 1) or (K, N) to broadcast against the beams. A mount turning clockwise
+    (seen from +Z, as Velodyne and Ouster lidars spin) turns by −φ; its beams' offsets stay."""
+    beams = device.beams
     phi = np.asarray(phi_rad, dtype=np.float64)
     if phi.ndim == 1:
         phi = phi[:, None]
+    if device.mount.direction == "cw":
+        phi = -phi
     if not beams.planar:
         phi = phi + dm.deg2rad(np.asarray(beams.azimuth_offset_deg, dtype=np.float64))[None, :]
     return dm.sincos(phi)
@@ -51,7 +55,7 @@ def _psi_sincos(beams: BeamTable, phi_rad: np.ndarray) -> tuple[np.ndarray, np.n
 def beam_angles(device: Device, rh_deg: float, m_count: int):
     """(sin θ (N,), cos θ (N,), sin ψ, cos ψ ((M, 1) or (M, N))), φm = m·r_h, cached."""
     sin_t, cos_t = _beam_sincos(device.beams)
-    sin_p, cos_p = _psi_sincos(device.beams, dm.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg))
+    sin_p, cos_p = _psi_sincos(device, dm.deg2rad(np.arange(m_count, dtype=np.float64) * rh_deg))
     return sin_t, cos_t, sin_p, cos_p
 
 
@@ -117,7 +121,7 @@ def directions_at(head_rad: np.ndarray, device: Device = DEFAULT_DEVICE) -> np.n
             f"{device.id}: a device on a [head] scans with `wildscan scan` only so far", setting="device"
         )
     sin_t, cos_t = _beam_sincos(device.beams)
-    sin_p, cos_p = _psi_sincos(device.beams, head_rad)
+    sin_p, cos_p = _psi_sincos(device, head_rad)
     dirs = np.empty((len(sin_p), device.beams.count, 3))
     dirs[:, :, 0] = cos_p * sin_t[None, :]
     dirs[:, :, 1] = sin_p * sin_t[None, :]

@@ -40,6 +40,7 @@ import numpy as np
 from ..errors import UserError
 
 MOUNT_KINDS = ("rotating", "spinning", "fixed")
+TURN_DIRECTIONS = ("ccw", "cw")
 HEAD_MODES = ("stepped", "continuous")
 
 
@@ -128,6 +129,7 @@ class Mount:
     min_step_deg: float  # finest r_h allowed
     sweep_deg: float  # the turn of one 3D scan
     heads: tuple[str, ...] = HEAD_MODES  # how the head may turn: stepped, continuous
+    direction: str = "ccw"  # TURN_DIRECTIONS, seen from +Z: ccw (ψ = +φ, Eq. 1) or cw (ψ = −φ)
 
 
 HEAD_TURNS = ("stepped", "continuous")

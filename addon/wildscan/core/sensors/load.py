@@ -9,7 +9,8 @@ silently as a default).
     [range]   min_m, max_m, max_dark_m
     [noise]   sigma_m, accuracy = [[up_to_m, plus_minus_m], ...], accuracy_sigmas
     [optics]  divergence_mrad, echoes, echo_separation_m
-    [mount]   kind, axis, tilt_deg, step_deg, min_step_deg, sweep_deg, heads
+    [mount]   kind, axis, tilt_deg, step_deg, min_step_deg, sweep_deg, heads, direction (optional:
+              "ccw", the default, or "cw")
     [head]    (optional) axis, tilt_deg, step_deg, sweep_deg, turn: a rotating head carrying
               the device (device.py)
 """
@@ -27,6 +28,7 @@ from .device import (
     HEAD_MODES,
     HEAD_TURNS,
     MOUNT_KINDS,
+    TURN_DIRECTIONS,
     BeamTable,
     Device,
     Head,
@@ -202,7 +204,7 @@ def _optics(t: "_Table") -> Optics:
 
 
 def _mount(t: "_Table") -> Mount:
-    t.only("kind", "axis", "tilt_deg", "step_deg", "min_step_deg", "sweep_deg", "heads")
+    t.only("kind", "axis", "tilt_deg", "step_deg", "min_step_deg", "sweep_deg", "heads", "direction")
     axis = t.numbers("axis", -1.0, 1.0, 3, 3)
     if abs(math.fsum(a * a for a in axis) - 1.0) > 1e-9:
         raise t.fail("axis", "a unit vector [x, y, z]", list(axis))
@@ -219,6 +221,7 @@ def _mount(t: "_Table") -> Mount:
         min_step_deg=min_step,
         sweep_deg=sweep,
         heads=tuple(heads),
+        direction=t.choice("direction", TURN_DIRECTIONS) if "direction" in t.data else "ccw",
     )
 
 
