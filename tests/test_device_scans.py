@@ -376,9 +376,13 @@ def test_a_spec_device_list_is_drawn_per_scan_with_each_devices_own_settings():
     from wildscan.app.dataset.draws import draw_sensor
     from wildscan.app.dataset.spec import DatasetSpec, spec_from_dict, spec_from_json
 
+    from wildscan.app.dataset.card import _device_words
+
     assert "device" not in DatasetSpec().to_dict()["sensor"]  # the default keeps its config hash
+    assert _device_words(DatasetSpec()) == ""  # and its card's words
     spec = spec_from_dict({"sensor": {"device": ["vlp16", "os1-64"], "max_range": [50.0, 80.0]}})
     assert spec.sensor.device == ("vlp16", "os1-64") and spec.sensor.rh is None
+    assert _device_words(spec) == ", device vlp16 / os1-64"
     assert spec_from_json(spec.to_dict()) == spec  # as workers receive it
     drawn = {draw_sensor(spec.sensor, 1, index).device.id for index in range(12)}
     assert drawn == {"vlp16", "os1-64"}
