@@ -373,10 +373,9 @@ def test_the_default_device_is_the_utm30lx_ew_and_its_fields_are_as_before():
 
 
 def test_a_spec_device_list_is_drawn_per_scan_with_each_devices_own_settings():
+    from wildscan.app.dataset.card import _device_words
     from wildscan.app.dataset.draws import draw_sensor
     from wildscan.app.dataset.spec import DatasetSpec, spec_from_dict, spec_from_json
-
-    from wildscan.app.dataset.card import _device_words
 
     assert "device" not in DatasetSpec().to_dict()["sensor"]  # the default keeps its config hash
     assert _device_words(DatasetSpec()) == ""  # and its card's words
