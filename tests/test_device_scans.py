@@ -150,6 +150,26 @@ def test_a_tilted_rotating_head_is_a_sensor_file():
     assert np.all(np.abs(cloud.extra["time"] - column * period) < period)
 
 
+def test_a_fixed_fan_on_a_head_is_the_rotating_utm30lx_ew_of_eq_1():
+    """The paper's sensor written the other way round: the 2D scanner fixed, a [head] turning it
+    1 deg a 2D scan through 180 deg. Same beams as Eq. 1 (to rounding), same rings and times."""
+    from wildscan.core.sensors import beam_directions
+    from wildscan.core.sensors.beams import beam_times
+
+    text = (
+        (PRESETS_DIR / "utm30lx-ew.toml")
+        .read_text(encoding="utf-8")
+        .replace('kind = "rotating"', 'kind = "fixed"')
+    )
+    text += "\n[head]\naxis = [0.0, 0.0, 1.0]\ntilt_deg = 0.0\nstep_deg = 1.0\nsweep_deg = 180.0\n"
+    text += 'turn = "stepped"\n'
+    headed = device_from_text(text, "fan-on-head.toml")
+    a, ring_a, _ = beam_directions(1.0, DEFAULT_DEVICE)
+    b, ring_b, _ = beam_directions(1.0, headed)
+    assert a.shape == b.shape and np.abs(a - b).max() < 1e-15 and np.array_equal(ring_a, ring_b)
+    assert np.array_equal(beam_times(1.0, DEFAULT_DEVICE), beam_times(1.0, headed))
+
+
 def test_a_head_stepped_or_continuous_changes_only_where_the_beams_point():
     text = HEAD_EXAMPLE.read_text(encoding="utf-8")
     stepped = device_from_text(text.replace('turn = "continuous"', 'turn = "stepped"'), "stepped.toml")
