@@ -118,7 +118,8 @@ def directions_at(head_rad: np.ndarray, device: Device = DEFAULT_DEVICE) -> np.n
     beams fire). Returns (K, N, 3). Not for a device on a head (a drive refuses those)."""
     if device.head is not None:
         raise UserError(
-            f"{device.id}: a device on a [head] scans with `wildscan scan` only so far", setting="device"
+            f"{device.id}: a device on a [head] scans with `wildscan scan` and datasets only so far",
+            setting="device",
         )
     sin_t, cos_t = _beam_sincos(device.beams)
     sin_p, cos_p = _psi_sincos(device, head_rad)
