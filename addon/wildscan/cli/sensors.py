@@ -64,7 +64,7 @@ def rows() -> list[tuple[str, ...]]:
                 str(d.beams.count),
                 _field_of_view(d),
                 f"{d.ranges.min_m:g}-{d.ranges.max_m:g} m (at most {d.ranges.max_dark_m:g})",
-                f"{d.mount.sweep_deg:g} deg in {d.sweep_period_s:.4g} s",
+                f"{d.mount.sweep_deg:g} deg in {d.sweep_period_s:.4g} s ({1 / d.sweep_period_s:.3g} Hz)",
                 d.source,
             )
         )
