@@ -137,10 +137,12 @@ def label_config_yaml(
     splits: dict[str, list[int]],
     title: str,
     particles: bool = False,
+    projection: dict | None = None,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
     learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
-    the data has weather, so weather's particle class is listed (without: the bytes of before it)."""
+    the data has weather, so weather's particle class is listed (without: the bytes of before it);
+    `projection`: LaserScan's H, W, fov_up and fov_down for these scans (core/projection.py)."""
     t = scheme.config_tables(particles)
     lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
     lines += _yaml_map("labels", t["labels"], json.dumps)
@@ -152,4 +154,7 @@ def label_config_yaml(
     lines.append("split:")
     for key in ("train", "valid", "test"):
         lines.append(f"  {key}: [{', '.join(str(s) for s in splits.get(key, []))}]")
+    if projection is not None:
+        lines.append("# semantic-kitti-api: LaserScan(project=True, **projection) keeps >= 99 % of points")
+        lines += _yaml_map("projection", projection)
     return "\n".join(lines) + "\n"
