@@ -44,7 +44,9 @@ def _scans(dataset):
     sequence = dataset / "sequences" / "00"
     bins = sorted((sequence / "velodyne").glob("*.bin"))
     assert [p.stem for p in bins] == ["000000", "000001", "000002"]
-    return [(b, sequence / "labels" / f"{b.stem}.label", sequence / "rangeimage" / f"{b.stem}.npz") for b in bins]
+    return [
+        (b, sequence / "labels" / f"{b.stem}.label", sequence / "rangeimage" / f"{b.stem}.npz") for b in bins
+    ]
 
 
 @pytest.mark.slow
@@ -115,7 +117,8 @@ def test_a_sensor_frame_scan_keeps_its_beams_where_the_kitti_default_loses_most(
     assert kept_share(dirs, Projection(**KITTI_DEFAULT)) < 0.25
     # the field of view is the scanner's: 45 deg below the horizon (the 90 deg blind cone) to the zenith
     pitch_cell = (p.fov_up - p.fov_down) / p.H
-    assert p.fov_up == pytest.approx(90 + pitch_cell / 2) and p.fov_down == pytest.approx(-45 - pitch_cell / 2)
+    assert p.fov_up == pytest.approx(90 + pitch_cell / 2)
+    assert p.fov_down == pytest.approx(-45 - pitch_cell / 2)
 
 
 def test_the_leveled_frame_makes_room_for_the_robots_tilt_and_the_world_frame_has_none():
