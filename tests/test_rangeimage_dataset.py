@@ -4,6 +4,9 @@ labels.yaml ships, read back with semantic-kitti-api's own LaserScan/SemLaserSca
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 import yaml
@@ -27,6 +30,7 @@ zones = { forest = 1, park = 1, hills = 1 }
 [sensor]
 rh = [1.0, 2.0]  # a range: each scan draws 180/M in it
 """
+FORMATS_MD = Path(__file__).resolve().parent.parent / "docs" / "formats.md"
 KITTI_DEFAULT = dict(H=64, W=1024, fov_up=3.0, fov_down=-25.0)  # LaserScan's own defaults
 
 
@@ -105,6 +109,35 @@ def test_labels_yaml_projection_keeps_99_percent_in_semantic_kitti_api(dataset):
     assert min(kept) >= 0.99, kept
     assert max(kitti_kept) < 0.5, kitti_kept  # what the API's HDL-64E defaults would lose
     assert projection["W"] == 720  # the finest r_h the spec draws (1 deg), two pixels a step
+
+
+# --------------------------------------------------------------------------- docs/formats.md
+
+
+def _doc_table(heading: str) -> list[list[str]]:
+    """The body rows of the first table under `heading` in docs/formats.md, cell by cell."""
+    section = FORMATS_MD.read_text(encoding="utf-8").split(heading, 1)[1]
+    lines = re.search(r"((?:^\|.*\n)+)", section, re.M).group(1).splitlines()
+    return [[c.strip().strip("`") for c in line.strip().strip("|").split("|")] for line in lines[2:]]
+
+
+@pytest.mark.slow
+def test_the_range_image_arrays_are_the_ones_formats_md_describes(dataset):
+    documented = {name: (dtype, shape) for name, dtype, shape, _ in _doc_table("## Range images")}
+    bin_path, _, npz = _scans(dataset)[0]
+    points = len(read_kitti_scan(bin_path)[0])
+    with np.load(npz) as image:
+        assert sorted(image.files) == sorted(documented)
+        h, w = image["range"].shape
+        for name, (dtype, shape) in documented.items():
+            assert image[name].dtype == np.dtype(dtype), name
+            assert image[name].shape == {"(H, W)": (h, w), "(N,)": (points,)}[shape], name
+
+
+@pytest.mark.slow
+def test_the_projection_keys_are_the_ones_formats_md_describes(dataset):
+    documented = [row[0] for row in _doc_table("### Projection for semantic-kitti-api")]
+    assert sorted(documented) == sorted(_projection(dataset))
 
 
 # --------------------------------------------------------------------------- core/projection.py
