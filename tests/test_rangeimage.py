@@ -152,3 +152,21 @@ def test_a_bad_range_image_path_exits_2_before_anything_is_written(geometry, tmp
     assert done.returncode == 2
     assert message.format(dir=tmp_path) in user_error_line(done)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_a_semantickitti_scans_range_image_carries_its_label_files_ids(geometry, tmp_path):
+    from tests.helpers.dataset_helpers import read_kitti_labels, read_kitti_scan
+
+    done = _scan(
+        geometry, tmp_path / "scan.bin", "--format", "semantickitti", "--range-image", str(tmp_path / "i.npz")
+    )
+    assert done.returncode == 0, done.stderr
+    xyz, remission = read_kitti_scan(tmp_path / "scan.bin")
+    label, instance = read_kitti_labels(tmp_path / "scan.label")
+    with np.load(tmp_path / "i.npz") as image:
+        cell = image["row"], image["column"]
+        assert len(cell[0]) == len(xyz)
+        np.testing.assert_array_equal(image["intensity"][cell], remission)
+        np.testing.assert_array_equal(image["label"][cell], label)
+        np.testing.assert_array_equal(image["instance"][cell], instance)
