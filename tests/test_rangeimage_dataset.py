@@ -164,3 +164,19 @@ def test_several_settings_share_the_widest_view_at_the_finest_pixels():
     a, b = Projection(100, 360, 10.0, -10.0), Projection(60, 720, 20.0, -10.0)
     assert combined([a, b]) == Projection(150, 720, 20.0, -10.0)
     assert combined([]) is None
+
+
+@pytest.mark.parametrize(
+    "sensor, expected",
+    [
+        ({"rh": [0.5, 4.0]}, projection_for(DEFAULT_DEVICE, 0.5, "leveled")),  # the finest r_h drawn
+        ({"rh": 2.0, "frame": "sensor"}, projection_for(DEFAULT_DEVICE, 2.0, "sensor")),
+        ({"frame": "world"}, None),  # points around the world's origin: no projection fits them
+    ],
+)
+def test_a_datasets_projection_fits_every_scan_its_spec_may_draw(sensor, expected):
+    from wildscan.app.dataset.projection import dataset_projection
+    from wildscan.app.dataset.spec import spec_from_dict
+
+    spec = spec_from_dict({"seeds": [1], "scans_per_world": 1, "sensor": sensor})
+    assert dataset_projection(spec) == expected
