@@ -45,7 +45,7 @@ def test_the_menu_lists_every_preset_then_the_sensor_file(settings):
     items = settings.bl_rna.properties["device"].enum_items
     assert [i.identifier for i in items] == [*preset_names(), FILE_CHOICE]
     assert settings.device == "utm30lx-ew"
-    assert "Hokuyo UTM-30LX-EW" in items["utm30lx-ew"].name
+    assert items["utm30lx-ew"].name == "Hokuyo UTM-30LX-EW"
 
 
 def test_the_default_preset_scans_with_todays_sensor(settings):

@@ -24,7 +24,7 @@ def device_items() -> list[tuple[str, str, str]]:
     items = []
     for name in preset_names():
         device = device_named(name)
-        items.append((name, f"{device.name} ({name})", f"The {device.name} preset ({name}.toml)"))
+        items.append((name, device.name, f"The {device.name} preset ({name}.toml)"))
     items.append((FILE_CHOICE, "Sensor file", "A device file (.toml) of your own, written like the presets"))
     return items
 
