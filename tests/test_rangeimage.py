@@ -170,3 +170,65 @@ def test_a_semantickitti_scans_range_image_carries_its_label_files_ids(geometry,
         np.testing.assert_array_equal(image["intensity"][cell], remission)
         np.testing.assert_array_equal(image["label"][cell], label)
         np.testing.assert_array_equal(image["instance"][cell], instance)
+
+
+# --------------------------------------------------------------------------- a multi-beam device plugs in
+
+# A VLP-16-like device as a sensor file: its 16 lasers in firing order (laser ids 0..15) at -15,
+# 1, -13, 3, ... 15 deg (the `vert_correction` of velodyne_pointcloud/params/VLP16db.yaml,
+# github.com/ros-drivers/velodyne), a laser every 2.304 us in a 55.296 us firing cycle and 0.2 deg
+# a firing at 10 Hz (Velodyne VLP-16 User Manual, firing timing), on a mount turning 360 deg.
+# Its ranges, noise and optics are the test's own (the devices branch ships the real preset).
+VLP16_LIKE = """
+id = "vlp16-like"
+vendor = "Test"
+model = "VLP-16-like"
+[beams]
+kind = "table"
+elevation_deg = [-15, 1, -13, 3, -11, 5, -9, 7, -7, 9, -5, 11, -3, 13, -1, 15]
+azimuth_offset_deg = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+[timing]
+column_period_s = 0.000055296
+steps_per_column = 24
+beam_step = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15]
+[range]
+min_m = 0.5
+max_m = 30.0
+max_dark_m = 100.0
+[noise]
+sigma_m = 0.01
+accuracy = [[100.0, 0.03]]
+accuracy_sigmas = 1.0
+[optics]
+divergence_mrad = 3.0
+echoes = 2
+echo_separation_m = 0.3
+[mount]
+kind = "rotating"
+axis = [0.0, 0.0, 1.0]
+tilt_deg = 0.0
+step_deg = 0.2
+min_step_deg = 0.1
+sweep_deg = 360.0
+"""
+
+
+def test_a_multi_beam_devices_rows_are_its_rings_from_the_lowest_elevation():
+    from wildscan.core.projection import kept_share, projection_for
+    from wildscan.core.sensors.load import device_from_text
+
+    device = device_from_text(VLP16_LIKE)
+    sensor = SensorConfig.for_device(device, noise_sigma=0.0)
+    result = run_scan(weather_scene(), Pose(0.0, 0.0, 0.0), sensor, "sensor")
+    image = _image(result)
+    assert image["range"].shape == (16, 1800)  # 16 rings by 360 / 0.2 firings
+    n, m = np.nonzero(image["mask"])
+    xyz = result.cloud.xyz[image["index"][n, m]]
+    elevation = np.degrees(np.arcsin(xyz[:, 2] / np.linalg.norm(xyz, axis=1)))
+    np.testing.assert_allclose(elevation, -15.0 + 2.0 * n, atol=1e-4)  # row r: the r-th lowest beam
+    azimuth = np.degrees(np.arctan2(xyz[:, 1], xyz[:, 0])) % 360.0
+    np.testing.assert_allclose(
+        np.minimum(np.abs(azimuth - 0.2 * m), 360 - np.abs(azimuth - 0.2 * m)), 0, atol=1e-4
+    )
+    # the semantic-kitti-api projection chosen for it keeps its points
+    assert kept_share(result.cloud.xyz.astype(np.float32), projection_for(device, 0.2, "sensor")) >= 0.99
