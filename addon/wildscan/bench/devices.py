@@ -2,8 +2,9 @@
 (core/sensors `preset_names()`), a full-frame scan of the default world from its first valid
 pose, timed whole (core/scan.py run_scan: placement, beam directions, casting, ranges and
 labels, leveling, the cloud) beside Embree's own time for the very same rays (embreex's
-`scene.run` on the scan's rays in float32, nothing around it), and their ratio: what
-WildScan adds to the caster. The goal (issue 20): at most TARGET_RATIO.
+`scene.run` as the backend calls it, with the rays' float32 conversion, and nothing of the
+float64 refinement, settling or labels around it), and their ratio: what WildScan adds to
+the caster. The goal (issue 20): at most TARGET_RATIO.
 """
 
 from __future__ import annotations
