@@ -109,6 +109,13 @@ def test_labels_yaml_projection_keeps_99_percent_in_semantic_kitti_api(dataset):
     assert min(kept) >= 0.99, kept
     assert max(kitti_kept) < 0.5, kitti_kept  # what the API's HDL-64E defaults would lose
     assert projection["W"] == 720  # the finest r_h the spec draws (1 deg), two pixels a step
+    # the comment above the keys says what share of an untilted scan's beams it keeps
+    said = re.search(
+        r"^# semantic-kitti-api's .* keeps ([\d.]+) % of an untilted scan's beams\nprojection:",
+        (dataset / "labels.yaml").read_text(),
+        re.M,
+    )
+    assert said and float(said.group(1)) >= 99.5
 
 
 # --------------------------------------------------------------------------- docs/formats.md

@@ -24,28 +24,31 @@ A scan in the world frame has no projection (its points are not around the senso
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .placement import MAX_TILT_DEG
 from .sensors import Device, beam_directions
 
-OVERSAMPLING = (2, 3, 4)  # pixels per beam spacing, tried in this order
+OVERSAMPLING = (2, 3, 4)  # pixels per beam spacing, tried in this order (4: ~5 M pixels for a Hokuyo)
 PROBE_KEPT = 0.995  # share of a sensor-frame scan's beams the chosen projection must keep
 DECIMALS = 6  # of the field of view written (degrees)
 
 
 @dataclass(frozen=True)
 class Projection:
-    """semantic-kitti-api's projection parameters: `LaserScan(project=True, **asdict(p))`."""
+    """semantic-kitti-api's projection parameters: `LaserScan(project=True, **p.to_dict())`."""
 
     H: int  # rows
     W: int  # columns
     fov_up: float  # degrees above the horizon of the top row's upper edge
     fov_down: float  # degrees (negative below the horizon) of the bottom row's lower edge
+    # the share of an untilted scan's beams it keeps (projection_for's probe; 1.0: not probed)
+    kept: float = 1.0
 
     def to_dict(self) -> dict:
+        """The four parameters, named as LaserScan's arguments."""
         return {"H": self.H, "W": self.W, "fov_up": self.fov_up, "fov_down": self.fov_down}
 
 
@@ -91,9 +94,10 @@ def projection_for(device: Device, rh_deg: float, frame: str) -> Projection | No
     probe = dirs.astype(np.float32)  # as a .bin stores the points
     for k in OVERSAMPLING:
         p = _grid(top, bottom, step / k, rh_deg / k)
-        if kept_share(probe, p) >= PROBE_KEPT:
-            return p
-    return p
+        kept = kept_share(probe, p)
+        if kept >= PROBE_KEPT:
+            break
+    return replace(p, kept=round(kept, 4))
 
 
 def _grid(top: float, bottom: float, pitch_cell: float, yaw_cell: float) -> Projection:
@@ -112,4 +116,5 @@ def combined(projections: list[Projection]) -> Projection | None:
     up = max(p.fov_up for p in projections)
     down = min(p.fov_down for p in projections)
     pitch_cell = min((p.fov_up - p.fov_down) / p.H for p in projections)
-    return Projection(max(1, round((up - down) / pitch_cell)), max(p.W for p in projections), up, down)
+    rows, columns = max(1, round((up - down) / pitch_cell)), max(p.W for p in projections)
+    return Projection(rows, columns, up, down, min(p.kept for p in projections))

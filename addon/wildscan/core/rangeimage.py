@@ -20,7 +20,7 @@ The .npz holds, H x W (rows x columns):
     index      int32    which point (row of the .bin / PLY) the cell holds, -1 for none
 and, one entry a point in the order of the scan's files:
     row        uint16   the point's row
-    column     uint16   the point's column
+    column     uint32   the point's column (a head turning a multi-beam lidar fires past 65,535)
 """
 
 from __future__ import annotations
@@ -46,9 +46,10 @@ def grid_shape(metadata: dict) -> tuple[int, int]:
 
 
 def cells_of(cloud: PointCloud) -> tuple[np.ndarray, np.ndarray]:
-    """Each point's (row, column): its ring and the 2D scan (column) it was measured in."""
+    """Each point's (row, column): its ring, and the column it was measured in (a device's
+    `column` field where it has one, else the 2D scan `sweep`)."""
     column = cloud.extra.get("column", cloud.sweep)
-    return np.asarray(cloud.ring, dtype=np.uint16), np.asarray(column, dtype=np.uint16)
+    return np.asarray(cloud.ring, dtype=np.uint16), np.asarray(column, dtype=np.uint32)
 
 
 def range_image(
@@ -81,7 +82,7 @@ def range_image(
         "mask": held.reshape(shape),
         "index": index.reshape(shape),
         "row": row.astype(np.uint16),
-        "column": column.astype(np.uint16),
+        "column": column.astype(np.uint32),
     }
 
 

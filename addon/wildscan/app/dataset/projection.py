@@ -1,15 +1,35 @@
 """The projection a dataset's labels.yaml ships for semantic-kitti-api (core/projection.py):
-one for every scan the spec may draw, so the finest r_h it allows decides the columns."""
+one for every scan the spec may draw, so the finest r_h it allows decides the columns and
+every device it may draw the field of view."""
 
 from __future__ import annotations
 
 from ...core.projection import Projection, combined, projection_for
-from ...core.sensors import DEFAULT_DEVICE
+from ...core.sensors import DEFAULT_DEVICE, Device, device_named, load_device
 from .spec import DatasetSpec, rh_choices
+
+
+def spec_devices(spec: DatasetSpec) -> list[Device]:
+    """The devices a spec may draw: `[sensor] device`, a preset name or a device file or a
+    tuple of them, where the spec has the key (app/dataset/devices.py); else the default."""
+    names = getattr(spec.sensor, "device", DEFAULT_DEVICE.id)
+    names = names if isinstance(names, tuple) else (names,)
+    return [load_device(n) if n.lower().endswith(".toml") else device_named(n) for n in names]
+
+
+def finest_rh(spec: DatasetSpec, device: Device) -> float:
+    """The finest r_h the spec may draw for `device`: the default device's from its value or
+    range; another device's as given, or its own (the spec leaves it None)."""
+    rh = spec.sensor.rh
+    if device == DEFAULT_DEVICE:
+        return min(rh_choices(rh))
+    if rh is None:
+        return device.mount.step_deg
+    return float(rh[0] if isinstance(rh, tuple) else rh)
 
 
 def dataset_projection(spec: DatasetSpec) -> Projection | None:
     """None when the scans are in the world frame (no projection around the sensor fits them)."""
-    finest = min(rh_choices(spec.sensor.rh))
-    devices = (DEFAULT_DEVICE,)  # the one device a spec scans with so far
-    return combined([p for d in devices if (p := projection_for(d, finest, spec.sensor.frame))])
+    frame = spec.sensor.frame
+    found = [projection_for(d, finest_rh(spec, d), frame) for d in spec_devices(spec)]
+    return combined([p for p in found if p is not None])

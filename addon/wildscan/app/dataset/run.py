@@ -355,7 +355,4 @@ def _labels_yaml(spec: DatasetSpec, totals: dict) -> str:
     for seed in spec.seeds:
         by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
     title = f"WildScan dataset, config {spec.config_hash()[:16]}"
-    projection = dataset_projection(spec)
-    return sk.label_config_yaml(
-        s, content, by_split, title, bool(spec.weather), None if projection is None else projection.to_dict()
-    )
+    return sk.label_config_yaml(s, content, by_split, title, bool(spec.weather), dataset_projection(spec))

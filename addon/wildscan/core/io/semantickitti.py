@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..label_schemes import LabelScheme
+from ..projection import Projection
 from ..rangeimage import npz_bytes, scan_range_image
 from .writer import ScanFile, ScanOutput, Writer
 
@@ -137,7 +138,7 @@ def label_config_yaml(
     splits: dict[str, list[int]],
     title: str,
     particles: bool = False,
-    projection: dict | None = None,
+    projection: Projection | None = None,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
     learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
@@ -155,6 +156,7 @@ def label_config_yaml(
     for key in ("train", "valid", "test"):
         lines.append(f"  {key}: [{', '.join(str(s) for s in splits.get(key, []))}]")
     if projection is not None:
-        lines.append("# semantic-kitti-api: LaserScan(project=True, **projection) keeps >= 99 % of points")
-        lines += _yaml_map("projection", projection)
+        kept = f"{100 * projection.kept:.1f} % of an untilted scan's beams"
+        lines.append(f"# semantic-kitti-api's LaserScan(project=True, **projection) keeps {kept}")
+        lines += _yaml_map("projection", projection.to_dict())
     return "\n".join(lines) + "\n"
