@@ -69,6 +69,8 @@ def test_a_sensor_file_sets_the_fields_to_its_defaults_and_scans_as_its_device(s
     assert sensor.device == load_device(path) and sensor.sweeps == 45 and sensor.max_range == 12.0
     settings.device = "utm30lx-ew"  # back to the preset: its defaults again
     assert (settings.rh, settings.max_range) == (1.0, 15.0)
+    settings.sensor_file = path  # a file while a preset is the choice changes nothing
+    assert (settings.rh, settings.max_range) == (1.0, 15.0)
 
 
 def test_a_panel_scan_with_a_sensor_file_equals_a_scan_with_that_device(settings, tmp_path):

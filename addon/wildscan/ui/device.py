@@ -40,7 +40,7 @@ def device_from(settings) -> Device:
 
 
 def take_device_defaults(settings, context=None) -> None:
-    """The `update` of the device fields: the sensor fields take the chosen device's defaults
+    """The `update` of the device menu: the sensor fields take the chosen device's defaults
     (nothing changes while the file cannot be read: the panel names why)."""
     try:
         device = device_from(settings)
@@ -51,3 +51,9 @@ def take_device_defaults(settings, context=None) -> None:
     settings.max_range = device.ranges.max_m
     settings.noise = device.noise.sigma_m
     settings.divergence = device.optics.divergence_mrad
+
+
+def take_file_defaults(settings, context=None) -> None:
+    """The `update` of the sensor-file field: a new file counts only while it is the choice."""
+    if settings.device == FILE_CHOICE:
+        take_device_defaults(settings, context)

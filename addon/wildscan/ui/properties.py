@@ -22,7 +22,7 @@ from ..core import sensor as S
 from ..core.classes import TAG_NAMES
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
-from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults
+from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults, take_file_defaults
 from .weather import CLASSES as WEATHER_CLASSES
 from .weather import WildScanWeather
 
@@ -198,7 +198,7 @@ class WildScanSettings(PropertyGroup):
         description="A device file (.toml) written like the presets: beams, timing, ranges, noise, "
         "optics, mount",
         subtype="FILE_PATH",
-        update=take_device_defaults,
+        update=take_file_defaults,
     )
     # the sliders stop where values are useful; a value past them may still be typed
     rh: FloatProperty(**_declared("rh", soft_max=10.0, precision=2, step=25))
