@@ -158,6 +158,7 @@ SETTINGS: dict[str, Setting] = {
     "frame": Setting("--frame", "Frame"),
     "backend": Setting("--backend", "Ray caster"),
     "weather": Setting("--weather", "Weather"),
+    "device": Setting("--sensor", "Sensor"),  # the scanner: a preset or a device file (core/sensors)
     # a drive (wildscan drive)
     "trail": Setting("--trail"),
     "waypoints": Setting("--waypoints"),

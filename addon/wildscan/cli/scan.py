@@ -9,9 +9,9 @@ from .options import ArgumentParser
 
 HELP = "scan a world from a pose and write a labeled PLY (or LAS, SemanticKITTI)"
 DESCRIPTION = (
-    "Stand the emulated Hokuyo UTM-30LX-EW on the ground at a pose, turn it 180 deg in steps of r_h, "
-    "and write every returned point with its class to a PLY (plus a JSON sidecar), or in another format "
-    "with --format."
+    "Stand the emulated Hokuyo UTM-30LX-EW (or the --sensor device: `wildscan sensors` lists the presets) "
+    "on the ground at a pose, turn it 180 deg in steps of r_h (a spinning lidar: one revolution), and write "
+    "every returned point with its class to a PLY (plus a JSON sidecar), or in another format with --format."
 )
 
 
@@ -49,8 +49,13 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
-    for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
+    from .sensors import add_sensor, device_default
+
+    for name in ("pose", "z_start"):
         options.add(p, name)
+    add_sensor(p)
+    for name in (*options.SENSOR_OPTIONS, "frame", "backend"):
+        options.add(p, name, **device_default(name))
     from .weather import add_weather
 
     add_weather(p)
