@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from wildscan.core.projection import Projection, combined, kept_share, projection_for
-from wildscan.core.sensors import DEFAULT_DEVICE, beam_directions
+from wildscan.core.sensors import DEFAULT_DEVICE, beam_directions, device_named
 
 from tests.helpers.dataset_helpers import manifest_rows, read_kitti_labels, read_kitti_scan, wildscan
 from tests.helpers.semantic_kitti_laserscan import LaserScan, SemLaserScan
@@ -118,6 +118,35 @@ def test_labels_yaml_projection_keeps_99_percent_in_semantic_kitti_api(dataset):
     assert said and float(said.group(1)) >= 99.5
 
 
+@pytest.fixture(scope="module")
+def os1_dataset(tmp_path_factory):
+    """Two scans by an Ouster OS1-64 (64 rings by 1024 firings)."""
+    root = tmp_path_factory.mktemp("os1")
+    spec = SPEC.replace("rh = [1.0, 2.0]", 'device = "os1-64"').replace(
+        "scans_per_world = 3", "scans_per_world = 2"
+    )
+    (root / "spec.toml").write_text(spec.replace("forest = 1, park = 1, hills = 1", "forest = 1, park = 1"))
+    done = wildscan("dataset", str(root / "spec.toml"), "--out", str(root / "out"), "--workers", "1")
+    assert done.returncode == 0, done.stderr
+    return root / "out"
+
+
+@pytest.mark.slow
+def test_an_os1_64_dataset_loads_in_semlaserscan_keeping_its_points_and_rings(os1_dataset):
+    projection = _projection(os1_dataset)
+    config = yaml.safe_load((os1_dataset / "labels.yaml").read_text())
+    sequence = os1_dataset / "sequences" / "00"
+    for bin_path in sorted((sequence / "velodyne").glob("*.bin")):
+        scan = SemLaserScan(config["color_map"], project=True, **projection)
+        scan.open_scan(str(bin_path))
+        scan.open_label(str(sequence / "labels" / f"{bin_path.stem}.label"))
+        assert _kept(scan) >= 0.99
+        with np.load(sequence / "rangeimage" / f"{bin_path.stem}.npz") as image:
+            assert image["range"].shape == (64, 1024)  # its rings by its firings
+            assert image["mask"].sum() == len(scan.points)
+            np.testing.assert_array_equal(image["label"][image["row"], image["column"]], scan.sem_label)
+
+
 # --------------------------------------------------------------------------- docs/formats.md
 
 
@@ -179,6 +208,16 @@ def test_several_settings_share_the_widest_view_at_the_finest_pixels():
         ({"rh": [0.5, 4.0]}, projection_for(DEFAULT_DEVICE, 0.5, "leveled")),  # the finest r_h drawn
         ({"rh": 2.0, "frame": "sensor"}, projection_for(DEFAULT_DEVICE, 2.0, "sensor")),
         ({"frame": "world"}, None),  # points around the world's origin: no projection fits them
+        ({"device": "vlp16", "frame": "sensor"}, projection_for(device_named("vlp16"), 0.2, "sensor")),
+        (  # every device the spec may draw: the widest view at the finest pixels of any
+            {"device": ["os1-64", "vlp16"]},
+            combined(
+                [
+                    projection_for(device_named(d), device_named(d).mount.step_deg, "leveled")
+                    for d in ("os1-64", "vlp16")
+                ]
+            ),
+        ),
     ],
 )
 def test_a_datasets_projection_fits_every_scan_its_spec_may_draw(sensor, expected):

@@ -73,8 +73,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     p.add_argument(
         "--range-image",
         metavar="IMAGE.npz",
-        help="also write the scan's range image on its native grid (rows: the beams of a 2D scan, "
-        "columns: the 2D scans; docs/formats.md)",
+        help="also write the scan's range image on its native grid (rows: rings, the beams of a "
+        "column; columns: 2D scans or firings; docs/formats.md)",
     )
     p.add_argument("--quiet", action="store_true", help="print only the files written, no progress")
 

@@ -5,16 +5,15 @@ every device it may draw the field of view."""
 from __future__ import annotations
 
 from ...core.projection import Projection, combined, projection_for
-from ...core.sensors import DEFAULT_DEVICE, Device, device_named, load_device
+from ...core.sensors import DEFAULT_DEVICE, Device, device_choice
 from .spec import DatasetSpec, rh_choices
 
 
 def spec_devices(spec: DatasetSpec) -> list[Device]:
     """The devices a spec may draw: `[sensor] device`, a preset name or a device file or a
-    tuple of them, where the spec has the key (app/dataset/devices.py); else the default."""
-    names = getattr(spec.sensor, "device", DEFAULT_DEVICE.id)
-    names = names if isinstance(names, tuple) else (names,)
-    return [load_device(n) if n.lower().endswith(".toml") else device_named(n) for n in names]
+    tuple of them (app/dataset/devices.py)."""
+    names = spec.sensor.device
+    return [device_choice(name) for name in (names if isinstance(names, tuple) else (names,))]
 
 
 def finest_rh(spec: DatasetSpec, device: Device) -> float:
