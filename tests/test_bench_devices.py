@@ -28,7 +28,7 @@ def test_every_preset_has_a_row_with_its_beams_and_both_times(bench):
     assert [r["device"] for r in rows] == list(preset_names())
     for r in rows:
         assert r["beams"] == SensorConfig.for_device(device_named(r["device"])).beam_count
-        assert r["points"] > 1000 and r["scan_s"] > 0 and r["cast_s"] > 0
+        assert r["points"] > 1000 and r["scan_s"] > 0 and r["backend_s"] > 0 and r["cast_s"] > 0
         assert r["ratio"] == pytest.approx(r["scan_s"] / r["cast_s"])
         line = next(ln for ln in printed.splitlines() if ln.startswith(r["device"] + " "))
         assert f"{r['beams']:,}" in line and f"{r['ratio']:.2f}x" in line and line.rstrip().endswith("met")
