@@ -176,6 +176,7 @@ SETTINGS: dict[str, Setting] = {
     "out": Setting("--out", "File"),
     "format": Setting("--format", "Format"),
     "ascii": Setting("--ascii", "ASCII"),
+    "range_image": Setting("--range-image"),
     # the benchmark
     "suite": Setting("--suite"),
     "details": Setting("--details"),
