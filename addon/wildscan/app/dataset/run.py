@@ -341,6 +341,7 @@ def finalize(state: _State, report: RunReport) -> None:
 
 def _labels_yaml(spec: DatasetSpec, totals: dict) -> str:
     from ...core.classes import BY_ID
+    from .projection import dataset_projection
 
     s = scheme(spec.label_scheme)
     by_name = {c.name: c.id for c in BY_ID.values()}
@@ -354,4 +355,4 @@ def _labels_yaml(spec: DatasetSpec, totals: dict) -> str:
     for seed in spec.seeds:
         by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
     title = f"WildScan dataset, config {spec.config_hash()[:16]}"
-    return sk.label_config_yaml(s, content, by_split, title, particles=bool(spec.weather))
+    return sk.label_config_yaml(s, content, by_split, title, bool(spec.weather), dataset_projection(spec))
