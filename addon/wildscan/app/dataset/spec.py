@@ -33,8 +33,7 @@ DEFAULT_FORMATS = ("semantickitti", "las", "ply")
 SPLITS = ("train", "val", "test")
 MAX_SCANS_PER_WORLD = 100_000
 MAX_WORLDS = 100_000
-# the classes a scan can be drawn near ([poses] min_scans_with): every element class but water
-POSE_CLASSES = tuple(n for n in TAG_NAMES if n != "water")
+POSE_CLASSES = tuple(n for n in TAG_NAMES if n != "water")  # what [poses] min_scans_with may name
 DEFAULT_ZONE_WEIGHTS = (
     ("hills", 1.0),
     ("forest", 2.0),
@@ -353,12 +352,11 @@ def _poses(t: _Table) -> PoseSpec:
         strategy=t.choice("strategy", d.strategy, STRATEGIES),
         zones=weights,
         min_distance=t.number("min_distance", d.min_distance, 0.0, 50.0),
-        min_scans_with=_min_scans_with(t.table("min_scans_with", {})),
+        min_scans_with=_shares(t.table("min_scans_with", {})),  # class -> share 0..1 of the scans
     )
 
 
-def _min_scans_with(t: _Table) -> tuple[tuple[str, float], ...]:
-    """[poses] min_scans_with = { table = 0.2, ... }: a share 0..1 per element class."""
+def _shares(t: _Table) -> tuple[tuple[str, float], ...]:
     t.only(*POSE_CLASSES)
     return tuple((name, t.number(name, 0.0, 0.0, 1.0)) for name in POSE_CLASSES if name in t.data)
 
@@ -483,6 +481,9 @@ def spec_from_json(data: dict) -> DatasetSpec:
     def value(v):
         return tuple(v) if isinstance(v, list) else v
 
+    def _pairs(v):  # [[zone, weight], ...] -> ((zone, weight), ...); a name or number as it is
+        return tuple(tuple(p) for p in v) if isinstance(v, list) else v
+
     poses, sensor = data["poses"], data["sensor"]
     return DatasetSpec(
         seeds=tuple(data["seeds"]),
@@ -493,12 +494,7 @@ def spec_from_json(data: dict) -> DatasetSpec:
         formats=tuple(data["formats"]),
         label_scheme=data["label_scheme"],
         split=tuple((k, v) for k, v in data["split"]),
-        poses=PoseSpec(
-            poses["strategy"],
-            tuple((k, v) for k, v in poses["zones"]),
-            poses["min_distance"],
-            tuple((k, v) for k, v in poses.get("min_scans_with", [])),
-        ),
+        poses=PoseSpec(**{k: _pairs(v) for k, v in poses.items()}),
         sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
         weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
     )
