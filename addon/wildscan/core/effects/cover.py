@@ -79,6 +79,7 @@ class GroundCover(Effect):
             # the run that ends at the hit, from where the ray came down into the layer
             at = np.maximum(end - BEFORE_HIT, 0.0)
             rows = np.flatnonzero(np.isfinite(hits.distance) & ~np.isfinite(stop))
+            rows = rows[self.grid.may_be_inside(o[rows] + d[rows] * at[rows, None])]
             cls_b, above_b, height_b, rate_b, inside_b = self._layer_at(o, d, at, rows)
             back = np.minimum(np.where(rate_b < 0, (height_b - above_b) / -rate_b, LONGEST_RUN), LONGEST_RUN)
             begin = np.maximum(end - back, np.where(inside_a, leave, t0))

@@ -76,6 +76,7 @@ class CoverGrid:
         self.terrain_ys = np.asarray(self.terrain_ys, dtype=np.float64)
         self.terrain_z = np.asarray(self.terrain_z, dtype=np.float64)
         self._nodes: np.ndarray | None = None
+        self._top: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -129,6 +130,17 @@ class CoverGrid:
         cls, height, ground, _, _ = self.surface(points)
         above = np.asarray(points, dtype=np.float64)[:, 2] - ground
         return np.where((above >= -BOTTOM_SLACK) & (above <= height), cls, 0).astype(np.int16)
+
+    def may_be_inside(self, points: np.ndarray) -> np.ndarray:
+        """A cheap superset of class_inside(points) > 0: over a covered cell and not above its
+        highest node plus its height (one gather a point; for skipping the exact test)."""
+        if self._top is None:
+            z = self.node_ground()
+            corners = np.maximum(np.maximum(z[:-1, :-1], z[1:, :-1]), np.maximum(z[:-1, 1:], z[1:, 1:]))
+            self._top = np.where(self.class_id > 0, corners + self.height, -np.inf)
+        p = np.asarray(points, dtype=np.float64)
+        flat, inside = self.cells(p[:, 0], p[:, 1])
+        return inside & (p[:, 2] <= self._top.reshape(-1)[flat])
 
     def use_node_ground(self, nodes: np.ndarray) -> None:
         """Take the terrain at the nodes as already computed (by the stage that made the grid)."""
