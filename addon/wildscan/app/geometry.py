@@ -43,12 +43,8 @@ def world_geometry_of(
 
     if world is not None:
         open_world(world, quiet=quiet)
-    from ..blender.cover import scene_cover
-
     scene_seed, blend = scene_provenance()
-    geometry = extract_scene()
-    geometry.cover = scene_cover()  # the world's sward, kept on its root collection
-    return geometry, {"seed": scene_seed, "detail": None, "world": blend}
+    return extract_scene(), {"seed": scene_seed, "detail": None, "world": blend}
 
 
 def extract(

@@ -72,7 +72,20 @@ def extract_scene(depsgraph=None, center=None, radius=None) -> SceneGeometry:
 
     geometry = concatenate(parts, object_names=tuple(names))
     geometry.offset = local_origin(geometry.vertices, geometry.faces, center if crop else None)
+    geometry.cover = _scene_cover(depsgraph.scene)
     return geometry
+
+
+def _scene_cover(scene):
+    """The world's sward (core/world/cover.py), kept on its root collection: the scene's one
+    collection carrying the cover's properties (None: bare ground)."""
+    from ..core.world.cover import SHAPE_PROP, CoverGrid
+
+    roots = sorted(
+        (c for c in scene.collection.children_recursive if c.get(SHAPE_PROP) is not None),
+        key=lambda c: c.name,
+    )
+    return CoverGrid.from_props(roots[0]) if roots else None
 
 
 def _instance_part(inst, view_layer, crop, names: dict[str, int], mesh_cache: dict) -> SceneGeometry | None:

@@ -37,10 +37,7 @@ def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray 
 
     open_world(request.world, quiet=request.quiet)
     seed, blend = scene_provenance()
-    from ...blender.cover import scene_cover
-
     geometry = extract_scene()
-    geometry.cover = scene_cover()  # the world's sward, kept on its root collection
     provenance = {"seed": seed, "detail": None, "vegetation": None, "world": blend}
     return geometry, provenance, _trail_of_blend(seed, geometry)
 

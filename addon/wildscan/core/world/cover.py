@@ -51,6 +51,10 @@ for _c in COVER_CLASSES:
 # cover return never shares an instance with an element.
 COVER_INSTANCE_BASE = 900_000
 
+# A Blender world keeps its grid as custom properties of its root collection (to_props).
+PROP_PREFIX = "wildscan_"
+SHAPE_PROP = "wildscan_cover_shape"
+
 
 @dataclass
 class CoverGrid:
@@ -182,6 +186,26 @@ class CoverGrid:
             "cover_terrain_ys": self.terrain_ys,
             "cover_terrain_z": self.terrain_z,
         }
+
+    def to_props(self) -> dict[str, list]:
+        """As custom properties of a Blender world's root collection (plain lists)."""
+        props: dict[str, list] = {SHAPE_PROP: list(self.shape)}
+        for name, values in self.to_arrays().items():
+            values = np.asarray(values).reshape(-1)
+            props[PROP_PREFIX + name] = values.astype(
+                np.int32 if values.dtype.kind in "iu" else np.float64
+            ).tolist()
+        return props
+
+    @staticmethod
+    def from_props(props) -> CoverGrid | None:
+        """The grid kept in custom properties (to_props; `props` anything with .get and []),
+        None when they hold none."""
+        if props.get(SHAPE_PROP) is None:
+            return None
+        names = ("origin", "class", "height", "terrain_xs", "terrain_ys", "terrain_z")
+        arrays = {f"cover_{n}": np.array(props[f"{PROP_PREFIX}cover_{n}"]) for n in names}
+        return CoverGrid.from_arrays(arrays, tuple(int(v) for v in props[SHAPE_PROP]))
 
     @staticmethod
     def from_arrays(arrays, shape: tuple[int, int] | None = None) -> CoverGrid:
