@@ -38,7 +38,7 @@ EXPECTED = {
 @pytest.fixture(scope="module")
 def world():
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    plan = build_world(SEED)
+    plan = build_world(SEED, biome="paper")  # the demo's world (app/demo.py BIOME): bare ground
     geometry = extract_scene()  # what any scan of this Blender scene sees
     backend = EmbreeBackend(geometry)
     poses = valid_poses(plan, backend, 3)
@@ -201,12 +201,12 @@ def test_no_cracks_vertical_rays_hit_everywhere(world):
 
 
 def test_same_seed_twice_gives_identical_scene(world):
-    build_world(SEED)
+    build_world(SEED, biome="paper")
     assert scene_hashes() == world["hashes"]
 
 
 def test_one_stage_changed_leaves_the_others_in_the_scene(world):
-    build_world(SEED, params=WorldParams().with_stage("rocks", size=(0.5, 3.0)))
+    build_world(SEED, params=WorldParams().with_stage("rocks", size=(0.5, 3.0)), biome="paper")
     changed = scene_hashes()
     assert changed["rocks"] != world["hashes"]["rocks"]
     for stage, h in world["hashes"].items():
