@@ -441,9 +441,17 @@ def test_the_laszip_reference_library_reads_the_las_files(dataset):
 def test_plyfile_reads_the_ply_with_hag_after_the_contract_fields(dataset):
     vertex = plyfile.PlyData.read(str(dataset / "sequences/00/ply/000001.ply"))["vertex"]
     names = [p.name for p in vertex.properties]
-    assert names[-2:] == ["scalar_label", "hag"] and names[:5] == ["x", "y", "z", "intensity", "label"]
+    assert names[-3:] == ["scalar_label", "hag", "support"] and names[:5] == [
+        "x",
+        "y",
+        "z",
+        "intensity",
+        "label",
+    ]
     hag = np.fromfile(dataset / "sequences/00/hag/000001.bin", dtype=np.float32)
     np.testing.assert_array_equal(vertex["hag"], hag)
+    # support follows from the label and hag (core/traversability.py), which the other formats carry
+    np.testing.assert_array_equal(vertex["support"], (vertex["label"] == 1) & (np.abs(hag) <= 0.1))
 
 
 @pytest.mark.slow
