@@ -262,6 +262,7 @@ def test_an_interrupted_drive_leaves_nothing(tmp_path, monkeypatch, stop, code):
 
 def test_wind_moves_foliage_and_keeps_labels_exact(tmp_path):
     from wildscan.core.world import plan_world
+    from wildscan.core.world.cover import COVER_CLASSES, COVER_INSTANCE_BASE
     from wildscan.raycast.from_plan import plan_geometry
 
     clouds = {}
@@ -281,6 +282,7 @@ def test_wind_moves_foliage_and_keeps_labels_exact(tmp_path):
         clouds[wind], _ = read_ply(out / "deskewed" / "000000.ply")
     geometry = plan_geometry(plan_world(SEED, "low"))
     class_of = dict(zip(geometry.instance.tolist(), geometry.class_id.tolist()))
+    class_of.update({COVER_INSTANCE_BASE + c: c for c in COVER_CLASSES})  # the sward's returns
     windy = clouds[4.0]
     assert all(class_of[int(i)] == int(c) for i, c in zip(windy["instance"], windy["label"]))
     calm = clouds[0.0]
