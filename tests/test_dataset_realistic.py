@@ -112,13 +112,16 @@ def test_the_manifest_records_the_model_and_the_draws(dataset):
 
 def test_the_worker_scans_the_solid_world_with_the_realistic_model(dataset):
     from wildscan.app.dataset.worker import build_world
+    from wildscan.app.scan import scan_effects
     from wildscan.core.scan import run_scan
 
     spec = load_spec(dataset.parent / "spec.toml")
     context = build_world(spec, 1)
     assert context.plan.vegetation == "solid"
     choice = context.poses[0]
-    result = run_scan(context.backend, choice.pose, draw_sensor(spec.sensor, 1, 0), "leveled", choice.z_start)
+    sensor = draw_sensor(spec.sensor, 1, 0)
+    effects = scan_effects(None, sensor, context.plan.cover)  # the default biome's sward, as the worker
+    result = run_scan(context.backend, choice.pose, sensor, "leveled", choice.z_start, None, effects)
     records, _ = read_ply(scan_files(dataset, "ply", "ply")[0])
     np.testing.assert_array_equal(records["x"], result.cloud.xyz[:, 0].astype(np.float32))
     np.testing.assert_array_equal(records["echo"], result.cloud.extra["echo"])
@@ -133,7 +136,7 @@ def test_ply_and_las_carry_the_echo_fields_and_kitti_stays_xyz_remission(dataset
     ):
         records, _ = read_ply(ply)
         names = list(plyfile.PlyData.read(str(ply))["vertex"].data.dtype.names)
-        assert names[-5:] == ["hag", *ECHO_FIELDS]
+        assert names[-6:] == ["hag", "support", *ECHO_FIELDS]
         assert set(np.unique(records["echo"])) == {1, 2, 3}  # a forest returns several echoes a beam
         assert np.all(records["echo"] <= records["echoes"])
         las = laspy.read(las_path)
