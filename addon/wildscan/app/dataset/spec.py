@@ -18,6 +18,7 @@ from ... import __version__
 from ...core import sensor as S
 from ...core.errors import UserError
 from ...core.frames import FRAMES
+from ...core.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
@@ -78,6 +79,7 @@ class DatasetSpec:
     sensor: SensorSpec = field(default_factory=SensorSpec)
     # [weather]: key (core/effects/weather.py KEYS) -> a value or a range [lo, hi] drawn per scan
     weather: tuple[tuple[str, Value], ...] = ()
+    intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/intensity.py)
 
     def to_dict(self) -> dict:
         out = json.loads(json.dumps(asdict(self)))
@@ -166,6 +168,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         "poses",
         "sensor",
         "weather",
+        "intensity",
     )
     d = DatasetSpec()
     spec = replace(
@@ -180,6 +183,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         poses=_poses(top.table("poses", {})),
         sensor=_sensor(top.table("sensor", {})),
         weather=_weather(top.table("weather", {})),
+        intensity=top.choice("intensity", d.intensity, INTENSITY_MODES),
     )
     return spec
 
@@ -463,4 +467,5 @@ def spec_from_json(data: dict) -> DatasetSpec:
         poses=PoseSpec(poses["strategy"], tuple((k, v) for k, v in poses["zones"]), poses["min_distance"]),
         sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
         weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
+        intensity=data.get("intensity", DEFAULT_DATASET_INTENSITY),
     )

@@ -2,13 +2,17 @@
 mmdetection3d) load unchanged.
 
     sequences/NN/velodyne/NNNNNN.bin   float32 x y z remission per point
+    sequences/NN/echo/NNNNNN.npy       a realistic dataset scan's echo, echoes, label_purity, mixed
     sequences/NN/labels/NNNNNN.label   uint32 per point: class in the low 16 bits, instance in the high 16
     sequences/NN/poses.txt             one line per scan: the 3x4 matrix taking its points to the world
     sequences/NN/calib.txt             P0..P3 and Tr (no cameras here: identities)
     labels.yaml                        label config in semantic-kitti-api's form
 
-Remission is the reflectivity of the element hit divided by 100 (Table I's 15..100
-become 0.15..1, KITTI's range). The instance is the element's rank among its world's
+Remission is the point's intensity divided by 100, clipped to [0, 1] (KITTI's range): a
+dataset's intensity is already in 0..100 (core/intensity.py: `physical`, or `class`, Table I's
+15..100 becoming 0.15..1); a single realistic-model scan's echo energy exceeds 100 on bright
+surfaces nearer than 10 m (core/echoes.py), whose remission saturates at 1 as a receiver
+does (docs/formats.md "Intensity"). The instance is the element's rank among its world's
 instance ids (1-based), so it fits 16 bits and is the same object across one sequence.
 """
 
@@ -30,7 +34,7 @@ def scan_bytes(xyz: np.ndarray, intensity: np.ndarray) -> bytes:
     """A velodyne .bin: float32 (N, 4) x y z remission, little-endian."""
     out = np.empty((len(xyz), 4), dtype="<f4")
     out[:, :3] = xyz
-    out[:, 3] = np.asarray(intensity, dtype=np.float64) * REMISSION_SCALE
+    out[:, 3] = np.clip(np.asarray(intensity, dtype=np.float64) * REMISSION_SCALE, 0.0, 1.0)
     return out.tobytes()
 
 
@@ -75,7 +79,24 @@ def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
     }
     if scan.hag is not None:
         files["hag"] = float_bytes(scan.hag)
+        if "echo" in cloud.extra:
+            files["echo"] = echo_bytes(cloud.extra)
     return files
+
+
+# A realistic scan's echo fields beside its .bin (datasets): numpy structured records, one per
+# point in the order of the velodyne file (core/pointcloud.py OPTIONAL_FIELDS says what each is)
+ECHO_DTYPE = np.dtype([("echo", "u1"), ("echoes", "u1"), ("label_purity", "<f4"), ("mixed", "u1")])
+
+
+def echo_bytes(extra: dict) -> bytes:
+    """echo/NNNNNN.npy: the echo fields a SemanticKITTI user needs to drop mixed pixels."""
+    from ..groundtruth import npy_bytes
+
+    out = np.zeros(len(extra["echo"]), dtype=ECHO_DTYPE)
+    for name in ECHO_DTYPE.names:
+        out[name] = extra[name]
+    return npy_bytes(out)
 
 
 WRITER = Writer(
@@ -86,6 +107,7 @@ WRITER = Writer(
         ScanFile("velodyne", ".bin", "velodyne"),
         ScanFile("labels", ".label", "labels"),
         ScanFile("hag", ".bin", "hag", ground_truth=True),
+        ScanFile("echo", ".npy", "echo", ground_truth=True),  # realistic datasets only
     ),
     scan_labels="semantickitti",
     encode=encode,
@@ -118,10 +140,13 @@ def label_config_yaml(
     splits: dict[str, list[int]],
     title: str,
     particles: bool = False,
+    weights: dict[str, dict[int, float]] | None = None,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
     learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
-    the data has weather, so weather's particle class is listed (without: the bytes of before it)."""
+    the data has weather, so weather's particle class is listed (without: the bytes of before it);
+    `weights` (core/class_weights.py, by learning-map id): `class_weights_<name>` tables after
+    the split (without: the bytes of before them)."""
     t = scheme.config_tables(particles)
     lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
     lines += _yaml_map("labels", t["labels"], json.dumps)
@@ -133,4 +158,6 @@ def label_config_yaml(
     lines.append("split:")
     for key in ("train", "valid", "test"):
         lines.append(f"  {key}: [{', '.join(str(s) for s in splits.get(key, []))}]")
+    for name, table in (weights or {}).items():
+        lines += _yaml_map(f"class_weights_{name}", table, lambda w: repr(float(f"{w:.6g}")))
     return "\n".join(lines) + "\n"
