@@ -1,12 +1,14 @@
 """Train a small RangeNet-style network on a WildScan dataset's range images (CPU is fine).
 
-    python examples/train_rangenet.py DIR [--epochs 5] [--remission] [--weights enet]
+    python examples/train_rangenet.py DIR [--epochs 5] [--remission] [--weights enet] [--markdown FILE.md]
 
 A few-layer encoder-decoder in the spirit of RangeNet++ (Milioto et al., IROS 2019: a
 range-image CNN, downsampling only along the width, skip connections), weighted cross-
 entropy with the dataset's class weights (labels.yaml), ignoring class 0. After each
 epoch it prints the loss and the IoU per class on the range-image pixels of the valid
 split (the test split when valid has no sequence). Needs torch; see examples/README.md.
+With --markdown FILE.md it writes what it printed, with the command, date, machine and torch
+version, into its marked section of FILE.md (docs/training.md is made this way).
 """
 
 from __future__ import annotations
@@ -74,6 +76,42 @@ def evaluate(model, loader, classes: int, ignore) -> tuple[dict[int, float], np.
     return iou_table(confusion, ignore), confusion
 
 
+BEGIN = "<!-- begin examples/train_rangenet.py (generated: rerun the command below, do not edit) -->"
+END = "<!-- end examples/train_rangenet.py -->"
+
+
+def write_markdown(path: Path, argv: list[str], printed: list[str]) -> None:
+    """The run's section of `path`: replaced in place when there, else appended."""
+    import os
+    import platform
+    from datetime import datetime, timezone
+
+    cpu = next(
+        (line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+         if line.startswith("model name")), platform.processor()
+    ) if Path("/proc/cpuinfo").exists() else platform.processor()  # fmt: skip
+    section = "\n".join(
+        [
+            BEGIN,
+            f"- Command: `python examples/train_rangenet.py {' '.join(argv)}`",
+            f"- Date: {datetime.now(timezone.utc):%Y-%m-%d %H:%M UTC}",
+            f"- Machine: {os.cpu_count()} cores, {cpu}, load average {os.getloadavg()[0]:.2f} at the end, "
+            f"torch {torch.__version__} on the CPU, {torch.get_num_threads()} threads",
+            "",
+            "```text",
+            *printed,
+            "```",
+            END,
+        ]
+    )
+    page = path.read_text(encoding="utf-8") if path.exists() else ""
+    if BEGIN in page and END in page:
+        page = page[: page.index(BEGIN)] + section + page[page.index(END) + len(END) :]
+    else:
+        page = page.rstrip("\n") + "\n\n" + section + "\n"
+    path.write_text(page, encoding="utf-8")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("dataset", type=Path)
@@ -83,9 +121,24 @@ def main(argv=None) -> int:
     p.add_argument("--remission", action="store_true", help="feed the remission as a fifth channel")
     p.add_argument("--weights", choices=("enet", "inverse_frequency"), default="enet")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--width", type=int, default=16, help="channels of the first block (doubled twice)")
+    p.add_argument("--threads", type=int, default=1, help="torch threads (1: steady on a shared machine)")
+    p.add_argument(
+        "--train-every", type=int, default=1, help="train on every K-th train scan (a quicker run)"
+    )
+    p.add_argument("--markdown", type=Path, help="write the printed figures into this page's section")
+    argv = sys.argv[1:] if argv is None else argv
     args = p.parse_args(argv)
     torch.manual_seed(args.seed)
+    torch.set_num_threads(args.threads)
+    printed: list[str] = []
+
+    def say(line: str) -> None:
+        print(line, flush=True)
+        printed.append(line)
+
     train = WildScanRangeImages(args.dataset, "train", args.remission, args.weights)
+    train.files = train.files[:: args.train_every]
     scored = "valid" if train.config.split.get("valid") else "test"
     valid = WildScanRangeImages(args.dataset, scored, args.remission, args.weights)
     if not len(train) or not len(valid):
@@ -94,7 +147,7 @@ def main(argv=None) -> int:
         )
         return 2
     classes = train.config.classes
-    model = RangeNetLite(train[0][0].shape[0], classes)
+    model = RangeNetLite(train[0][0].shape[0], classes, args.width)
     weights = train.class_weights.clone()
     weights[0] = 0.0
     loss_fn = nn.CrossEntropyLoss(weight=weights, ignore_index=0)
@@ -103,8 +156,8 @@ def main(argv=None) -> int:
         train, batch_size=args.batch, shuffle=True, generator=torch.Generator().manual_seed(0)
     )
     scoring = DataLoader(valid, batch_size=args.batch)
-    print(f"{len(train)} train scans, {len(valid)} {scored} scans, {classes} classes, "
-          f"{sum(q.numel() for q in model.parameters()):,} parameters")  # fmt: skip
+    say(f"{args.dataset.name}: {len(train)} train scans, {len(valid)} {scored} scans, {classes} classes, "
+        f"{sum(q.numel() for q in model.parameters()):,} parameters")  # fmt: skip
     for epoch in range(1, args.epochs + 1):
         model.train()
         t0, total = time.perf_counter(), 0.0
@@ -113,14 +166,16 @@ def main(argv=None) -> int:
             loss = loss_fn(model(image), labels)
             loss.backward()
             optimiser.step()
-            total += float(loss) * len(image)
+            total += float(loss.detach()) * len(image)
         iou, _ = evaluate(model, scoring, classes, train.config.ignore)
         miou = 100 * float(np.mean(list(iou.values()))) if iou else float("nan")
-        print(f"epoch {epoch}: loss {total / len(train):.3f}, {scored} mIoU {miou:.1f} % "
-              f"({time.perf_counter() - t0:.0f} s)")  # fmt: skip
-    print("IoU per class on the " + scored + " pixels:")
+        say(f"epoch {epoch}: loss {total / len(train):.3f}, {scored} mIoU {miou:.1f} % "
+            f"({time.perf_counter() - t0:.0f} s)")  # fmt: skip
+    say(f"IoU per class on the {scored} pixels after epoch {args.epochs}:")
     for k, value in sorted(iou.items()):
-        print(f"  {train.config.names[k]:<14} {100 * value:5.1f} %")
+        say(f"  {train.config.names[k]:<14} {100 * value:5.1f} %")
+    if args.markdown:
+        write_markdown(args.markdown, argv, printed)
     return 0
 
 

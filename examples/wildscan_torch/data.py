@@ -50,6 +50,10 @@ class LabelConfig:
         return table
 
     def weight_vector(self) -> np.ndarray:
+        """Per learning class its weight; 1 for every class a loss keeps when labels.yaml has
+        none (a dataset made before WildScan wrote class weights)."""
+        if not self.weights:
+            return np.array([0.0 if k in self.ignore else 1.0 for k in range(self.classes)], dtype=np.float32)
         return np.array([self.weights.get(k, 0.0) for k in range(self.classes)], dtype=np.float32)
 
 
