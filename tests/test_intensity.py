@@ -105,3 +105,25 @@ def test_class_weights_follow_their_formulas_over_the_learning_map():
     assert w["enet"][trunk] == pytest.approx(1 / math.log(1.02 + 0.25))
     assert w["enet"][sk.learning_map[0]] == 0.0  # ignored: nothing to learn
     assert max(w["enet"].values()) <= 1 / math.log(1.02)
+
+
+# --------------------------------------------------------------------------- the dataset card
+
+
+def test_the_card_warns_when_remission_alone_labels_over_90_percent():
+    from types import SimpleNamespace
+
+    from wildscan.app.dataset.intensity import intensity_lines, remission_totals
+
+    labels = np.repeat([TERRAIN, TRUNK, ROCK], [700, 200, 100])
+    tagged = [{"remission_histogram": I.remission_histogram(I.class_percent(labels) / 100, labels)}]
+    totals = remission_totals(tagged)
+    assert totals["remission_lookup_accuracy"] == 1.0 and totals["majority_class_share"] == 0.7
+    (line,) = intensity_lines(SimpleNamespace(intensity="class"), totals)
+    assert "labels 100.0 % of points" in line and "Warning" in line
+    xy = np.random.default_rng(0).uniform(-100, 100, (len(labels), 2))  # terrain over many patches
+    rho = I.surface_reflectance(3, labels, np.arange(len(labels)), xy)
+    physical = remission_totals([{"remission_histogram": I.remission_histogram(rho, labels)}])
+    (line,) = intensity_lines(SimpleNamespace(intensity="physical"), physical)
+    assert physical["remission_lookup_accuracy"] < 0.9 and "Warning" not in line
+    assert intensity_lines(SimpleNamespace(intensity="physical"), {}) == []  # rows from before: no line
