@@ -337,6 +337,7 @@ def test_an_independent_semantickitti_reader_loads_every_scan(dataset):
             np.testing.assert_array_equal(xyz[:, 0], ply["x"])
             # poses.txt takes the points to the world: the terrain under them is hag below
             sidecar = json.loads((folder / "ply" / f"{scan.stem}.json").read_text())
+            assert sidecar["intensity"] == "physical"  # what the intensity of these files means
             centre = np.array(sidecar["placement"]["optical_centre"])
             np.testing.assert_allclose(pose[:3, 3], centre, atol=1e-9)
             world = xyz.astype(np.float64) @ pose[:3, :3].T + pose[:3, 3]

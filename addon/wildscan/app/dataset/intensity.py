@@ -19,13 +19,18 @@ from ...core.groundtruth import world_points
 
 
 def with_dataset_intensity(mode: str, seed: int, scan: int, backend, result):
-    """`result` (core/scan.py ScanResult) with its cloud's intensity in `mode`, percent."""
+    """`result` (core/scan.py ScanResult) with its cloud's intensity in `mode`, percent, and
+    its metadata saying which (the PLY header and sidecar, LAS's description carry it)."""
     cloud = result.cloud
     if mode == "class":
         value = I.class_percent(cloud.label)
     else:
         value = _physical(seed, scan, backend, result)
-    return replace(result, cloud=replace(cloud, intensity=value.astype(np.float32)))
+    return replace(
+        result,
+        cloud=replace(cloud, intensity=value.astype(np.float32)),
+        metadata=dict(result.metadata, intensity=mode),
+    )
 
 
 def _physical(seed: int, scan: int, backend, result) -> np.ndarray:
