@@ -474,6 +474,34 @@ def test_ctrl_c_while_the_local_cluster_starts_says_one_line_and_leaves_no_worke
     assert alive == []
 
 
+def blocked_signals(pid: int) -> set[int]:
+    """The signals a process has blocked (its SigBlk mask in /proc)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("SigBlk:"):
+            mask = int(line.split()[1], 16)
+            return {n for n in range(1, 65) if mask >> (n - 1) & 1}
+    raise AssertionError(f"no SigBlk line for process {pid}")
+
+
+def test_worker_processes_are_born_with_ctrl_c_blocked(spec, tmp_path):
+    """A terminal's Ctrl-C reaches the whole process group: a worker interpreter that got it
+    while importing `site` printed a 'Fatal Python error' traceback (seen on a loaded
+    machine). Workers are born with SIGINT blocked; the parent alone answers it."""
+    out = tmp_path / "out"
+    job = start_wildscan("dataset", str(spec), "--out", str(out), "--workers", "2", "--quiet")
+    try:
+        workers = wait_until(lambda: worker_processes(job), "worker process", job)
+        masks = {w.pid: blocked_signals(w.pid) for w in workers}
+        assert signal.SIGTERM not in blocked_signals(job.pid)
+        os.killpg(job.pid, signal.SIGINT)
+        _, stderr = job.communicate(timeout=120)
+    finally:
+        if job.poll() is None:
+            os.killpg(job.pid, signal.SIGKILL)
+    assert all(signal.SIGINT in blocked for blocked in masks.values()), masks
+    assert job.returncode == 130, stderr
+
+
 def test_ctrl_c_after_the_last_scan_leaves_the_dataset_incomplete_until_its_card_is_written(
     spec, clean, tmp_path
 ):

@@ -157,9 +157,12 @@ def test_the_scan_limits_come_from_the_device():
     assert "device" not in SensorConfig().to_dict()
 
 
-def test_a_mount_the_scans_do_not_support_yet_is_refused_by_name():
-    with pytest.raises(UserError, match="toy4: the scans support a rotating mount .* got spinning"):
-        SensorConfig.for_device(table_device("spinning")).validate()
+def test_a_tilted_mount_is_refused_by_name_and_points_to_a_head():
+    device = table_device("spinning")
+    SensorConfig.for_device(device).validate()  # a spinning mount about Z scans
+    tilted = replace(device, mount=replace(device.mount, tilt_deg=10.0))
+    with pytest.raises(UserError, match=r"toy4: a spinning mount turns about \[0, 0, 1\] with tilt 0 .*head"):
+        SensorConfig.for_device(tilted).validate()
 
 
 def test_the_fallback_reader_reads_the_presets_as_tomllib_does():

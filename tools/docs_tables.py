@@ -16,6 +16,7 @@ tests/test_docs.py fails when a page's table differs from what this renders.
   tests/test_golden.py holds every change of the scan path to.
 - `label-schemes`, `asprs`: the label-scheme mapping and the LAS classification codes
   (docs/formats.md), from `mapping_table_rows()` and `asprs_table_rows()`.
+- `sensors`: the device presets as `wildscan sensors` lists them (docs/sensors.md).
 """
 
 from __future__ import annotations
@@ -78,10 +79,18 @@ def asprs_table() -> str:
     return markdown_table(["ASPRS code", "name", "WildScan classes"], rows, right={0})
 
 
+def sensors_table() -> str:
+    """Every device preset as `wildscan sensors` lists it (docs/sensors.md)."""
+    from wildscan.cli.sensors import HEADERS, rows
+
+    return markdown_table(list(HEADERS), [list(r) for r in rows()], right={2})
+
+
 TABLES: dict[str, tuple[Path, Callable[[], str]]] = {
     "demo": (REPO / "README.md", demo_table),
     "label-schemes": (REPO / "docs" / "formats.md", label_scheme_table),
     "asprs": (REPO / "docs" / "formats.md", asprs_table),
+    "sensors": (REPO / "docs" / "sensors.md", sensors_table),
 }
 
 

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Callable
 
 from ..core.backend import RayBackend
+from ..core.errors import UserError
 from ..core.placement import COLUMN_HEIGHT, Pose, check_z_start
 from ..core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
 from ..core.sensors import SensorConfig
@@ -87,6 +88,19 @@ def check_scan(
     return formats.check_scan_output(w, out)
 
 
+def check_range_image(path: str | os.PathLike | None, out: Path, fmt: str = "ply") -> Path | None:
+    """The resolved --range-image (an .npz beside none of the scan's own files), or None."""
+    if path is None:
+        return None
+    from ..core.io import formats
+    from ..core.io.files import check_output_path
+
+    image = check_output_path(path, ".npz", "range_image")
+    if image in formats.scan_paths(formats.writer(fmt), out).values():
+        raise UserError(f"{image} is a file of the scan itself: name another", setting="range_image")
+    return image
+
+
 def open_scan_world(
     world: str | None = None,
     seed: int | None = None,
@@ -114,13 +128,15 @@ def write_scan(
     world: str | None,
     ascii: bool = False,
     fmt: str = "ply",
+    range_image: Path | None = None,
     **extra,
 ) -> list[Path]:
     """The scan's files in format `fmt` (PLY: the PLY and its JSON sidecar), --out first, its
     metadata saying which world it saw (the seed it was built from, the .blend it was read
-    from) plus `extra` (the demo's zone)."""
+    from) plus `extra` (the demo's zone); its range image to `range_image` when given."""
     from ..core.io import formats
 
     metadata = dict(result.metadata, seed=seed, world=world, **extra)
     w = formats.writer(fmt)
-    return formats.write_scan(w, formats.single_scan(w, result.cloud, metadata, ascii), out)
+    scan = formats.single_scan(w, result.cloud, metadata, ascii)
+    return formats.write_scan(w, scan, out, range_image)

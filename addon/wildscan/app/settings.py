@@ -158,6 +158,7 @@ SETTINGS: dict[str, Setting] = {
     "frame": Setting("--frame", "Frame"),
     "backend": Setting("--backend", "Ray caster"),
     "weather": Setting("--weather", "Weather"),
+    "device": Setting("--sensor", "Sensor"),  # the scanner: a preset or a device file (core/sensors)
     # a drive (wildscan drive)
     "trail": Setting("--trail"),
     "waypoints": Setting("--waypoints"),
@@ -175,6 +176,7 @@ SETTINGS: dict[str, Setting] = {
     "out": Setting("--out", "File"),
     "format": Setting("--format", "Format"),
     "ascii": Setting("--ascii", "ASCII"),
+    "range_image": Setting("--range-image"),
     # the benchmark
     "suite": Setting("--suite"),
     "details": Setting("--details"),

@@ -18,6 +18,8 @@ takes to build a world (bpy wheel). One module per suite:
                   canopy gap fractions (porosity.py), echoes, realistic scan speed beside the
                   paper model's, world build time and memory porous beside solid.
   targets.py      each speed and accuracy goal of the benchmark, met or not.
+  devices.py      every device preset's full-frame scan beside Embree's own cast of the same
+                  rays (suite "devices").
 
 backends.py runs the first four (suite "backends", the default) and writes bench.csv,
 bench.png and scaling.md (report.py); config.py holds what a run measures, measure.py the
@@ -35,4 +37,5 @@ touched. Results: bench.csv, bench.png and scaling.md in --out (written together
     wildscan bench [--quick] [--details low,default,high] [--backends embree,bvh] [--out DIR]
     wildscan bench --suite world [--seed S] [--details LIST]      (= wildscan bench-world)
     wildscan bench --suite realism [--seed S] [--quick]
+    wildscan bench --suite devices [--seed S] [--quick] [--markdown docs/benchmarks.md]
 """

@@ -34,7 +34,7 @@ from ..app.interrupts import EXIT_INTERRUPTED, Interrupted, Terminated, stop_cod
 from ..app.settings import command_line_message  # noqa: E402
 from ..core.errors import UserError  # noqa: E402
 from ..core.io.files import recording_written  # noqa: E402
-from . import bench, dataset, demo, drive, extract, options, poses, scan, world  # noqa: E402
+from . import bench, dataset, demo, drive, extract, options, poses, scan, sensors, world  # noqa: E402
 from .options import EXIT_USER_ERROR, ArgumentParser  # noqa: E402
 
 __all__ = ["EXIT_INTERRUPTED", "blender_main", "build_parser", "main"]
@@ -64,6 +64,7 @@ COMMANDS: dict[str, Command] = {
     "bench-world": Command(
         bench.WORLD_HELP, bench.WORLD_DESCRIPTION, bench.add_world_arguments, bench.run_world
     ),
+    "sensors": Command(sensors.HELP, sensors.DESCRIPTION, sensors.add_arguments, sensors.run),
     "drive": Command(drive.HELP, drive.DESCRIPTION, drive.add_arguments, drive.run),
     "dataset": Command(dataset.HELP, dataset.DESCRIPTION, dataset.add_arguments, dataset.run),
     "bench-dataset": Command(

@@ -1,5 +1,5 @@
-"""`wildscan bench [--suite backends|world|drive|realism|far|weather|learn DIR]` and `wildscan
-bench-world` (= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR]` and
+`wildscan bench-world` (= `bench --suite world`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world", "drive", "realism", "far", "weather", "learn")
+SUITES = ("backends", "world", "drive", "realism", "far", "weather", "devices", "learn")
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
@@ -61,8 +61,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "realistic scan speed, build time and memory; far: the largest point error of every backend "
         "and frame with the scene 0 m to 999 km from the origin (docs/accuracy.md 'Far from the origin'); "
         "weather: each effect's lost returns on a wall at known ranges and its maximum range against the "
-        "model's curve, and the default world in each (docs/weather.md); learn DIR: train a fixed "
-        "CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split and "
+        "model's curve, and the default world in each (docs/weather.md); devices: every device preset's "
+        "full-frame scan time beside Embree's own cast of the same rays (goal <= 2x); learn DIR: train a "
+        "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split and "
         "print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md)",
     )
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
@@ -178,6 +179,12 @@ def _run_suite(args: argparse.Namespace) -> int:
 
         _only_for_backends(args, also=("details",))
         return 0 if bench_weather(args.seed, args.quick)["worst"] <= TOLERANCE else 1
+    if args.suite == "devices":
+        from ..bench.devices import bench_devices
+
+        _only_for_backends(args, also=("details",))
+        bench_devices(args.seed, args.quick)
+        return 0
     if args.suite == "world":
         from ..bench.config import check_details
 

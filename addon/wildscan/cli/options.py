@@ -241,26 +241,34 @@ def vegetation_of(args: argparse.Namespace) -> str:
     return args.vegetation or DEFAULT_VEGETATION
 
 
+# SensorConfig's name of each sensor setting a command line may leave to the device
+_CONFIG_NAMES = {
+    "rh": "rh_deg",
+    "min_range": "min_range",
+    "max_range": "max_range",
+    "divergence": "divergence_mrad",
+    "echoes": "echoes",
+    "echo_separation": "echo_separation",
+}
+
+
 def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
-    """The sensor the sensor options describe (validated where it is used); the realistic
-    model's own options are a mistake with the paper model."""
+    """The sensor the sensor options describe (validated where it is used): the --sensor
+    device (default the UTM-30LX-EW) with its own defaults where an option is not given; the
+    realistic model's own options are a mistake with the paper model."""
     model = getattr(args, "model", S.DEFAULT_MODEL)
-    realistic = {}
+    given = {}
     for setting in REALISTIC_ONLY:
         value = getattr(args, setting, None)
         if value is None:
             continue
         if model != "realistic":
             raise UserError("applies to {model} realistic only", setting=setting, related=("model",))
-        realistic[setting] = value
-    return S.SensorConfig(
-        rh_deg=args.rh,
-        min_range=args.min_range,
-        max_range=args.max_range,
-        noise_sigma=args.noise,
-        noise_seed=args.noise_seed,
-        model=model,
-        divergence_mrad=realistic.get("divergence", SETTINGS["divergence"].default),
-        echoes=realistic.get("echoes", SETTINGS["echoes"].default),
-        echo_separation=realistic.get("echo_separation", SETTINGS["echo_separation"].default),
+        given[_CONFIG_NAMES[setting]] = value
+    for setting in ("rh", "min_range", "max_range"):
+        if getattr(args, setting, None) is not None:
+            given[_CONFIG_NAMES[setting]] = getattr(args, setting)
+    device = getattr(args, "device", None) or S.SensorConfig().device
+    return S.SensorConfig.for_device(
+        device, noise_sigma=args.noise, noise_seed=args.noise_seed, model=model, **given
     )

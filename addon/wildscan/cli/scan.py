@@ -9,9 +9,9 @@ from .options import ArgumentParser
 
 HELP = "scan a world from a pose and write a labeled PLY (or LAS, SemanticKITTI)"
 DESCRIPTION = (
-    "Stand the emulated Hokuyo UTM-30LX-EW on the ground at a pose, turn it 180 deg in steps of r_h, "
-    "and write every returned point with its class to a PLY (plus a JSON sidecar), or in another format "
-    "with --format."
+    "Stand the emulated Hokuyo UTM-30LX-EW (or the --sensor device: `wildscan sensors` lists the presets) "
+    "on the ground at a pose, turn it 180 deg in steps of r_h (a spinning lidar: one revolution), and write "
+    "every returned point with its class to a PLY (plus a JSON sidecar), or in another format with --format."
 )
 
 
@@ -49,8 +49,13 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         help="scan a geometry file saved by `wildscan extract` (no Blender needed; backend embree or bvh)",
     )
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
-    for name in ("pose", "z_start", *options.SENSOR_OPTIONS, "frame", "backend"):
+    from .sensors import add_sensor, device_default
+
+    for name in ("pose", "z_start"):
         options.add(p, name)
+    add_sensor(p)
+    for name in (*options.SENSOR_OPTIONS, "frame", "backend"):
+        options.add(p, name, **device_default(name))
     from .weather import add_weather
 
     add_weather(p)
@@ -65,18 +70,25 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         help="the labeled point cloud to write, ending in the format's suffix (.ply, .las, .bin); a PLY's "
         "metadata goes beside it as SCAN.json",
     )
+    p.add_argument(
+        "--range-image",
+        metavar="IMAGE.npz",
+        help="also write the scan's range image on its native grid (rows: rings, the beams of a "
+        "column; columns: 2D scans or firings; docs/formats.md)",
+    )
     p.add_argument("--quiet", action="store_true", help="print only the files written, no progress")
 
 
 def run(args: argparse.Namespace, in_blender: bool) -> int:
     from ..app.geometry import load_scan_geometry
-    from ..app.scan import check_scan, open_scan_world, scan_current_scene, write_scan
+    from ..app.scan import check_range_image, check_scan, open_scan_world, scan_current_scene, write_scan
     from ..blender.scene_io import scene_provenance
     from ..core.placement import Pose
     from .output import Progress, StageProgress, print_class_counts, print_echo_summary, say
 
     pose, sensor, vegetation = Pose(*args.pose), options.sensor_of(args), options.vegetation_of(args)
     out = check_scan(pose, sensor, args.z_start, args.out, args.format, args.ascii)
+    range_image = check_range_image(args.range_image, out, args.format)
     geometry, provenance = None, {}
     if args.geometry is not None:
         geometry, provenance = load_scan_geometry(args.geometry, args.backend)
@@ -104,7 +116,9 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         seed, blend = scene_provenance()
         extra = {}
     seed = seed if args.seed is None else args.seed
-    first, *beside = write_scan(out, result, seed, blend, ascii=args.ascii, fmt=args.format, **extra)
+    first, *beside = write_scan(
+        out, result, seed, blend, ascii=args.ascii, fmt=args.format, range_image=range_image, **extra
+    )
 
     p = result.placement
     say(

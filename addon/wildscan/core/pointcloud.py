@@ -31,7 +31,12 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
 # has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract.
 OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
     ("hag", "<f4"),  # height above the ground the robot stands on under the point, metres (datasets)
-    ("time", "<f8"),  # when the point was measured, seconds after its 3D scan's first beam (drives)
+    # a device other than the default's (core/sensors): the firing (or 2D scan) of the point,
+    # counted on over a head's device sweeps; `sweep` is that firing within one device sweep
+    ("column", "<u4"),
+    # when the point was measured, seconds after its 3D scan's first beam (drives; scans by a
+    # device other than the default, from its firing timing)
+    ("time", "<f8"),
     # the realistic sensor model's (core/echoes.py); a paper-model scan has none of them
     ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest
     ("echoes", "u1"),  # how many echoes its beam returned, 1..3

@@ -23,7 +23,8 @@ from .pause import pause_here
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
 from .reach import check_reach
-from .sensors import SensorConfig, beam_directions, range_noise, rotated_beam_directions
+from .sensors import DEFAULT_DEVICE, SensorConfig, beam_directions, range_noise, rotated_beam_directions
+from .sensors.beams import beam_columns, beam_times
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -214,6 +215,15 @@ def run_scan(
     )
 
 
+def device_fields(sensor: SensorConfig) -> dict[str, np.ndarray]:
+    """Each beam's `column` and `time` (PointCloud.extra) for a device other than the default;
+    none for the default, whose files keep their bytes (its `sweep` is its column)."""
+    if sensor.device == DEFAULT_DEVICE:
+        return {}
+    rh, device = sensor.rh_deg, sensor.device
+    return {"column": beam_columns(rh, device), "time": beam_times(rh, device)}
+
+
 def _paper_cloud(
     backend: RayBackend,
     placement: Placement,
@@ -231,7 +241,11 @@ def _paper_cloud(
 
     returns = measure(hits, range_noise(sensor, len(dirs_sensor)), sensor)
     cloud = returns.cloud(
-        _points(placement, frame, sensor, dirs_world, returns.keep, returns.range), ring, sweep, frame
+        _points(placement, frame, sensor, dirs_world, returns.keep, returns.range),
+        ring,
+        sweep,
+        frame,
+        **device_fields(sensor),
     )
     if weather_of(effects) is not None:
         with_weather_field(cloud)
@@ -280,6 +294,7 @@ def _realistic_cloud(
             "echoes": pts.echoes,
             "label_purity": pts.purity.astype(np.float32),
             "mixed": pts.mixed.astype(np.uint8),
+            **{name: values[pts.beam] for name, values in device_fields(sensor).items()},
         },
     )
     if weather_of(effects) is not None:

@@ -105,7 +105,7 @@ class Settler:
         size = len(self.normal)
         pairs = np.unique(ray * size + cand)  # each (ray, candidate) once, in that order
         ray, cand = pairs // size, pairs % size
-        o, d = local[ray], dirs[ray]
+        o, d = rows(local, ray), dirs[ray]
         n = self.normal[cand]
         cos = dm.dot3(n, d)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -127,6 +127,15 @@ class Settler:
         firsts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]]) if len(ray) else np.zeros(0, int)
         winner[ray[firsts]] = cand[firsts]
         return winner
+
+
+def rows(points: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """points[index], except that one origin broadcast to every ray of a scan stays a
+    broadcast (no copy): gathering it once per ray and candidate took a sixth of the
+    settling; the arithmetic on it is the same."""
+    if points.ndim == 2 and len(points) and points.strides[0] == 0:
+        return np.broadcast_to(points[0], (len(index), 3))
+    return points[index]
 
 
 def _band(padded: np.ndarray, corners: np.ndarray) -> np.ndarray:
@@ -187,7 +196,7 @@ def settle(backend: FirstHits, settler: Settler, local, dirs, triangle, rough, b
     for _ in range(MAX_RECASTS):
         if not len(todo):
             break
-        winner = settler.decide(local[todo], dirs[todo], triangle[todo], start[todo])
+        winner = settler.decide(rows(local, todo), dirs[todo], triangle[todo], start[todo])
         decided = winner >= 0
         triangle[todo[decided]] = winner[decided]
         passed = todo[~decided]

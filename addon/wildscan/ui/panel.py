@@ -104,6 +104,7 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
     def draw(self, context):
         from ..app.settings import panel_message
         from ..core.errors import UserError
+        from .device import FILE_CHOICE
         from .properties import sensor_from
         from .weather import draw_weather, weather_from
 
@@ -111,6 +112,9 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         layout = self.layout
         layout.use_property_split = True
         layout.use_property_decorate = False
+        layout.prop(s, "device")
+        if s.device == FILE_CHOICE:
+            layout.prop(s, "sensor_file")
         col = layout.column(align=True)
         col.prop(s, "rh", text="r_h (deg)")
         col.prop(s, "min_range")
@@ -136,7 +140,8 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
             box.alert = True
             wrapped(box, context, panel_message(e), icon="ERROR")
         else:
-            wrapped(layout, context, f"{sensor.beam_count:,} beams in {sensor.sweeps} 2D scans", icon="INFO")
+            what = f"{sensor.device.name}: {sensor.beam_count:,} beams in {sensor.sweeps} 2D scans"
+            wrapped(layout, context, what, icon="INFO")
 
 
 class VIEW3D_PT_wildscan_scan(_WildScanPanel, Panel):

@@ -13,7 +13,7 @@ named by the Scan operator's report, as `wildscan scan` names it.
 import math
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 from bpy.types import PropertyGroup
 
 from ..app.settings import SETTINGS, label, panel_help
@@ -22,6 +22,7 @@ from ..core import sensor as S
 from ..core.classes import TAG_NAMES
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
+from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults, take_file_defaults
 from .weather import CLASSES as WEATHER_CLASSES
 from .weather import WildScanWeather
 
@@ -185,6 +186,20 @@ class WildScanSettings(PropertyGroup):
     marker: PointerProperty(type=bpy.types.Object, name="Pose marker", options={"HIDDEN"})
 
     # Sensor
+    device: EnumProperty(
+        name=label("device"),
+        description="The sensor: a preset, or a device file of your own (the fields below take its defaults)",
+        items=device_items(),
+        default=DEFAULT_DEVICE_ID,
+        update=take_device_defaults,
+    )
+    sensor_file: StringProperty(
+        name=label("sensor_file"),
+        description="A device file (.toml) written like the presets: beams, timing, ranges, noise, "
+        "optics, mount",
+        subtype="FILE_PATH",
+        update=take_file_defaults,
+    )
     # the sliders stop where values are useful; a value past them may still be typed
     rh: FloatProperty(**_declared("rh", soft_max=10.0, precision=2, step=25))
     min_range: FloatProperty(**_declared("min_range", unit="LENGTH"))
@@ -289,16 +304,19 @@ def typed_value(value: float) -> float:
 
 
 def sensor_from(settings):
-    """The SensorConfig the settings describe (not validated: the caller decides when)."""
+    """The SensorConfig the settings describe (not validated: the caller decides when; a
+    sensor file that cannot be used is a UserError already)."""
     realistic = settings.model == "realistic"
-    return S.SensorConfig(
+    device = device_from(settings)
+    return S.SensorConfig.for_device(
+        device,
         rh_deg=typed_value(settings.rh),
         min_range=typed_value(settings.min_range),
         max_range=typed_value(settings.max_range),
         noise_sigma=None if realistic and settings.datasheet_noise else typed_value(settings.noise),
         noise_seed=int(settings.noise_seed),
         model=str(settings.model),
-        divergence_mrad=typed_value(settings.divergence) if realistic else S.DEFAULT_DIVERGENCE_MRAD,
+        divergence_mrad=typed_value(settings.divergence) if realistic else device.optics.divergence_mrad,
     )
 
 

@@ -175,13 +175,23 @@ def _weather_lines(spec: DatasetSpec, t: dict) -> list[str]:
     ]
 
 
+def _device_words(spec: DatasetSpec) -> str:
+    """ ", device vlp16" for a dataset with another device than the default (whose card reads as
+    before)."""
+    device = spec.sensor.device
+    if device == "utm30lx-ew":
+        return ""
+    names = device if isinstance(device, tuple) else (device,)
+    return f", device {' / '.join(Path(n).name for n in names)}"
+
+
 def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]]) -> str:
     t = data["totals"]
     lines = [
         f"# WildScan dataset ({'complete' if data['complete'] else 'incomplete: rerun the same command'})",
         "",
         f"{len(spec.seeds)} worlds (detail {spec.detail}, {spec.vegetation} vegetation) x "
-        f"{spec.scans_per_world} scans, {spec.sensor.model} sensor model; formats "
+        f"{spec.scans_per_world} scans, {spec.sensor.model} sensor model{_device_words(spec)}; formats "
         f"{', '.join(spec.formats)}; label ids: {spec.label_scheme}; "
         f"config hash `{data['config_hash'][:16]}`.",
         f"Scans written: {t['scans_ok']:,} of {t['scans_planned']:,} "

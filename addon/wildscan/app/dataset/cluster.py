@@ -5,7 +5,9 @@ makes Dask's LocalCluster raise ("Nanny failed to start"), so the start is tried
 to CLUSTER_STARTS times; when every try fails the reason of the last one (the worker's
 exception, or the signal that killed it) ends the run as RunFailed. Ctrl-C or SIGTERM
 while it starts is held until the cluster is up or given up (a signal inside Dask's start
-leaves a half-built cluster whose shutdown prints tracebacks at exit), then raised.
+leaves a half-built cluster whose shutdown prints tracebacks at exit), then raised; the
+worker processes are born with SIGINT blocked, so a terminal's Ctrl-C, which reaches the
+whole process group, is answered by this process alone.
 
 An existing scheduler: Dask's Client bounds only the TCP connect; a server that accepts and
 then says nothing (or answers HTTP, which Dask reads as a frame of exabytes) hangs it or
@@ -18,7 +20,9 @@ from __future__ import annotations
 import asyncio
 import logging
 import signal
+import threading
 from contextlib import contextmanager
+from multiprocessing import resource_tracker
 
 from ...core.errors import UserError
 from ..interrupts import Terminated
@@ -60,6 +64,32 @@ def signals_held():
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
+@contextmanager
+def ctrl_c_kept_from_workers(noted: list[int]):
+    """SIGINT blocked in this thread inside the block, and so in every thread Dask starts
+    there (its event loop, the threads that spawn and later respawn worker processes) and in
+    every worker process those spawn: a mask is inherited by threads and across fork and
+    exec. A terminal's Ctrl-C reaches the whole process group; a worker's interpreter that
+    gets it while still importing `site` prints a "Fatal Python error" traceback on the
+    user's terminal, whatever the parent does. The parent still hears it: a SIGINT pending
+    at the end is noted, then delivered to the noting handler when the mask is restored.
+    The workers are stopped by their nannies when the cluster closes, never by the signal."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    # The first process multiprocessing starts also starts its resource tracker, and that
+    # start ends by unblocking SIGINT in its thread (SIG_UNBLOCK, not a restore): started
+    # here first, it is left alone later.
+    resource_tracker.ensure_running()
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        if signal.SIGINT in signal.sigpending():
+            noted.append(signal.SIGINT)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
 # ---------------------------------------------------------------------------------------
 # a local cluster
 
@@ -72,10 +102,11 @@ def start_local_cluster(make_cluster):
         cluster = None
         deaths = _DeathNotes()
         with signals_held() as noted, deaths.listening():  # raises a noted signal as it ends
-            try:
-                cluster = make_cluster()
-            except Exception as e:  # Dask raises RuntimeError around the worker's own error
-                reason = deaths.reason(e)
+            with ctrl_c_kept_from_workers(noted):
+                try:
+                    cluster = make_cluster()
+                except Exception as e:  # Dask raises RuntimeError around the worker's own error
+                    reason = deaths.reason(e)
             if noted and cluster is not None:
                 _close_quietly(cluster)
         if cluster is not None:

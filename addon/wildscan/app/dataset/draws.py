@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from ...core import sensor as S
 from ...core.rng import stage_rng, stage_seed
+from .devices import CONFIG_NAMES, DEVICE_KEYS, draw_device, is_default
 from .spec import DatasetSpec, SensorSpec, rh_choices
 
 
@@ -27,6 +28,8 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
         noise_seed = stage_seed(seed, f"dataset.noise.{index}") >> 1  # below 2^63
     else:
         noise_seed = _draw(spec.noise_seed, seed, index, "noise_seed")
+    if not is_default(spec.device):
+        return _device_sensor(spec, seed, index, noise_seed)
     rh = spec.rh if not isinstance(spec.rh, tuple) else _draw(spec.rh, seed, index, "rh")
     if not isinstance(spec.rh, tuple):
         rh = next(rh_choices(rh))  # exactly 180/M, as the spec check found it
@@ -40,6 +43,27 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
         divergence_mrad=_draw(spec.divergence, seed, index, "divergence"),
         echoes=_draw(spec.echoes, seed, index, "echoes"),
         echo_separation=_draw(spec.echo_separation, seed, index, "echo_separation"),
+    ).validate()
+
+
+def _device_sensor(spec: SensorSpec, seed: int, index: int, noise_seed: int) -> S.SensorConfig:
+    """A scan's sensor with a device other than the default: its own rh and ranges where the
+    spec gives none."""
+    given = {
+        CONFIG_NAMES[key]: _draw(getattr(spec, key), seed, index, key)
+        for key in DEVICE_KEYS
+        if getattr(spec, key) is not None
+    }
+    realistic = {"divergence": "divergence_mrad", "echoes": "echoes", "echo_separation": "echo_separation"}
+    for key, name in realistic.items():
+        if spec.model == "realistic" and getattr(spec, key) is not None:
+            given[name] = _draw(getattr(spec, key), seed, index, key)
+    return S.SensorConfig.for_device(
+        draw_device(spec.device, seed, index),
+        noise_sigma=_draw(spec.noise, seed, index, "noise"),
+        noise_seed=noise_seed,
+        model=spec.model,
+        **given,
     ).validate()
 
 

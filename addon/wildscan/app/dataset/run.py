@@ -360,6 +360,8 @@ def _learning_counts(spec: DatasetSpec, totals: dict) -> dict[int, int]:
 
 
 def _labels_yaml(spec: DatasetSpec, totals: dict, weights: dict) -> str:
+    from .projection import dataset_projection
+
     s = scheme(spec.label_scheme)
     points = max(1, totals["points"])
     content = {raw: n / points for raw, n in _raw_counts(spec, totals).items()}
@@ -368,4 +370,5 @@ def _labels_yaml(spec: DatasetSpec, totals: dict, weights: dict) -> str:
     for seed in spec.seeds:
         by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
     title = f"WildScan dataset, config {spec.config_hash()[:16]}"
-    return sk.label_config_yaml(s, content, by_split, title, particles=bool(spec.weather), weights=weights)
+    projection = dataset_projection(spec)
+    return sk.label_config_yaml(s, content, by_split, title, bool(spec.weather), projection, weights)

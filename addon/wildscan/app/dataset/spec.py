@@ -57,6 +57,9 @@ class SensorSpec:
     divergence: Value = S.DEFAULT_DIVERGENCE_MRAD
     echoes: int | tuple[int, int] = S.MAX_ECHOES
     echo_separation: Value = S.DEFAULT_ECHO_SEPARATION
+    # a preset or device file, or a tuple of them drawn per scan (app/dataset/devices.py); with
+    # another device than the default, rh, min_range and max_range are None for its own
+    device: str | tuple[str, ...] = "utm30lx-ew"
 
 
 @dataclass(frozen=True)
@@ -85,6 +88,8 @@ class DatasetSpec:
         out = json.loads(json.dumps(asdict(self)))
         if not self.weather:  # a spec without weather keeps its dict, so its config hash
             del out["weather"]
+        if out["sensor"]["device"] == SensorSpec.device:  # and one with the default device too
+            del out["sensor"]["device"]
         return out
 
     def config_hash(self) -> str:
@@ -352,7 +357,11 @@ SENSOR_KEYS = (*S.SENSOR_SETTINGS, "frame")
 
 
 def _sensor(t: _Table) -> SensorSpec:
-    t.only(*SENSOR_KEYS)
+    from .devices import DEVICE_KEYS, device_values, is_default, spec_device
+
+    t.only(*SENSOR_KEYS, "device")
+    device = spec_device(t.get("device", SensorSpec.device), t.where)
+    own = () if is_default(device) else DEVICE_KEYS  # the settings the device decides
     d = SensorSpec()
     model = t.choice("model", d.model, SETTINGS["model"].choices)
     for key in S.REALISTIC_SETTINGS:
@@ -363,24 +372,30 @@ def _sensor(t: _Table) -> SensorSpec:
     values = {
         key: _sensor_value(t, key, getattr(d, key))
         for key in RANGED_SENSOR_KEYS
-        if key != "noise" or t.get(key, None) is not None
+        if key not in own and (key != "noise" or t.get(key, None) is not None)
     }
-    if not any(True for _ in rh_choices(values["rh"])):
+    if own:
+        values.update(device_values(t.data, t.where, device))
+    elif not any(True for _ in rh_choices(values["rh"])):
         raise t.fail(
             "rh", "a value (or range) holding an r_h that divides 180 into whole 2D scans", t.get("rh", None)
         )
-    if _hi(values["min_range"]) >= _lo(values["max_range"]):
+    if not own and _hi(values["min_range"]) >= _lo(values["max_range"]):
         raise UserError(
             f"{t.where}: sensor.min_range must stay below sensor.max_range (every value of each range)"
         )
     for key, value in values.items():
-        _check_open_low(t, key, value)
+        if key not in own:
+            _check_open_low(t, key, value)
+    values["echoes"] = _whole_value(t, "echoes", d.echoes)
+    if own:  # the realistic model's settings not given are the device's own too
+        values.update({key: None for key in S.REALISTIC_SETTINGS if key not in t.data})
     return SensorSpec(
         **values,
+        device=device,
         noise_seed=_whole_value(t, "noise_seed", None),
         frame=t.choice("frame", d.frame, FRAMES),
         model=model,
-        echoes=_whole_value(t, "echoes", d.echoes),
     )
 
 

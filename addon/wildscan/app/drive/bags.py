@@ -50,6 +50,11 @@ def scan_geometry(sensor: SensorConfig) -> dict:
     }
 
 
+def is_2d_scanner(device: Device) -> bool:
+    """A planar fan (the UTM-30LX-EW): each column is one LaserScan."""
+    return device.beams.fan is not None and device.beams.planar
+
+
 def _fan(device: Device) -> tuple[float, float]:
     """(first, step) degrees of a device whose column is one LaserScan: a planar fan."""
     if device.beams.fan is None or not device.beams.planar:
@@ -64,14 +69,17 @@ class BagFeed:
         self.bags = bags
         self.motion = motion
         self.sensor = sensor
-        self.geometry = scan_geometry(sensor) if bags else None  # no bags: any device drives
+        # a 2D scanner's columns are LaserScans on a turning laser frame; a multi-beam lidar's
+        # are not (its bags carry tf, odometry and the PointCloud2s only)
+        self.geometry = scan_geometry(sensor) if bags and is_2d_scanner(sensor.device) else None
         timing = sensor.device.timing
         self.ns_per_scan = timing.column_period_ns  # kept whole so stamps are exact
         self.per_column = sensor.device.beams.count
         self.q_base = quaternions(motion.rotation)
         count = len(motion.times) - 1
         head = dm.deg2rad(np.arange(count) * sensor.rh_deg)  # the head at the start of each 2D scan
-        self.q_laser = quaternions(dm.matmul(np.stack([rot_z(float(a)) for a in head]), LASER_AXES))
+        if self.geometry is not None:
+            self.q_laser = quaternions(dm.matmul(np.stack([rot_z(float(a)) for a in head]), LASER_AXES))
         ground = motion.ground
         to_base = np.swapaxes(motion.rotation[:-1], 1, 2)  # R_k^T: the velocity in base_link
         self.linear = dm.apply(to_base, ground[1:] - ground[:-1]) / timing.column_period_s
@@ -91,11 +99,14 @@ class BagFeed:
             stamp = k * self.ns_per_scan
             beams = slice(row * self.per_column, (row + 1) * self.per_column)
             base = (ODOM, BASE_LINK, self.motion.ground[k], self.q_base[k])
-            laser = (BASE_LINK, LASER, (0.0, 0.0, COLUMN_HEIGHT), self.q_laser[k])
+            frames = [base]
+            if self.geometry is not None:
+                frames.append((BASE_LINK, LASER, (0.0, 0.0, COLUMN_HEIGHT), self.q_laser[k]))
             for bag in self.bags:
-                bag.tf(stamp, [base, laser])
+                bag.tf(stamp, frames)
                 bag.odometry(stamp, self.motion.ground[k], self.q_base[k], self.linear[k], self.angular[k])
-                bag.laser_scan(stamp, self.geometry, ranges[beams], intensities[beams])
+                if self.geometry is not None:
+                    bag.laser_scan(stamp, self.geometry, ranges[beams], intensities[beams])
 
     def clouds(self, result: Sweep) -> None:
         """The raw and the deskewed cloud of a 3D scan, stamped at its first beam and recorded

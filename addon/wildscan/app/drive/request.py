@@ -69,6 +69,12 @@ class DriveRequest:
         check_head(self.head)
         self.sensor.validate()
         check_paper_model(self.sensor)
+        if self.sensor.device.head is not None:  # the drive's sweep turns one head: the device's
+            raise UserError(
+                f"{self.sensor.device.id}: a device on a [head] scans with `wildscan scan` and datasets only "
+                "so far, not in a drive",
+                setting="device",
+            )
         check_vegetation(self.vegetation)
         check_frame(self.frame)
         one_of(self.backend, "backend", DRIVE_BACKENDS)

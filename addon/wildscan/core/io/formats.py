@@ -83,11 +83,27 @@ def single_scan(w: Writer, cloud, metadata: dict, ascii: bool = False) -> ScanOu
     return ScanOutput(cloud=cloud, metadata=metadata, labels=scheme(w.scan_labels), ascii=ascii)
 
 
-def write_scan(w: Writer, scan: ScanOutput, out: str | os.PathLike) -> list[Path]:
-    """Write one scan in format `w`: every file under a temporary name, renamed into place
-    together (all of them or none). Returns the files, --out first."""
+def range_image_bytes(w: Writer, scan: ScanOutput) -> bytes:
+    """A single scan's range image (core/rangeimage.py), its labels and instances as the label
+    file of format `w` has them (SemanticKITTI's .label: instances ranked; PLY and LAS: as is)."""
+    cloud = scan.cloud
+    instances = cloud.instance
+    if w.name == semantickitti.WRITER.name:
+        instances = semantickitti.instance_ranks(cloud.instance, cloud.instance)
+    return semantickitti.range_image_bytes(scan, scan.labels.map(cloud.label), instances)
+
+
+def write_scan(
+    w: Writer, scan: ScanOutput, out: str | os.PathLike, range_image: Path | None = None
+) -> list[Path]:
+    """Write one scan in format `w` (and its range image to `range_image`, when given): every
+    file under a temporary name, renamed into place together (all of them or none). Returns
+    the files, --out first."""
     paths = scan_paths(w, check_scan_output(w, out))
     encoded = w.encode(scan, paths)  # everything that can fail on bad input, before the disk
+    if range_image is not None:
+        paths["rangeimage"] = range_image
+        encoded["rangeimage"] = range_image_bytes(w, scan)
     finals = [paths[kind] for kind in encoded]
     with atomic_outputs(*finals) as temps:
         for tmp, final, data in zip(temps, finals, encoded.values(), strict=True):

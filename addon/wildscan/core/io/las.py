@@ -86,6 +86,12 @@ REALISTIC_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
     ("label_purity", np.float32, "share of echo energy from label"),
     ("mixed", np.uint8, "1: a mixed pixel on no surface"),
 )
+# extra dimensions of a scan by a device other than the default (core/sensors; the default
+# device's files keep their bytes): the firing's index and time, also the point's GPS time
+DEVICE_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
+    ("column", np.uint32, "firing or 2D scan index"),
+    ("time", np.float64, "s after the scan's first beam"),
+)
 
 
 def asprs_codes(wildscan_labels: np.ndarray) -> np.ndarray:
@@ -130,6 +136,7 @@ def las_bytes(
     realistic = "echo" in fields
     dimensions = tuple(d for d in EXTRA_DIMENSIONS if d[0] != "hag" or "hag" in fields)
     dimensions += REALISTIC_DIMENSIONS if realistic else ()
+    dimensions += DEVICE_DIMENSIONS if "column" in fields else ()
     las = laspy.LasData(_header(version, np.asarray(offsets), dimensions))
     xyz = np.asarray(xyz, dtype=np.float64)
     las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
@@ -144,6 +151,8 @@ def las_bytes(
     las.label = np.asarray(scheme_label, dtype=np.uint16)
     for name, _, _ in dimensions[2:]:
         setattr(las, name, fields[name])
+    if "column" in fields:  # a firing time, as a lidar's LAS export gives it (s, scan-relative)
+        las.gps_time = np.asarray(fields["time"], dtype=np.float64)
     out = io.BytesIO()
     las.write(out)
     return out.getvalue()

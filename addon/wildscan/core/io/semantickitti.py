@@ -4,6 +4,7 @@ mmdetection3d) load unchanged.
     sequences/NN/velodyne/NNNNNN.bin   float32 x y z remission per point
     sequences/NN/echo/NNNNNN.npy       a realistic dataset scan's echo, echoes, label_purity, mixed
     sequences/NN/labels/NNNNNN.label   uint32 per point: class in the low 16 bits, instance in the high 16
+    sequences/NN/rangeimage/NNNNNN.npz the scan on its native grid (core/rangeimage.py; datasets)
     sequences/NN/poses.txt             one line per scan: the 3x4 matrix taking its points to the world
     sequences/NN/calib.txt             P0..P3 and Tr (no cameras here: identities)
     labels.yaml                        label config in semantic-kitti-api's form
@@ -24,17 +25,24 @@ from pathlib import Path
 import numpy as np
 
 from ..label_schemes import LabelScheme
+from ..projection import Projection
+from ..rangeimage import npz_bytes, scan_range_image
 from .writer import ScanFile, ScanOutput, Writer
 
 REMISSION_SCALE = 0.01  # reflectivity (Table I) -> remission
 MAX_INSTANCE = 0xFFFF
 
 
+def remission(intensity: np.ndarray) -> np.ndarray:
+    """float32 remission of intensities (0..100 -> 0..1, clipped to [0, 1]), as the .bin has it."""
+    return np.clip(np.asarray(intensity, dtype=np.float64) * REMISSION_SCALE, 0.0, 1.0).astype(np.float32)
+
+
 def scan_bytes(xyz: np.ndarray, intensity: np.ndarray) -> bytes:
     """A velodyne .bin: float32 (N, 4) x y z remission, little-endian."""
     out = np.empty((len(xyz), 4), dtype="<f4")
     out[:, :3] = xyz
-    out[:, 3] = np.clip(np.asarray(intensity, dtype=np.float64) * REMISSION_SCALE, 0.0, 1.0)
+    out[:, 3] = remission(intensity)
     return out.tobytes()
 
 
@@ -68,20 +76,31 @@ def instance_ranks(world_instances: np.ndarray, instances: np.ndarray) -> np.nda
 
 def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
     """The format table's SemanticKITTI writer (formats.py): the velodyne .bin and the .label,
-    and a dataset's `hag` file. Instances rank among the world's (the same object across a
-    sequence), or among the scan's own when the world is not known (a single scan)."""
+    and a dataset's `hag` and `rangeimage` files. Instances rank among the world's (the same
+    object across a sequence), or among the scan's own when the world is not known (a single
+    scan)."""
     cloud = scan.cloud
     world = cloud.instance if scan.world_instances is None else scan.world_instances
     ranks = instance_ranks(world, cloud.instance)
+    labels = scan.labels.map(cloud.label)
     files = {
         "velodyne": scan_bytes(cloud.xyz, cloud.intensity),
-        "labels": label_bytes(scan.labels.map(cloud.label), ranks),
+        "labels": label_bytes(labels, ranks),
     }
     if scan.hag is not None:
         files["hag"] = float_bytes(scan.hag)
+        files["rangeimage"] = range_image_bytes(scan, labels, ranks)
         if "echo" in cloud.extra:
             files["echo"] = echo_bytes(cloud.extra)
     return files
+
+
+def range_image_bytes(scan: ScanOutput, labels: np.ndarray, instances: np.ndarray) -> bytes:
+    """The scan's range image (core/rangeimage.py) as an .npz: the .bin's remission, and the
+    `labels` and `instances` (per point) of its label file."""
+    cloud = scan.cloud
+    image = scan_range_image(cloud, scan.metadata, remission(cloud.intensity), labels, instances)
+    return npz_bytes(image)
 
 
 # A realistic scan's echo fields beside its .bin (datasets): numpy structured records, one per
@@ -107,6 +126,7 @@ WRITER = Writer(
         ScanFile("velodyne", ".bin", "velodyne"),
         ScanFile("labels", ".label", "labels"),
         ScanFile("hag", ".bin", "hag", ground_truth=True),
+        ScanFile("rangeimage", ".npz", "rangeimage", ground_truth=True),
         ScanFile("echo", ".npy", "echo", ground_truth=True),  # realistic datasets only
     ),
     scan_labels="semantickitti",
@@ -140,13 +160,15 @@ def label_config_yaml(
     splits: dict[str, list[int]],
     title: str,
     particles: bool = False,
+    projection: Projection | None = None,
     weights: dict[str, dict[int, float]] | None = None,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
     learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
     the data has weather, so weather's particle class is listed (without: the bytes of before it);
     `weights` (core/class_weights.py, by learning-map id): `class_weights_<name>` tables after
-    the split (without: the bytes of before them)."""
+    the split (without: the bytes of before them); `projection`: LaserScan's H, W, fov_up and
+    fov_down for these scans (core/projection.py)."""
     t = scheme.config_tables(particles)
     lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
     lines += _yaml_map("labels", t["labels"], json.dumps)
@@ -158,6 +180,10 @@ def label_config_yaml(
     lines.append("split:")
     for key in ("train", "valid", "test"):
         lines.append(f"  {key}: [{', '.join(str(s) for s in splits.get(key, []))}]")
+    if projection is not None:
+        kept = f"{100 * projection.kept:.1f} % of an untilted scan's beams"
+        lines.append(f"# semantic-kitti-api's LaserScan(project=True, **projection) keeps {kept}")
+        lines += _yaml_map("projection", projection.to_dict())
     for name, table in (weights or {}).items():
         lines += _yaml_map(f"class_weights_{name}", table, lambda w: repr(float(f"{w:.6g}")))
     return "\n".join(lines) + "\n"

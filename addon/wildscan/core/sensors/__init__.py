@@ -9,7 +9,7 @@ a separate choice, `SensorConfig.model`.
 from .beams import beam_directions, directions_at, from_axis_rad, rotated_beam_directions
 from .config import MODELS, SensorConfig, sweep_count
 from .device import BeamTable, Device, Mount, Noise, Optics, RangeLimits, Timing
-from .load import DEFAULT_DEVICE, device_from_dict, device_named, load_device, preset_names
+from .load import DEFAULT_DEVICE, device_choice, device_from_dict, device_named, load_device, preset_names
 from .noise import datasheet_sigma, noise_draws, range_noise, range_sigma
 
 __all__ = [
@@ -25,6 +25,7 @@ __all__ = [
     "Timing",
     "beam_directions",
     "datasheet_sigma",
+    "device_choice",
     "device_from_dict",
     "device_named",
     "directions_at",

@@ -89,8 +89,9 @@ class SensorConfig:
 
     @property
     def sweeps(self) -> int:
-        """M, the number of columns (2D scans) in one 3D scan."""
-        return sweep_count(self.rh_deg, self.device.mount)
+        """The number of columns (2D scans, firings) in one 3D scan: M = sweep / r_h of the
+        device's mount, times the head's steps when a head carries the device."""
+        return column_count(self.rh_deg, self.device)
 
     @property
     def beams_per_column(self) -> int:
@@ -196,8 +197,16 @@ def _check_finite(setting: str, value: float, unit: str) -> None:
         raise UserError(f"must be a finite number of {unit}, got {value}", setting=setting)
 
 
+def column_count(rh_deg: float, device: Device = DEFAULT_DEVICE) -> int:
+    """Columns in one 3D scan: the mount's M, times the head's K device sweeps."""
+    m = sweep_count(rh_deg, device.mount)
+    return m if device.head is None else m * device.head.steps
+
+
 def sweep_count(rh_deg: float, mount: Mount = DEFAULT_DEVICE.mount) -> int:
-    """M = sweep / r_h (Eq. 1: 180 / r_h), which must come out whole."""
+    """M = sweep / r_h (Eq. 1: 180 / r_h), which must come out whole; 1 for a fixed mount."""
+    if mount.kind == "fixed":
+        return 1
     sweep = mount.sweep_deg
     if not isinstance(rh_deg, (int, float)) or not math.isfinite(rh_deg) or rh_deg <= 0:
         raise UserError(

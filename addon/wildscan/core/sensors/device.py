@@ -13,10 +13,22 @@ azimuth αi) and αi its azimuth offset. The UTM-30LX-EW is a *planar fan*: θn 
 n·step, every α 0 (Eq. 1). A multi-beam lidar lists θ (as elevation, 90° − θ) and α per
 beam, and rings number its beams from the lowest elevation (0) up.
 
-Mount. `rotating`: the device on a head turning about the axis by `step_deg` (r_h) a
-column, stepped or continuously, through `sweep_deg` a 3D scan (Eq. 1: 180°). `spinning`
-(the device itself turns continuously, 360°) and `fixed` (one column) are data a device
-file may state; the scan paths refuse them until they support them (`check_scannable`).
+Mount: what turns the columns. `rotating`: the device on a head turning about the axis by
+`step_deg` (r_h) a column, stepped or continuously, through `sweep_deg` a 3D scan (Eq. 1:
+180°; the UTM-30LX-EW). `spinning`: the device turns itself about its axis, `step_deg` a
+firing, through `sweep_deg` (360°: a Velodyne or Ouster revolution); the same arithmetic,
+ψ = m·step. `fixed`: one column, nothing turns (a 2D scanner on a [head], say).
+
+Head (optional): a rotating head carrying the whole device, as 3D-mapping payloads turn a
+multi-beam lidar. The device's axis is tilted `tilt_deg` about the sensor's X axis, then the
+head turns it about `axis` by `step_deg` per device sweep (one revolution of a spinning
+lidar), stepped between sweeps or continuously (each beam at the head angle of its own
+time), through the head's `sweep_deg` a 3D scan. A beam (sensor frame) is then
+
+    Rot(axis, φ) · Rx(tilt) · Rz(ψ) · (sin θ, 0, cos θ)
+
+The sensor frame stays the structure's (the paper's placement and leveling apply as they
+are); without a head a device's beams are Rz(ψ) · (sin θ, 0, cos θ) exactly as before.
 """
 
 from __future__ import annotations
@@ -28,6 +40,7 @@ import numpy as np
 from ..errors import UserError
 
 MOUNT_KINDS = ("rotating", "spinning", "fixed")
+TURN_DIRECTIONS = ("ccw", "cw")
 HEAD_MODES = ("stepped", "continuous")
 
 
@@ -116,6 +129,24 @@ class Mount:
     min_step_deg: float  # finest r_h allowed
     sweep_deg: float  # the turn of one 3D scan
     heads: tuple[str, ...] = HEAD_MODES  # how the head may turn: stepped, continuous
+    direction: str = "ccw"  # TURN_DIRECTIONS, seen from +Z: ccw (ψ = +φ, Eq. 1) or cw (ψ = −φ)
+
+
+HEAD_TURNS = ("stepped", "continuous")
+
+
+@dataclass(frozen=True)
+class Head:
+    axis: tuple[float, float, float]  # the head's turning axis in the sensor frame (unit)
+    tilt_deg: float  # the device's axis tilted from the sensor's Z about its X axis
+    step_deg: float  # the head's turn per device sweep
+    sweep_deg: float  # the head's turn in one 3D scan
+    turn: str  # HEAD_TURNS: stepped between device sweeps, or continuous
+
+    @property
+    def steps(self) -> int:
+        """K, the device sweeps in one 3D scan (sweep / step, whole by the loader's check)."""
+        return round(self.sweep_deg / self.step_deg)
 
 
 @dataclass(frozen=True)
@@ -129,20 +160,35 @@ class Device:
     noise: Noise
     optics: Optics
     mount: Mount
+    head: Head | None = None  # a rotating head carrying the device (None: none)
+    source: str = ""  # where its numbers come from, in one line (`wildscan sensors` shows it)
 
     @property
     def name(self) -> str:
         """How files name the device: "Hokuyo UTM-30LX-EW"."""
         return f"{self.vendor} {self.model}"
 
+    @property
+    def vertical_fov_deg(self) -> tuple[float, float]:
+        """(lowest, highest) beam elevation above the plane normal to the axis, degrees."""
+        elevation = self.beams.elevation_deg
+        return float(elevation.min()), float(elevation.max())
+
+    @property
+    def sweep_period_s(self) -> float:
+        """The time of one device sweep at its default step (a revolution of a spinning lidar,
+        180 2D scans of the UTM-30LX-EW's head)."""
+        columns = 1 if self.mount.kind == "fixed" else round(self.mount.sweep_deg / self.mount.step_deg)
+        return columns * self.timing.column_period_s
+
     def check_scannable(self) -> "Device":
-        """The device as the scan paths support it so far: a rotating head turning about
-        the sensor's Z axis, untilted (the spinning and fixed mounts are data for now)."""
+        """The device as the scan paths support it: its columns turn about the sensor's Z
+        axis, untilted (a tilt or another axis is a [head]'s)."""
         mount = self.mount
-        if mount.kind != "rotating" or mount.axis != (0.0, 0.0, 1.0) or mount.tilt_deg != 0:
+        if mount.axis != (0.0, 0.0, 1.0) or mount.tilt_deg != 0:
             raise UserError(
-                f"{self.id}: the scans support a rotating mount about [0, 0, 1] with tilt 0 so far, got "
-                f"{mount.kind} about {list(mount.axis)} with tilt {mount.tilt_deg:g}",
+                f"{self.id}: a {mount.kind} mount turns about [0, 0, 1] with tilt 0 (tilt or turn the "
+                f"device with a [head] table), got {list(mount.axis)} with tilt {mount.tilt_deg:g}",
                 setting="device",
             )
         return self

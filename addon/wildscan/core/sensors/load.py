@@ -9,7 +9,10 @@ silently as a default).
     [range]   min_m, max_m, max_dark_m
     [noise]   sigma_m, accuracy = [[up_to_m, plus_minus_m], ...], accuracy_sigmas
     [optics]  divergence_mrad, echoes, echo_separation_m
-    [mount]   kind, axis, tilt_deg, step_deg, min_step_deg, sweep_deg, heads
+    [mount]   kind, axis, tilt_deg, step_deg, min_step_deg, sweep_deg, heads, direction (optional:
+              "ccw", the default, or "cw")
+    [head]    (optional) axis, tilt_deg, step_deg, sweep_deg, turn: a rotating head carrying
+              the device (device.py)
 """
 
 from __future__ import annotations
@@ -21,12 +24,26 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from .device import HEAD_MODES, MOUNT_KINDS, BeamTable, Device, Mount, Noise, Optics, RangeLimits, Timing
+from .device import (
+    HEAD_MODES,
+    HEAD_TURNS,
+    MOUNT_KINDS,
+    TURN_DIRECTIONS,
+    BeamTable,
+    Device,
+    Head,
+    Mount,
+    Noise,
+    Optics,
+    RangeLimits,
+    Timing,
+)
 
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"
 DEFAULT_DEVICE_ID = "utm30lx-ew"
 MAX_BEAMS = 4096  # beams a column: far past any lidar made (the largest have 128)
 MAX_STEPS_PER_COLUMN = 1_000_000
+MAX_HEAD_STEPS = 3600  # device sweeps a 3D scan on a head (0.05 deg steps over 180 deg)
 
 
 def preset_names() -> tuple[str, ...]:
@@ -38,11 +55,20 @@ def device_named(name: str) -> Device:
     """The preset `name` (presets/NAME.toml)."""
     if name not in preset_names():
         raise UserError(
-            f"must be one of {', '.join(preset_names())}, got {name!r}",
+            f"must be one of {', '.join(preset_names())} or a device file NAME.toml, got {name!r}",
             setting="device",
             allowed=preset_names(),
         )
     return load_device(PRESETS_DIR / f"{name}.toml")
+
+
+def device_choice(text: str) -> Device:
+    """A preset by name, or a device file (a path ending in .toml): what `--sensor` and a
+    dataset spec's `device` take."""
+    text = str(text)
+    if text.lower().endswith(".toml"):
+        return load_device(Path(text).expanduser())
+    return device_named(text)
 
 
 def load_device(path) -> Device:
@@ -78,7 +104,9 @@ def toml_reader():
 
 def device_from_dict(data: dict, where: str = "device.toml") -> Device:
     top = _Table(data, "", where)
-    top.only("id", "vendor", "model", "beams", "timing", "range", "noise", "optics", "mount")
+    top.only(
+        "id", "vendor", "model", "source", "beams", "timing", "range", "noise", "optics", "mount", "head"
+    )
     beams = _beams(top.table("beams"))
     ranges = _ranges(top.table("range"))
     return Device(
@@ -91,6 +119,8 @@ def device_from_dict(data: dict, where: str = "device.toml") -> Device:
         noise=_noise(top.table("noise"), ranges),
         optics=_optics(top.table("optics")),
         mount=_mount(top.table("mount")),
+        head=_head(top.table("head")) if "head" in data else None,
+        source=top.text("source") if "source" in data else "",
     )
 
 
@@ -174,7 +204,7 @@ def _optics(t: "_Table") -> Optics:
 
 
 def _mount(t: "_Table") -> Mount:
-    t.only("kind", "axis", "tilt_deg", "step_deg", "min_step_deg", "sweep_deg", "heads")
+    t.only("kind", "axis", "tilt_deg", "step_deg", "min_step_deg", "sweep_deg", "heads", "direction")
     axis = t.numbers("axis", -1.0, 1.0, 3, 3)
     if abs(math.fsum(a * a for a in axis) - 1.0) > 1e-9:
         raise t.fail("axis", "a unit vector [x, y, z]", list(axis))
@@ -191,6 +221,27 @@ def _mount(t: "_Table") -> Mount:
         min_step_deg=min_step,
         sweep_deg=sweep,
         heads=tuple(heads),
+        direction=t.choice("direction", TURN_DIRECTIONS) if "direction" in t.data else "ccw",
+    )
+
+
+def _head(t: "_Table") -> Head:
+    t.only("axis", "tilt_deg", "step_deg", "sweep_deg", "turn")
+    axis = t.numbers("axis", -1.0, 1.0, 3, 3)
+    if abs(math.fsum(a * a for a in axis) - 1.0) > 1e-9:
+        raise t.fail("axis", "a unit vector [x, y, z]", list(axis))
+    sweep = t.number("sweep_deg", 0.0, 360.0, low_open=True)
+    step = t.number("step_deg", 0.0, sweep, low_open=True)
+    steps = sweep / step
+    if abs(steps - round(steps)) > 1e-9 * max(1.0, steps) or round(steps) > MAX_HEAD_STEPS:
+        whole = f"a step dividing sweep_deg {sweep:g} into 1 to {MAX_HEAD_STEPS} whole steps"
+        raise t.fail("step_deg", whole, step)
+    return Head(
+        axis=tuple(float(a) for a in axis),
+        tilt_deg=t.number("tilt_deg", -180.0, 180.0),
+        step_deg=step,
+        sweep_deg=sweep,
+        turn=t.choice("turn", HEAD_TURNS),
     )
 
 
