@@ -63,8 +63,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "weather: each effect's lost returns on a wall at known ranges and its maximum range against the "
         "model's curve, and the default world in each (docs/weather.md); devices: every device preset's "
         "full-frame scan time beside Embree's own cast of the same rays (goal <= 2x); learn DIR: train a "
-        "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split and "
-        "print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md)",
+        "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
+        "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md)",
     )
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
     p.add_argument(
