@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml addon/wildscan/__init__.py
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet "bpy==5.0.1" numpy embreex matplotlib pytest pytest-xdist plyfile ruff \
-		dask distributed laspy laszip tqdm pyyaml psutil rosbags open3d mkdocs mkdocs-material
+		dask distributed laspy laszip tqdm pyyaml psutil rosbags open3d mkdocs mkdocs-material scikit-learn
 	$(PY) -m pip install --quiet --no-deps -e .
 	touch $(STAMP)
 

@@ -54,6 +54,7 @@ def test_an_empty_spec_takes_every_documented_default():
     assert dict(spec.poses.zones) == {"hills": 1, "forest": 2, "park": 1, "lake": 1, "cave": 1, "trail": 1}
     assert (spec.sensor.rh, spec.sensor.max_range, spec.sensor.model) == (1.0, 15.0, "paper")
     assert spec.sensor.noise is None  # the model's own: 0.015 m with the paper model
+    assert spec.intensity == "physical"  # a dataset's default (a single scan keeps the class tag)
 
 
 @pytest.mark.parametrize(
@@ -78,6 +79,7 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"scans_per_world": 0}, ["scans_per_world must be a whole number"]),
         ({"scans_per_world": True}, ["scans_per_world"]),
         ({"poses": {"strategy": "grid"}}, ["poses.strategy", '"uniform"']),
+        ({"intensity": "tag"}, ["intensity must be one of", '"physical"', '"class"']),
         ({"vegetation": "leafy"}, ["vegetation must be one of", '"porous"', '"solid"']),
         ({"sensor": {"model": "lidar"}}, ["sensor.model must be one of", '"realistic"']),
         ({"sensor": {"divergence": 3.0}}, ["sensor.divergence applies to model", '"realistic" only']),
@@ -172,6 +174,7 @@ def test_the_config_hash_changes_with_any_key():
         {"sensor": {"noise": 0.02}},
         {"formats": ["las"]},
         {"poses": {"min_distance": 3}},
+        {"intensity": "class"},
     ):
         assert spec_from_dict(change).config_hash() != base.config_hash()
 
@@ -279,6 +282,34 @@ def test_a_clear_label_config_keeps_the_bytes_of_before_the_particle_class(name)
 
 
 @pytest.mark.slow
+def test_class_weights_in_labels_yaml_and_weights_json_come_from_the_points_written(dataset):
+    config = yaml.safe_load((dataset / "labels.yaml").read_text())
+    weights = json.loads((dataset / "weights.json").read_text())
+    assert weights["label_scheme"] == "semantickitti"
+    scheme = SCHEMES["semantickitti"]
+    written: dict[int, int] = {}
+    for row in ok_rows(dataset):
+        for cid, n in row["class_counts"].items():
+            xid = scheme.learning_map[scheme.from_wildscan[int(cid)]]
+            if not scheme.learning_ignore[xid]:
+                written[xid] = written.get(xid, 0) + n
+    total = sum(written.values())
+    for xid, entry in weights["classes"].items():
+        xid = int(xid)
+        assert entry["points"] == written.get(xid, 0)
+        if entry["points"]:
+            assert entry["enet"] == pytest.approx(1 / np.log(1.02 + entry["points"] / total))
+            assert config["class_weights_enet"][xid] == pytest.approx(entry["enet"], rel=1e-5)
+            assert config["class_weights_inverse_frequency"][xid] == pytest.approx(
+                entry["inverse_frequency"], rel=1e-5
+            )
+        else:
+            assert config["class_weights_enet"][xid] == 0.0
+    listed = json.loads((dataset / "dataset.json").read_text())["files"]
+    assert "weights.json" in listed  # --verify checks it like every other file
+
+
+@pytest.mark.slow
 def test_a_clear_datasets_label_config_does_not_list_the_particle_class(dataset):
     assert "particle" not in (dataset / "labels.yaml").read_text()
 
@@ -303,9 +334,11 @@ def test_an_independent_semantickitti_reader_loads_every_scan(dataset):
             assert set(np.unique(sem)) <= set(config["labels"])
             assert inst.max() > 0 and np.all(inst[ply["label"] == 0] == 0)
             np.testing.assert_allclose(remission, ply["intensity"] / 100, rtol=1e-6)
+            assert remission.min() >= 0.0 and remission.max() <= 1.0
             np.testing.assert_array_equal(xyz[:, 0], ply["x"])
             # poses.txt takes the points to the world: the terrain under them is hag below
             sidecar = json.loads((folder / "ply" / f"{scan.stem}.json").read_text())
+            assert sidecar["intensity"] == "physical"  # what the intensity of these files means
             centre = np.array(sidecar["placement"]["optical_centre"])
             np.testing.assert_allclose(pose[:3, 3], centre, atol=1e-9)
             world = xyz.astype(np.float64) @ pose[:3, :3].T + pose[:3, 3]
@@ -487,6 +520,7 @@ def test_the_card_compares_with_rellis_and_counts_classes(dataset):
     card = (dataset / "CARD.md").read_text()
     for words in ("RELLIS-3D", "| grass |", "Points against range", "Scans per zone and split", "scans/s"):
         assert words in card
+    assert "Intensity: physical" in card and "Remission alone labels" in card and "Warning" not in card
     for png in ("classes.png", "range.png", "zones.png"):
         assert (dataset / "card" / png).stat().st_size > 1000
     data = json.loads((dataset / "dataset.json").read_text())

@@ -147,6 +147,22 @@ def test_ply_and_las_carry_the_echo_fields_and_kitti_stays_xyz_remission(dataset
         assert records["mixed"].any() and (records["label_purity"] < 1).any()
         xyz, remission = read_kitti_scan(bin_path)
         assert len(xyz) == len(records) and bin_path.stat().st_size == 16 * len(records)
+        assert remission.min() >= 0.0 and remission.max() <= 1.0
+        np.testing.assert_allclose(remission, records["intensity"] / 100, rtol=1e-6)
+
+
+def test_the_echo_sidecar_beside_each_bin_holds_the_echo_fields_point_for_point(dataset):
+    bins = scan_files(dataset, "velodyne", "bin")
+    for ply, bin_path in zip(scan_files(dataset, "ply", "ply"), bins, strict=True):
+        sidecar = bin_path.parents[1] / "echo" / f"{bin_path.stem}.npy"
+        echo = np.load(sidecar, allow_pickle=False)  # plain numpy, no WildScan import
+        records, _ = read_ply(ply)
+        xyz, _ = read_kitti_scan(bin_path)
+        assert echo.dtype.names == ("echo", "echoes", "label_purity", "mixed") and len(echo) == len(xyz)
+        for name in echo.dtype.names:
+            np.testing.assert_array_equal(echo[name], records[name])
+        # what the sidecar is for: dropping mixed pixels from the .bin leaves points on their surface
+        assert 0 < echo["mixed"].sum() < len(echo) and np.all(echo["label_purity"][echo["mixed"] == 0] > 0)
 
 
 def test_a_rerun_resumes_and_verify_checks_every_file(dataset, tmp_path):

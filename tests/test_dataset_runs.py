@@ -262,11 +262,20 @@ def dask_scheduler(folder: Path, *options: str) -> tuple[subprocess.Popen, str]:
         "scheduler", "--host", "127.0.0.1", "--port", "0", "--scheduler-file", str(scheduler_file), *options
     )
     try:
-        wait_until(lambda: scheduler_file.exists(), "scheduler file", scheduler, timeout=60)
-        return scheduler, json.loads(scheduler_file.read_text())["address"]
+        info = wait_until(lambda: scheduler_info(scheduler_file), "scheduler file", scheduler, timeout=60)
+        return scheduler, info["address"]
     except BaseException:
         stop_processes(scheduler)
         raise
+
+
+def scheduler_info(path: Path) -> dict | None:
+    """The scheduler file's contents once it is whole: Dask writes it in place, so it can
+    exist, empty or part-written, before it parses."""
+    try:
+        return json.loads(path.read_text())
+    except (FileNotFoundError, json.JSONDecodeError):
+        return None
 
 
 def dask_worker(address: str, **kw) -> subprocess.Popen:

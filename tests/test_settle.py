@@ -100,3 +100,21 @@ def test_vertices_at_one_position_get_one_id_as_numpy_unique_groups_them():
     expected = expected.reshape(-1)
     assert ids.max() + 1 == expected.max() + 1 < len(vertices)
     assert len(np.unique(np.stack([ids, expected], axis=1), axis=0)) == expected.max() + 1  # one-to-one
+
+
+def test_nearest_per_ray_picks_what_a_lexsort_by_ray_t_and_candidate_picks():
+    from wildscan.raycast.settle import nearest_per_ray, sorted_unique
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        n = int(rng.integers(1, 400))
+        keys = rng.integers(0, 30, n) * 100 + rng.integers(0, 20, n)
+        assert np.array_equal(sorted_unique(keys), np.unique(keys))
+        keys = np.unique(keys)
+        ray, cand = keys // 100, keys % 100
+        t = rng.choice([0.0, -0.0, 0.5, 1.0, 2.0], len(ray))  # ties on purpose
+        order = np.lexsort((cand, t, ray))
+        r, c = ray[order], cand[order]
+        firsts = np.flatnonzero(np.r_[True, r[1:] != r[:-1]])
+        got_ray, got_cand = nearest_per_ray(ray, cand, t)
+        assert np.array_equal(got_ray, r[firsts]) and np.array_equal(got_cand, c[firsts])

@@ -1,6 +1,5 @@
-"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|biomes]` and
-`wildscan bench-world`
-(= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR|biomes]` and
+`wildscan bench-world` (= `bench --suite world`)."""
 
 from __future__ import annotations
 
@@ -9,7 +8,7 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world", "drive", "realism", "far", "weather", "devices", "biomes")
+SUITES = ("backends", "world", "drive", "realism", "far", "weather", "devices", "learn", "biomes")
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
@@ -63,9 +62,20 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "and frame with the scene 0 m to 999 km from the origin (docs/accuracy.md 'Far from the origin'); "
         "weather: each effect's lost returns on a wall at known ranges and its maximum range against the "
         "model's curve, and the default world in each (docs/weather.md); devices: every device preset's "
-        "full-frame scan time beside Embree's own cast of the same rays (goal <= 2x); biomes: per biome the "
-        "class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time and memory beside "
-        "the paper biome's (docs/ground.md)",
+        "full-frame scan time beside Embree's own cast of the same rays (goal <= 2x); learn DIR: train a "
+        "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
+        "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md); "
+        "biomes: per biome the class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time "
+        "and memory beside the paper biome's (docs/ground.md)",
+    )
+    p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
+    p.add_argument(
+        "--card", action="store_true", help="--suite learn: also write its table into DIR's CARD.md"
+    )
+    p.add_argument(
+        "--with-intensity",
+        action="store_true",
+        help="--suite learn: give the baseline the remission too (by default it sees geometry only)",
     )
     options.add(p, "seed", default="0", help=f"{options.SEED_HELP} (default 0)")
     options.add(
@@ -142,6 +152,12 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
 
 
 def _run_suite(args: argparse.Namespace) -> int:
+    if args.suite == "learn":
+        from ..bench.learn import run_learn
+
+        _only_for_backends(args, also=("details",))
+        return run_learn(args)
+    _only_for_learn(args)
     if args.suite == "far":
         from ..bench.far import OFFSETS, QUICK_OFFSETS, bench_far
 
@@ -205,6 +221,16 @@ def _only_for_backends(
     for setting in ("backends", "runs", "reference_rays", "out", *also):
         if setting not in allowed and getattr(args, setting) is not None:
             raise UserError("applies to {suite} backends only", setting=setting, related=("suite",))
+
+
+def _only_for_learn(args: argparse.Namespace) -> None:
+    from ..core.errors import UserError
+
+    if args.dataset is not None:
+        raise UserError(f"a dataset folder ({args.dataset}) is measured by --suite learn only")
+    for flag in ("card", "with_intensity"):
+        if getattr(args, flag):
+            raise UserError(f"--{flag.replace('_', '-')} applies to --suite learn only")
 
 
 def add_world_arguments(p: ArgumentParser, in_blender: bool = False) -> None:

@@ -13,7 +13,7 @@ nothing about the device: any device whose points carry a ring and a column plug
 
 The .npz holds, H x W (rows x columns):
     range      float32  metres (noise included), -1 where the beam returned no point
-    intensity  float32  the .bin's remission (reflectivity / 100), -1 where no point
+    intensity  float32  the .bin's remission (0..1, docs/formats.md "Intensity"), -1 where no point
     label      uint16   class id as the scan's label file has it (0 where no point)
     instance   uint32   instance as the scan's label file has it (0 where no point)
     mask       bool     the cell holds a point

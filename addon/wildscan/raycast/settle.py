@@ -103,9 +103,9 @@ class Settler:
         first = np.repeat(starts[pos] - np.cumsum(counts) + counts, counts)
         cand = owners[first + np.arange(counts.sum())]
         size = len(self.normal)
-        pairs = np.unique(ray * size + cand)  # each (ray, candidate) once, in that order
+        pairs = sorted_unique(ray * size + cand)  # each (ray, candidate) once, in that order
         ray, cand = pairs // size, pairs % size
-        o, d = local[ray], dirs[ray]
+        o, d = rows(local, ray), dirs[ray]
         n = self.normal[cand]
         cos = dm.dot3(n, d)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -120,13 +120,39 @@ class Settler:
             length = dm.norm(inward)
             with np.errstate(divide="ignore", invalid="ignore"):
                 ok &= dm.dot3(point - corners[:, k], inward) >= -EDGE_TOLERANCE * length
-        ray, cand, t = ray[ok], cand[ok], t[ok]
-        order = np.lexsort((cand, t, ray))
-        ray, cand = ray[order], cand[order]
         winner = np.full(len(triangle), -1, dtype=np.int64)
-        firsts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]]) if len(ray) else np.zeros(0, int)
-        winner[ray[firsts]] = cand[firsts]
+        ray, cand = nearest_per_ray(ray[ok], cand[ok], t[ok])
+        winner[ray] = cand
         return winner
+
+
+def sorted_unique(keys: np.ndarray) -> np.ndarray:
+    """np.unique(keys) for keys that come in runs (a ray's candidates, rays in order): the
+    stable sort finds the runs, about 7x faster here than np.unique's quicksort."""
+    keys = np.sort(keys, kind="stable")
+    return keys[np.r_[True, keys[1:] != keys[:-1]]] if len(keys) else keys
+
+
+def nearest_per_ray(ray: np.ndarray, cand: np.ndarray, t: np.ndarray):
+    """For pairs sorted by (ray, cand): each ray once, with its candidate of smallest t (ties:
+    the lowest cand, the first in its run) - what a lexsort by (ray, t, cand) picks, without
+    the sort."""
+    if not len(ray):
+        return ray, cand
+    starts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]])
+    nearest = np.minimum.reduceat(t, starts)
+    at_min = np.flatnonzero(t == np.repeat(nearest, np.diff(np.r_[starts, len(ray)])))
+    firsts = at_min[np.r_[True, ray[at_min[1:]] != ray[at_min[:-1]]]]
+    return ray[firsts], cand[firsts]
+
+
+def rows(points: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """points[index], except that one origin broadcast to every ray of a scan stays a
+    broadcast (no copy): gathering it once per ray and candidate took a sixth of the
+    settling; the arithmetic on it is the same."""
+    if points.ndim == 2 and len(points) and points.strides[0] == 0:
+        return np.broadcast_to(points[0], (len(index), 3))
+    return points[index]
 
 
 def _band(padded: np.ndarray, corners: np.ndarray) -> np.ndarray:
@@ -187,7 +213,7 @@ def settle(backend: FirstHits, settler: Settler, local, dirs, triangle, rough, b
     for _ in range(MAX_RECASTS):
         if not len(todo):
             break
-        winner = settler.decide(local[todo], dirs[todo], triangle[todo], start[todo])
+        winner = settler.decide(rows(local, todo), dirs[todo], triangle[todo], start[todo])
         decided = winner >= 0
         triangle[todo[decided]] = winner[decided]
         passed = todo[~decided]

@@ -16,6 +16,7 @@ from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
 from ...core.pause import pause_here
+from .intensity import intensity_lines, remission_totals
 from .layout import CARD, CARD_FIGURES, DATASET_JSON
 from .manifest import Manifest
 from .spec import SPLITS, DatasetSpec
@@ -75,6 +76,7 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
         **_echo_totals(ok),
         **_particle_totals(spec, ok, class_points),
         **_height_totals(ok),
+        **remission_totals(ok),
     }
 
 
@@ -246,6 +248,7 @@ def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]])
         f"({t['scans_failed']:,} without a valid pose); {t['points']:,} points; {t['bytes'] / 1e9:.2f} GB.",
         *_echo_lines(t),
         *_weather_lines(spec, t),
+        *intensity_lines(spec, t),
         "",
         "## Classes",
         "",

@@ -13,6 +13,7 @@ DATASET_JSON = "dataset.json"
 CARD = "CARD.md"
 CARD_FIGURES = "card"
 LABELS_YAML = "labels.yaml"
+WEIGHTS_JSON = "weights.json"  # class weights over the learning map (core/class_weights.py)
 LOCK = ".wildscan-dataset.lock"
 # core.io.files.temp_path names temporary files ".NAME.tmp-PID.EXT"
 TEMP_NAME = re.compile(r"^\..+\.tmp-\d+(\.[A-Za-z0-9]+)?$")

@@ -19,6 +19,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ...core.class_weights import class_weights, learning_counts, weights_json
 from ...core.errors import UserError
 from ...core.io import semantickitti as sk
 from ...core.io.files import atomic_outputs, output_directory, write_durably
@@ -27,7 +28,7 @@ from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
 from .cluster import RunFailed, probe_scheduler
 from .engine import Batch, Engine, make_batches
-from .layout import LABELS_YAML, LOCK, remove_temp_files, sequence_files
+from .layout import LABELS_YAML, LOCK, WEIGHTS_JSON, remove_temp_files, sequence_files
 from .manifest import Manifest, broken_rows
 from .progress import ScanProgress
 from .spec import DatasetSpec
@@ -329,7 +330,9 @@ def finalize(state: _State, report: RunReport) -> None:
         state.write_sequence_files(seed)
     complete = all(state.world_rows(seed) is not None for seed in spec.seeds)
     totals = card.totals(spec, state.manifest)
-    state.write_text(LABELS_YAML, _labels_yaml(spec, totals))
+    counts = _learning_counts(spec, totals)
+    state.write_text(LABELS_YAML, _labels_yaml(spec, totals, class_weights(counts)))
+    state.write_text(WEIGHTS_JSON, weights_json(scheme(spec.label_scheme), counts, bool(spec.weather)))
     state.save(complete=False)  # every file above listed, should the card never come
     data = state.dataset_json(complete)
     # The card before dataset.json: a run stopped between them leaves `complete: false`
@@ -339,20 +342,33 @@ def finalize(state: _State, report: RunReport) -> None:
     report.ok, report.failed, report.complete = totals["scans_ok"], totals["scans_failed"], complete
 
 
-def _labels_yaml(spec: DatasetSpec, totals: dict) -> str:
+def _raw_counts(spec: DatasetSpec, totals: dict) -> dict[int, int]:
+    """Points per raw label id of the spec's label scheme."""
     from ...core.classes import BY_ID
-    from .projection import dataset_projection
 
     s = scheme(spec.label_scheme)
     by_name = {c.name: c.id for c in BY_ID.values()}
-    points = max(1, totals["points"])
-    content: dict[int, float] = {}
+    out: dict[int, int] = {}
     for name, n in totals["class_points"].items():
         raw = s.from_wildscan[by_name[name]]
-        content[raw] = content.get(raw, 0.0) + n / points
+        out[raw] = out.get(raw, 0) + n
+    return out
+
+
+def _learning_counts(spec: DatasetSpec, totals: dict) -> dict[int, int]:
+    return learning_counts(scheme(spec.label_scheme), _raw_counts(spec, totals), bool(spec.weather))
+
+
+def _labels_yaml(spec: DatasetSpec, totals: dict, weights: dict) -> str:
+    from .projection import dataset_projection
+
+    s = scheme(spec.label_scheme)
+    points = max(1, totals["points"])
+    content = {raw: n / points for raw, n in _raw_counts(spec, totals).items()}
     splits = spec.splits()
     by_split = {"train": [], "valid": [], "test": []}
     for seed in spec.seeds:
         by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
     title = f"WildScan dataset, config {spec.config_hash()[:16]}"
-    return sk.label_config_yaml(s, content, by_split, title, bool(spec.weather), dataset_projection(spec))
+    projection = dataset_projection(spec)
+    return sk.label_config_yaml(s, content, by_split, title, bool(spec.weather), projection, weights)

@@ -19,6 +19,7 @@ from ...core import sensor as S
 from ...core.classes import TAG_NAMES
 from ...core.errors import UserError
 from ...core.frames import FRAMES
+from ...core.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
@@ -86,6 +87,7 @@ class DatasetSpec:
     sensor: SensorSpec = field(default_factory=SensorSpec)
     # [weather]: key (core/effects/weather.py KEYS) -> a value or a range [lo, hi] drawn per scan
     weather: tuple[tuple[str, Value], ...] = ()
+    intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/intensity.py)
 
     def to_dict(self) -> dict:
         out = json.loads(json.dumps(asdict(self)))
@@ -179,6 +181,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         "poses",
         "sensor",
         "weather",
+        "intensity",
     )
     d = DatasetSpec()
     spec = replace(
@@ -194,6 +197,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         poses=_poses(top.table("poses", {})),
         sensor=_sensor(top.table("sensor", {})),
         weather=_weather(top.table("weather", {})),
+        intensity=top.choice("intensity", d.intensity, INTENSITY_MODES),
     )
     return spec
 
@@ -348,17 +352,14 @@ def _poses(t: _Table) -> PoseSpec:
     weights = tuple((z, zones.number(z, 0.0, 0.0, 1e9)) for z in ZONES if z in zones.data)
     if not any(w > 0 for _, w in weights):
         raise UserError(f"{t.where}: poses.zones must give at least one zone a weight above 0")
+    shares = t.table("min_scans_with", {})  # class -> share 0..1 of the scans
+    shares.only(*POSE_CLASSES)
     return PoseSpec(
         strategy=t.choice("strategy", d.strategy, STRATEGIES),
         zones=weights,
         min_distance=t.number("min_distance", d.min_distance, 0.0, 50.0),
-        min_scans_with=_shares(t.table("min_scans_with", {})),  # class -> share 0..1 of the scans
+        min_scans_with=tuple((c, shares.number(c, 0.0, 0.0, 1.0)) for c in POSE_CLASSES if c in shares.data),
     )
-
-
-def _shares(t: _Table) -> tuple[tuple[str, float], ...]:
-    t.only(*POSE_CLASSES)
-    return tuple((name, t.number(name, 0.0, 0.0, 1.0)) for name in POSE_CLASSES if name in t.data)
 
 
 # the sensor values that may be numbers or ranges of numbers, with their limits in app/settings.py
@@ -478,11 +479,8 @@ def rh_choices(rh: Value):
 def spec_from_json(data: dict) -> DatasetSpec:
     """The inverse of DatasetSpec.to_dict (specs travel to Dask workers as plain data)."""
 
-    def value(v):
-        return tuple(v) if isinstance(v, list) else v
-
-    def _pairs(v):  # [[zone, weight], ...] -> ((zone, weight), ...); a name or number as it is
-        return tuple(tuple(p) for p in v) if isinstance(v, list) else v
+    def value(v):  # JSON's lists back to tuples, nested ones too ([[zone, weight], ...])
+        return tuple(value(x) for x in v) if isinstance(v, list) else v
 
     poses, sensor = data["poses"], data["sensor"]
     return DatasetSpec(
@@ -494,7 +492,8 @@ def spec_from_json(data: dict) -> DatasetSpec:
         formats=tuple(data["formats"]),
         label_scheme=data["label_scheme"],
         split=tuple((k, v) for k, v in data["split"]),
-        poses=PoseSpec(**{k: _pairs(v) for k, v in poses.items()}),
+        poses=PoseSpec(**{k: value(v) for k, v in poses.items()}),
         sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
         weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
+        intensity=data.get("intensity", DEFAULT_DATASET_INTENSITY),
     )

@@ -47,6 +47,7 @@ from ...core.scan import run_scan
 from ...core.traversability import class_height_histogram, support_flags, traversability_fields
 from ...core.world import EXTENT, WorldPlan, plan_world
 from .draws import draw_sensor, draw_weather
+from .intensity import scan_intensity_facts, with_dataset_intensity
 from .layout import scan_paths
 from .spec import DatasetSpec, spec_from_json
 
@@ -299,6 +300,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
+    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result)
     placement = result.placement
     row["placement"] = {
         "optical_centre": [float(v) for v in placement.optical_centre],
@@ -317,6 +319,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         ).tolist(),
         files=written,
         **_echo_counts(cloud),
+        **scan_intensity_facts(cloud),
     )
     row["seconds"] = time.perf_counter() - t0
     return row

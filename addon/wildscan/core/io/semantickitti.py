@@ -2,14 +2,18 @@
 mmdetection3d) load unchanged.
 
     sequences/NN/velodyne/NNNNNN.bin   float32 x y z remission per point
+    sequences/NN/echo/NNNNNN.npy       a realistic dataset scan's echo, echoes, label_purity, mixed
     sequences/NN/labels/NNNNNN.label   uint32 per point: class in the low 16 bits, instance in the high 16
     sequences/NN/rangeimage/NNNNNN.npz the scan on its native grid (core/rangeimage.py; datasets)
     sequences/NN/poses.txt             one line per scan: the 3x4 matrix taking its points to the world
     sequences/NN/calib.txt             P0..P3 and Tr (no cameras here: identities)
     labels.yaml                        label config in semantic-kitti-api's form
 
-Remission is the reflectivity of the element hit divided by 100 (Table I's 15..100
-become 0.15..1, KITTI's range). The instance is the element's rank among its world's
+Remission is the point's intensity divided by 100, clipped to [0, 1] (KITTI's range): a
+dataset's intensity is already in 0..100 (core/intensity.py: `physical`, or `class`, Table I's
+15..100 becoming 0.15..1); a single realistic-model scan's echo energy exceeds 100 on bright
+surfaces nearer than 10 m (core/echoes.py), whose remission saturates at 1 as a receiver
+does (docs/formats.md "Intensity"). The instance is the element's rank among its world's
 instance ids (1-based), so it fits 16 bits and is the same object across one sequence.
 """
 
@@ -30,8 +34,8 @@ MAX_INSTANCE = 0xFFFF
 
 
 def remission(intensity: np.ndarray) -> np.ndarray:
-    """float32 remission of reflectivities (Table I's 0..100 -> 0..1), as the .bin has it."""
-    return (np.asarray(intensity, dtype=np.float64) * REMISSION_SCALE).astype(np.float32)
+    """float32 remission of intensities (0..100 -> 0..1, clipped to [0, 1]), as the .bin has it."""
+    return np.clip(np.asarray(intensity, dtype=np.float64) * REMISSION_SCALE, 0.0, 1.0).astype(np.float32)
 
 
 def scan_bytes(xyz: np.ndarray, intensity: np.ndarray) -> bytes:
@@ -86,6 +90,8 @@ def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
     if scan.hag is not None:
         files["hag"] = float_bytes(scan.hag)
         files["rangeimage"] = range_image_bytes(scan, labels, ranks)
+        if "echo" in cloud.extra:
+            files["echo"] = echo_bytes(cloud.extra)
     return files
 
 
@@ -97,6 +103,21 @@ def range_image_bytes(scan: ScanOutput, labels: np.ndarray, instances: np.ndarra
     return npz_bytes(image)
 
 
+# A realistic scan's echo fields beside its .bin (datasets): numpy structured records, one per
+# point in the order of the velodyne file (core/pointcloud.py OPTIONAL_FIELDS says what each is)
+ECHO_DTYPE = np.dtype([("echo", "u1"), ("echoes", "u1"), ("label_purity", "<f4"), ("mixed", "u1")])
+
+
+def echo_bytes(extra: dict) -> bytes:
+    """echo/NNNNNN.npy: the echo fields a SemanticKITTI user needs to drop mixed pixels."""
+    from ..groundtruth import npy_bytes
+
+    out = np.zeros(len(extra["echo"]), dtype=ECHO_DTYPE)
+    for name in ECHO_DTYPE.names:
+        out[name] = extra[name]
+    return npy_bytes(out)
+
+
 WRITER = Writer(
     name="semantickitti",
     title="SemanticKITTI",
@@ -106,6 +127,7 @@ WRITER = Writer(
         ScanFile("labels", ".label", "labels"),
         ScanFile("hag", ".bin", "hag", ground_truth=True),
         ScanFile("rangeimage", ".npz", "rangeimage", ground_truth=True),
+        ScanFile("echo", ".npy", "echo", ground_truth=True),  # realistic datasets only
     ),
     scan_labels="semantickitti",
     encode=encode,
@@ -139,11 +161,14 @@ def label_config_yaml(
     title: str,
     particles: bool = False,
     projection: Projection | None = None,
+    weights: dict[str, dict[int, float]] | None = None,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
     learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
     the data has weather, so weather's particle class is listed (without: the bytes of before it);
-    `projection`: LaserScan's H, W, fov_up and fov_down for these scans (core/projection.py)."""
+    `weights` (core/class_weights.py, by learning-map id): `class_weights_<name>` tables after
+    the split (without: the bytes of before them); `projection`: LaserScan's H, W, fov_up and
+    fov_down for these scans (core/projection.py)."""
     t = scheme.config_tables(particles)
     lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
     lines += _yaml_map("labels", t["labels"], json.dumps)
@@ -159,4 +184,6 @@ def label_config_yaml(
         kept = f"{100 * projection.kept:.1f} % of an untilted scan's beams"
         lines.append(f"# semantic-kitti-api's LaserScan(project=True, **projection) keeps {kept}")
         lines += _yaml_map("projection", projection.to_dict())
+    for name, table in (weights or {}).items():
+        lines += _yaml_map(f"class_weights_{name}", table, lambda w: repr(float(f"{w:.6g}")))
     return "\n".join(lines) + "\n"
