@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from .classes import NUM_IDS, REFLECTIVITY_BY_ID, WATER_ID, class_by_name
+from .world.cover import COVER_INSTANCE_BASE
 
 INTENSITY_MODES = ("physical", "class")
 DEFAULT_DATASET_INTENSITY = "physical"
@@ -121,7 +122,9 @@ def surface_reflectance(
     """ρ_s (fraction) per point: its surface's draw within its class's material range."""
     label = np.asarray(label, dtype=np.intp)
     u = hash_unit(np.int64(seed), label, np.asarray(instance, dtype=np.int64))
-    terrain = label == TERRAIN_ID
+    # the terrain, and the ground cover's sward (one instance a class: core/world/cover.py), vary
+    # spot by spot rather than one draw for the whole surface
+    terrain = (label == TERRAIN_ID) | (np.asarray(instance) >= COVER_INSTANCE_BASE)
     if terrain.any():
         u[terrain] = _terrain_field(seed, np.asarray(world_xy)[terrain])
     return MATERIAL_LOW[label] + (MATERIAL_HIGH[label] - MATERIAL_LOW[label]) * u
