@@ -104,3 +104,12 @@ def test_a_real_dataset_reads_with_its_learning_map_weights_and_split(tmp_path):
     weights = config.weight_vector()
     terrain = config.learning_map[72]
     assert weights[0] == 0.0 and 0 < weights[terrain] < weights.max()  # the commonest class weighs least
+
+
+def test_the_learn_suites_dataset_spec_loads_as_docs_benchmarks_says():
+    from wildscan.app.dataset.spec import load_spec
+
+    spec = load_spec(EXAMPLES / "learn20.toml")
+    assert len(spec.seeds) == 20 and spec.scans_per_world == 30 and spec.sensor.rh == 2.0
+    assert dict(spec.poses.min_scans_with)["log"] == 0.25
+    assert "examples/learn20.toml" in (REPO / "docs" / "benchmarks.md").read_text()
