@@ -202,3 +202,14 @@ def test_a_broken_link_fails_the_strict_build(docs_tools, tmp_path):
     done = mkdocs_build(copy, tmp_path / "site")
     assert done.returncode != 0
     assert "no-such-anchor" in done.stdout + done.stderr
+
+
+def test_the_readme_class_table_lists_every_class_with_its_id_and_reflectivity():
+    from wildscan.core.classes import BY_ID
+
+    rows = {}
+    for line in README.read_text(encoding="utf-8").splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if len(cells) == 4 and cells[0].isdigit():
+            rows[int(cells[0])] = (cells[1].split(" (")[0], float(cells[2]))
+    assert rows == {c.id: (c.name, c.reflectivity) for c in BY_ID.values()}
