@@ -258,7 +258,7 @@ def test_the_label_config_loads_in_semantic_kitti_api_form(dataset):
 
 # sha256 of each scheme's label config for a clear dataset, as the code before the particle class
 # wrote it (content {2: 0.5}, train [0], valid [1]): a clear dataset keeps every byte. WildScan's
-# own config lists class 14 log since deadwood came (issue 21 allows it; the others had an id for it).
+# own config lists class 14 log since deadwood came (the other schemes already had an id for it).
 CLEAR_LABEL_CONFIGS = {
     "wildscan": "7b43efdfec33478759a653306e509f21f5dbf117c636878370cbcbdac1d2dbe4",
     "semantickitti": "26827f6a89e8135a7ac4e2bc91f29244b77e8afb8eba50bf49dbbe935dcc7331",

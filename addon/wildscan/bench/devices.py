@@ -4,7 +4,7 @@ pose, timed whole (core/scan.py run_scan: placement, beam directions, casting, r
 labels, leveling, the cloud) beside Embree's own time for the very same rays (embreex's
 `scene.run` as the backend calls it, with the rays' float32 conversion, and nothing of the
 float64 refinement, settling or labels around it), and their ratio: what WildScan adds to
-the caster. The goal (issue 20): at most TARGET_RATIO. Between them, the backend's whole
+the caster. The goal: at most TARGET_RATIO. Between them, the backend's whole
 cast of the same rays (`backend.cast`: Embree, then every ambiguous hit settled and every
 distance refined in float64) says how much of the rest is the caster's exactness and how
 much the scan's own work.

@@ -151,6 +151,40 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     return code
 
 
+def _bench_weather_within_tolerance():
+    from ..bench.weather import TOLERANCE, bench_weather
+
+    return lambda seed, quick: bench_weather(seed, quick)["worst"] <= TOLERANCE
+
+
+def _bench_realism():
+    from ..bench.realism import bench_realism
+
+    return bench_realism
+
+
+def _bench_devices():
+    from ..bench.devices import bench_devices
+
+    return bench_devices
+
+
+def _bench_biomes():
+    from ..bench.biomes import bench_biomes
+
+    return bench_biomes
+
+
+# Suites run as f(seed, quick); each entry imports its module only when chosen. A suite
+# returning False (weather beyond its tolerance) exits 1.
+SEED_AND_QUICK_SUITES = {
+    "realism": _bench_realism,
+    "weather": _bench_weather_within_tolerance,
+    "devices": _bench_devices,
+    "biomes": _bench_biomes,
+}
+
+
 def _run_suite(args: argparse.Namespace) -> int:
     if args.suite == "learn":
         from ..bench.learn import run_learn
@@ -170,29 +204,9 @@ def _run_suite(args: argparse.Namespace) -> int:
         _only_for_backends(args, also=("details",))
         bench_drive(args.seed)
         return 0
-    if args.suite == "realism":
-        from ..bench.realism import bench_realism
-
+    if args.suite in SEED_AND_QUICK_SUITES:
         _only_for_backends(args, also=("details",))
-        bench_realism(args.seed, args.quick)
-        return 0
-    if args.suite == "weather":
-        from ..bench.weather import TOLERANCE, bench_weather
-
-        _only_for_backends(args, also=("details",))
-        return 0 if bench_weather(args.seed, args.quick)["worst"] <= TOLERANCE else 1
-    if args.suite == "devices":
-        from ..bench.devices import bench_devices
-
-        _only_for_backends(args, also=("details",))
-        bench_devices(args.seed, args.quick)
-        return 0
-    if args.suite == "biomes":
-        from ..bench.biomes import bench_biomes
-
-        _only_for_backends(args, also=("details",))
-        bench_biomes(args.seed, args.quick)
-        return 0
+        return 0 if SEED_AND_QUICK_SUITES[args.suite]()(args.seed, args.quick) is not False else 1
     if args.suite == "world":
         from ..bench.config import check_details
 
