@@ -127,3 +127,22 @@ def test_the_card_warns_when_remission_alone_labels_over_90_percent():
     (line,) = intensity_lines(SimpleNamespace(intensity="physical"), physical)
     assert physical["remission_lookup_accuracy"] < 0.9 and "Warning" not in line
     assert intensity_lines(SimpleNamespace(intensity="physical"), {}) == []  # rows from before: no line
+
+
+def test_the_lookup_figures_do_not_depend_on_the_order_scans_were_added():
+    """A resumed dataset run adds the scans' histograms in another order than a clean run:
+    its card must carry the same figures (the mean of the recalls summed in another order
+    differed in its last bit)."""
+    rng = np.random.default_rng(3)
+    scans = [
+        {str(c): [int(v) for v in rng.integers(0, 50, I.REMISSION_BINS)] for c in rng.permutation(12)[:5]}
+        for _ in range(30)
+    ]
+    scans.append({"1": [7] * I.REMISSION_BINS, "2": [7] * I.REMISSION_BINS})  # ties in every bin
+    totals = []
+    for order in (scans, scans[::-1], [scans[i] for i in rng.permutation(len(scans))]):
+        total: dict = {}
+        for h in order:
+            I.add_histograms(total, h)
+        totals.append((I.lookup_accuracy(total), I.balanced_lookup_accuracy(total), I.majority_share(total)))
+    assert totals[0] == totals[1] == totals[2]

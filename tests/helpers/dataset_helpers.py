@@ -120,4 +120,4 @@ def assert_same_dataset(a: Path, b: Path) -> None:
     for key in ("spec", "config_hash", "sequences", "complete", "files"):
         assert ja[key] == jb[key], key
     ta, tb = ({k: v for k, v in j["totals"].items() if k != "scan_seconds"} for j in (ja, jb))
-    assert ta == tb
+    assert ta == tb, {k: (ta.get(k), tb.get(k)) for k in set(ta) | set(tb) if ta.get(k) != tb.get(k)}

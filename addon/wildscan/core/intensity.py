@@ -177,19 +177,26 @@ def add_histograms(total: dict[str, list[int]], more: dict[str, list[int]]) -> d
     return total
 
 
+def _by_class_id(histogram: dict[str, list[int]]) -> np.ndarray:
+    """The histogram as a (classes, bins) table in class-id order: the rows' order must not
+    depend on which scan a run wrote first (a resumed run adds them in another order, and
+    the mean of the recalls and the ties would follow it)."""
+    return np.array([histogram[cid] for cid in sorted(histogram, key=int)], dtype=np.int64)
+
+
 def lookup_accuracy(histogram: dict[str, list[int]]) -> float | None:
     """The share of points a lookup on remission alone labels right: each 0.01 bin of
     remission predicts its most common class. 1.0 when each class has its own value."""
     if not histogram:
         return None
-    table = np.array(list(histogram.values()), dtype=np.int64)
+    table = _by_class_id(histogram)
     total = int(table.sum())
     return float(table.max(axis=0).sum() / total) if total else None
 
 
 def majority_share(histogram: dict[str, list[int]]) -> float | None:
     """The share of the commonest class: what a lookup that ignores remission reaches."""
-    table = np.array(list(histogram.values()), dtype=np.int64)
+    table = _by_class_id(histogram)
     total = int(table.sum()) if len(table) else 0
     return float(table.sum(axis=1).max() / total) if total else None
 
@@ -197,7 +204,7 @@ def majority_share(histogram: dict[str, list[int]]) -> float | None:
 def balanced_lookup_accuracy(histogram: dict[str, list[int]]) -> float | None:
     """The remission lookup's recall averaged over the classes (each class counts the same,
     so the commonest class does not hide what remission says about the rare ones)."""
-    table = np.array(list(histogram.values()), dtype=np.int64)
+    table = _by_class_id(histogram)
     if not len(table) or not table.sum():
         return None
     predicted = np.argmax(table, axis=0)  # per bin (ties: the first class listed)
