@@ -33,6 +33,7 @@ from tests.helpers.dataset_helpers import (
     read_kitti_poses,
     read_kitti_scan,
     wildscan,
+    written_dataset,
 )
 from tests.helpers.reader_helpers import (
     cloudcompare_env,
@@ -365,11 +366,7 @@ rh = 10.0
 
 @pytest.fixture(scope="module")
 def gap_dataset(tmp_path_factory):
-    root = tmp_path_factory.mktemp("gap")
-    (root / "spec.toml").write_text(GAP_SPEC)
-    result = wildscan("dataset", str(root / "spec.toml"), "--out", str(root / "out"), "--workers", "1")
-    assert result.returncode == 0, result.stderr
-    return root / "out", result
+    return written_dataset(tmp_path_factory.mktemp("gap"), GAP_SPEC)
 
 
 @pytest.mark.slow

@@ -13,7 +13,7 @@ from wildscan.bench import learn as L
 from wildscan.bench.learn_features import _cells, feature_names, scan_features
 from wildscan.core.errors import UserError
 
-from tests.helpers.dataset_helpers import wildscan
+from tests.helpers.dataset_helpers import wildscan, written_dataset
 
 pytest.importorskip("sklearn")
 
@@ -126,11 +126,7 @@ rh = 6.0
 
 @pytest.fixture(scope="module")
 def tiny(tmp_path_factory):
-    root = tmp_path_factory.mktemp("learn")
-    (root / "spec.toml").write_text(TINY)
-    made = wildscan("dataset", str(root / "spec.toml"), "--out", str(root / "data"), "--workers", "1")
-    assert made.returncode == 0, made.stderr
-    return root / "data"
+    return written_dataset(tmp_path_factory.mktemp("learn"), TINY, out="data")[0]
 
 
 @pytest.mark.slow

@@ -14,7 +14,13 @@ import yaml
 from wildscan.core.projection import Projection, combined, kept_share, projection_for
 from wildscan.core.sensors import DEFAULT_DEVICE, beam_directions, device_named
 
-from tests.helpers.dataset_helpers import manifest_rows, read_kitti_labels, read_kitti_scan, wildscan
+from tests.helpers.dataset_helpers import (
+    manifest_rows,
+    read_kitti_labels,
+    read_kitti_scan,
+    wildscan,
+    written_dataset,
+)
 from tests.helpers.semantic_kitti_laserscan import LaserScan, SemLaserScan
 
 SPEC = """\
@@ -36,11 +42,7 @@ KITTI_DEFAULT = dict(H=64, W=1024, fov_up=3.0, fov_down=-25.0)  # LaserScan's ow
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
-    root = tmp_path_factory.mktemp("rangeimage")
-    (root / "spec.toml").write_text(SPEC)
-    done = wildscan("dataset", str(root / "spec.toml"), "--out", str(root / "out"), "--workers", "1")
-    assert done.returncode == 0, done.stderr
-    return root / "out"
+    return written_dataset(tmp_path_factory.mktemp("rangeimage"), SPEC)[0]
 
 
 def _scans(dataset):

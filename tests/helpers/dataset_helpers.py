@@ -38,6 +38,15 @@ def wildscan(*args: str, timeout: float = RUN_TIMEOUT_S, **kw) -> subprocess.Com
     )
 
 
+def written_dataset(root: Path, spec_text: str, out: str = "out") -> tuple[Path, subprocess.CompletedProcess]:
+    """`wildscan dataset` of spec_text (written to root/spec.toml) into root/out with one
+    worker, asserted to succeed: the folder and the run."""
+    (root / "spec.toml").write_text(spec_text)
+    result = wildscan("dataset", str(root / "spec.toml"), "--out", str(root / out), "--workers", "1")
+    assert result.returncode == 0, result.stderr
+    return root / out, result
+
+
 def start_wildscan(*args: str, **kw) -> subprocess.Popen:
     """`wildscan ...` in its own process group, so a test can kill the whole job."""
     return subprocess.Popen(
