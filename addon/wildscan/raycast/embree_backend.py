@@ -39,27 +39,55 @@ class EmbreeBackend(RefiningBackend):
 
     name = "embree"
 
-    def __init__(self, geometry: SceneGeometry, robust: bool = True, seal: bool = True):
-        from embreex import mesh_construction, rtcore_scene
+    def __init__(
+        self, geometry: SceneGeometry, robust: bool = True, seal: bool = True, upload: str = "buffers"
+    ):
+        from embreex import rtcore_scene
 
         self.geometry = geometry
         self.robust = robust
         self.seal = seal
-        self._scene = rtcore_scene.EmbreeScene(robust=robust)
+        self._scene = rtcore_scene.EmbreeScene(device=self._device(), robust=robust)
         self._mesh = None
         corners = geometry.local_triangles()  # gathered once for the planes and the padding
         self._planes = geometry.local_planes(corners)
         self._settler = None  # unsealed (tests measuring why sealing is needed): Embree's answer as is
+        self.upload = upload
         if seal:
             self._settler = Settler.sealing(geometry, self._planes, corners)
             if geometry.triangle_count:
-                # float64 in: embreex rounds each value to float32 as numpy's astype would,
-                # and reads float64 items faster (its upload indexes item by item)
-                self._mesh = mesh_construction.TriangleMesh(self._scene, self._settler.padded)
+                self._mesh = self._upload(self._settler.padded)
         elif geometry.triangle_count:
+            from embreex import mesh_construction
+
+            self.upload = "embreex"
             self._mesh = mesh_construction.TriangleMesh(
                 self._scene, geometry.local_vertices(np.float32), geometry.faces
             )
+
+    def _device(self):
+        from embreex import rtcore
+
+        self._embree_device = rtcore.EmbreeDevice()  # kept: the scene's handle is checked against it
+        return self._embree_device
+
+    def _upload(self, soup: np.ndarray):
+        """Put the (T, 3, 3) float64 triangle soup into the scene as float32: through Embree's
+        own buffers in one pass (embree_buffers.py), or, with upload="embreex" or where that
+        cannot be proven safe, through embreex's TriangleMesh (item by item, the same bytes)."""
+        if self.upload == "buffers":
+            try:
+                from . import embree_buffers as eb
+
+                handle = eb.scene_handle(self._scene, self._embree_device, self.robust)
+                return eb.attach_triangle_soup(handle, eb.device_pointer(self._embree_device), soup)
+            except ImportError:
+                self.upload = "embreex"
+        from embreex import mesh_construction
+
+        # float64 in: embreex rounds each value to float32 as numpy's astype would, and reads
+        # float64 items faster
+        return mesh_construction.TriangleMesh(self._scene, soup)
 
     def _ready(self) -> bool:
         return self._mesh is not None
