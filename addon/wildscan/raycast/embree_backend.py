@@ -34,13 +34,29 @@ from .settle import Settler
 _FAR_SLACK = 1e-3
 
 
+def sealed(geometry: SceneGeometry, settler: Settler | None = None):
+    """(planes, settler) of a sealed float32 caster over `geometry`: the padded triangles it
+    uploads and the float64 data settling its answers needs. Pass a `settler` made before
+    (Settler.sealing over the same geometry) to share it between casters."""
+    if settler is not None:
+        return (settler.normal, settler.d), settler
+    corners = geometry.local_triangles()  # gathered once for the planes and the padding
+    planes = geometry.local_planes(corners)
+    return planes, Settler.sealing(geometry, planes, corners)
+
+
 class EmbreeBackend(RefiningBackend):
     """First hits against one Embree scene of the extracted triangles."""
 
     name = "embree"
 
     def __init__(
-        self, geometry: SceneGeometry, robust: bool = True, seal: bool = True, upload: str = "buffers"
+        self,
+        geometry: SceneGeometry,
+        robust: bool = True,
+        seal: bool = True,
+        upload: str = "buffers",
+        settler: Settler | None = None,
     ):
         from embreex import rtcore_scene
 
@@ -49,15 +65,15 @@ class EmbreeBackend(RefiningBackend):
         self.seal = seal
         self._scene = rtcore_scene.EmbreeScene(device=self._device(), robust=robust)
         self._mesh = None
-        corners = geometry.local_triangles()  # gathered once for the planes and the padding
-        self._planes = geometry.local_planes(corners)
         self._settler = None  # unsealed (tests measuring why sealing is needed): Embree's answer as is
         self.upload = upload
         if seal:
-            self._settler = Settler.sealing(geometry, self._planes, corners)
+            self._planes, self._settler = sealed(geometry, settler)
             if geometry.triangle_count:
                 self._mesh = self._upload(self._settler.padded)
-        elif geometry.triangle_count:
+        else:
+            self._planes = geometry.local_planes()
+        if not seal and geometry.triangle_count:
             from embreex import mesh_construction
 
             self.upload = "embreex"

@@ -127,8 +127,8 @@ def attach_triangle_soup(scene_pointer: int, device_pointer: int, soup: np.ndarr
     if not geometry:
         raise MemoryError(f"Embree could not make a geometry (error {lib.rtcGetDeviceError(device_pointer)})")
     try:
-        vertices = _buffer(lib, geometry, _BUFFER_VERTEX, _FORMAT_FLOAT3, VERTEX_STRIDE, 3 * count, np.float32)
-        vertices = vertices.reshape(3 * count, VERTEX_STRIDE // 4)
+        floats = _buffer(lib, geometry, _BUFFER_VERTEX, _FORMAT_FLOAT3, VERTEX_STRIDE, 3 * count, np.float32)
+        vertices = floats.reshape(3 * count, VERTEX_STRIDE // 4)
         vertices[:, :3] = soup.reshape(-1, 3)  # the one copy, float64 -> float32 rounded to nearest
         vertices[:, 3] = 0.0
         indices = _buffer(lib, geometry, _BUFFER_INDEX, _FORMAT_UINT3, 12, count, np.uint32)

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .embree_backend import sealed
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler
 
@@ -29,16 +30,14 @@ class Open3DBackend(RefiningBackend):
 
     name = "open3d"
 
-    def __init__(self, geometry: SceneGeometry, threads: int = 1):
+    def __init__(self, geometry: SceneGeometry, threads: int = 1, settler: Settler | None = None):
         import open3d as o3d
 
         self.geometry = geometry
         self.threads = threads
         self._o3d = o3d
         self._scene = None
-        corners = geometry.local_triangles()  # gathered once for the planes and the padding
-        self._planes = geometry.local_planes(corners)
-        self._settler = Settler.sealing(geometry, self._planes, corners)
+        self._planes, self._settler = sealed(geometry, settler)
         if geometry.triangle_count:
             count = geometry.triangle_count
             vertices = self._settler.padded.reshape(-1, 3).astype(np.float32)
