@@ -10,7 +10,8 @@ Hokuyo scan and an os1-64 frame from the world's first valid pose.
 Per candidate: build time; its first hits of each ray set (the caster alone, `_first_hits`:
 float32 in, triangle, t, u, v out) as ms and rays per second on one thread and, where the
 binding lets two threads cast at once, on two; the peak memory the build adds (the kernel's
-high-water mark, reset before each build on Linux); and whether both scans, fed through the
+high-water mark, reset before the build on Linux; each build measured in a Python process of
+its own, where an earlier build's freed memory cannot hide its peak); and whether both scans, fed through the
 float64 settling and refinement (geometry.RefiningBackend, settle.py), are the same PLY bytes
 as with the reference, embreex's item-by-item upload (the metadata's backend name set to
 embree for all). A candidate whose module is missing gets a row saying so and how to install
@@ -262,24 +263,72 @@ def own_threads(backend, count: int):
 # -- the candidates: built one after another, timed in turns ---------------------------------
 
 
-def build(candidate, geometry, settler, rays: RaySet):
-    """(backend, row with its build figures), or (None, row with why not)."""
+def build(candidate, geometry, settler):
+    """(backend, row), or (None, row with why not)."""
     row = {"name": candidate.name, "what": candidate.what}
     why = missing(candidate)
     if why is not None:
         return None, dict(row, error=why)
-    gc.collect()
-    base = reset_peak()
     try:
-        start = time.perf_counter()
-        backend = candidate.make(geometry, settler)
-        uploaded = time.perf_counter()
-        backend._first_hits(rays.origin[:1], rays.dirs[:1], rays.cast_range)  # builds a lazy BVH
+        backend, figures = timed_build(candidate, geometry, settler)
     except Exception as exc:  # a candidate that cannot run here is a finding, not a crash
         return None, dict(row, error=f"failed: {type(exc).__name__}: {str(exc).splitlines()[0][:120]}")
     backend.bench_name = candidate.name
-    row.update(upload_s=uploaded - start, build_s=time.perf_counter() - start, peak_mb=peak_added_mb(base))
-    return backend, row
+    return backend, dict(row, **figures)
+
+
+def timed_build(candidate, geometry, settler):
+    """(backend, {upload_s, build_s, peak_mb}): made from the shared settler, then one ray cast
+    (a caster that builds its BVH lazily builds it then)."""
+    gc.collect()
+    base = reset_peak()
+    start = time.perf_counter()
+    backend = candidate.make(geometry, settler)
+    uploaded = time.perf_counter()
+    backend._first_hits(np.zeros((1, 3)), np.array([[0.0, 0.0, -1.0]]), 1.0)
+    built = time.perf_counter()
+    return backend, {"upload_s": uploaded - start, "build_s": built - start, "peak_mb": peak_added_mb(base)}
+
+
+def builds_apart(settler, directory: Path) -> dict[str, dict]:
+    """Each candidate's build figures measured in a Python process of its own (fresh memory:
+    in one process a build reuses what an earlier one freed, which hides its peak), from the
+    same padded triangles; {} where no such process can be started (inside Blender)."""
+    import json
+    import subprocess
+
+    if Path(sys.executable).stem.lower().startswith("blender"):
+        return {}
+    soup = directory / "padded.npy"
+    np.save(soup, settler.padded)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    out = {}
+    for candidate in CANDIDATES:
+        if missing(candidate) is not None:
+            continue
+        answer = directory / f"{candidate.name}.json"
+        code = f"from wildscan.bench.casters import build_here; build_here({str(soup)!r}, {candidate.name!r})"
+        done = subprocess.run([sys.executable, "-c", code, str(answer)], env=env, capture_output=True)
+        if done.returncode == 0 and answer.exists():
+            out[candidate.name] = json.loads(answer.read_text())
+    return out
+
+
+def build_here(soup_path: str, name: str) -> None:
+    """In a process of its own (builds_apart): build candidate `name` over the padded soup and
+    write its figures as JSON to the path in sys.argv[1]."""
+    import json
+
+    from ..raycast.geometry import from_triangles
+    from ..raycast.settle import Settler
+
+    padded = np.load(soup_path)
+    geometry = from_triangles(padded)  # only the triangle count is read by a build from a settler
+    settler = Settler(geometry, padded, (np.zeros((len(padded), 3)), np.zeros(len(padded))), padded)
+    candidate = next(c for c in CANDIDATES if c.name == name)
+    missing(candidate)  # imported first: an import is not the caster's build
+    _, figures = timed_build(candidate, geometry, settler)
+    Path(sys.argv[1]).write_text(json.dumps(figures))
 
 
 def time_in_turns(built: list, sets: list[RaySet], runs: int) -> None:
@@ -321,15 +370,17 @@ def bench_casters(seed: int = 0, quick: bool = False, stream=None) -> list[dict]
     detail, runs = ("low", QUICK_RUNS) if quick else ("default", RUNS)
     geometry, pose, z_start = world_and_pose(seed, detail)
     (_, prepared), shared_s = timed(sealed, geometry)
-    sets = ray_sets(geometry, pose, z_start, _embreex(geometry, prepared))
-    built, rows = [], []
-    for candidate in CANDIDATES:  # the reference first: the others' scans are compared with its
-        backend, row = build(candidate, geometry, prepared, sets[0])
-        rows.append(row)
-        if backend is not None:
-            built.append((backend, row))
-    time_in_turns(built, sets, runs)
     with tempfile.TemporaryDirectory(prefix="wildscan-casters-") as tmp:
+        apart = builds_apart(prepared, Path(tmp))
+        sets = ray_sets(geometry, pose, z_start, _embreex(geometry, prepared))
+        built, rows = [], []
+        for candidate in CANDIDATES:  # the reference first: the others' scans are compared with its
+            backend, row = build(candidate, geometry, prepared)
+            row.update(apart.get(candidate.name, {}))
+            rows.append(row)
+            if backend is not None:
+                built.append((backend, row))
+        time_in_turns(built, sets, runs)
         same_bytes(built, sets, pose, z_start, Path(tmp))
     print(
         f"Ray casters on the same triangles and rays: world of seed {seed} at {detail} detail (porous, "
@@ -342,9 +393,10 @@ def bench_casters(seed: int = 0, quick: bool = False, stream=None) -> list[dict]
     )
     print(text_table(*_table(rows, sets)), file=out)
     print(
-        "build: upload of the padded triangles + BVH (s); cast: the caster's own first hits of the "
+        "build: upload of the padded triangles + BVH (s), and peak: the memory the build adds (MB), each "
+        "measured in a Python process of its own; cast: the caster's own first hits of the "
         "rays (float32), ms on 1 thread and Mrays/s on 1 | 2 threads ('-': the binding casts on one); "
-        "peak: memory the build adds (MB); same bytes: both scans' PLY files identical to "
+        "same bytes: both scans' PLY files identical to "
         f"{REFERENCE}'s after the float64 settling",
         file=out,
     )

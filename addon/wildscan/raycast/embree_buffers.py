@@ -47,6 +47,7 @@ SCENE_FLAG_ROBUST = 1 << 2
 # embreex's Vertex struct is 4 floats (x, y, z and an unused one): its stride, kept so the
 # buffer Embree builds from is laid out as embreex's is
 VERTEX_STRIDE = 16
+_BLOCK = 1 << 18  # index values written at a time
 _MARK = 0x5EA1  # written to the public `is_committed` field to find it in memory
 
 
@@ -132,7 +133,9 @@ def attach_triangle_soup(scene_pointer: int, device_pointer: int, soup: np.ndarr
         vertices[:, :3] = soup.reshape(-1, 3)  # the one copy, float64 -> float32 rounded to nearest
         vertices[:, 3] = 0.0
         indices = _buffer(lib, geometry, _BUFFER_INDEX, _FORMAT_UINT3, 12, count, np.uint32)
-        indices[:] = np.arange(3 * count, dtype=np.uint32)
+        for start in range(0, 3 * count, _BLOCK):  # in blocks: no (3T,) temporary beside Embree's copy
+            stop = min(start + _BLOCK, 3 * count)
+            indices[start:stop] = np.arange(start, stop, dtype=np.uint32)
         lib.rtcCommitGeometry(geometry)
         return lib.rtcAttachGeometry(scene_pointer, geometry)
     finally:

@@ -27,11 +27,12 @@ from ..core.backend import RayBackend
 from ..core.checks import one_of
 from ..core.errors import UserError
 
-BACKEND_NAMES = ("auto", "embree", "bvh", "blender")
+BACKEND_NAMES = ("auto", "embree", "open3d", "bvh", "blender")
 DEFAULT_BACKEND = "auto"
-FALLBACK_ORDER = ("embree", "bvh", "blender")
+FALLBACK_ORDER = ("embree", "open3d", "bvh", "blender")
 _INSTALL_HINT = {
     "embree": "install the embreex wheel (pip install embreex) into this Python to enable it",
+    "open3d": "install the open3d wheel (pip install open3d) into this Python to enable it",
     "bvh": "it needs Blender's mathutils (run inside Blender or with the bpy wheel)",
     "blender": "it needs Blender's bpy (run inside Blender or with the bpy wheel)",
 }
@@ -48,6 +49,8 @@ def missing_reason(name: str) -> str | None:
     try:
         if name == "embree":
             from embreex import mesh_construction, rtcore_scene  # noqa: F401
+        elif name == "open3d":
+            import open3d  # noqa: F401
         elif name == "bvh":
             from .bvh_backend import load_bvhtree
 
@@ -98,7 +101,7 @@ def make_backend(
     geometry=None,
     notify: Callable[[str], None] | None = print,
 ) -> RayBackend:
-    """A ready backend. For embree/bvh the scene is extracted (cropped to `radius` around
+    """A ready backend. For embree/open3d/bvh the scene is extracted (cropped to `radius` around
     `center` when both are given) unless `geometry` is passed; a passed geometry is
     cropped the same way, so many poses can share one extraction. Call once per command:
     a fallback is announced on every call."""
@@ -112,6 +115,10 @@ def make_backend(
         from .embree_backend import EmbreeBackend
 
         return EmbreeBackend(geometry)
+    if chosen == "open3d":
+        from .open3d_backend import Open3DBackend
+
+        return Open3DBackend(geometry)
     from .bvh_backend import BVHBackend
 
     return BVHBackend(geometry)
