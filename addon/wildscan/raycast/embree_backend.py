@@ -13,13 +13,19 @@ default (`seal=True`) every triangle is uploaded grown in its own plane by a few
 float32 ulps (geometry.pad_triangles), which closes them all. Tests build the
 unsealed variants to keep measuring why.
 
-embreex 4.4's API used here: `rtcore_scene.EmbreeScene(robust=...)`,
-`mesh_construction.TriangleMesh(scene, vertices, indices=None)` (a (T,3,3) soup
-or (V,3) + (T,3)), and `scene.run(origins f32 (N,3), dirs f32 (N,3), dists=f32 (N,)
-tfar, output=1)` -> dict with primID/geomID (-1 on a miss), tfar, u, v, Ng. `run`
-casts one ray after another, with the GIL released (two threads can cast at once);
-WildScan casts from one thread per process (a dataset runs one
-single-threaded worker per core).
+The upload: the padded (T,3,3) soup goes into Embree's own vertex and index buffers in one
+numpy pass each (embree_buffers.py: ~0.1 s for seed 0's porous world, where embreex's
+TriangleMesh, which copies item by item, took ~1 s quiet), the same float32 bytes, so the
+same BVH and the same answers. Where that path cannot be proven safe (another embreex
+layout) or `upload="embreex"` is asked, TriangleMesh is used.
+
+embreex 4.4's API used here: `rtcore.EmbreeDevice()`, `rtcore_scene.EmbreeScene(device,
+robust=...)`, `mesh_construction.TriangleMesh(scene, vertices, indices=None)` (a (T,3,3)
+soup or (V,3) + (T,3)), and `scene.run(origins f32 (N,3), dirs f32 (N,3), dists=f32 (N,)
+tfar, output=1)` -> dict with primID/geomID (-1 on a miss), tfar, u, v, Ng. `run` commits
+the scene (builds the BVH) on its first call, then casts one ray after another
+(rtcIntersect1), with the GIL released (two threads can cast at once); WildScan casts from
+one thread per process (a dataset runs one single-threaded worker per core).
 """
 
 from __future__ import annotations

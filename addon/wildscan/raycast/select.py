@@ -2,21 +2,33 @@
 
 Backends (all give the same labels; see tests/test_backends.py):
   embree   Embree via the `embreex` wheel, batched from numpy: the default.
+  open3d   Open3D's RaycastingScene over the same sealed triangles: the same PLY bytes as embree.
   bvh      mathutils.bvhtree over the same extracted triangles, one ray per Python call.
   blender  Blender's own scene.ray_cast: the reference, slowest, cost grows with objects.
-  auto     the default: the first of embree, bvh, blender that can be imported.
+  auto     the default: the first of embree, open3d, bvh, blender that can be imported.
 
-Why embree is the default: it casts a whole scan's rays in one batch from numpy, so it
-is by far the fastest of the three and its time stays nearly flat in the number of
-objects, while scene.ray_cast's cost a ray grows with them (`wildscan bench` measures
-both, docs/benchmarks.md has its output); its labels and ranges agree with
-scene.ray_cast's; and with sealed edges (geometry.pad_triangles) it has no leaks in the
-stability suite (tests/test_stability.py), where scene.ray_cast lets some rays aimed at
-shared edges and vertices through.
+Why embree is the default. Against scene.ray_cast and the BVH: it casts a whole scan's rays
+in one batch from numpy, so it is by far the fastest of the three and its time stays nearly
+flat in the number of objects, while scene.ray_cast's cost a ray grows with them (`wildscan
+bench` measures both); its labels and ranges agree with scene.ray_cast's; and with sealed
+edges (geometry.pad_triangles) it has no leaks in the stability suite
+(tests/test_stability.py), where scene.ray_cast lets some rays aimed at shared edges and
+vertices through. Against the other float32 casters (`wildscan bench --suite casters`, all
+fed the same sealed triangles and the same scans' rays, docs/benchmarks.md#casters): every
+one of them (embreex, Embree packets through ctypes, Open3D, NVIDIA Warp, Mitsuba 3) gives
+embree's PLY bytes once the float64 settling has decided the ambiguous hits, so speed and
+memory decide. Embree with its buffers filled by numpy (embree_buffers.py) builds fastest
+(the upload is a single pass; embreex's own upload copies item by item and took ~2.5x the
+whole build), casts fastest on one thread (embreex's `run`, one rtcIntersect1 a ray in C:
+rtcIntersect16 packets from a Python loop, Open3D's cast_rays and Mitsuba's LLVM kernels are
+each slower on a scan's rays, Warp's CPU kernel ~3x slower) and adds the least memory; it
+also releases the GIL while casting. Open3D is the fallback: next fastest, and in the test
+setup already. Warp (CUDA where a GPU exists) and Mitsuba are not shipped: their wheels are
+hundreds of MB and neither beats Embree on a CPU.
 
 A missing module is not an error: the next backend in FALLBACK_ORDER is used and
-`notify` gets one line saying which and why. Imports of bpy, mathutils and
-embreex happen only inside functions, so this module imports anywhere.
+`notify` gets one line saying which and why. Imports of bpy, mathutils, embreex and
+open3d happen only inside functions, so this module imports anywhere.
 """
 
 from __future__ import annotations
