@@ -92,7 +92,9 @@ class WarpBackend(RefiningBackend):
     def __init__(self, geometry, settler=None, device: str = "cpu"):
         import warp as wp
 
-        wp.config.quiet = True
+        wp.config.quiet = True  # Warp's greeting and kernel-load lines stay out of the suite's table
+        if hasattr(wp, "LOG_ERROR"):
+            wp.config.log_level = wp.LOG_ERROR  # warp-lang 1.19's switch for them
         wp.init()
         self.geometry = geometry
         self._wp = wp

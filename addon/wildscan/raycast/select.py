@@ -13,17 +13,18 @@ flat in the number of objects, while scene.ray_cast's cost a ray grows with them
 bench` measures both); its labels and ranges agree with scene.ray_cast's; and with sealed
 edges (geometry.pad_triangles) it has no leaks in the stability suite
 (tests/test_stability.py), where scene.ray_cast lets some rays aimed at shared edges and
-vertices through. Against the other float32 casters (`wildscan bench --suite casters`, all
+vertices through. Against the other float32 casters (`wildscan bench --suite casters`: all
 fed the same sealed triangles and the same scans' rays, docs/benchmarks.md#casters): every
-one of them (embreex, Embree packets through ctypes, Open3D, NVIDIA Warp, Mitsuba 3) gives
-embree's PLY bytes once the float64 settling has decided the ambiguous hits, so speed and
-memory decide. Embree with its buffers filled by numpy (embree_buffers.py) builds fastest
-(the upload is a single pass; embreex's own upload copies item by item and took ~2.5x the
-whole build), casts fastest on one thread (embreex's `run`, one rtcIntersect1 a ray in C:
-rtcIntersect16 packets from a Python loop, Open3D's cast_rays and Mitsuba's LLVM kernels are
-each slower on a scan's rays, Warp's CPU kernel ~3x slower) and adds the least memory; it
-also releases the GIL while casting. Open3D is the fallback: next fastest, and in the test
-setup already. Warp (CUDA where a GPU exists) and Mitsuba are not shipped: their wheels are
+one of them (embreex as it was, Embree packets through ctypes, Open3D, NVIDIA Warp, Mitsuba 3)
+gives embree's PLY bytes once the float64 settling has decided the ambiguous hits, so cost
+decides, and a world is built once for tens of scans. Embree with its buffers filled by numpy
+(embree_buffers.py) has the cheapest build of them all (about half Open3D's, a sixth of
+Mitsuba's, under half of embreex's own item-by-item upload), adds no more memory than embreex
+did (Open3D a little more, Warp and Mitsuba far more), casts a scan's rays on one thread as
+fast as any (Open3D and Mitsuba are as fast on some ray sets and slower on others; packets
+from a Python loop and Warp's CPU kernel are slower) and releases the GIL while casting.
+Open3D is the fallback: next to embree on build and cast together, and in `make setup`
+already. Warp (CUDA where a GPU exists) and Mitsuba are measured only: their wheels are
 hundreds of MB and neither beats Embree on a CPU.
 
 A missing module is not an error: the next backend in FALLBACK_ORDER is used and
