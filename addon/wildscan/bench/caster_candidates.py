@@ -4,6 +4,8 @@ geometry.RefiningBackend whose `_first_hits` is the candidate's own, so its hits
 the same float64 settling and refinement as embree's and its scans can be compared byte
 for byte.
 
+- EmbreeLowQualityBackend: EmbreeBackend's scene built by Embree's low-quality (Morton) BVH
+  builder: what a cheaper build costs in casting.
 - EmbreePacketBackend: the very Embree scene EmbreeBackend builds, cast 16 rays at a time
   by `rtcIntersect16` through ctypes (one foreign call a packet from a Python loop) instead
   of embreex's `run` (one `rtcIntersect1` a ray in C).
@@ -26,6 +28,25 @@ from ..raycast.embree_backend import EmbreeBackend, sealed
 from ..raycast.geometry import RefiningBackend
 
 _FAR_SLACK = 1e-3  # as embree_backend
+
+
+class EmbreeLowQualityBackend(EmbreeBackend):
+    """EmbreeBackend's scene with its BVH built at low quality (rtcSetSceneBuildQuality,
+    RTC_BUILD_QUALITY_LOW = 0: Embree's fast Morton builder): a cheaper build, a slower cast."""
+
+    name = "embree-low"
+    QUALITY_LOW = 0
+
+    def __init__(self, geometry, settler=None):
+        super().__init__(geometry, settler=settler)
+        from ..raycast import embree_buffers as eb
+
+        lib = eb.embree_library()
+        lib.rtcSetSceneBuildQuality.restype = None
+        lib.rtcSetSceneBuildQuality.argtypes = [ctypes.c_void_p, ctypes.c_int]
+        lib.rtcSetSceneBuildQuality(
+            eb.scene_handle(self._scene, self._embree_device, self.robust), self.QUALITY_LOW
+        )
 
 
 class EmbreePacketBackend(EmbreeBackend):

@@ -39,6 +39,7 @@ from .measure import timed
 from .report import text_table
 
 RUNS, QUICK_RUNS = 5, 1
+BUILD_ROUNDS = 3  # each caster built this many times, in turns, each in a process of its own
 FRAME = "leveled"
 HOKUYO_RH = 1.0
 DEVICES = (("hokuyo", "utm30lx-ew", HOKUYO_RH), ("os1-64", "os1-64", None))
@@ -65,6 +66,12 @@ def _embree(geometry, settler):
     from ..raycast.embree_backend import EmbreeBackend
 
     return EmbreeBackend(geometry, settler=settler)
+
+
+def _embree_low(geometry, settler):
+    from .caster_candidates import EmbreeLowQualityBackend
+
+    return EmbreeLowQualityBackend(geometry, settler=settler)
 
 
 def _packets(geometry, settler):
@@ -106,6 +113,14 @@ CANDIDATES = (
         ("embreex",),
         "pip install embreex",
         _embree,
+        "split",
+    ),
+    Candidate(
+        "embree-low",
+        "the same, its BVH built at RTC_BUILD_QUALITY_LOW",
+        ("embreex",),
+        "pip install embreex",
+        _embree_low,
         "split",
     ),
     Candidate(
@@ -290,10 +305,11 @@ def timed_build(candidate, geometry, settler):
     return backend, {"upload_s": uploaded - start, "build_s": built - start, "peak_mb": peak_added_mb(base)}
 
 
-def builds_apart(settler, directory: Path) -> dict[str, dict]:
+def builds_apart(settler, directory: Path, rounds: int) -> dict[str, dict]:
     """Each candidate's build figures measured in a Python process of its own (fresh memory:
     in one process a build reuses what an earlier one freed, which hides its peak), from the
-    same padded triangles; {} where no such process can be started (inside Blender)."""
+    same padded triangles, `rounds` times in turns (the medians); {} where no such process
+    can be started (inside Blender)."""
     import json
     import subprocess
 
@@ -302,16 +318,24 @@ def builds_apart(settler, directory: Path) -> dict[str, dict]:
     soup = directory / "padded.npy"
     np.save(soup, settler.padded)
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
-    out = {}
-    for candidate in CANDIDATES:
-        if missing(candidate) is not None:
-            continue
-        answer = directory / f"{candidate.name}.json"
-        code = f"from wildscan.bench.casters import build_here; build_here({str(soup)!r}, {candidate.name!r})"
-        done = subprocess.run([sys.executable, "-c", code, str(answer)], env=env, capture_output=True)
-        if done.returncode == 0 and answer.exists():
-            out[candidate.name] = json.loads(answer.read_text())
-    return out
+    runs: dict[str, list[dict]] = {}
+    for _ in range(rounds):
+        for candidate in CANDIDATES:
+            if missing(candidate) is not None:
+                continue
+            answer = directory / f"{candidate.name}.json"
+            answer.unlink(missing_ok=True)
+            code = (
+                "from wildscan.bench.casters import build_here; "
+                + f"build_here({str(soup)!r}, {candidate.name!r})"
+            )
+            done = subprocess.run([sys.executable, "-c", code, str(answer)], env=env, capture_output=True)
+            if done.returncode == 0 and answer.exists():
+                runs.setdefault(candidate.name, []).append(json.loads(answer.read_text()))
+    return {
+        name: {key: statistics.median(r[key] for r in found) for key in found[0]}
+        for name, found in runs.items()
+    }
 
 
 def build_here(soup_path: str, name: str) -> None:
@@ -371,7 +395,7 @@ def bench_casters(seed: int = 0, quick: bool = False, stream=None) -> list[dict]
     geometry, pose, z_start = world_and_pose(seed, detail)
     (_, prepared), shared_s = timed(sealed, geometry)
     with tempfile.TemporaryDirectory(prefix="wildscan-casters-") as tmp:
-        apart = builds_apart(prepared, Path(tmp))
+        apart = builds_apart(prepared, Path(tmp), BUILD_ROUNDS if not quick else 1)
         sets = ray_sets(geometry, pose, z_start, _embreex(geometry, prepared))
         built, rows = [], []
         for candidate in CANDIDATES:  # the reference first: the others' scans are compared with its

@@ -20,7 +20,8 @@ embreex layout, no libembree4 next to it - raises `ImportError`, and EmbreeBacke
 uploads through `TriangleMesh` as before.
 
 The library is the libembree4 that the embreex wheel ships and has loaded already
-(embreex.libs/ on Linux), so the handles are the same library's.
+(embreex.libs/ on Linux), so the handles are the same library's. Tested on Linux (x86_64);
+elsewhere a library not found where the wheel puts it means the embreex upload.
 
 Embree 4 API (rtcore_geometry.h, rtcore_buffer.h, rtcore_scene.h, rtcore_device.h):
 rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE = 0); rtcSetNewGeometryBuffer(geometry,
@@ -57,11 +58,13 @@ def embree_library() -> ctypes.CDLL:
     import embreex
 
     here = os.path.dirname(os.path.abspath(embreex.__file__))
-    found = sorted(
-        glob.glob(os.path.join(here, os.pardir, "embreex.libs", "libembree4*"))
-        + glob.glob(os.path.join(here, "libembree4*"))
-        + glob.glob(os.path.join(here, os.pardir, "embreex.libs", "embree4*.dll"))
+    places = (  # where the wheels' repair tools put it: auditwheel, delocate, delvewheel
+        (os.pardir, "embreex.libs", "libembree4*"),
+        (".dylibs", "libembree4*"),
+        (os.pardir, "embreex.libs", "embree4*.dll"),
+        ("libembree4*",),
     )
+    found = sorted(p for place in places for p in glob.glob(os.path.join(here, *place)))
     if not found:
         raise ImportError(f"no libembree4 beside embreex in {os.path.dirname(here)}")
     lib = ctypes.CDLL(os.path.realpath(found[0]))
