@@ -101,6 +101,8 @@ def scene_handle(scene, device, robust: bool) -> int:
     base = id(scene)
     committed_at = base + header + pointer
     device_at = base + header + 2 * pointer
+    if type(scene).__basicsize__ < header + 3 * pointer or type(device).__basicsize__ < header + pointer:
+        raise ImportError("embreex's EmbreeScene is smaller than rtcore_scene.pxd 4.4 declares")
     was = scene.is_committed
     scene.is_committed = _MARK
     try:
