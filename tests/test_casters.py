@@ -176,3 +176,11 @@ def test_the_casters_suite_is_dispatched_with_seed_and_quick(monkeypatch):
     monkeypatch.setattr(casters, "bench_casters", lambda seed, quick: calls.append((seed, quick)))
     assert cli.main(["bench", "--suite", "casters", "--seed", "2", "--quick"]) == 0
     assert calls == [(2, True)]
+
+
+def test_backend_options_are_refused_for_the_casters_suite(capsys):
+    from wildscan import cli
+
+    assert cli.main(["bench", "--suite", "casters", "--backends", "embree"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--backends applies to --suite backends only" in err[0], err
