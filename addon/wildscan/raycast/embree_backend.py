@@ -39,7 +39,11 @@ class EmbreeBackend(RefiningBackend):
 
     name = "embree"
 
-    def __init__(self, geometry: SceneGeometry, robust: bool = True, seal: bool = True):
+    def __init__(
+        self, geometry: SceneGeometry, robust: bool = True, seal: bool = True, settler: Settler | None = None
+    ):
+        """`settler`: the sealing Settler of `geometry` made before (a dataset worker's world
+        cache, app/cache/worlds.py): its planes and padded triangles are used as they are."""
         from embreex import mesh_construction, rtcore_scene
 
         self.geometry = geometry
@@ -47,19 +51,23 @@ class EmbreeBackend(RefiningBackend):
         self.seal = seal
         self._scene = rtcore_scene.EmbreeScene(robust=robust)
         self._mesh = None
-        corners = geometry.local_triangles()  # gathered once for the planes and the padding
-        self._planes = geometry.local_planes(corners)
         self._settler = None  # unsealed (tests measuring why sealing is needed): Embree's answer as is
         if seal:
-            self._settler = Settler.sealing(geometry, self._planes, corners)
+            if settler is None:
+                corners = geometry.local_triangles()  # gathered once for the planes and the padding
+                settler = Settler.sealing(geometry, geometry.local_planes(corners), corners)
+            self._settler = settler
+            self._planes = (settler.normal, settler.d)
             if geometry.triangle_count:
                 # float64 in: embreex rounds each value to float32 as numpy's astype would,
                 # and reads float64 items faster (its upload indexes item by item)
-                self._mesh = mesh_construction.TriangleMesh(self._scene, self._settler.padded)
-        elif geometry.triangle_count:
-            self._mesh = mesh_construction.TriangleMesh(
-                self._scene, geometry.local_vertices(np.float32), geometry.faces
-            )
+                self._mesh = mesh_construction.TriangleMesh(self._scene, settler.padded)
+        else:
+            self._planes = geometry.local_planes()
+            if geometry.triangle_count:
+                self._mesh = mesh_construction.TriangleMesh(
+                    self._scene, geometry.local_vertices(np.float32), geometry.faces
+                )
 
     def _ready(self) -> bool:
         return self._mesh is not None
