@@ -14,6 +14,8 @@ import functools
 import os
 from pathlib import Path
 
+from ...core.errors import UserError
+from ...core.io.files import output_directory
 from .store import DiskCache
 
 DEFAULT_MAX_GB = 10.0
@@ -51,3 +53,40 @@ def world_facts(source: str, cache: DiskCache | None) -> dict:
     if cache is not None:
         warnings, cache.warnings[:] = list(cache.warnings), []
     return {"world_source": source, "cache_warnings": warnings}
+
+
+def count_worlds(counts: dict[str, int], facts: dict, warn) -> None:
+    """On the client: add a batch's world to `counts` ("built" or "cache"; a worker's last
+    world reused counts for nothing) and pass its cache warnings to `warn`."""
+    source = facts.get("world_source")
+    if source in ("built", "cache"):
+        counts[source] = counts.get(source, 0) + 1
+    for line in facts.get("cache_warnings", ()):
+        warn(line)
+
+
+def worlds_text(counts: dict[str, int]) -> str:
+    """'worlds: 20 from cache, 0 built' (the summary line's part)."""
+    return f"worlds: {counts.get('cache', 0):,} from cache, {counts.get('built', 0):,} built"
+
+
+def cache_from_options(
+    directory: str | None, off: bool, size_gb: float | None, scheduler: str | None, warn
+) -> dict | None:
+    """The cache config of `wildscan dataset --cache DIR | --no-cache [--cache-size GB]`.
+    A --cache folder that cannot be made or written is the user's to fix (UserError, before
+    anything is written); the default one, the user never asked for: a warning, no cache."""
+    if off:
+        if size_gb is not None:
+            raise UserError("--no-cache takes no --cache-size")
+        return None
+    size = DEFAULT_MAX_GB if size_gb is None else size_gb
+    if directory is not None:
+        return cache_config(output_directory(directory, "--cache"), size)
+    if scheduler:
+        return cache_config(None, size)  # each worker's own user cache
+    try:
+        return cache_config(output_directory(default_cache_dir(), "--cache"), size)
+    except UserError as e:
+        warn(f"{e}: worlds are built, not kept (give --cache DIR, or --no-cache)")
+        return None

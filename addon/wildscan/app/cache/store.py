@@ -115,6 +115,7 @@ class DiskCache:
             return
         try:
             with os.fdopen(fd, "w+b") as f:
+                os.fchmod(f.fileno(), 0o644)  # as any file written (mkstemp makes it private)
                 write_entry(f, kind, key, meta, arrays)
             os.replace(tmp, self.path(kind, key))
         except OSError as e:
