@@ -70,6 +70,7 @@ class DiskCache:
     max_bytes: int
     warnings: list[str] = field(default_factory=list)
     _writable: bool = True
+    _said: set[str] = field(default_factory=set)  # warnings given once per process
 
     def path(self, kind: str, key: str) -> Path:
         return self.root / f"{kind}-{key}{SUFFIX}"
@@ -85,14 +86,16 @@ class DiskCache:
             with open(path, "rb") as f:
                 inode = os.fstat(f.fileno()).st_ino
                 entry = read_entry(f, kind, key)
-        except FileNotFoundError:
-            return None
+        except (FileNotFoundError, NotADirectoryError):
+            return None  # not there (or no cache folder at all): a miss
         except DamagedEntry as e:
             self.warnings.append(f"cache entry {path.name} is damaged ({e}): built again")
             _remove_if_same(path, inode)
             return None
         except OSError as e:
-            self.warnings.append(f"cannot read cache entry {path} ({e.strerror or e}): built again")
+            self._warn_once(
+                f"cannot read the world cache in {self.root} ({e.strerror or e}): worlds are built"
+            )
             return None
         try:
             os.utime(path)  # most recently used
@@ -124,9 +127,14 @@ class DiskCache:
             return
         self.evict(keep=self.path(kind, key))
 
+    def _warn_once(self, line: str) -> None:
+        if line not in self._said:
+            self._said.add(line)
+            self.warnings.append(line)
+
     def _not_writable(self, error: OSError) -> None:
         self._writable = False
-        self.warnings.append(
+        self._warn_once(
             f"cannot write the world cache in {self.root} ({error.strerror or error}): "
             "worlds are built but not kept"
         )
@@ -231,7 +239,7 @@ def write_entry(f, kind: str, key: str, meta: dict, arrays: dict[str, np.ndarray
         zf.comment = b"0" * DIGEST_BYTES  # replaced by the digest below
         _write_member(zf, out, ENTRY_JSON, lambda dest: dest.write(text), len(text))
         for name, array in arrays.items():
-            array = np.ascontiguousarray(array)
+            array = np.asarray(array, order="C")  # (ascontiguousarray makes a 0-d array 1-d)
             if array.dtype.hasobject:
                 raise TypeError(f"{name}: object arrays are not cached")
             head = io.BytesIO()

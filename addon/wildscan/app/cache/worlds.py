@@ -63,7 +63,7 @@ class PreparedWorld:
     plan: WorldPlan | None = None  # when just built; None when loaded (poses_for plans it if needed)
     from_cache: bool = False
     seconds: float = 0.0
-    timings: dict[str, float] = field(default_factory=dict)  # seconds per step (the bench prints them)
+    timings: dict[str, tuple[float, float]] = field(default_factory=dict)  # step -> (wall, CPU) s
 
     def world_plan(self) -> WorldPlan:
         if self.plan is None:
@@ -79,7 +79,7 @@ def world_inputs(seed: int, detail: str, vegetation: str, biome: str) -> dict:
 def prepared_world(inputs: dict, cache: DiskCache | None) -> PreparedWorld:
     """The world of `inputs`, from the cache when it holds it, else built (and stored)."""
     t0 = time.perf_counter()
-    timings: dict[str, float] = {}
+    timings: dict[str, tuple[float, float]] = {}
     key = entry_key(WORLD, inputs)
     with step(timings, "read and verify the entry"):
         entry = cache.get(WORLD, key) if cache is not None else None
@@ -99,13 +99,15 @@ def prepared_world(inputs: dict, cache: DiskCache | None) -> PreparedWorld:
 
 
 @contextmanager
-def step(timings: dict[str, float], name: str):
-    t0 = time.perf_counter()
+def step(timings: dict[str, tuple[float, float]], name: str):
+    """Add the wall and CPU seconds of the block to timings[name] (wall, cpu)."""
+    wall, cpu = time.perf_counter(), time.process_time()
     yield
-    timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
+    before = timings.get(name, (0.0, 0.0))
+    timings[name] = (before[0] + time.perf_counter() - wall, before[1] + time.process_time() - cpu)
 
 
-def build_prepared(inputs: dict, timings: dict[str, float] | None = None) -> PreparedWorld:
+def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
     """Plan the world, make its triangles and everything the sealed caster reads."""
     from ...raycast.from_plan import plan_geometry
 
