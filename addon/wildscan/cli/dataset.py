@@ -20,10 +20,12 @@ HELP, DESCRIPTION = (
     "keys.",
 )
 BENCH_HELP, BENCH_DESCRIPTION = (
-    "time `wildscan dataset` with 1 and 2 workers side by side",
+    "time `wildscan dataset` with 1 and 2 workers side by side, cold and warm world cache",
     "Make the same SemanticKITTI dataset (default: 1,000 scans at r_h = 1 deg from 20 worlds, world builds "
-    "included) once per worker count, in fresh temporary folders, and print scans per second, the speed-up "
-    "and the peak memory of each worker side by side.",
+    "included) once per worker count, in fresh temporary folders with an empty world cache (cold), then with "
+    "the last count again on the cache that run filled (warm), and print scans per second, the speed-up, the "
+    "worlds read and built and the peak memory of each worker side by side, with the targets met or not. "
+    "First, one world's steps built and read back from the cache.",
 )
 
 
