@@ -166,12 +166,8 @@ def to_entry(world: PreparedWorld) -> tuple[dict, dict[str, np.ndarray]]:
         owners=owners,
         instances=world.instances,
         open_ground=og.is_open,
-        terrain_xs=ground.terrain.xs,
-        terrain_ys=ground.terrain.ys,
-        terrain_z=ground.terrain.z,
+        **ground_arrays(ground),
     )
-    for k, floor in enumerate(ground.floors):
-        arrays[f"floor{k}"] = floor.tri  # FloorTops of this triangle soup is the same again
     if world.cover is not None:
         arrays.update(world.cover.to_arrays())
         arrays["cover_nodes"] = world.cover.node_ground()
@@ -202,7 +198,6 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         arrays["band"],
         (arrays["corner_pos"], arrays["starts"], arrays["owners"]),
     )
-    floors = [_soup(arrays[f"floor{k}"]) for k in range(meta["floors"])]
     x0, y0, cell = meta["open_ground"]
     return PreparedWorld(
         inputs=inputs,
@@ -211,16 +206,24 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         instances=arrays["instances"],
         z_range=(meta["z_range"][0], meta["z_range"][1]),
         open_ground=OpenGround(x0, y0, cell, arrays["open_ground"]),
-        ground=StandingGround(
-            TerrainGrid(arrays["terrain_xs"], arrays["terrain_ys"], arrays["terrain_z"]), floors
-        ),
+        ground=ground_from_arrays(arrays, meta["floors"]),
         cover=cover,
     )
 
 
-def _soup(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(vertices, faces) of a (T, 3, 3) triangle soup."""
-    return tri.reshape(-1, 3), np.arange(3 * len(tri)).reshape(-1, 3)
+def ground_arrays(ground: StandingGround) -> dict[str, np.ndarray]:
+    """The standing ground as arrays: the terrain grid and each flooring's triangles."""
+    arrays = {"terrain_xs": ground.terrain.xs, "terrain_ys": ground.terrain.ys, "terrain_z": ground.terrain.z}
+    for k, floor in enumerate(ground.floors):
+        arrays[f"floor{k}"] = floor.tri  # FloorTops of this triangle soup is the same again
+    return arrays
+
+
+def ground_from_arrays(arrays: dict[str, np.ndarray], floors: int) -> StandingGround:
+    """The standing ground of ground_arrays (and `floors`, how many floorings it has)."""
+    terrain = TerrainGrid(arrays["terrain_xs"], arrays["terrain_ys"], arrays["terrain_z"])
+    soups = [arrays[f"floor{k}"] for k in range(floors)]
+    return StandingGround(terrain, [(t.reshape(-1, 3), np.arange(3 * len(t)).reshape(-1, 3)) for t in soups])
 
 
 # ---------------------------------------------------------------------------------------
