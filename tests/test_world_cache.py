@@ -5,6 +5,7 @@ dataset scanned from a warm cache byte for byte the one scanned cold or without 
 
 from __future__ import annotations
 
+import json
 import multiprocessing
 import os
 from pathlib import Path
@@ -19,7 +20,7 @@ from wildscan.app.cache.store import TEMP_PREFIX, DiskCache
 from wildscan.app.cache.worlds import prepared_world, world_inputs
 from wildscan.core.errors import UserError
 
-from tests.helpers.dataset_helpers import wildscan
+from tests.helpers.dataset_helpers import assert_same_dataset, wildscan
 
 KEY = "ab" * 32
 OTHER = "cd" * 32
@@ -300,3 +301,34 @@ def test_a_cache_the_run_cannot_use_is_one_line_and_exit_2_before_any_work(tmp_p
                     *[a.format(d=tmp_path) for a in args])  # fmt: skip
     assert done.returncode == 2 and says.format(d=tmp_path) in done.stderr, done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and not out.exists()
+
+
+TWO_WORLDS = """\
+seeds = [1, 2]
+detail = "low"
+vegetation = "solid"
+scans_per_world = 2
+formats = ["semantickitti", "ply"]
+split = { train = 1.0, val = 0.0, test = 0.0 }
+
+[sensor]
+rh = 10.0
+"""
+
+
+@pytest.mark.slow
+def test_a_run_on_a_warm_cache_builds_no_world_says_so_and_writes_the_same_dataset(tmp_path):
+    (tmp_path / "spec.toml").write_text(TWO_WORLDS)
+    cache = str(tmp_path / "cache")
+    said = {}
+    for name, flags in (("cold", ["--cache", cache]), ("warm", ["--cache", cache]), ("none", ["--no-cache"])):
+        done = wildscan("dataset", str(tmp_path / "spec.toml"), "--out", str(tmp_path / name),
+                        "--workers", "1", "--quiet", *flags)  # fmt: skip
+        assert done.returncode == 0 and done.stderr == "", done.stderr
+        said[name] = done.stdout
+    assert "worlds: 0 from cache, 2 built" in said["cold"] and "worlds: 0 from cache, 2 built" in said["none"]
+    assert "worlds: 2 from cache, 0 built" in said["warm"]
+    run = json.loads((tmp_path / "warm" / "dataset.json").read_text())["runs"][-1]
+    assert (run["worlds_from_cache"], run["worlds_built"]) == (2, 0)
+    assert_same_dataset(tmp_path / "cold", tmp_path / "warm")  # every file, every manifest SHA-256
+    assert_same_dataset(tmp_path / "cold", tmp_path / "none")
