@@ -204,23 +204,28 @@ def _remove_if_same(path: Path, inode: int | None) -> None:
 
 class _HashingWriter:
     """A write-only, unseekable stream over a file that hashes what goes through it, so
-    zipfile writes sequentially (data descriptors) and the digest needs no second read.
-    `before_last` is the hash of everything but the last write (the zip comment)."""
+    zipfile writes sequentially (data descriptors) and the digest needs no second read. The
+    last DIGEST_BYTES written (the zip comment, where the digest goes) are left out of it."""
 
     def __init__(self, f):
         self.f = f
         self.position = 0
         self.sha = hashlib.sha256()
-        self.before_last = self.sha.copy()
-        self.last_size = 0
+        self.tail = b""  # the last bytes written, not hashed yet
 
     def write(self, data) -> int:
-        self.before_last = self.sha.copy()
-        self.sha.update(data)
-        self.f.write(data)
-        size = memoryview(data).nbytes
+        view = memoryview(data).cast("B")
+        self.f.write(view)
+        size = len(view)
         self.position += size
-        self.last_size = size
+        if size >= DIGEST_BYTES:
+            self.sha.update(self.tail)
+            self.sha.update(view[: size - DIGEST_BYTES])
+            self.tail = bytes(view[size - DIGEST_BYTES :])
+        else:
+            joined = self.tail + bytes(view)
+            self.sha.update(joined[:-DIGEST_BYTES])
+            self.tail = joined[-DIGEST_BYTES:]
         return size
 
     def tell(self) -> int:
@@ -247,10 +252,10 @@ def write_entry(f, kind: str, key: str, meta: dict, arrays: dict[str, np.ndarray
             body = _npy_body(head.getvalue(), array)
             size = head.tell() + array.nbytes
             _write_member(zf, out, f"{name}.npy", body, size)
-    if out.last_size != DIGEST_BYTES:
-        raise AssertionError("the zip comment was not the last write")
+    if out.tail != b"0" * DIGEST_BYTES:  # the zip format ends with its comment
+        raise ValueError("the zip comment is not at the end of the file")
     f.seek(out.position - DIGEST_BYTES)
-    f.write(out.before_last.hexdigest().encode("ascii"))
+    f.write(out.sha.hexdigest().encode("ascii"))
 
 
 def _npy_body(head: bytes, array: np.ndarray):
