@@ -64,6 +64,8 @@ class EmbreeBackend(RefiningBackend):
         upload: str = "buffers",
         settler: Settler | None = None,
     ):
+        """`settler`: the sealing Settler of `geometry` made before (a dataset worker's world
+        cache, app/cache/worlds.py): its planes and padded triangles are used as they are."""
         from embreex import rtcore_scene
 
         self.geometry = geometry
