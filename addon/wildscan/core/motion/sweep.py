@@ -172,10 +172,12 @@ def _deskewed(
     out = vectors.copy()
     relative = dm.matmul(start_r.T, rotation[k0:k1])  # R_k0^T R_k
     relative[np.all(rotation[k0:k1] == start_r, axis=(1, 2))] = np.eye(3)
+    # scan_of is sorted: each run of 2D scans is one slice of the points
+    edges = np.searchsorted(scan_of, np.arange(k1 - k0 + 1))
     for a, b in _runs(relative):
         if np.array_equal(relative[a], np.eye(3)):
             continue
-        rows = (scan_of >= a) & (scan_of < b)
+        rows = slice(edges[a], edges[b])
         out[rows] = dm.apply(relative[a], vectors[rows])
     offset = dm.apply(start_r.T, centre[k0:k1] - start_c)  # R_k0^T (c_k - c_k0), one row a 2D scan
     step = dm.apply(start_r.T, centre[k0 + 1 : k1 + 1] - centre[k0:k1])
