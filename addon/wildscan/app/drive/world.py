@@ -90,20 +90,40 @@ def crop_along(geometry: SceneGeometry, xy: np.ndarray, radius: float) -> SceneG
     if np.all(xy == xy[0]):
         return geometry.cropped(xy[0], radius)
     samples = _samples(_thinned(xy, CROP_STEP / 2), CROP_STEP)
-    corners = geometry.vertices[:, :2][geometry.faces]
-    lo, hi = corners.min(axis=1), corners.max(axis=1)
     reach = radius + CROP_STEP / 2  # every point of the path is within half a step of a sample
-    near = np.all((lo <= samples.max(axis=0) + reach) & (hi >= samples.min(axis=0) - reach), axis=1)
-    candidates = np.flatnonzero(near)
+    lo, hi = samples.min(axis=0) - reach, samples.max(axis=0) + reach
+    candidates, box_lo, box_hi = _boxes_meeting(geometry, lo, hi)
+    near = np.zeros(len(candidates), dtype=bool)
+    (lo_x, lo_y), (hi_x, hi_y) = box_lo, box_hi
+    for px, py in samples.tolist():
+        # the box's point nearest the sample, as np.clip finds it: min(max(p, lo), hi)
+        gx = np.minimum(np.maximum(px, lo_x), hi_x) - px
+        gy = np.minimum(np.maximum(py, lo_y), hi_y) - py
+        near |= gx * gx + gy * gy <= reach * reach
     keep = np.zeros(geometry.triangle_count, dtype=bool)
-    lo_c, hi_c = lo[candidates], hi[candidates]
-    for point in samples:
-        gap = np.clip(point, lo_c, hi_c) - point
-        keep[candidates[gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= reach * reach]] = True
+    keep[candidates[near]] = True
     part = geometry.subset(keep)
     centre = 0.5 * (samples.min(axis=0) + samples.max(axis=0))
     part.offset = local_origin(part.vertices, part.faces, centre)
     return part
+
+
+def _boxes_meeting(geometry: SceneGeometry, lo: np.ndarray, hi: np.ndarray):
+    """(the triangles whose xy bounding box meets the box lo..hi, their boxes' low corners
+    (x (C,), y (C,)) and high corners), column by column: a reduction over a (T, 3) axis is slow."""
+    faces = geometry.faces
+    inside = np.ones(len(faces), dtype=bool)
+    columns = []
+    for axis in range(2):
+        corner = geometry.vertices[:, axis][faces]
+        low = np.minimum(np.minimum(corner[:, 0], corner[:, 1]), corner[:, 2])
+        high = np.maximum(np.maximum(corner[:, 0], corner[:, 1]), corner[:, 2])
+        inside &= (low <= hi[axis]) & (high >= lo[axis])
+        columns.append((low, high))
+    candidates = np.flatnonzero(inside)
+    box_lo = tuple(low[candidates] for low, _ in columns)
+    box_hi = tuple(high[candidates] for _, high in columns)
+    return candidates, box_lo, box_hi
 
 
 def _thinned(xy: np.ndarray, step: float) -> np.ndarray:
