@@ -4,6 +4,7 @@ triangles whose xy bounding box comes within the crop's reach of a point of the 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from wildscan.app.drive.world import CROP_STEP, _samples, _thinned, crop_along
 from wildscan.raycast.geometry import from_triangles
@@ -40,3 +41,38 @@ def test_the_crop_keeps_the_boxes_within_reach_of_the_path():
     assert 0 < keep.sum() < geometry.triangle_count
     assert np.array_equal(np.sort(part.instance), np.flatnonzero(keep))
     assert np.array_equal(part.vertices[part.faces], geometry.vertices[geometry.faces][keep])
+
+
+@pytest.mark.parametrize("stretch", [slice(30, 60), slice(45, 46)])
+def test_a_seeds_world_made_near_the_path_crops_as_the_whole_world(stretch):
+    """DriveWorld.crop makes triangles only of the elements near the path; the crop is the
+    crop of the whole world's triangles, array for array (a stretch of the trail, and a robot
+    standing still)."""
+    from wildscan.app.drive import DriveRequest
+    from wildscan.app.drive.world import drive_world
+    from wildscan.raycast.from_plan import plan_geometry
+
+    world = drive_world(DriveRequest(out="-", seed=1, detail="low"))
+    xy = (
+        world.trail[stretch]
+        if stretch.stop - stretch.start > 1
+        else np.repeat(world.trail[stretch], 5, axis=0)
+    )
+    whole = plan_geometry(world.plan)
+    expected = crop_along(whole, xy, 16.0)
+    made: list = []
+
+    def counting(plan, keep=None):
+        geometry = plan_geometry(plan, keep)
+        made.append(geometry.triangle_count)
+        return geometry
+
+    import wildscan.raycast.from_plan as from_plan
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(from_plan, "plan_geometry", counting)
+        part = world.crop(xy, 16.0)
+    assert expected.triangle_count < made[0] < whole.triangle_count  # fewer made, more than kept
+    for name in ("vertices", "faces", "class_id", "instance", "object_index", "reflectivity", "offset"):
+        assert np.array_equal(getattr(part, name), getattr(expected, name), equal_nan=True), name
+    assert part.object_names == expected.object_names and part.cover is expected.cover
