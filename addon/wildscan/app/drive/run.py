@@ -33,6 +33,7 @@ from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
 from . import files
 from .bags import BagFeed, open_bags
+from .memory import keep_freed_memory
 from .request import DriveRequest
 from .wind import drive_effects, moving_scene
 from .world import drive_path, drive_world
@@ -67,6 +68,7 @@ def run_drive(request: DriveRequest, progress=None, say=print) -> DriveReport:
 
 
 def _drive(request: DriveRequest, progress, say) -> DriveReport:
+    keep_freed_memory()  # the sweeps' arrays reuse heap pages instead of faulting in new ones
     clock = _Clock()
     request.check()
     files.check_out_dir(request.out)
