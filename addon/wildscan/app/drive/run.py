@@ -219,7 +219,7 @@ class _Context:
         scan = ScanOutput(deskewed, {}, self.labels, world_instances=self.world_instances)
         kitti = {"velodyne": paths["velodyne"], "labels": paths["labels"]}
         files.stage_format(stage, "semantickitti", scan, kitti)
-        np.add.at(self.class_points, self.labels.map(deskewed.label), 1)
+        self.class_points += np.bincount(self.labels.map(deskewed.label), minlength=len(self.class_points))
         self.pose_matrices.append(pose_matrix(start, frame))
         self.start_times.append(float(self.motion.times[result.k0]))
         self.scans.append(
