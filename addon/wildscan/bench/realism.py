@@ -7,7 +7,10 @@ porous vegetation give, and what they cost, beside the paper model and the solid
   echoes     a realistic scan of every zone's first valid pose: how many beams return 1, 2
              or 3 echoes, how many points are mixed, how many beams see a trunk behind crown
   speed      the same full r_h = 1 deg scans, placement to PLY written, paper beside
-             realistic (median of RUNS; Blender-free plan geometry, the default backend)
+             realistic, as `wildscan scan` takes them (the world's ground cover included;
+             median of RUNS; Blender-free plan geometry, the default backend), with the share
+             of the realistic scan spent in the backend's cast; every zone against
+             SPEED_TARGET_S
   build      the world of the seed built in Blender at default detail, porous beside solid
              (the worlds before porous vegetation): seconds, peak memory, objects,
              triangles (each in a fresh Python, so peak memory is the build's own)
@@ -31,7 +34,7 @@ from .report import text_table
 POROSITY_SEEDS = 4
 CROWN_TARGET = (0.20, 0.50)
 SKY_TARGET = (0.15, 0.35)
-SPEED_TARGET_S = 0.3
+SPEED_TARGET_S = 0.25  # s, a realistic full r_h = 1 deg scan, in every zone
 RUNS = 3
 DETAIL = "default"
 
@@ -75,11 +78,28 @@ def trunk_behind_crown(cloud) -> int:
     return len({b for b, e in zip(beam[trunk], echo[trunk]) if b in first_crown and e > first_crown[b]})
 
 
+class CastTimer:
+    """A backend that adds up the seconds its `cast` takes (the rest of a scan is ours)."""
+
+    def __init__(self, backend):
+        self.backend = backend
+        self.name = backend.name
+        self.capabilities = backend.capabilities
+        self.seconds = 0.0
+
+    def cast(self, *args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            return self.backend.cast(*args, **kwargs)
+        finally:
+            self.seconds += time.perf_counter() - t0
+
+
 def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
     """Per zone: the paper and realistic scans of its first valid pose, timed placement to
     PLY written, and the realistic scan's echoes."""
     from ..app.poses import plan_backend, valid_poses
-    from ..app.scan import make_scene_backend
+    from ..app.scan import make_scene_backend, scan_effects, scene_cover
     from ..core.io.ply import write_scan_files
     from ..core.placement import Pose
     from ..core.scan import run_scan
@@ -101,15 +121,24 @@ def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
             row = {"zone": zone, "pose": (p["x"], p["y"], p["yaw"])}
             for model in ("paper", "realistic"):
                 sensor = SensorConfig(model=model).validate()
-                backend = make_scene_backend("auto", pose, sensor, notify=lambda _t: None, geometry=geometry)
-                times = []
+                effects = scan_effects(None, sensor, scene_cover(geometry))
+                backend = CastTimer(
+                    make_scene_backend("auto", pose, sensor, notify=lambda _t: None, geometry=geometry)
+                )
+                times, casts = [], []
+                # a first scan fills what a backend keeps for every later one (the settling
+                # index: the world's build, not the scan's)
+                run_scan(backend, pose, sensor, z_start=p.get("z_start"), effects=effects)
                 for _ in range(runs):
                     with gc_paused():
+                        backend.seconds = 0.0
                         t0 = time.perf_counter()
-                        result = run_scan(backend, pose, sensor, z_start=p.get("z_start"))
+                        result = run_scan(backend, pose, sensor, z_start=p.get("z_start"), effects=effects)
                         write_scan_files(Path(tmp) / f"{zone}_{model}.ply", result.cloud, result.metadata)
                         times.append(time.perf_counter() - t0)
+                        casts.append(backend.seconds)
                 row[f"{model}_s"] = statistics.median(times)
+                row[f"{model}_cast_s"] = statistics.median(casts)
                 row[f"{model}_points"] = len(result.cloud)
             echoes = result.metadata["echoes"]
             beams = echoes["beams_by_echoes"]
@@ -221,14 +250,18 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
         )
     )
     runs = 1 if quick else RUNS
-    scans = scan_rows(seed, runs, ("hills", "forest") if quick else None)
-    say(f"\n== Full r_h = 1 deg scans, placement to PLY written (median of {runs}), and the realistic echoes")
+    scans = scan_rows(seed, runs)
+    say(
+        f"\n== Full r_h = 1 deg scans, placement to PLY written (median of {runs}; 'in cast': the "
+        "realistic scan's share in the backend's cast), and the realistic echoes"
+    )
     say(
         text_table(
             [
                 "zone",
                 "paper",
                 "realistic",
+                "in cast",
                 "paper pts",
                 "realistic pts",
                 "2 echoes",
@@ -241,6 +274,7 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
                     r["zone"],
                     f"{r['paper_s']:.3f} s",
                     f"{r['realistic_s']:.3f} s",
+                    f"{r['realistic_cast_s'] / r['realistic_s']:.0%}",
                     f"{r['paper_points']:,}",
                     f"{r['realistic_points']:,}",
                     f"{r['share_2']:.1%}",
@@ -281,11 +315,11 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
     porous_sky = skies["porous"]["sky"]
     say(f"  sky from under the forest canopy {porous_sky:.1%} in 15-35 %: {_within(porous_sky, SKY_TARGET)}")
     by_zone = {r["zone"]: r for r in scans}
-    if "hills" in by_zone:
-        t = by_zone["hills"]["realistic_s"]
+    for r in scans:
+        t = r["realistic_s"]
         say(
-            f"  realistic full scan at the reference (hills) pose {t:.3f} s < {SPEED_TARGET_S} s: "
-            f"{'met' if t < SPEED_TARGET_S else 'NOT met'}"
+            f"  realistic full scan, {r['zone']:<6} reference pose {t:.3f} s <= {SPEED_TARGET_S} s: "
+            f"{'met' if t <= SPEED_TARGET_S else 'NOT met'}"
         )
     if "forest" in by_zone:
         f = by_zone["forest"]
