@@ -91,10 +91,12 @@ def realistic_points(
     """Every point of a realistic scan over the beams of sensor.beam_directions (their
     order). `cast(origins, dirs_world, max_range, normals)` is the backend's cast (maybe
     reporting progress); `rotation` turns the sensor frame to the world's."""
-    sub_world = dm.apply(rotation, subray_directions(sensor.rh_deg, sensor.divergence_mrad, sensor.device))
+    sub_sensor = subray_directions(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
+    sub_world = np.empty(sub_sensor.shape)
     # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
-    # single-echo realistic scan hits exactly where the paper's does.
+    # single-echo realistic scan hits exactly where the paper's does; the ring is turned.
     sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
+    sub_world[1:] = dm.apply(rotation, sub_sensor[1:])
     return echo_points(cast, origin, sub_world, sensor, cast_range, effects)
 
 
@@ -122,8 +124,7 @@ def echo_points(
     keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
     echoes, measured = echoes.subset(keep), measured[keep]
     number, count = _numbers(echoes.beam, n)
-    surfaces = returns if hits is clear else subray_returns(clear, sub_world)
-    axis = AxisHits(surfaces, sub_world[0], origin, cast_range)
+    axis = AxisHits(clear.rows(slice(0, n)), sub_world[0], origin, cast_range)
     on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False))
     # a pure echo from a medium lies where the medium returned it: a particle (its instance the
     # effect's code) or the ground cover's sward (core/effects/cover.py; its instance the cover's)
@@ -183,12 +184,13 @@ def _numbers(beam: np.ndarray, beam_count: int) -> tuple[np.ndarray, np.ndarray]
 class AxisHits:
     """The surfaces along each beam axis, followed as far as the echoes need."""
 
-    def __init__(self, returns: SubrayReturns, axis_world: np.ndarray, origin: np.ndarray, cast_range: float):
+    def __init__(self, axis_hits: RayHits, axis_world: np.ndarray, origin: np.ndarray, cast_range: float):
+        """`axis_hits`: the surfaces the axis sub-rays met first (before any medium)."""
         self.axis = axis_world
         self.origin = np.asarray(origin, dtype=np.float64)
         self.cast_range = cast_range
-        self.last = returns.distance[0].copy()  # the farthest axis hit found so far
-        self.first = (self.last.copy(), returns.class_id[0], returns.instance[0])
+        self.last = axis_hits.distance.copy()  # the farthest axis hit found so far
+        self.first = (self.last.copy(), axis_hits.class_id, axis_hits.instance)
 
     def settle(self, echoes: Echoes, cast) -> tuple[np.ndarray, np.ndarray]:
         """(on its labeled surface, that surface's instance) for each echo."""

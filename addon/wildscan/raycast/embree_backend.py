@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.backend import THREADS
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler
 
@@ -38,6 +39,8 @@ class EmbreeBackend(RefiningBackend):
     """First hits against one Embree scene of the extracted triangles."""
 
     name = "embree"
+    # its `run` traces with the GIL released, one ray after another (core/threads.py)
+    capabilities = RefiningBackend.capabilities | {THREADS}
 
     def __init__(self, geometry: SceneGeometry, robust: bool = True, seal: bool = True):
         from embreex import mesh_construction, rtcore_scene
