@@ -51,6 +51,11 @@ class RealisticPoints:
     mixed: np.ndarray  # bool
     stats: dict
 
+    @property
+    def beams_returning(self) -> int:
+        """How many beams returned a point (`beam` is in beam order: a count of its runs)."""
+        return int(np.count_nonzero(self.beam[1:] != self.beam[:-1])) + 1 if len(self.beam) else 0
+
 
 def check_backend(backend: RayBackend) -> None:
     if with_normals(backend) is None:

@@ -297,7 +297,7 @@ def _realistic_cloud(
     )
     if weather_of(effects) is not None:
         with_weather_field(cloud)
-    beams_hit = int(len(np.unique(pts.beam)))
+    beams_hit = pts.beams_returning
     facts = {
         "returns": int(len(pts.beam)),
         "hits": beams_hit,

@@ -101,7 +101,7 @@ class GroundCover(Effect):
         for attempt in range(SETTLE + 1):
             if len(todo) == 0:
                 break
-            c, above, height, rate, inside = self._layer_at(_rows_of(o, todo), d[todo], stop[todo])
+            c, above, height, rate, inside = self._layer_at(o[todo], d[todo], stop[todo])
             cls[todo[inside]] = c[inside]
             lower = ~inside & (c > 0) & (above > height) & (rate < 0) & np.isfinite(end[todo])
             if attempt == SETTLE:
@@ -120,7 +120,7 @@ class GroundCover(Effect):
         With `rows`, only those rays are looked at (the others: class 0, outside)."""
         if rows is not None:
             n = len(t)
-            part = self._layer_at(_rows_of(o, rows), d[rows], t[rows])
+            part = self._layer_at(o[rows], d[rows], t[rows])
             full = [
                 np.zeros(n, dtype=np.int16),
                 np.zeros(n),
@@ -131,10 +131,9 @@ class GroundCover(Effect):
             for whole, values in zip(full, part):
                 whole[rows] = values
             return tuple(full)
-        # the point o + d t, a coordinate at a time (the same products and sums)
-        x, y, z = (o[:, k] + d[:, k] * t for k in range(3))
-        cls, height, ground, gx, gy = self.grid.surface_xy(x, y)
-        above = z - ground
+        p = o + d * t[:, None]
+        cls, height, ground, gx, gy = self.grid.surface(p)
+        above = p[:, 2] - ground
         rate = d[:, 2] - (gx * d[:, 0] + gy * d[:, 1])
         inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
         return cls, above, height, rate, inside
@@ -157,13 +156,6 @@ class GroundCover(Effect):
         return o[:, 2] + d[:, 2] * t0 <= top
 
 
-def _rows_of(origins: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """origins[rows], except that one origin broadcast to every ray stays a broadcast."""
-    if len(origins) and origins.strides[0] == 0:
-        return np.broadcast_to(origins[0], (len(rows), 3))
-    return origins[rows]
-
-
 def _stop(begin, end, cls, u, inside):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
     depth -log(1 - u), Exp(1), over the class's extinction per metre."""
@@ -181,8 +173,7 @@ def _with_cover_hits(hits: RayHits, stopped, t_stop, cls_stop, dirs) -> RayHits:
     instance = np.where(stopped, COVER_INSTANCE_BASE + cls_stop, hits.instance).astype(np.int32)
     normal = None
     if hits.normal is not None:  # a sward faces every beam: its normal is the beam's reverse
-        normal = hits.normal.copy()
-        normal[stopped] = -dirs[stopped]
+        normal = np.where(stopped[:, None], -dirs, hits.normal)
     reflectivity = None
     if hits.reflectivity is not None:
         reflectivity = np.where(stopped, np.float32(np.nan), hits.reflectivity).astype(np.float32)

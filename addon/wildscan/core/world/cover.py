@@ -110,30 +110,21 @@ class CoverGrid:
         terrain here is the world's sampled at the grid's nodes, bilinear in between (the
         world's mesh follows it within centimetres); outside the grid the class is 0."""
         p = np.asarray(points, dtype=np.float64)
-        return self.surface_xy(p[:, 0], p[:, 1])
-
-    def surface_xy(self, x: np.ndarray, y: np.ndarray):
-        """surface() at points given by their x and y (N,): what it needs of them. Cells and
-        nodes are gathered by flat index (one take each: the realistic model looks up a
-        million sub-rays)."""
         ny, nx = self.shape
-        fx = (x - self.x0) / self.cell
-        fy = (y - self.y0) / self.cell
+        fx = (p[:, 0] - self.x0) / self.cell
+        fy = (p[:, 1] - self.y0) / self.cell
         i = np.floor(fx).astype(np.int64)
         j = np.floor(fy).astype(np.int64)
         out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
-        np.clip(i, 0, nx - 1, out=i)
-        np.clip(j, 0, ny - 1, out=j)
+        i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
         tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
-        z = self.node_ground().reshape(-1)
-        node = j * (nx + 1) + i  # node (j, i) of the (ny + 1, nx + 1) grid
-        z00, z10, z01, z11 = z.take(node), z.take(node + 1), z.take(node + (nx + 1)), z.take(node + (nx + 2))
+        z = self.node_ground()
+        z00, z10, z01, z11 = z[j, i], z[j, i + 1], z[j + 1, i], z[j + 1, i + 1]
         ground = (z00 * (1 - tx) + z10 * tx) * (1 - ty) + (z01 * (1 - tx) + z11 * tx) * ty
         gx = ((z10 - z00) * (1 - ty) + (z11 - z01) * ty) / self.cell
         gy = ((z01 - z00) * (1 - tx) + (z11 - z10) * tx) / self.cell
-        cell = j * nx + i
-        cls = np.where(out, 0, self.class_id.reshape(-1).take(cell)).astype(np.int16)
-        height = np.where(out, 0.0, self.height.reshape(-1).take(cell))
+        cls = np.where(out, 0, self.class_id[j, i]).astype(np.int16)
+        height = np.where(out, 0.0, self.height[j, i])
         return cls, height, ground, gx, gy
 
     def class_inside(self, points: np.ndarray) -> np.ndarray:
