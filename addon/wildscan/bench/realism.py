@@ -154,6 +154,17 @@ def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
     return rows
 
 
+def speed_goals(scans: list[dict]) -> list[str]:
+    """One line per zone: its realistic full scan against SPEED_TARGET_S, met or not."""
+    return [
+        f"  realistic full scan, {r['zone']:<6} reference pose {r['realistic_s']:.3f} s "
+        f"<= {SPEED_TARGET_S} s "
+        f"({r['realistic_cast_s'] / r['realistic_s']:.0%} in the cast): "
+        f"{'met' if r['realistic_s'] <= SPEED_TARGET_S else 'NOT met'}"
+        for r in scans
+    ]
+
+
 # Peak memory: VmHWM, this process image's own high-water mark (ru_maxrss would also count
 # the pages the bench process had when it forked this one).
 _BUILD_SCRIPT = """
@@ -315,12 +326,8 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
     porous_sky = skies["porous"]["sky"]
     say(f"  sky from under the forest canopy {porous_sky:.1%} in 15-35 %: {_within(porous_sky, SKY_TARGET)}")
     by_zone = {r["zone"]: r for r in scans}
-    for r in scans:
-        t = r["realistic_s"]
-        say(
-            f"  realistic full scan, {r['zone']:<6} reference pose {t:.3f} s <= {SPEED_TARGET_S} s: "
-            f"{'met' if t <= SPEED_TARGET_S else 'NOT met'}"
-        )
+    for line in speed_goals(scans):
+        say(line)
     if "forest" in by_zone:
         f = by_zone["forest"]
         say(
