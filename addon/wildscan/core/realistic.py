@@ -208,7 +208,9 @@ class AxisHits:
                 break
             beams = np.unique(echoes.beam[pending])
             hit = self._follow(beams, cast)
-            mine = np.isin(echoes.beam, beams)
+            followed = np.zeros(len(self.last), dtype=bool)  # np.isin(echoes.beam, beams), no sort
+            followed[beams] = True
+            mine = followed[echoes.beam]
             self._match(echoes, hit, np.flatnonzero(mine & ~on), on, instance)
         return on, instance
 
