@@ -98,6 +98,13 @@ class Echoes:
     def subset(self, keep) -> "Echoes":
         return Echoes(*(getattr(self, f)[keep] for f in self.__dataclass_fields__))
 
+    @staticmethod
+    def joined(parts: list["Echoes"]) -> "Echoes":
+        """The echoes of consecutive blocks of beams, in order."""
+        if len(parts) == 1:
+            return parts[0]
+        return Echoes(*(np.concatenate([getattr(p, f) for p in parts]) for f in Echoes.__dataclass_fields__))
+
 
 def axis_ranges(returns: SubrayReturns) -> np.ndarray:
     """Each return's range where the beam axis meets the plane it hit (its own range for a

@@ -29,11 +29,13 @@ from .errors import UserError
 from .footprint import subray_directions, subray_weights
 from .hits import RayHits
 from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
+from .threads import in_parts
 from .world.cover import COVER_INSTANCE_BASE
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
 AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)
 MAX_AXIS_STEPS = 16  # surfaces followed along one axis (leaves, twigs, a trunk's two sides...)
+BEAM_BLOCK = 32_768  # beams a block of echo formation (beam_echoes): 5 sub-rays' arrays in cache
 
 
 @dataclass
@@ -66,23 +68,43 @@ def check_backend(backend: RayBackend) -> None:
         )
 
 
-def subray_returns(hits: RayHits, sub_world: np.ndarray) -> SubrayReturns:
-    """Per (sub-ray, beam) what was hit, with the incidence cosine and the axis ratio."""
+def subray_returns(hits: RayHits, sub_world: np.ndarray, beams: slice = slice(None)) -> SubrayReturns:
+    """Per (sub-ray, beam) what was hit, with the incidence cosine and the axis ratio; of the
+    beams `beams` (a block of them) when given."""
     s, n, _ = sub_world.shape
-    normal = hits.normal.reshape(s, n, 3)
+    sub_world = sub_world[:, beams]
+    normal = hits.normal.reshape(s, n, 3)[:, beams]
     along_sub = dm.dot3(normal, sub_world)
     along_axis = dm.dot3(normal, sub_world[0][None])
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(along_axis != 0, along_sub / along_axis, np.inf)
     return SubrayReturns(
-        distance=hits.distance.reshape(s, n),
-        class_id=hits.class_id.reshape(s, n),
-        instance=hits.instance.reshape(s, n),
+        distance=hits.distance.reshape(s, n)[:, beams],
+        class_id=hits.class_id.reshape(s, n)[:, beams],
+        instance=hits.instance.reshape(s, n)[:, beams],
         cos_incidence=np.abs(along_sub),
         axis_cos=np.abs(along_axis),
         axis_ratio=ratio,
-        reflectivity=None if hits.reflectivity is None else hits.reflectivity.reshape(s, n),
+        reflectivity=None if hits.reflectivity is None else hits.reflectivity.reshape(s, n)[:, beams],
     )
+
+
+def beam_echoes(hits: RayHits, sub_world: np.ndarray, sensor: SensorConfig) -> Echoes:
+    """The echoes of every beam (echoes.form_echoes), formed a block of BEAM_BLOCK beams at a
+    time, on the cast's threads (core/threads.py). A beam's echoes are its own, so the blocks
+    joined are the bytes of one pass over all beams; a block's arrays stay in the CPU's cache,
+    which alone takes a third off the time of one pass (measured on seed 0's hills and forest)."""
+    s, n, _ = sub_world.shape
+    weights = subray_weights(s)
+
+    def block(beams: slice) -> Echoes:
+        echoes = form_echoes(
+            subray_returns(hits, sub_world, beams), weights, sensor.echo_separation, sensor.echoes
+        )
+        echoes.beam += beams.start
+        return echoes
+
+    return Echoes.joined(in_parts(block, n, BEAM_BLOCK))
 
 
 def realistic_points(
@@ -122,9 +144,7 @@ def echo_points(
     rays = sub_world.reshape(-1, 3)
     clear = cast(origin, rays, cast_range, True)
     hits = effects.medium(Rays(origin, rays, cast_range), clear)
-    returns = subray_returns(hits, sub_world)
-    weights = subray_weights(s)
-    echoes = form_echoes(returns, weights, sensor.echo_separation, sensor.echoes)
+    echoes = beam_echoes(hits, sub_world, sensor)
     measured = _measured_ranges(echoes, sensor, n)
     keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
     echoes, measured = echoes.subset(keep), measured[keep]
@@ -143,7 +163,7 @@ def echo_points(
         "subrays_per_beam": s,
         "beams_by_echoes": {str(k): int((per_beam == k).sum()) for k in range(1, sensor.echoes + 1)},
         "mixed_points": int((~on_surface).sum()),
-        "water_subrays": int((returns.class_id == WATER_ID).sum()),
+        "water_subrays": int(np.count_nonzero(hits.class_id == WATER_ID)),
     }
     if hits is not clear:
         stats["particle_points"] = int(particle.sum())

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable
+from typing import Callable, TypeVar
 
 import numpy as np
 
@@ -31,6 +31,7 @@ MIN_PART = 50_000
 PARTS_PER_THREAD = 4
 
 _pool: ThreadPoolExecutor | None = None
+T = TypeVar("T")
 
 
 def cast_threads() -> int:
@@ -88,6 +89,16 @@ def cast_parts(
         if done is not None:
             done(part.stop, total)
     return out[0] if len(out) == 1 else RayHits.joined(out)
+
+
+def in_parts(fn: Callable[[slice], T], count: int, size: int) -> list[T]:
+    """`fn` of consecutive slices of `size` covering `count` items, in order, on the cast's
+    threads (cast_threads(); numpy releases the GIL inside its array operations)."""
+    pieces = [slice(start, min(start + size, count)) for start in range(0, count, size)] or [slice(0, 0)]
+    threads = cast_threads()
+    if threads > 1 and len(pieces) > 1:
+        return list(_pool_of(threads).map(fn, pieces))
+    return [fn(piece) for piece in pieces]
 
 
 def _pool_of(threads: int) -> ThreadPoolExecutor:
