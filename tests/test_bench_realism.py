@@ -34,3 +34,35 @@ def test_every_zone_is_judged_against_the_target():
     assert [line.split()[3] for line in lines] == ["hills", "forest", "cave"]
     assert [line.endswith(": met") for line in lines] == [True, False, True]
     assert "(50% in the cast)" in lines[2] and f"<= {SPEED_TARGET_S} s" in lines[0]
+
+
+def test_casts_on_parallel_threads_are_timed_once():
+    """Two casts under way at once (one from t = 0 to 2, the other from 1 to 3, on a clock the
+    test moves) count 3 s, the time with a cast under way, not 4."""
+    import threading
+
+    now = [0.0]
+    inside = {k: threading.Event() for k in "ab"}
+    go = {k: threading.Event() for k in "ab"}
+
+    class Held:
+        name, capabilities = "held", frozenset()
+
+        def cast(self, key):
+            inside[key].set()
+            go[key].wait()
+
+    timer = CastTimer(Held(), clock=lambda: now[0])
+    casts = {k: threading.Thread(target=timer.cast, args=(k,)) for k in "ab"}
+    casts["a"].start()
+    inside["a"].wait()
+    now[0] = 1.0
+    casts["b"].start()
+    inside["b"].wait()
+    now[0] = 2.0
+    go["a"].set()
+    casts["a"].join()
+    now[0] = 3.0
+    go["b"].set()
+    casts["b"].join()
+    assert timer.seconds == 3.0
