@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.backend import THREADS
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler
 
@@ -55,6 +56,8 @@ class EmbreeBackend(RefiningBackend):
     """First hits against one Embree scene of the extracted triangles."""
 
     name = "embree"
+    # its `run` traces with the GIL released, one ray after another (core/threads.py)
+    capabilities = RefiningBackend.capabilities | {THREADS}
 
     def __init__(
         self,
