@@ -194,6 +194,12 @@ def label_from_reflectivity(intensity: np.ndarray) -> np.ndarray:
     return order[pos].astype(np.uint16)
 
 
+# The label each class's reflectivity reads back as (label_from_reflectivity of every class,
+# taken once here): a scan labels its beams by class id through it, one gather a beam where
+# reading each beam's intensity back took a sorted search, with the same labels.
+LABEL_BY_ID = label_from_reflectivity(REFLECTIVITY_BY_ID)
+
+
 def colors_of(labels: np.ndarray) -> np.ndarray:
     """(N, 3) uint8 colour tags for PLY labels."""
     return COLOR_BY_ID[np.asarray(labels, dtype=np.intp)]
