@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import __version__
 from .backend import RayBackend, with_normals
+from .cast_clock import scanning
 from .classes import LABEL_BY_ID, WATER_ID, class_table_dict, reflectivity_of
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
@@ -171,6 +172,7 @@ def _points(placement: Placement, frame: str, sensor: SensorConfig, dirs_world, 
     return points
 
 
+@scanning
 def run_scan(
     backend: RayBackend,
     pose: Pose,

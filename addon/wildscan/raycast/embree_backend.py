@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.cast_clock import CLOCK
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler
 
@@ -68,12 +69,9 @@ class EmbreeBackend(RefiningBackend):
         """Embree's answer: hit triangle per ray (-1 for none), float32 distance, and the
         hit's float32 (u, v) on the uploaded triangle."""
         far = np.full(len(dirs), max_range + _FAR_SLACK, dtype=np.float32)
-        result = self._scene.run(
-            float32_rows(local),
-            np.ascontiguousarray(dirs, dtype=np.float32),
-            dists=far,
-            output=1,
-        )
+        origins, directions = float32_rows(local), np.ascontiguousarray(dirs, dtype=np.float32)
+        with CLOCK.casting():
+            result = self._scene.run(origins, directions, dists=far, output=1)
         triangle = result["primID"].astype(np.int64)
         triangle[result["geomID"] == -1] = -1
         return triangle, result["tfar"], (result["u"], result["v"])
