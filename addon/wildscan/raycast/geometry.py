@@ -179,7 +179,10 @@ class SceneGeometry:
         if self._has_overrides():
             out.reflectivity = np.append(self.reflectivity, np.float32(np.nan)).take(triangle)
         if normals is not None:
-            out.normal = np.concatenate([normals, np.zeros((1, 3))]).take(triangle, axis=0)
+            # gathered, then zeroed on a miss: a miss row appended to every triangle's normal
+            # copied a whole world's normals each cast
+            out.normal = normals.take(np.where(hit, triangle, 0), axis=0)
+            out.normal[~hit] = 0.0
         return out
 
     def _has_overrides(self) -> bool:

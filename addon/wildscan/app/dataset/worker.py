@@ -300,14 +300,15 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
-    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result)
+    world = world_points(result.cloud.xyz, result.placement, frame)  # for intensity and ground truth
+    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result, world)
     placement = result.placement
     row["placement"] = {
         "optical_centre": [float(v) for v in placement.optical_centre],
         "roll_deg": placement.roll_deg,
         "pitch_deg": placement.pitch_deg,
     }
-    written = write_scan(root, encode_scan(spec, context, row, result))
+    written = write_scan(root, encode_scan(spec, context, row, result, world))
     cloud = result.cloud
     row.update(
         status="ok",
@@ -360,15 +361,17 @@ def _class_counts(labels: np.ndarray) -> dict[str, int]:
     return {str(k): int(n) for k, n in enumerate(counts) if n}
 
 
-def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result) -> dict[str, bytes]:
+def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result, world=None) -> dict[str, bytes]:
     """Relative path -> bytes of every file of one scan: the bird's-eye grid, then each format's
-    files from the format table (core/io/formats.py), in the spec's order."""
+    files from the format table (core/io/formats.py), in the spec's order. `world`: the cloud's
+    points in the world frame, when the caller has them already."""
     from ...core.io.formats import WRITERS
     from ...core.io.writer import ScanOutput
 
     cloud, placement, frame = result.cloud, result.placement, row["sensor"]["frame"]
     labels = scheme(spec.label_scheme)
-    world = world_points(cloud.xyz, placement, frame)
+    if world is None:
+        world = world_points(cloud.xyz, placement, frame)
     hag = height_above_ground(world, context.ground)
     paths = scan_paths(spec.formats, row["sequence"], context.file_numbers[row["scan"]])
     grid = bev_grid(
