@@ -64,7 +64,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "and frame with the scene 0 m to 999 km from the origin (docs/accuracy.md 'Far from the origin'); "
         "weather: each effect's lost returns on a wall at known ranges and its maximum range against the "
         "model's curve, and the default world in each (docs/weather.md); devices: every device preset's "
-        "full-frame scan time beside Embree's own cast of the same rays (goal <= 2x); learn DIR: train a "
+        "full-frame scan time beside Embree's own cast of the same rays (goal <= 1.5x); learn DIR: train a "
         "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
         "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md); "
         "biomes: per biome the class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time "

@@ -447,8 +447,18 @@ class RefiningBackend:
         raise NotImplementedError
 
     capabilities = frozenset({NORMALS})  # cast(..., normals=True) gives each hit's triangle normal
+    # Threads a large cast is split over (parallel.py): 1 (one thread a process, as a dataset
+    # worker runs, one worker a core) unless the backend's maker says otherwise.
+    threads = 1
 
     def cast(
+        self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
+    ) -> RayHits:
+        from .parallel import in_parts
+
+        return in_parts(self._cast, self.threads, origins, directions, max_range, normals)
+
+    def _cast(
         self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
     ) -> RayHits:
         local, dirs = prepare_rays(origins, directions, self.geometry.offset)

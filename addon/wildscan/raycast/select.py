@@ -111,10 +111,20 @@ def make_backend(
     if chosen == "embree":
         from .embree_backend import EmbreeBackend
 
-        return EmbreeBackend(geometry)
+        return _on_every_core(EmbreeBackend(geometry))
     from .bvh_backend import BVHBackend
 
     return BVHBackend(geometry)
+
+
+def _on_every_core(backend):
+    """A backend for one command's scans: its large casts split over the cores it may use
+    (raycast/parallel.py; the bytes are those of one thread). A dataset worker makes its
+    own, one thread each."""
+    from .parallel import available_cores
+
+    backend.threads = available_cores()
+    return backend
 
 
 def _geometry_for(depsgraph, center, radius, geometry):
