@@ -416,10 +416,10 @@ def write_scan(root: Path, files: dict[str, bytes]) -> list[dict]:
     finals = [root / rel for rel in files]
     for folder in {p.parent for p in finals}:
         folder.mkdir(parents=True, exist_ok=True)
-    # No fsync per file (a flush to disk per file would cost more than writing them): after a
-    # power cut the next run re-checks every file against the manifest's SHA-256 and writes
-    # again any that did not survive.
-    with atomic_outputs(*finals) as temps:
+    # No fsync per file or folder (a flush to disk per scan would cost more than writing its
+    # files): after a power cut the next run re-checks every file against the manifest's
+    # SHA-256 and writes again any that did not survive.
+    with atomic_outputs(*finals, durable=False) as temps:
         for tmp, data in zip(temps, files.values(), strict=True):
             tmp.write_bytes(data)
     return [
