@@ -549,5 +549,7 @@ def test_bench_dataset_times_each_worker_count_side_by_side():
     assert [(r[0].strip(), r[1].strip()) for r in rows] == [("1", "2"), ("2", "2")]
     assert float(rows[1][4].strip().rstrip("x")) > 0 and rows[1][6].count("GB") == 2  # a worker each
     assert "speed-up >= 1.8x" in result.stdout
+    # each count's line says how much of its scans' time the caster took (core/cast_clock.py)
+    assert sum("s in scans (" in line and "scan/cast" in line for line in result.stdout.splitlines()) == 2
     wrong = wildscan("bench-dataset", "--vegetation", "leafy")
     assert wrong.returncode == 2 and "--vegetation must be one of porous, solid" in wrong.stderr

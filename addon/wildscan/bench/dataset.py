@@ -17,6 +17,7 @@ import sys
 import tempfile
 from dataclasses import dataclass
 
+from ..core.cast_clock import Reading, cast_share_line
 from ..core.world import DEFAULT_VEGETATION
 
 TARGET_SECONDS = 60.0
@@ -31,6 +32,8 @@ class BenchRow:
     seconds: float
     world_build_seconds: float
     peak_rss: list[int]
+    scan_seconds: float = 0.0  # summed over workers (core/cast_clock.py)
+    cast_seconds: float = 0.0
 
     @property
     def rate(self) -> float:
@@ -64,7 +67,13 @@ def run_once(spec, workers: int) -> BenchRow:
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     return BenchRow(
-        workers, report.written, report.seconds, report.world_build_seconds, sorted(report.peak_rss.values())
+        workers,
+        report.written,
+        report.seconds,
+        report.world_build_seconds,
+        sorted(report.peak_rss.values()),
+        report.scan_seconds,
+        report.cast_seconds,
     )
 
 
@@ -89,7 +98,9 @@ def bench_dataset(
     rows = []
     for n in worker_counts:
         rows.append(run_once(spec, n))
-        stream.write(f"  {n} worker(s): {rows[-1].seconds:.1f} s\n")
+        r = rows[-1]
+        share = cast_share_line(Reading(r.cast_seconds, r.scan_seconds, r.cast_seconds))
+        stream.write(f"  {n} worker(s): {r.seconds:.1f} s; {share}\n")
         stream.flush()
     _table(rows, stream)
     return rows
