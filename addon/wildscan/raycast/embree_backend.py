@@ -17,9 +17,9 @@ embreex 4.4's API used here: `rtcore_scene.EmbreeScene(robust=...)`,
 `mesh_construction.TriangleMesh(scene, vertices, indices=None)` (a (T,3,3) soup
 or (V,3) + (T,3)), and `scene.run(origins f32 (N,3), dirs f32 (N,3), dists=f32 (N,)
 tfar, output=1)` -> dict with primID/geomID (-1 on a miss), tfar, u, v, Ng. `run`
-casts one ray after another, with the GIL released (two threads can cast at once);
-WildScan casts from one thread per process (a dataset runs one
-single-threaded worker per core).
+casts one ray after another, with the GIL released (two threads can cast at once): a
+command's large casts are split over its cores (raycast/parallel.py), while a dataset runs
+one single-threaded worker per core.
 """
 
 from __future__ import annotations
