@@ -18,6 +18,7 @@ import sys
 import tempfile
 from dataclasses import dataclass, field
 
+from ..core.cast_clock import Reading, cast_share_line
 from ..core.world import DEFAULT_VEGETATION
 
 TARGET_SECONDS = 45.0  # cold cache
@@ -35,6 +36,8 @@ class BenchRow:
     peak_rss: list[int]
     cache: str = "cold"  # cold: an empty world cache; warm: the one the cold run filled
     worlds: dict[str, int] = field(default_factory=dict)  # "cache" / "built" -> worlds
+    scan_seconds: float = 0.0  # summed over workers (core/cast_clock.py)
+    cast_seconds: float = 0.0
 
     @property
     def rate(self) -> float:
@@ -82,6 +85,8 @@ def run_once(spec, workers: int, cache_dir=None, cache: str = "cold") -> BenchRo
         sorted(report.peak_rss.values()),
         cache,
         dict(report.worlds),
+        report.scan_seconds,
+        report.cast_seconds,
     )
 
 
@@ -112,7 +117,9 @@ def bench_dataset(
         with tempfile.TemporaryDirectory(prefix="wildscan-bench-cache-") as cache_dir:
             for cache in ("cold", "warm") if n == worker_counts[-1] else ("cold",):
                 rows.append(run_once(spec, n, cache_dir, cache))
-                stream.write(f"  {n} worker(s), {cache} cache: {rows[-1].seconds:.1f} s\n")
+                r = rows[-1]
+                share = cast_share_line(Reading(r.cast_seconds, r.scan_seconds, r.cast_seconds))
+                stream.write(f"  {n} worker(s), {cache} cache: {r.seconds:.1f} s; {share}\n")
                 stream.flush()
     _table(rows, stream)
     return rows

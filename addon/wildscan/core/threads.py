@@ -7,7 +7,8 @@ parallel threads. Each ray's answer is its own (the caster traces one ray after 
 the float64 settling and refinement are per ray), so the joined answer is the same bytes
 as one call's, in the same order, however many threads.
 
-How many: WILDSCAN_CAST_THREADS when set, else OMP_NUM_THREADS when set (Dask sets it to 1
+How many: the backend's own `threads` when set (a dataset worker's: 1), else
+WILDSCAN_CAST_THREADS when set, else OMP_NUM_THREADS when set (Dask sets it to 1
 in every dataset worker process, which already has a core to itself; so does a SLURM job
 script that asks for one CPU), else the CPUs this process may run on.
 """
@@ -27,7 +28,7 @@ from .hits import RayHits
 THREADS_ENV = "WILDSCAN_CAST_THREADS"
 # A part smaller than this is not worth a thread (the caster's own set-up per call); parts
 # are a few per thread so that one slow part (a forest's crowns) does not hold the others.
-MIN_PART = 50_000
+MIN_PART = 16_384
 PARTS_PER_THREAD = 4
 
 _pool: ThreadPoolExecutor | None = None
@@ -49,6 +50,16 @@ def cast_threads() -> int:
     if hasattr(os, "sched_getaffinity"):
         return max(len(os.sched_getaffinity(0)), 1)
     return os.cpu_count() or 1
+
+
+def backend_threads(backend: RayBackend) -> int:
+    """The threads `backend`'s casts may be split over: 1 unless it has THREADS; then its own
+    `threads` when set (a dataset worker's backend says 1: one worker a core), else
+    cast_threads()."""
+    if THREADS not in backend.capabilities:
+        return 1
+    own = getattr(backend, "threads", None)
+    return int(own) if own else cast_threads()
 
 
 def parts(count: int, threads: int, chunk: int | None = None) -> list[slice]:
@@ -73,7 +84,7 @@ def cast_parts(
     order; `done(rays cast so far, all rays)` after each part, in order. `origin` is one
     point or one per ray."""
     total = len(dirs)
-    threads = cast_threads() if THREADS in backend.capabilities else 1
+    threads = backend_threads(backend)
     pieces = parts(total, threads, chunk)
     if len(pieces) == 1 and done is None:
         return cast(origin, dirs, max_range)

@@ -49,6 +49,8 @@ class RunReport:
     without_pose: int = 0  # of `written`, the scans recorded without a valid pose (no files)
     peak_rss: dict[int, int] = field(default_factory=dict)  # worker pid -> peak resident bytes
     world_build_seconds: float = 0.0
+    scan_seconds: float = 0.0  # summed over workers: inside their scans, and the cast within
+    cast_seconds: float = 0.0
     bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
     worlds: dict[str, int] = field(default_factory=dict)  # "built" / "cache" -> worlds a worker loaded so
 
@@ -244,6 +246,8 @@ def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport
         facts = result["worker"]
         report.peak_rss[facts["pid"]] = max(report.peak_rss.get(facts["pid"], 0), facts["peak_rss_bytes"])
         report.world_build_seconds += facts["world_build_seconds"]
+        report.scan_seconds += facts.get("scan_seconds", 0.0)
+        report.cast_seconds += facts.get("cast_seconds", 0.0)
         report.bpy_imported |= facts["bpy_imported"]
         count_worlds(report.worlds, facts, warn)
         if state.world_rows(batch.seed) is not None:

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import __version__
+from ...core.cast_clock import CLOCK
 from ...core.classes import class_by_name
 from ...core.errors import PoseRejected, UserError
 from ...core.groundtruth import (
@@ -176,9 +177,11 @@ def _embree(geometry, settler=None):
     try:
         from ...raycast.embree_backend import EmbreeBackend
 
-        return EmbreeBackend(geometry, settler=settler)
+        backend = EmbreeBackend(geometry, settler=settler)
     except ImportError as e:
         raise UserError(f"a dataset worker needs the embreex wheel (pip install embreex): {e}") from None
+    backend.threads = 1  # one worker a core: its casts on its own thread (core/threads.py)
+    return backend
 
 
 # ---------------------------------------------------------------------------------------
@@ -213,11 +216,15 @@ def scan_batch(
     context = world_context(spec, seed, disk)
     build = 0.0 if cached else context.build_seconds
     rows = []
+    before = CLOCK.reading()
     for index in indices:
-        rows.append(scan_one(spec, context, root, index))
+        with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
+            rows.append(scan_one(spec, context, root, index))
         _tick(topic, label)
     source = "memory" if cached else "cache" if context.from_cache else "built"
-    return {"rows": rows, "worker": _worker_facts(build) | world_facts(source, disk)}
+    spent = CLOCK.reading() - before
+    facts = _worker_facts(build) | world_facts(source, disk)
+    return {"rows": rows, "worker": facts | {"scan_seconds": spent.scans, "cast_seconds": spent.cast}}
 
 
 def _tick(topic: str, label: str) -> None:
@@ -293,14 +300,15 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
-    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result)
+    world = world_points(result.cloud.xyz, result.placement, frame)  # for intensity and ground truth
+    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result, world)
     placement = result.placement
     row["placement"] = {
         "optical_centre": [float(v) for v in placement.optical_centre],
         "roll_deg": placement.roll_deg,
         "pitch_deg": placement.pitch_deg,
     }
-    written = write_scan(root, encode_scan(spec, context, row, result))
+    written = write_scan(root, encode_scan(spec, context, row, result, world))
     cloud = result.cloud
     row.update(
         status="ok",
@@ -353,15 +361,17 @@ def _class_counts(labels: np.ndarray) -> dict[str, int]:
     return {str(k): int(n) for k, n in enumerate(counts) if n}
 
 
-def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result) -> dict[str, bytes]:
+def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result, world=None) -> dict[str, bytes]:
     """Relative path -> bytes of every file of one scan: the bird's-eye grid, then each format's
-    files from the format table (core/io/formats.py), in the spec's order."""
+    files from the format table (core/io/formats.py), in the spec's order. `world`: the cloud's
+    points in the world frame, when the caller has them already."""
     from ...core.io.formats import WRITERS
     from ...core.io.writer import ScanOutput
 
     cloud, placement, frame = result.cloud, result.placement, row["sensor"]["frame"]
     labels = scheme(spec.label_scheme)
-    world = world_points(cloud.xyz, placement, frame)
+    if world is None:
+        world = world_points(cloud.xyz, placement, frame)
     hag = height_above_ground(world, context.ground)
     paths = scan_paths(spec.formats, row["sequence"], context.file_numbers[row["scan"]])
     grid = bev_grid(
@@ -406,10 +416,10 @@ def write_scan(root: Path, files: dict[str, bytes]) -> list[dict]:
     finals = [root / rel for rel in files]
     for folder in {p.parent for p in finals}:
         folder.mkdir(parents=True, exist_ok=True)
-    # No fsync per file (a flush to disk per file would cost more than writing them): after a
-    # power cut the next run re-checks every file against the manifest's SHA-256 and writes
-    # again any that did not survive.
-    with atomic_outputs(*finals) as temps:
+    # No fsync per file or folder (a flush to disk per scan would cost more than writing its
+    # files): after a power cut the next run re-checks every file against the manifest's
+    # SHA-256 and writes again any that did not survive.
+    with atomic_outputs(*finals, durable=False) as temps:
         for tmp, data in zip(temps, files.values(), strict=True):
             tmp.write_bytes(data)
     return [
