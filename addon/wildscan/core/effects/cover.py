@@ -63,45 +63,81 @@ class GroundCover(Effect):
 
     def medium(self, rays: Rays, hits: RayHits) -> RayHits:
         n = len(hits.distance)
-        o = np.broadcast_to(np.asarray(rays.origins, dtype=np.float64), (n, 3))
+        o = np.asarray(rays.origins, dtype=np.float64)  # (3,), or (n, 3): an origin a ray
         d = np.asarray(rays.directions, dtype=np.float64)
         end = np.minimum(hits.distance, rays.max_range)
         u = stage_rng(self.seed, "cover").random((2, n))
-        horizontal = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            horizontal = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
-            # the run from the sensor, past the trampled ground, until the ray rises out of the layer
-            rows = np.flatnonzero((t0 < end) & self._may_start_inside(rays.origins, o, d, t0))
-            cls_a, above_a, height_a, rate_a, inside_a = self._layer_at(o, d, t0, rows)
-            leave = np.where(rate_a > 0, t0 + (height_a - above_a) / rate_a, np.inf)
-            leave = np.minimum(np.minimum(leave, t0 + LONGEST_RUN), end)
-            stop = _stop(t0, leave, cls_a, u[0], inside_a)
-            # the run that ends at the hit, from where the ray came down into the layer
-            at = np.maximum(end - BEFORE_HIT, 0.0)
-            rows = np.flatnonzero(np.isfinite(hits.distance) & ~np.isfinite(stop))
-            rows = rows[self.grid.may_be_inside(o[rows] + d[rows] * at[rows, None])]
-            cls_b, above_b, height_b, rate_b, inside_b = self._layer_at(o, d, at, rows)
-            back = np.minimum(np.where(rate_b < 0, (height_b - above_b) / -rate_b, LONGEST_RUN), LONGEST_RUN)
-            begin = np.maximum(end - back, np.where(inside_a, leave, t0))
-            stop_b = _stop(begin, end, cls_b, u[1], inside_b)
-            stop = np.minimum(stop, stop_b)
-            cls = self._settle(o, d, stop, np.where(np.isfinite(stop_b), end, np.inf), u[1])
-        if not (cls > 0).any():
+            a, leave, stop_a = self._run_from_sensor(rays.origins, o, d, t0, end, u[0])
+            # the run that ends at the hit, for the rays that did not stop in the first one
+            start = t0.copy()  # where a run to the hit may begin: past the run from the sensor
+            start[a] = leave
+            unstopped = np.isfinite(hits.distance)
+            unstopped[a[np.isfinite(stop_a)]] = False
+            b, stop_b = self._run_to_hit(o, d, end, start, np.flatnonzero(unstopped), u[1])
+            # every stop, in ray order: a ray stops in one run at most
+            stopped_a, stopped_b = np.isfinite(stop_a), np.isfinite(stop_b)
+            rows = np.concatenate([a[stopped_a], b[stopped_b]])
+            order = np.argsort(rows, kind="stable")
+            rows = rows[order]
+            stop = np.concatenate([stop_a[stopped_a], stop_b[stopped_b]])[order]
+            run_end = np.concatenate([np.full(stopped_a.sum(), np.inf), end[b[stopped_b]]])[order]
+            cls_rows = self._settle(_rows(o, rows), d.take(rows, axis=0), stop, run_end, u[1][rows])
+        if not (cls_rows > 0).any():
             return hits
-        return _with_cover_hits(hits, cls > 0, stop, cls, d)
+        cls = np.zeros(n, dtype=np.int16)
+        cls[rows] = cls_rows
+        t_stop = np.full(n, np.inf)
+        t_stop[rows] = stop
+        return _with_cover_hits(hits, cls > 0, t_stop, cls, d)
+
+    def _run_from_sensor(self, origins, o, d, t0, end, u):
+        """The run from the sensor, past the trampled ground, until the ray rises out of the
+        layer (or reaches its hit): (the rays that start it inside the layer, where each leaves
+        the layer, where each stops in it or inf)."""
+        rows = np.flatnonzero((t0 < end) & self._may_start_inside(origins, o, d, t0))
+        dr = d.take(rows, axis=0)
+        p = _rows(o, rows) + dr * t0[rows, None]
+        near = self.grid.may_be_inside(p)
+        rows, p, dr = rows[near], p[near], dr[near]
+        cls, above, height, rate, inside = self._layer(p, dr)
+        rows, cls, above, height, rate = rows[inside], cls[inside], above[inside], height[inside], rate[inside]
+        t = t0[rows]
+        leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
+        leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end[rows])
+        return rows, leave, _stop(t, leave, cls, u[rows])
+
+    def _run_to_hit(self, o, d, end, start, rows, u):
+        """The run that ends at the hit of each of `rows`, from where the ray came down into
+        the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
+        in it or inf)."""
+        at = np.maximum(end[rows] - BEFORE_HIT, 0.0)
+        dr = d.take(rows, axis=0)
+        p = _rows(o, rows) + dr * at[:, None]
+        near = self.grid.may_be_inside(p)
+        rows, p, dr = rows[near], p[near], dr[near]
+        cls, above, height, rate, inside = self._layer(p, dr)
+        rows, cls, above, height, rate = rows[inside], cls[inside], above[inside], height[inside], rate[inside]
+        back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
+        stop_end = end[rows]
+        begin = np.maximum(stop_end - back, start[rows])
+        return rows, _stop(begin, stop_end, cls, u[rows])
 
     def _settle(self, o, d, stop, end, u):
-        """The class at each stop inside the layer as the grid has it (0: none). A stop that
-        came out above its own cell's top (the run's length was taken from its end cell, and
-        the sward is lower here) moves down to where the ray enters this cell's layer and is
-        drawn again from there (at most SETTLE times; then the ray passes on to its hit)."""
-        n = len(stop)
-        cls = np.zeros(n, dtype=np.int16)
-        todo = np.flatnonzero(np.isfinite(stop))
+        """The class at each stop inside the layer as the grid has it (0: none); `stop` is
+        updated in place. A stop that came out above its own cell's sward (the run's length was
+        taken from its end cell, and the sward is lower here) moves down to where the ray enters
+        this cell's layer and is drawn again from there (at most SETTLE times; then the ray
+        passes on to its hit). Only stops of a run to the hit (finite `end`) move."""
+        cls = np.zeros(len(stop), dtype=np.int16)
+        todo = np.arange(len(stop))
         for attempt in range(SETTLE + 1):
             if len(todo) == 0:
                 break
-            c, above, height, rate, inside = self._layer_at(o[todo], d[todo], stop[todo])
+            p = _rows(o, todo) + d[todo] * stop[todo, None]
+            c, above, height, rate, inside = self._layer(p, d[todo])
             cls[todo[inside]] = c[inside]
             lower = ~inside & (c > 0) & (above > height) & (rate < 0) & np.isfinite(end[todo])
             if attempt == SETTLE:
@@ -109,29 +145,15 @@ class GroundCover(Effect):
             again = todo[lower]
             begin = stop[again] + (above[lower] - height[lower]) / -rate[lower]
             stop[todo[~inside]] = np.inf
-            stop[again] = _stop(begin, end[again], c[lower], u[again], np.ones(len(again), dtype=bool))
+            stop[again] = _stop(begin, end[again], c[lower], u[again])
             todo = again[np.isfinite(stop[again])]
         return cls
 
-    def _layer_at(self, o, d, t, rows=None):
-        """At distance t along each ray: the cover class, the height above the terrain, the
-        layer's height, how fast the height above the terrain changes along the ray (its climb
-        less the terrain's slope along it, per metre) and whether the point is inside the layer.
-        With `rows`, only those rays are looked at (the others: class 0, outside)."""
-        if rows is not None:
-            n = len(t)
-            part = self._layer_at(o[rows], d[rows], t[rows])
-            full = [
-                np.zeros(n, dtype=np.int16),
-                np.zeros(n),
-                np.zeros(n),
-                np.zeros(n),
-                np.zeros(n, dtype=bool),
-            ]
-            for whole, values in zip(full, part):
-                whole[rows] = values
-            return tuple(full)
-        p = o + d * t[:, None]
+    def _layer(self, p, d):
+        """At points p along rays of directions d: the cover class, the height above the
+        terrain, the layer's height, how fast the height above the terrain changes along the
+        ray (its climb less the terrain's slope along it, per metre) and whether the point is
+        inside the layer."""
         cls, height, ground, gx, gy = self.grid.surface(p)
         above = p[:, 2] - ground
         rate = d[:, 2] - (gx * d[:, 0] + gy * d[:, 1])
@@ -153,14 +175,19 @@ class GroundCover(Effect):
         if i0 >= i1 or j0 >= j1:
             return np.zeros(len(t0), dtype=bool)
         top = g.node_ground()[j0 : j1 + 1, i0 : i1 + 1].max() + g.height[j0:j1, i0:i1].max() + BOTTOM_SLACK
-        return o[:, 2] + d[:, 2] * t0 <= top
+        return o[2] + d[:, 2] * t0 <= top
 
 
-def _stop(begin, end, cls, u, inside):
+def _rows(o: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The origins of `rows`: the one origin of every ray as it is, or each ray's own."""
+    return o if o.ndim == 1 else o.take(rows, axis=0)
+
+
+def _stop(begin, end, cls, u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
     depth -log(1 - u), Exp(1), over the class's extinction per metre."""
     rate = EXTINCTION[cls]
-    go = inside & (begin < end) & (rate > 0)
+    go = (begin < end) & (rate > 0)
     t = np.full(len(begin), np.inf)
     t[go] = begin[go] - dm.log(1.0 - u[go]) / rate[go]
     return np.where(t < end, t, np.inf)

@@ -81,6 +81,7 @@ class CoverGrid:
         self.terrain_z = np.asarray(self.terrain_z, dtype=np.float64)
         self._nodes: np.ndarray | None = None
         self._top: np.ndarray | None = None
+        self._table: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -118,14 +119,25 @@ class CoverGrid:
         out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
         i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
         tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
-        z = self.node_ground()
-        z00, z10, z01, z11 = z[j, i], z[j, i + 1], z[j + 1, i], z[j + 1, i + 1]
-        ground = (z00 * (1 - tx) + z10 * tx) * (1 - ty) + (z01 * (1 - tx) + z11 * tx) * ty
-        gx = ((z10 - z00) * (1 - ty) + (z11 - z01) * ty) / self.cell
-        gy = ((z01 - z00) * (1 - tx) + (z11 - z10) * tx) / self.cell
-        cls = np.where(out, 0, self.class_id[j, i]).astype(np.int16)
-        height = np.where(out, 0.0, self.height[j, i])
+        cell = self._cell_table().take(j * nx + i, axis=0)  # one gather a point: its cell's record
+        z00, z10, z01, z11, height, cls = (cell[:, k] for k in range(6))
+        sx, sy = 1 - tx, 1 - ty
+        ground = (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
+        gx = ((z10 - z00) * sy + (z11 - z01) * ty) / self.cell
+        gy = ((z01 - z00) * sx + (z11 - z10) * tx) / self.cell
+        cls = np.where(out, 0, cls).astype(np.int16)
+        height = np.where(out, 0.0, height)
         return cls, height, ground, gx, gy
+
+    def _cell_table(self) -> np.ndarray:
+        """(ny * nx, 6) float64, a row a cell (row-major): the terrain at its four corners
+        (x0y0, x1y0, x0y1, x1y1), its layer's height and its class. Built once: surface() gathers
+        a point's whole cell in one step (the values are the grid's own, exactly)."""
+        if self._table is None:
+            z = self.node_ground()
+            columns = (z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:], self.height, self.class_id)
+            self._table = np.column_stack([np.asarray(c, dtype=np.float64).reshape(-1) for c in columns])
+        return self._table
 
     def class_inside(self, points: np.ndarray) -> np.ndarray:
         """int16 (N,): the cover class at points (N, 3) inside the layer, 0 elsewhere. The
@@ -144,7 +156,7 @@ class CoverGrid:
             self._top = np.where(self.class_id > 0, corners + self.height, -np.inf)
         p = np.asarray(points, dtype=np.float64)
         flat, inside = self.cells(p[:, 0], p[:, 1])
-        return inside & (p[:, 2] <= self._top.reshape(-1)[flat])
+        return inside & (p[:, 2] <= self._top.reshape(-1).take(flat))
 
     def use_node_ground(self, nodes: np.ndarray) -> None:
         """Take the terrain at the nodes as already computed (by the stage that made the grid)."""
