@@ -103,7 +103,7 @@ class GroundCover(Effect):
         near = self.grid.may_be_inside(p)
         rows, p, dr = rows[near], p[near], dr[near]
         cls, above, height, rate, inside = self._layer(p, dr)
-        rows, cls, above, height, rate = rows[inside], cls[inside], above[inside], height[inside], rate[inside]
+        rows, cls, above, height, rate = (v[inside] for v in (rows, cls, above, height, rate))
         t = t0[rows]
         leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
         leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end[rows])
@@ -119,7 +119,7 @@ class GroundCover(Effect):
         near = self.grid.may_be_inside(p)
         rows, p, dr = rows[near], p[near], dr[near]
         cls, above, height, rate, inside = self._layer(p, dr)
-        rows, cls, above, height, rate = rows[inside], cls[inside], above[inside], height[inside], rate[inside]
+        rows, cls, above, height, rate = (v[inside] for v in (rows, cls, above, height, rate))
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         stop_end = end[rows]
         begin = np.maximum(stop_end - back, start[rows])
