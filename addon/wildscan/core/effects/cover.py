@@ -19,6 +19,8 @@ the same bytes on every machine.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .. import detmath as dm
@@ -63,20 +65,25 @@ class GroundCover(Effect):
 
     def medium(self, rays: Rays, hits: RayHits) -> RayHits:
         n = len(hits.distance)
-        o = np.asarray(rays.origins, dtype=np.float64)  # (3,), or (n, 3): an origin a ray
+        o = np.asarray(rays.origins, dtype=np.float64)
         d = np.asarray(rays.directions, dtype=np.float64)
+        # each ray's origin and direction as x, y, z arrays (an origin: 3 numbers, or n each)
+        ray = _Rays(
+            *(o[k] if o.ndim == 1 else np.ascontiguousarray(o[:, k]) for k in range(3)),
+            *(np.ascontiguousarray(d[:, k]) for k in range(3)),
+        )
         end = np.minimum(hits.distance, rays.max_range)
         u = stage_rng(self.seed, "cover").random((2, n))
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            horizontal = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
+            horizontal = np.sqrt(ray.dx * ray.dx + ray.dy * ray.dy)
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
-            a, leave, stop_a = self._run_from_sensor(rays.origins, o, d, t0, end, u[0])
+            a, leave, stop_a = self._run_from_sensor(ray, t0, end, u[0])
             # the run that ends at the hit, for the rays that did not stop in the first one
             start = t0.copy()  # where a run to the hit may begin: past the run from the sensor
             start[a] = leave
             unstopped = np.isfinite(hits.distance)
             unstopped[a[np.isfinite(stop_a)]] = False
-            b, stop_b = self._run_to_hit(o, d, end, start, np.flatnonzero(unstopped), u[1])
+            b, stop_b = self._run_to_hit(ray, end, start, np.flatnonzero(unstopped), u[1])
             # every stop, in ray order: a ray stops in one run at most
             stopped_a, stopped_b = np.isfinite(stop_a), np.isfinite(stop_b)
             rows = np.concatenate([a[stopped_a], b[stopped_b]])
@@ -84,7 +91,7 @@ class GroundCover(Effect):
             rows = rows[order]
             stop = np.concatenate([stop_a[stopped_a], stop_b[stopped_b]])[order]
             run_end = np.concatenate([np.full(stopped_a.sum(), np.inf), end[b[stopped_b]]])[order]
-            cls_rows = self._settle(_rows(o, rows), d.take(rows, axis=0), stop, run_end, u[1][rows])
+            cls_rows = self._settle(ray.rows(rows), stop, run_end, u[1][rows])
         if not (cls_rows > 0).any():
             return hits
         cls = np.zeros(n, dtype=np.int16)
@@ -93,51 +100,48 @@ class GroundCover(Effect):
         t_stop[rows] = stop
         return _with_cover_hits(hits, cls > 0, t_stop, cls, d)
 
-    def _run_from_sensor(self, origins, o, d, t0, end, u):
+    def _run_from_sensor(self, ray: _Rays, t0, end, u):
         """The run from the sensor, past the trampled ground, until the ray rises out of the
         layer (or reaches its hit): (the rays that start it inside the layer, where each leaves
         the layer, where each stops in it or inf)."""
-        rows = np.flatnonzero((t0 < end) & self._may_start_inside(origins, o, d, t0))
-        dr = d.take(rows, axis=0)
-        p = _rows(o, rows) + dr * t0[rows, None]
-        near = self.grid.may_be_inside(p)
-        rows, p, dr = rows[near], p[near], dr[near]
-        cls, above, height, rate, inside = self._layer(p, dr)
-        rows, cls, above, height, rate = (v[inside] for v in (rows, cls, above, height, rate))
-        t = t0[rows]
+        rows = np.flatnonzero((t0 < end) & self._may_start_inside(ray, t0))
+        rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0[rows])
         leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
         leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end[rows])
         return rows, leave, _stop(t, leave, cls, u[rows])
 
-    def _run_to_hit(self, o, d, end, start, rows, u):
+    def _run_to_hit(self, ray: _Rays, end, start, rows, u):
         """The run that ends at the hit of each of `rows`, from where the ray came down into
         the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
         in it or inf)."""
-        at = np.maximum(end[rows] - BEFORE_HIT, 0.0)
-        dr = d.take(rows, axis=0)
-        p = _rows(o, rows) + dr * at[:, None]
-        near = self.grid.may_be_inside(p)
-        rows, p, dr = rows[near], p[near], dr[near]
-        cls, above, height, rate, inside = self._layer(p, dr)
-        rows, cls, above, height, rate = (v[inside] for v in (rows, cls, above, height, rate))
+        rows, _, (cls, above, height, rate) = self._inside(ray, rows, np.maximum(end[rows] - BEFORE_HIT, 0.0))
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         stop_end = end[rows]
         begin = np.maximum(stop_end - back, start[rows])
         return rows, _stop(begin, stop_end, cls, u[rows])
 
-    def _settle(self, o, d, stop, end, u):
-        """The class at each stop inside the layer as the grid has it (0: none); `stop` is
-        updated in place. A stop that came out above its own cell's sward (the run's length was
-        taken from its end cell, and the sward is lower here) moves down to where the ray enters
-        this cell's layer and is drawn again from there (at most SETTLE times; then the ray
-        passes on to its hit). Only stops of a run to the hit (finite `end`) move."""
+    def _inside(self, ray: _Rays, rows, t):
+        """Of `rows`, those whose point t along lies inside the layer: (those rows, their t,
+        _layer's class, height above the terrain, layer height and rate there)."""
+        x, y, z = ray.at(rows, t)
+        near = self.grid.may_be_inside_at(x, y, z)
+        rows, t, x, y, z = rows[near], t[near], x[near], y[near], z[near]
+        cls, above, height, rate, inside = self._layer(x, y, z, ray.rows(rows))
+        return rows[inside], t[inside], (cls[inside], above[inside], height[inside], rate[inside])
+
+    def _settle(self, ray: _Rays, stop, end, u):
+        """The class at each stop (of `ray`'s rays) inside the layer as the grid has it (0:
+        none); `stop` is updated in place. A stop that came out above its own cell's sward (the
+        run's length was taken from its end cell, and the sward is lower here) moves down to
+        where the ray enters this cell's layer and is drawn again from there (at most SETTLE
+        times; then the ray passes on to its hit). Only stops of a run to the hit (finite `end`)
+        move."""
         cls = np.zeros(len(stop), dtype=np.int16)
         todo = np.arange(len(stop))
         for attempt in range(SETTLE + 1):
             if len(todo) == 0:
                 break
-            p = _rows(o, todo) + d[todo] * stop[todo, None]
-            c, above, height, rate, inside = self._layer(p, d[todo])
+            c, above, height, rate, inside = self._layer(*ray.at(todo, stop[todo]), ray.rows(todo))
             cls[todo[inside]] = c[inside]
             lower = ~inside & (c > 0) & (above > height) & (rate < 0) & np.isfinite(end[todo])
             if attempt == SETTLE:
@@ -149,38 +153,56 @@ class GroundCover(Effect):
             todo = again[np.isfinite(stop[again])]
         return cls
 
-    def _layer(self, p, d):
-        """At points p along rays of directions d: the cover class, the height above the
+    def _layer(self, x, y, z, ray: _Rays):
+        """At points (x, y, z) along rays `ray`: the cover class, the height above the
         terrain, the layer's height, how fast the height above the terrain changes along the
         ray (its climb less the terrain's slope along it, per metre) and whether the point is
         inside the layer."""
-        cls, height, ground, gx, gy = self.grid.surface(p)
-        above = p[:, 2] - ground
-        rate = d[:, 2] - (gx * d[:, 0] + gy * d[:, 1])
+        cls, height, ground, gx, gy = self.grid.surface_at(x, y)
+        above = z - ground
+        rate = ray.dz - (gx * ray.dx + gy * ray.dy)
         inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
         return cls, above, height, rate, inside
 
-    def _may_start_inside(self, origins, o, d, t0) -> np.ndarray:
+    def _may_start_inside(self, ray: _Rays, t0) -> np.ndarray:
         """Rays whose point t0 along (TRAMPLED from a single origin, in x and y) can lie in the
         layer: not above the highest terrain node plus the tallest cell around the origin (a
         cheap bound that spares the upward rays). Origins per ray (a drive): every ray."""
-        if np.ndim(origins) != 1:
+        if np.ndim(ray.ox) != 0:
             return np.ones(len(t0), dtype=bool)
         g = self.grid
         reach = int(np.ceil(TRAMPLED / g.cell)) + 1
-        i = int(np.floor((origins[0] - g.x0) / g.cell))
-        j = int(np.floor((origins[1] - g.y0) / g.cell))
+        i = int(np.floor((ray.ox - g.x0) / g.cell))
+        j = int(np.floor((ray.oy - g.y0) / g.cell))
         ny, nx = g.shape
         i0, i1, j0, j1 = max(i - reach, 0), min(i + reach + 1, nx), max(j - reach, 0), min(j + reach + 1, ny)
         if i0 >= i1 or j0 >= j1:
             return np.zeros(len(t0), dtype=bool)
         top = g.node_ground()[j0 : j1 + 1, i0 : i1 + 1].max() + g.height[j0:j1, i0:i1].max() + BOTTOM_SLACK
-        return o[2] + d[:, 2] * t0 <= top
+        return ray.oz + ray.dz * t0 <= top
 
 
-def _rows(o: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """The origins of `rows`: the one origin of every ray as it is, or each ray's own."""
-    return o if o.ndim == 1 else o.take(rows, axis=0)
+@dataclass(frozen=True)
+class _Rays:
+    """Rays as x, y, z arrays: origins (numbers: one origin for all, or arrays) and directions."""
+
+    ox: np.ndarray | float
+    oy: np.ndarray | float
+    oz: np.ndarray | float
+    dx: np.ndarray
+    dy: np.ndarray
+    dz: np.ndarray
+
+    def rows(self, rows: np.ndarray) -> _Rays:
+        def pick(v):
+            return v if np.ndim(v) == 0 else v.take(rows)
+
+        return _Rays(*(pick(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
+
+    def at(self, rows: np.ndarray, t: np.ndarray):
+        """(x, y, z) of the points t along `rows`."""
+        r = self.rows(rows)
+        return r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
 
 
 def _stop(begin, end, cls, u):

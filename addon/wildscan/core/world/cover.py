@@ -107,36 +107,41 @@ class CoverGrid:
         return cls, height
 
     def surface(self, points: np.ndarray):
-        """At points (N, 3): (class, layer height, terrain height, its slope d/dx, d/dy). The
+        """At points (N, 3): (class, layer height, terrain height, its slope d/dx, d/dy)
+        (surface_at)."""
+        p = np.asarray(points, dtype=np.float64)
+        return self.surface_at(np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]))
+
+    def surface_at(self, x: np.ndarray, y: np.ndarray):
+        """At points (x, y): (class, layer height, terrain height, its slope d/dx, d/dy). The
         terrain here is the world's sampled at the grid's nodes, bilinear in between (the
         world's mesh follows it within centimetres); outside the grid the class is 0."""
-        p = np.asarray(points, dtype=np.float64)
         ny, nx = self.shape
-        fx = (p[:, 0] - self.x0) / self.cell
-        fy = (p[:, 1] - self.y0) / self.cell
+        fx = (x - self.x0) / self.cell
+        fy = (y - self.y0) / self.cell
         i = np.floor(fx).astype(np.int64)
         j = np.floor(fy).astype(np.int64)
         out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
         i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
         tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
-        cell = self._cell_table().take(j * nx + i, axis=0)  # one gather a point: its cell's record
-        z00, z10, z01, z11, height, cls = (cell[:, k] for k in range(6))
+        # one gather a point: its cell's record, a contiguous row per field
+        z00, z10, z01, z11, height, cls = self._cell_table().take(j * nx + i, axis=1)
         sx, sy = 1 - tx, 1 - ty
         ground = (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
         gx = ((z10 - z00) * sy + (z11 - z01) * ty) / self.cell
         gy = ((z01 - z00) * sx + (z11 - z10) * tx) / self.cell
-        cls = np.where(out, 0, cls).astype(np.int16)
-        height = np.where(out, 0.0, height)
-        return cls, height, ground, gx, gy
+        if out.any():
+            cls, height = np.where(out, 0, cls), np.where(out, 0.0, height)
+        return cls.astype(np.int16), height, ground, gx, gy
 
     def _cell_table(self) -> np.ndarray:
-        """(ny * nx, 6) float64, a row a cell (row-major): the terrain at its four corners
-        (x0y0, x1y0, x0y1, x1y1), its layer's height and its class. Built once: surface() gathers
-        a point's whole cell in one step (the values are the grid's own, exactly)."""
+        """(6, ny * nx) float64, a column a cell (row-major): the terrain at its four corners
+        (x0y0, x1y0, x0y1, x1y1), its layer's height and its class. Built once: surface_at()
+        gathers a point's whole cell in one step (the values are the grid's own, exactly)."""
         if self._table is None:
             z = self.node_ground()
-            columns = (z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:], self.height, self.class_id)
-            self._table = np.column_stack([np.asarray(c, dtype=np.float64).reshape(-1) for c in columns])
+            fields = (z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:], self.height, self.class_id)
+            self._table = np.stack([np.asarray(f, dtype=np.float64).reshape(-1) for f in fields])
         return self._table
 
     def class_inside(self, points: np.ndarray) -> np.ndarray:
@@ -150,13 +155,17 @@ class CoverGrid:
     def may_be_inside(self, points: np.ndarray) -> np.ndarray:
         """A cheap superset of class_inside(points) > 0: over a covered cell and not above its
         highest node plus its height (one gather a point; for skipping the exact test)."""
-        if self._top is None:
-            z = self.node_ground()
-            corners = np.maximum(np.maximum(z[:-1, :-1], z[1:, :-1]), np.maximum(z[:-1, 1:], z[1:, 1:]))
-            self._top = np.where(self.class_id > 0, corners + self.height, -np.inf)
         p = np.asarray(points, dtype=np.float64)
-        flat, inside = self.cells(p[:, 0], p[:, 1])
-        return inside & (p[:, 2] <= self._top.reshape(-1).take(flat))
+        return self.may_be_inside_at(p[:, 0], p[:, 1], p[:, 2])
+
+    def may_be_inside_at(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """may_be_inside at points (x, y, z)."""
+        if self._top is None:
+            g = self.node_ground()
+            corners = np.maximum(np.maximum(g[:-1, :-1], g[1:, :-1]), np.maximum(g[:-1, 1:], g[1:, 1:]))
+            self._top = np.where(self.class_id > 0, corners + self.height, -np.inf).reshape(-1)
+        flat, inside = self.cells(x, y)
+        return inside & (z <= self._top.take(flat))
 
     def use_node_ground(self, nodes: np.ndarray) -> None:
         """Take the terrain at the nodes as already computed (by the stage that made the grid)."""
@@ -185,7 +194,11 @@ class CoverGrid:
         return out
 
     def nbytes(self) -> int:
-        return int(self.class_id.nbytes + self.height.nbytes + self.terrain_z.nbytes)
+        """The bytes of the grid as a scan uses it: its arrays and the lookup tables a scan
+        builds (the terrain at the nodes, the cells' records and tops), built or not yet."""
+        ny, nx = self.shape
+        tables = 8 * ((ny + 1) * (nx + 1) + ny * nx * 7)
+        return int(self.class_id.nbytes + self.height.nbytes + self.terrain_z.nbytes + tables)
 
     # -- as plain lists and arrays (a .blend's custom properties, a geometry file) ----------
 
