@@ -67,10 +67,15 @@ def _world(seed: int, biome: str, count: int):
     return plan, geometry, backend, [p for p in poses if hasattr(p, "pose")], seconds
 
 
-def _timed_scan(plan, backend, pose, cover: bool = True) -> float:
-    """The fastest of REPEATS scans (seconds; nan where the pose is not valid in this world)."""
-    times = [_scan(plan, backend, pose, cover) for _ in range(REPEATS)]
-    return float("nan") if times[0][0] is None else min(t for _, t in times)
+def _timed_scans(runs) -> list[float]:
+    """Each of `runs` (plan, backend, pose, cover) timed the fastest of REPEATS, the runs
+    interleaved (seconds; nan where the pose is not valid in that world)."""
+    best = [float("inf")] * len(runs)
+    for _ in range(REPEATS):
+        for k, run in enumerate(runs):
+            result, t = _scan(*run)
+            best[k] = float("nan") if result is None else min(best[k], t)
+    return best
 
 
 def _scan(plan, backend, pose, cover: bool = True):
@@ -108,26 +113,34 @@ def measure_biome(biome: str, seed: int, worlds: int, scans: int) -> dict:
     build, scan_times, bare_times, memory, n_scans = [], [], [], [], 0
     paper_build, paper_memory, paired = [], [], []  # paired: (this biome's, paper's) scan seconds
     for w in range(worlds):
+        reference = None
+        if biome != PAPER and w % 2:  # the builds alternate which comes first
+            reference = _world(seed + w, PAPER, 0)
         plan, geometry, backend, poses, seconds = _world(seed + w, biome, scans)
+        if biome != PAPER and reference is None:
+            reference = _world(seed + w, PAPER, 0)
         build.append(seconds)
         memory.append(_memory(geometry, plan))
-        reference = None
-        if biome != PAPER:
-            reference = _world(seed + w, PAPER, 0)
+        if reference is not None:
             paper_build.append(reference[4])
             paper_memory.append(_memory(reference[1], reference[0]))
         for k, pose in enumerate(poses):
-            result, t = _scan(plan, backend, pose)
+            result, _ = _scan(plan, backend, pose)
             if result is None:
                 continue
             n_scans += 1
             if k < TIMED:
-                t = _timed_scan(plan, backend, pose)
-                scan_times.append(t)
-                if reference is not None:
-                    paired.append((t, _timed_scan(reference[0], reference[2], pose)))
+                runs = [(plan, backend, pose, True)]
                 if plan.cover is not None:  # the same scan without the sward: the medium's own cost
-                    bare_times.append(_timed_scan(plan, backend, pose, cover=False))
+                    runs.append((plan, backend, pose, False))
+                if reference is not None:  # the paper world of the same seed at the same pose
+                    runs.append((reference[0], reference[2], pose, True))
+                times = _timed_scans(runs)
+                scan_times.append(times[0])
+                if plan.cover is not None:
+                    bare_times.append(times[1])
+                if reference is not None:
+                    paired.append((times[0], times[-1]))
             labels, n = np.unique(result.cloud.label, return_counts=True)
             for label, c in zip(labels.tolist(), n.tolist()):
                 name = BY_ID[label].name
@@ -158,6 +171,7 @@ def bench_biomes(seed: int = 0, quick: bool = False, stream=None) -> dict:
     def say(text: str) -> None:
         print(text, file=out, flush=True)
 
+    _world(seed, PAPER, 0)  # warm up (imports, first allocations): every timed build is a later one
     rows = []
     for biome in BIOMES:
         worlds, scans = QUICK if quick else (FULL if biome == DEFAULT_BIOME else OTHERS)

@@ -141,28 +141,38 @@ class GroundCover(Effect):
         for attempt in range(SETTLE + 1):
             if len(todo) == 0:
                 break
-            c, above, height, rate, inside = self._layer(*ray.at(todo, stop[todo]), ray.rows(todo))
+            x, y, z = ray.at(todo, stop[todo])
+            c, above, height, _, inside = self._layer(x, y, z, None)
             cls[todo[inside]] = c[inside]
-            lower = ~inside & (c > 0) & (above > height) & (rate < 0) & np.isfinite(end[todo])
+            # below its cell's top, or moving away from the layer: the stop is dropped
+            high = ~inside & (c > 0) & (above > height) & np.isfinite(end[todo])
             if attempt == SETTLE:
-                lower[:] = False
+                high[:] = False
+            high = np.flatnonzero(high)
+            rate = self._rate(x[high], y[high], ray.rows(todo[high]))
+            lower = high[rate < 0]
             again = todo[lower]
-            begin = stop[again] + (above[lower] - height[lower]) / -rate[lower]
+            begin = stop[again] + (above[lower] - height[lower]) / -rate[rate < 0]
             stop[todo[~inside]] = np.inf
             stop[again] = _stop(begin, end[again], c[lower], u[again])
             todo = again[np.isfinite(stop[again])]
         return cls
 
-    def _layer(self, x, y, z, ray: _Rays):
+    def _layer(self, x, y, z, ray: _Rays | None):
         """At points (x, y, z) along rays `ray`: the cover class, the height above the
         terrain, the layer's height, how fast the height above the terrain changes along the
-        ray (its climb less the terrain's slope along it, per metre) and whether the point is
-        inside the layer."""
-        cls, height, ground, gx, gy = self.grid.surface_at(x, y)
+        ray (its climb less the terrain's slope along it, per metre; None without `ray`) and
+        whether the point is inside the layer."""
+        cls, height, ground, gx, gy = self.grid.surface_at(x, y, slopes=ray is not None)
         above = z - ground
-        rate = ray.dz - (gx * ray.dx + gy * ray.dy)
+        rate = None if ray is None else ray.dz - (gx * ray.dx + gy * ray.dy)
         inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
         return cls, above, height, rate, inside
+
+    def _rate(self, x, y, ray: _Rays):
+        """_layer's rate alone."""
+        _, _, _, gx, gy = self.grid.surface_at(x, y)
+        return ray.dz - (gx * ray.dx + gy * ray.dy)
 
     def _may_start_inside(self, ray: _Rays, t0) -> np.ndarray:
         """Rays whose point t0 along (TRAMPLED from a single origin, in x and y) can lie in the
@@ -217,13 +227,24 @@ def _stop(begin, end, cls, u):
 
 def _with_cover_hits(hits: RayHits, stopped, t_stop, cls_stop, dirs) -> RayHits:
     """The hits with the rays that stopped in the cover replaced by a hit there."""
-    distance = np.where(stopped, t_stop, hits.distance)
-    class_id = np.where(stopped, cls_stop, hits.class_id).astype(np.int16)
-    instance = np.where(stopped, COVER_INSTANCE_BASE + cls_stop, hits.instance).astype(np.int32)
+    rows = np.flatnonzero(stopped)
+    cls = cls_stop[rows]
+    distance = _replaced(hits.distance, rows, t_stop[rows])
+    class_id = _replaced(hits.class_id.astype(np.int16, copy=False), rows, cls)
+    instance = _replaced(
+        hits.instance.astype(np.int32, copy=False), rows, COVER_INSTANCE_BASE + cls.astype(np.int32)
+    )
     normal = None
     if hits.normal is not None:  # a sward faces every beam: its normal is the beam's reverse
-        normal = np.where(stopped[:, None], -dirs, hits.normal)
+        normal = _replaced(hits.normal, rows, -dirs[rows])
     reflectivity = None
     if hits.reflectivity is not None:
-        reflectivity = np.where(stopped, np.float32(np.nan), hits.reflectivity).astype(np.float32)
+        reflectivity = _replaced(hits.reflectivity.astype(np.float32, copy=False), rows, np.float32(np.nan))
     return RayHits(distance, class_id, instance, hits.untagged_objects, normal, reflectivity)
+
+
+def _replaced(values: np.ndarray, rows: np.ndarray, new) -> np.ndarray:
+    """A copy of `values` (in the type that holds both) with `rows` set to `new`."""
+    out = np.array(values, dtype=np.result_type(values, new))
+    out[rows] = new
+    return out

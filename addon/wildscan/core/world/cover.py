@@ -112,10 +112,11 @@ class CoverGrid:
         p = np.asarray(points, dtype=np.float64)
         return self.surface_at(np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]))
 
-    def surface_at(self, x: np.ndarray, y: np.ndarray):
-        """At points (x, y): (class, layer height, terrain height, its slope d/dx, d/dy). The
-        terrain here is the world's sampled at the grid's nodes, bilinear in between (the
-        world's mesh follows it within centimetres); outside the grid the class is 0."""
+    def surface_at(self, x: np.ndarray, y: np.ndarray, slopes: bool = True):
+        """At points (x, y): (class, layer height, terrain height, its slope d/dx, d/dy; the
+        slopes None unless `slopes`). The terrain here is the world's sampled at the grid's
+        nodes, bilinear in between (the world's mesh follows it within centimetres); outside
+        the grid the class is 0."""
         ny, nx = self.shape
         fx = (x - self.x0) / self.cell
         fy = (y - self.y0) / self.cell
@@ -128,8 +129,10 @@ class CoverGrid:
         z00, z10, z01, z11, height, cls = self._cell_table().take(j * nx + i, axis=1)
         sx, sy = 1 - tx, 1 - ty
         ground = (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
-        gx = ((z10 - z00) * sy + (z11 - z01) * ty) / self.cell
-        gy = ((z01 - z00) * sx + (z11 - z10) * tx) / self.cell
+        gx = gy = None
+        if slopes:
+            gx = ((z10 - z00) * sy + (z11 - z01) * ty) / self.cell
+            gy = ((z01 - z00) * sx + (z11 - z10) * tx) / self.cell
         if out.any():
             cls, height = np.where(out, 0, cls), np.where(out, 0.0, height)
         return cls.astype(np.int16), height, ground, gx, gy
