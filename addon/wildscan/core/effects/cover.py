@@ -26,7 +26,7 @@ import numpy as np
 from .. import detmath as dm
 from ..hits import RayHits
 from ..rng import stage_rng
-from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, EXTINCTION, CoverGrid
+from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid, extinction
 from .base import Effect, Rays
 
 # The robot flattens what it stands on: within this horizontal distance of the sensor no cover
@@ -46,12 +46,12 @@ class GroundCover(Effect):
     cell where it ends (or starts): the terrain there as a plane (its slope) and the layer's
     height there, so the ray's height above the terrain changes linearly along it and the run
     is where that height lies between 0 and the layer's. The ray stops at its drawn optical
-    depth into the run (Exp(1) / (G LAD)); the stop is kept only where it lies inside the layer
-    as the grid says (CoverGrid.class_inside), labelled with the class of its own cell. A constant
-    number of array operations a ray: the cost does not grow with the runs' lengths. What this
-    leaves out: a beam skimming through a sward and out again before a farther hit (a crest's
-    grass tops), and a layer whose height or class changes along one run (the run's end cell
-    decides its length)."""
+    depth into the run (Exp(1) / (G LAD), LAD = LAI / the layer's height); the stop is kept
+    only where it lies inside the layer as the grid says (CoverGrid.class_inside), labelled
+    with the class of its own cell. A constant number of array operations a ray: the cost does
+    not grow with the runs' lengths. What this leaves out: a beam skimming through a sward and
+    out again before a farther hit (a crest's grass tops), and a layer whose height or class
+    changes along one run (the run's end cell decides its length)."""
 
     name = "cover"
     changes_medium = True
@@ -108,7 +108,7 @@ class GroundCover(Effect):
         rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0[rows])
         leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
         leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end[rows])
-        return rows, leave, _stop(t, leave, cls, u[rows])
+        return rows, leave, _stop(t, leave, cls, height, u[rows])
 
     def _run_to_hit(self, ray: _Rays, end, start, rows, u):
         """The run that ends at the hit of each of `rows`, from where the ray came down into
@@ -118,7 +118,7 @@ class GroundCover(Effect):
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         stop_end = end[rows]
         begin = np.maximum(stop_end - back, start[rows])
-        return rows, _stop(begin, stop_end, cls, u[rows])
+        return rows, _stop(begin, stop_end, cls, height, u[rows])
 
     def _inside(self, ray: _Rays, rows, t):
         """Of `rows`, those whose point t along lies inside the layer: (those rows, their t,
@@ -154,7 +154,7 @@ class GroundCover(Effect):
             again = todo[lower]
             begin = stop[again] + (above[lower] - height[lower]) / -rate[rate < 0]
             stop[todo[~inside]] = np.inf
-            stop[again] = _stop(begin, end[again], c[lower], u[again])
+            stop[again] = _stop(begin, end[again], c[lower], height[lower], u[again])
             todo = again[np.isfinite(stop[again])]
         return cls
 
@@ -215,10 +215,10 @@ class _Rays:
         return r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
 
 
-def _stop(begin, end, cls, u):
+def _stop(begin, end, cls, height, u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
-    depth -log(1 - u), Exp(1), over the class's extinction per metre."""
-    rate = EXTINCTION[cls]
+    depth -log(1 - u), Exp(1), over the extinction per metre of its class and layer height."""
+    rate = extinction(cls, height)
     go = (begin < end) & (rate > 0)
     t = np.full(len(begin), np.inf)
     t[go] = begin[go] - dm.log(1.0 - u[go]) / rate[go]

@@ -31,21 +31,31 @@ HIGH_GRASS = class_by_name("high grass").id
 BUSH = class_by_name("bush").id
 COVER_CLASSES = (LOW_GRASS, HIGH_GRASS, BUSH)
 
-# Leaf area index (m^2/m^2; Asner et al. 2003, above) and the layer's typical height (m), so
-# LAD = LAI / height. Heights: a grazed or mown meadow sward 0.1-0.3 m, tall grass and reeds
-# 0.6-1.2 m, fern and bramble undergrowth 0.4-1 m (field descriptions of European grassland
-# and woodland ground flora; the grid's own heights vary around these).
+# Leaf area index (m^2/m^2; Asner et al. 2003, above) and the layer's typical height (m).
+# Heights: a grazed or mown meadow sward 0.1-0.3 m, tall grass and reeds 0.6-1.2 m, fern and
+# bramble undergrowth 0.4-1 m (field descriptions of European grassland and woodland ground
+# flora; the grid's own heights vary around these).
 LAI = {LOW_GRASS: 1.7, HIGH_GRASS: 6.3, BUSH: 2.1}
 TYPICAL_HEIGHT = {LOW_GRASS: 0.25, HIGH_GRASS: 0.8, BUSH: 0.7}
-LAD = {c: LAI[c] / TYPICAL_HEIGHT[c] for c in COVER_CLASSES}  # m^2/m^3
 # Ross's G function: the mean projection of unit leaf area on a plane normal to the beam; 0.5
 # for a spherical (random) leaf angle distribution (Ross 1981, The Radiation Regime and
 # Architecture of Plant Stands; the value HELIOS++ and most canopy models use).
 G_SPHERICAL = 0.5
-# Attenuation per metre of path inside the layer (1/m): Beer-Lambert, P(pass s) = exp(-G LAD s).
-EXTINCTION = np.zeros(max(BY_ID) + 1, dtype=np.float64)
+# G LAI per class (0 for bare ground). A cell's leaf area density is its class's LAI over the
+# cell's own height (LAD = LAI / h): LAI is leaf area per ground area, the figure of the
+# vegetation type whatever its height, so a cell's height spreads its leaf area, it does not
+# add to it (a short sward is a dense one: a 0.12 m lawn hides the soil as a meadow does).
+G_LAI = np.zeros(max(BY_ID) + 1, dtype=np.float64)
 for _c in COVER_CLASSES:
-    EXTINCTION[_c] = G_SPHERICAL * LAD[_c]
+    G_LAI[_c] = G_SPHERICAL * LAI[_c]
+
+
+def extinction(cls: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """Attenuation per metre of path (1/m) in cells of class `cls` and layer height `height`:
+    Beer-Lambert, P(pass s) = exp(-G LAD s) with LAD = LAI / height; 0 on bare ground."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(height > 0, G_LAI[cls] / height, 0.0)
+
 
 # A cover point's instance: one per class, above every element stage's block (plan.py), so a
 # cover return never shares an instance with an element.
