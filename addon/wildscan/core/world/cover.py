@@ -102,7 +102,9 @@ class CoverGrid:
         ny, nx = self.shape
         i = np.floor((np.asarray(x) - self.x0) / self.cell).astype(np.int64)
         j = np.floor((np.asarray(y) - self.y0) / self.cell).astype(np.int64)
-        inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        inside = (i.astype(np.uint64) < nx) & (j.astype(np.uint64) < ny)  # negatives wrap to huge
+        if np.all(inside):
+            return j * nx + i, inside
         return np.clip(j, 0, ny - 1) * nx + np.clip(i, 0, nx - 1), inside
 
     def ground(self, x, y) -> np.ndarray:
@@ -132,11 +134,14 @@ class CoverGrid:
         fy = (y - self.y0) / self.cell
         i = np.floor(fx).astype(np.int64)
         j = np.floor(fy).astype(np.int64)
-        out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
-        i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
-        tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
-        # one gather a point: its cell's record, a contiguous row per field
-        z00, z10, z01, z11, height, cls = self._cell_table().take(j * nx + i, axis=1)
+        out = (i.astype(np.uint64) >= nx) | (j.astype(np.uint64) >= ny)  # negatives wrap to huge
+        if out.any():  # (inside the grid fx - i lies in [0, 1) already: no clipping to do)
+            i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
+            tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
+        else:
+            tx, ty = fx - i, fy - j
+        # one gather a point: its cell's record (48 contiguous bytes)
+        z00, z10, z01, z11, height, cls = self._cell_table().take(j * nx + i, axis=0).T
         sx, sy = 1 - tx, 1 - ty
         ground = (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
         gx = gy = None
@@ -148,13 +153,13 @@ class CoverGrid:
         return cls.astype(np.int16), height, ground, gx, gy
 
     def _cell_table(self) -> np.ndarray:
-        """(6, ny * nx) float64, a column a cell (row-major): the terrain at its four corners
+        """(ny * nx, 6) float64, a row a cell (row-major): the terrain at its four corners
         (x0y0, x1y0, x0y1, x1y1), its layer's height and its class. Built once: surface_at()
         gathers a point's whole cell in one step (the values are the grid's own, exactly)."""
         if self._table is None:
             z = self.node_ground()
             fields = (z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:], self.height, self.class_id)
-            self._table = np.stack([np.asarray(f, dtype=np.float64).reshape(-1) for f in fields])
+            self._table = np.stack([np.asarray(f, dtype=np.float64).reshape(-1) for f in fields], axis=1)
         return self._table
 
     def class_inside(self, points: np.ndarray) -> np.ndarray:
