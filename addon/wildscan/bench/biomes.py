@@ -110,6 +110,7 @@ def measure_biome(biome: str, seed: int, worlds: int, scans: int) -> dict:
     """Class points, build and scan times and memory of `worlds` worlds x `scans` scans, and
     (other than paper) the same of the paper world of each seed at the same poses."""
     counts: dict[str, int] = {}
+    by_zone: dict[str, dict[str, int]] = {}  # zone of the pose -> class -> points
     build, scan_times, bare_times, memory, n_scans = [], [], [], [], 0
     paper_build, paper_memory, paired = [], [], []  # paired: (this biome's, paper's) scan seconds
     for w in range(worlds):
@@ -145,12 +146,15 @@ def measure_biome(biome: str, seed: int, worlds: int, scans: int) -> dict:
             for label, c in zip(labels.tolist(), n.tolist()):
                 name = BY_ID[label].name
                 counts[name] = counts.get(name, 0) + c
+                zone = by_zone.setdefault(pose.zone, {})
+                zone[name] = zone.get(name, 0) + c
     paired = [(a, b) for a, b in paired if np.isfinite(a) and np.isfinite(b)]
     return {
         "biome": biome,
         "worlds": worlds,
         "scans": n_scans,
         "class_points": counts,
+        "zone_points": by_zone,
         "build_s": statistics.median(build),
         "scan_s": statistics.median(scan_times) if scan_times else float("nan"),
         "scan_bare_s": statistics.median(bare_times) if bare_times else float("nan"),
@@ -248,5 +252,29 @@ def bench_biomes(seed: int = 0, quick: bool = False, stream=None) -> dict:
         f"{default['scan_bare_s']:.3f} s without it at the same poses in the same worlds "
         f"({default['sward_x']:.2f}x)"
     )
+    say(_bare_ground_by_zone(default))
     result.update(targets=met, costs=costs)
     return result
+
+
+def _bare_ground_by_zone(row: dict) -> str:
+    """Where the default biome's bare ground comes from: per zone of the poses, its share of the
+    labeled points, the share of its points that are bare ground, and its part of the total."""
+    from ..app.dataset.card import CATEGORIES
+
+    bare = CATEGORIES["ground"][0]
+    total = sum(n for zone in row["zone_points"].values() for c, n in zone.items() if c != "unlabeled") or 1
+    lines = []
+    for zone, classes in sorted(row["zone_points"].items()):
+        points = sum(n for c, n in classes.items() if c != "unlabeled")
+        ground = sum(classes.get(c, 0) for c in bare)
+        lines.append(
+            [
+                zone,
+                f"{100 * points / total:.1f}",
+                f"{100 * ground / max(points, 1):.1f}",
+                f"{100 * ground / total:.1f}",
+            ]
+        )
+    table = text_table(["zone of the pose", "points %", "ground % of them", "ground % of all"], lines)
+    return f"\n{row['biome']}'s bare ground by the zone of the pose:\n{table}"

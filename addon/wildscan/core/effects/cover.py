@@ -92,13 +92,10 @@ class GroundCover(Effect):
             stop = np.concatenate([stop_a[stopped_a], stop_b[stopped_b]])[order]
             run_end = np.concatenate([np.full(stopped_a.sum(), np.inf), end[b[stopped_b]]])[order]
             cls_rows = self._settle(ray.rows(rows), stop, run_end, u[1][rows])
-        if not (cls_rows > 0).any():
+        kept = cls_rows > 0
+        if not kept.any():
             return hits
-        cls = np.zeros(n, dtype=np.int16)
-        cls[rows] = cls_rows
-        t_stop = np.full(n, np.inf)
-        t_stop[rows] = stop
-        return _with_cover_hits(hits, cls > 0, t_stop, cls, d)
+        return _with_cover_hits(hits, rows[kept], stop[kept], cls_rows[kept], d)
 
     def _run_from_sensor(self, ray: _Rays, t0, end, u):
         """The run from the sensor, past the trampled ground, until the ray rises out of the
@@ -225,11 +222,10 @@ def _stop(begin, end, cls, height, u):
     return np.where(t < end, t, np.inf)
 
 
-def _with_cover_hits(hits: RayHits, stopped, t_stop, cls_stop, dirs) -> RayHits:
-    """The hits with the rays that stopped in the cover replaced by a hit there."""
-    rows = np.flatnonzero(stopped)
-    cls = cls_stop[rows]
-    distance = _replaced(hits.distance, rows, t_stop[rows])
+def _with_cover_hits(hits: RayHits, rows, t_stop, cls, dirs) -> RayHits:
+    """The hits with the rays `rows`, which stopped in the cover at `t_stop` in cells of class
+    `cls`, replaced by a hit there."""
+    distance = _replaced(hits.distance, rows, t_stop)
     class_id = _replaced(hits.class_id.astype(np.int16, copy=False), rows, cls)
     instance = _replaced(
         hits.instance.astype(np.int32, copy=False), rows, COVER_INSTANCE_BASE + cls.astype(np.int32)
