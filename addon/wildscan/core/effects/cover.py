@@ -216,7 +216,10 @@ def _stop(begin, end, cls, height, u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
     depth -log(1 - u), Exp(1), over the extinction per metre of its class and layer height."""
     rate = extinction(cls, height)
-    go = (begin < end) & (rate > 0)
+    # -log(1 - u) >= u: where u / rate already reaches past the run's end (a nanometre and a
+    # relative 1e-12 to spare, far above the log's and the sum's rounding) the ray passes, and
+    # its log need not be taken (the same result, most runs from the sensor being short)
+    go = (begin < end) & (rate > 0) & (u < rate * (end - begin + 1e-9) * (1.0 + 1e-12))
     t = np.full(len(begin), np.inf)
     t[go] = begin[go] - dm.log(1.0 - u[go]) / rate[go]
     return np.where(t < end, t, np.inf)
