@@ -34,7 +34,7 @@ from .base import Effect, Rays
 TRAMPLED = 0.45  # m
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
-SETTLE = 2  # times a stop above its own cell's sward is moved down into it
+SETTLE = 6  # times a stop outside its own cell's sward goes on along its run (_settle)
 
 
 class GroundCover(Effect):
@@ -74,28 +74,35 @@ class GroundCover(Effect):
         )
         end = np.minimum(hits.distance, rays.max_range)
         u = stage_rng(self.seed, "cover").random((2, n))
+        again = stage_rng(self.seed, "cover.again")  # the depths of the stops drawn again (_settle)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             horizontal = np.sqrt(ray.dx * ray.dx + ray.dy * ray.dy)
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
-            a, leave, stop_a = self._run_from_sensor(ray, t0, end, u[0])
+            a, leave, stop_a, cls_a, height_a = self._run_from_sensor(ray, t0, end, u[0])
+            held_a, at_a, class_a = self._held(ray, a, stop_a, leave, cls_a, height_a, again)
             # the run that ends at the hit, for the rays that did not stop in the first one
             start = t0.copy()  # where a run to the hit may begin: past the run from the sensor
             start[a] = leave
             unstopped = np.isfinite(hits.distance)
-            unstopped[a[np.isfinite(stop_a)]] = False
-            b, stop_b = self._run_to_hit(ray, end, start, np.flatnonzero(unstopped), u[1])
-            # every stop, in ray order: a ray stops in one run at most
-            stopped_a, stopped_b = np.isfinite(stop_a), np.isfinite(stop_b)
-            rows = np.concatenate([a[stopped_a], b[stopped_b]])
-            order = np.argsort(rows, kind="stable")
-            rows = rows[order]
-            stop = np.concatenate([stop_a[stopped_a], stop_b[stopped_b]])[order]
-            run_end = np.concatenate([np.full(stopped_a.sum(), np.inf), end[b[stopped_b]]])[order]
-            cls_rows = self._settle(ray.rows(rows), stop, run_end, u[1][rows])
-        kept = cls_rows > 0
-        if not kept.any():
+            unstopped[held_a] = False
+            b, stop_b, cls_b, height_b = self._run_to_hit(ray, end, start, np.flatnonzero(unstopped), u[1])
+            held_b, at_b, class_b = self._held(ray, b, stop_b, end[b], cls_b, height_b, again)
+        if not len(held_a) and not len(held_b):
             return hits
-        return _with_cover_hits(hits, rows[kept], stop[kept], cls_rows[kept], d)
+        rows = np.concatenate([held_a, held_b])
+        return _with_cover_hits(
+            hits, rows, np.concatenate([at_a, at_b]), np.concatenate([class_a, class_b]), d
+        )
+
+    def _held(self, ray: _Rays, rows, stop, end, cls, height, rng):
+        """Of the stops of one run (rows, where each stops or inf, the run's end, its anchor
+        cell's class and layer height): those that hold inside the layer (_settle): (their
+        rows, where, the class of their cell)."""
+        stopped = np.isfinite(stop)
+        rows, stop = rows[stopped], stop[stopped]
+        got = self._settle(ray.rows(rows), stop, end[stopped], cls[stopped], height[stopped], rng)
+        held = got > 0
+        return rows[held], stop[held], got[held]
 
     def _run_from_sensor(self, ray: _Rays, t0, end, u):
         """The run from the sensor, past the trampled ground, until the ray rises out of the
@@ -105,17 +112,17 @@ class GroundCover(Effect):
         rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0[rows])
         leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
         leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end[rows])
-        return rows, leave, _stop(t, leave, cls, height, u[rows])
+        return rows, leave, _stop(t, leave, cls, height, u[rows]), cls, height
 
     def _run_to_hit(self, ray: _Rays, end, start, rows, u):
         """The run that ends at the hit of each of `rows`, from where the ray came down into
         the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
-        in it or inf)."""
+        in it or inf, the class and layer height at the hit)."""
         rows, _, (cls, above, height, rate) = self._inside(ray, rows, np.maximum(end[rows] - BEFORE_HIT, 0.0))
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         stop_end = end[rows]
         begin = np.maximum(stop_end - back, start[rows])
-        return rows, _stop(begin, stop_end, cls, height, u[rows])
+        return rows, _stop(begin, stop_end, cls, height, u[rows]), cls, height
 
     def _inside(self, ray: _Rays, rows, t):
         """Of `rows`, those whose point t along lies inside the layer: (those rows, their t,
@@ -126,13 +133,16 @@ class GroundCover(Effect):
         cls, above, height, rate, inside = self._layer(x, y, z, ray.rows(rows))
         return rows[inside], t[inside], (cls[inside], above[inside], height[inside], rate[inside])
 
-    def _settle(self, ray: _Rays, stop, end, u):
+    def _settle(self, ray: _Rays, stop, end, anchor_cls, anchor_height, rng):
         """The class at each stop (of `ray`'s rays) inside the layer as the grid has it (0:
-        none); `stop` is updated in place. A stop that came out above its own cell's sward (the
-        run's length was taken from its end cell, and the sward is lower here) moves down to
-        where the ray enters this cell's layer and is drawn again from there (at most SETTLE
-        times; then the ray passes on to its hit). Only stops of a run to the hit (finite `end`)
-        move."""
+        none); `stop` is updated in place. A run's length and medium are its anchor cell's (where
+        it ends, or starts); along a long run (a grazing beam over several cells) a stop can come
+        out where this cell's sward is lower, or bare ground (a trail, a rock), or another class.
+        Such a ray goes on from there (from where it comes down into this cell's sward, when it
+        is above it): its depth is drawn again (from `rng`), in this cell's sward or, where this
+        cell has none, in the anchor's, until its run's `end`; at most SETTLE times, then it
+        passes. (Dropping such stops instead would let grazing beams through a meadow far more
+        often than Beer-Lambert says.)"""
         cls = np.zeros(len(stop), dtype=np.int16)
         todo = np.arange(len(stop))
         for attempt in range(SETTLE + 1):
@@ -141,18 +151,22 @@ class GroundCover(Effect):
             x, y, z = ray.at(todo, stop[todo])
             c, above, height, _, inside = self._layer(x, y, z, None)
             cls[todo[inside]] = c[inside]
-            # below its cell's top, or moving away from the layer: the stop is dropped
-            high = ~inside & (c > 0) & (above > height) & np.isfinite(end[todo])
-            if attempt == SETTLE:
-                high[:] = False
-            high = np.flatnonzero(high)
-            rate = self._rate(x[high], y[high], ray.rows(todo[high]))
-            lower = high[rate < 0]
-            again = todo[lower]
-            begin = stop[again] + (above[lower] - height[lower]) / -rate[rate < 0]
-            stop[todo[~inside]] = np.inf
-            stop[again] = _stop(begin, end[again], c[lower], height[lower], u[again])
-            todo = again[np.isfinite(stop[again])]
+            out = np.flatnonzero(~inside)
+            rows = todo[out]
+            t = stop[rows]
+            stop[rows] = np.inf
+            if attempt == SETTLE or len(out) == 0:
+                break
+            # above a lower sward the ray comes down into: on from where it enters it
+            high = np.flatnonzero((c[out] > 0) & (above[out] > height[out]))
+            rate = self._rate(x[out[high]], y[out[high]], ray.rows(rows[high]))
+            down = high[rate < 0]
+            t[down] += (above[out[down]] - height[out[down]]) / -rate[rate < 0]
+            here = c[out] > 0
+            medium_cls = np.where(here, c[out], anchor_cls[rows])
+            medium_height = np.where(here, height[out], anchor_height[rows])
+            stop[rows] = _stop(t, end[rows], medium_cls, medium_height, rng.random(len(rows)))
+            todo = rows[np.isfinite(stop[rows])]
         return cls
 
     def _layer(self, x, y, z, ray: _Rays | None):
