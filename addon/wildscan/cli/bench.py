@@ -66,7 +66,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
         "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md); "
         "biomes: per biome the class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time "
-        "and memory beside the paper biome's (docs/ground.md)",
+        "and memory beside the paper world of the same seeds at the same poses; the default biome also with "
+        "poses uniform over the world, and its bare ground by zone (docs/ground.md)",
     )
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
     p.add_argument(
