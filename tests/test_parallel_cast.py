@@ -85,5 +85,6 @@ def test_a_commands_backend_uses_the_cores_and_a_dataset_workers_one(monkeypatch
     monkeypatch.delenv(THREADS_ENV, raising=False)
     monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
     geometry = _rough_ground_and_litter()
-    assert backend_threads(make_backend("embree", geometry=geometry, notify=None)) == len(os.sched_getaffinity(0))
+    command = make_backend("embree", geometry=geometry, notify=None)
+    assert backend_threads(command) == len(os.sched_getaffinity(0))
     assert backend_threads(_embree(geometry)) == 1
