@@ -68,14 +68,11 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
         "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md); "
         "biomes: per biome the class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time "
-<<<<<<< HEAD
-        "and memory beside the paper biome's (docs/ground.md); casters: every float32 ray caster (embreex, "
+        "and memory beside the paper world of the same seeds at the same poses; the default biome also with "
+        "poses uniform over the world, and its bare ground by zone (docs/ground.md); "
+        "casters: every float32 ray caster (embreex, "
         "Embree filled from numpy, Embree packets, Open3D, Warp, Mitsuba) on the same triangles and rays: "
         "build time, rays/s on 1 and 2 threads, memory, and whether its scans are the same bytes as embree's",
-=======
-        "and memory beside the paper world of the same seeds at the same poses; the default biome also with "
-        "poses uniform over the world, and its bare ground by zone (docs/ground.md)",
->>>>>>> cover
     )
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
     p.add_argument(
