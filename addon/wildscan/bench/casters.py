@@ -84,7 +84,7 @@ def _packets(geometry, settler):
 def _open3d(geometry, settler):
     from ..raycast.open3d_backend import Open3DBackend
 
-    return Open3DBackend(geometry, settler=settler)
+    return Open3DBackend(geometry, settler=settler, threads=1)
 
 
 def _warp(geometry, settler):

@@ -10,14 +10,17 @@ Open3D 0.20's API used here: `o3d.t.geometry.RaycastingScene()`,
 `cast_rays(rays Tensor float32 (N,6) [origin, direction], nthreads)` -> dict of Tensors:
 `t_hit` (inf on a miss), `primitive_ids` (INVALID_ID on a miss), `primitive_uvs` (N,2)
 (Embree's u, v). It takes no tfar: hits beyond max range are dropped afterwards, at the
-float32 distance embree's tfar would have cut them at. The BVH is built on the first cast;
-casts run on Open3D's own thread pool (`threads`, 0: every core).
+float32 distance embree's tfar would have cut them at. The BVH is built on the first cast.
+A cast runs on Open3D's own thread pool, `threads` threads (None: core.threads.cast_threads(),
+the cores or what the environment says, as embree's casts are split; 1 in a dataset worker);
+each ray's answer is its own, so the bytes are the same however many.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..core.threads import cast_threads
 from .embree_backend import sealed
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler
@@ -30,7 +33,7 @@ class Open3DBackend(RefiningBackend):
 
     name = "open3d"
 
-    def __init__(self, geometry: SceneGeometry, threads: int = 1, settler: Settler | None = None):
+    def __init__(self, geometry: SceneGeometry, threads: int | None = None, settler: Settler | None = None):
         import open3d as o3d
 
         self.geometry = geometry
@@ -55,7 +58,8 @@ class Open3DBackend(RefiningBackend):
         rays = np.empty((len(dirs), 6), dtype=np.float32)
         rays[:, :3] = local
         rays[:, 3:] = dirs
-        result = self._scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=self.threads)
+        threads = self.threads or cast_threads()  # as RefiningBackend.threads: None, the cores
+        result = self._scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=threads)
         t = result["t_hit"].numpy()
         primitive = result["primitive_ids"].numpy()
         uv = result["primitive_uvs"].numpy()

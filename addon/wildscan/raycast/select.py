@@ -18,11 +18,12 @@ fed the same sealed triangles and the same scans' rays, docs/benchmarks.md#caste
 one of them (embreex as it was, Embree packets through ctypes, Open3D, NVIDIA Warp, Mitsuba 3)
 gives embree's PLY bytes once the float64 settling has decided the ambiguous hits, so cost
 decides, and a world is built once for tens of scans. Embree with its buffers filled by numpy
-(embree_buffers.py) has the cheapest build of them all (about half Open3D's, a sixth of
-Mitsuba's, under half of embreex's own item-by-item upload), adds no more memory than embreex
-did (Open3D a little more, Warp and Mitsuba far more), casts a scan's rays on one thread as
-fast as any (Open3D and Mitsuba are as fast on some ray sets and slower on others; packets
-from a Python loop and Warp's CPU kernel are slower) and releases the GIL while casting.
+(embree_buffers.py) builds cheapest of the casters that cast as fast (embreex's item-by-item
+upload and build take 2-2.6x as long, Open3D's 1.3-2x, Mitsuba's 3-5x; Warp builds about as
+fast and casts 3-4x slower), adds no more memory than embreex did (Open3D a little more, Warp
+and Mitsuba far more), casts a scan's rays on one thread as fast as any (Open3D and Mitsuba
+are as fast on some ray sets and slower on others; packets from a Python loop are slower; a
+low-quality BVH saves nothing measurable) and releases the GIL while casting.
 Open3D is the fallback: next to embree on build and cast together, and in `make setup`
 already. Warp (CUDA where a GPU exists) and Mitsuba are measured only: their wheels are
 hundreds of MB and neither beats Embree on a CPU.
