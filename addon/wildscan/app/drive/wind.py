@@ -23,7 +23,7 @@ from ...core import detmath as dm
 from ...core.backend import SCAN_TIMES, RayBackend
 from ...core.effects import CLEAR_AIR, Effects, ObjectMotion, Wind
 from ...core.effects.wind import pivots_of
-from ...core.hits import RayHits
+from ...core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
 from ...core.sensors import SensorConfig
 from ...raycast.geometry import SceneGeometry
 
@@ -170,6 +170,8 @@ class MovingScene:
         distance = near + found.distance
         keep = (found.distance <= chord) & (distance <= max_range)
         found.distance = np.where(keep, distance, np.inf)
+        found.class_id = np.where(keep, found.class_id, MISS_CLASS).astype(np.int16)
+        found.instance = np.where(keep, found.instance, MISS_INSTANCE).astype(np.int32)
         return ray, found
 
 
