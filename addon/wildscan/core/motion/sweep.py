@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import detmath as dm
 from ..backend import RayBackend, with_scan_times
+from ..cast_clock import scanning
 from ..effects import CLEAR_AIR, Effects, Rays, weather_of
 from ..pointcloud import PointCloud
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame, with_weather_field
@@ -50,6 +51,7 @@ class Sweep:
     times: np.ndarray  # (N,) beam times, seconds after the start of 2D scan k0
 
 
+@scanning
 def sweep(
     backend: RayBackend,
     motion: Motion,

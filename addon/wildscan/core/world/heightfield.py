@@ -335,19 +335,28 @@ class TerrainGrid:
 
 
 def interpolate(xs, ys, z, x, y):
+    """The triangulated grid's height at (x, y): in the cell's lower triangle (00, 10, 11)
+    z00 + tx (z10 - z00) + ty (z11 - z10), in its upper one z00 + ty (z01 - z00) + tx (z11 - z01).
+    Both are one expression, z00 + a (m - z00) + b (z11 - m), with (a, b, m) chosen per point,
+    so each point is computed once (the same operations, so the same bits) and the corners
+    are gathered from the flat grid (a bird's-eye grid asks for 90,000 points seven times a
+    scan)."""
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
-    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, len(xs) - 2)
+    shape = np.broadcast_shapes(x.shape, y.shape)
+    x, y = np.broadcast_to(x, shape).ravel(), np.broadcast_to(y, shape).ravel()
+    nx = len(xs)
+    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, nx - 2)
     j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
-    tx = np.clip((x - xs[i]) / (xs[i + 1] - xs[i]), 0.0, 1.0)
-    ty = np.clip((y - ys[j]) / (ys[j + 1] - ys[j]), 0.0, 1.0)
-    z00, z10, z01, z11 = z[j, i], z[j, i + 1], z[j + 1, i], z[j + 1, i + 1]
+    tx = np.clip((x - xs.take(i)) / np.diff(xs).take(i), 0.0, 1.0)
+    ty = np.clip((y - ys.take(j)) / np.diff(ys).take(j), 0.0, 1.0)
+    flat, corner = np.ravel(z), j * nx + i
     lower = tx >= ty  # triangle (00, 10, 11)
-    return np.where(
-        lower,
-        z00 + tx * (z10 - z00) + ty * (z11 - z10),
-        z00 + ty * (z01 - z00) + tx * (z11 - z01),
-    )
+    z00, z11 = flat.take(corner), flat.take(corner + (nx + 1))
+    middle = flat.take(np.where(lower, corner + 1, corner + nx))  # z10 below the diagonal, z01 above
+    height = z00 + np.where(lower, tx, ty) * (middle - z00)
+    height += np.where(lower, ty, tx) * (z11 - middle)
+    return height.reshape(shape)
 
 
 def sample_grid(field_fn: Field, xs, ys) -> TerrainGrid:
