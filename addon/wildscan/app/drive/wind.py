@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core import detmath as dm
-from ...core.backend import SCAN_TIMES, RayBackend
+from ...core.backend import SCAN_TIMES, THREADS, RayBackend
 from ...core.effects import CLEAR_AIR, Effects, ObjectMotion, Wind
 from ...core.effects.wind import pivots_of
 from ...core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
@@ -55,7 +55,10 @@ class MovingScene:
         name: str,
     ):
         self.name = f"{static.name}+{name}"
-        self.capabilities = frozenset({SCAN_TIMES})  # cast_scans; no normals (the paper model)
+        # cast_scans; no normals (the paper model); threads as the still scene's caster allows
+        # (every ray's answer its own, the casters read-only once built)
+        self.capabilities = frozenset({SCAN_TIMES}) | (static.capabilities & {THREADS})
+        self.threads = getattr(static, "threads", None)
         self.static = static
         self.swaying = swaying
         self.sway = sway
