@@ -28,12 +28,10 @@ and no ray slips through; refined ranges are unaffected.
 Cropping
 --------
 A scan cannot see farther than its max range, so only triangles near the pose
-matter. `cropped(center, radius)` keeps every triangle whose axis-aligned
-bounding box comes within `radius` of `center` measured in the XY plane (an
-infinite vertical cylinder). XY, not 3D, because the optical centre's height
-is only known after placement, which itself casts rays down through this
-geometry. The box test is conservative: a triangle that a ray can reach within
-the radius is never dropped; a few farther ones may be kept.
+matter. `cropped(center, radius)` keeps every triangle whose axis-aligned bounding box
+comes within `radius` of `center` in the XY plane (an infinite vertical cylinder: the
+optical centre's height is only known after placement, which casts through this geometry).
+The box test is conservative: a triangle a ray can reach within the radius is never dropped.
 """
 
 from __future__ import annotations

@@ -1,15 +1,13 @@
 """The analytic terrain height h(x, y) and the grid that approximates it (numpy only).
 
-A `Heightfield` is a pure function of (x, y): seeded fractal gradient noise plus
-zone features (hills, flattened plateaus, a lake basin, a cave pit), each a
-smooth (C2) term, so it can be evaluated anywhere, at any density, and always
-gives the same numbers for the same seed.
+A `Heightfield` is a pure function of (x, y): seeded fractal gradient noise plus zone
+features (hills, flattened plateaus, a lake basin, a cave pit), each a smooth (C2) term, so
+it gives the same numbers for the same seed anywhere, at any density.
 
-The terrain mesh is a `TerrainGrid`: a rectilinear grid whose column and row
-spacings are chosen against the height error the triangulated grid makes versus
-the analytic field (`fit_grid`): where the field curves more (hill tops, the
-cave's walls) lines are closer, elsewhere they spread out, so no triangle is
-spent on detail the sensor could not see.
+The terrain mesh is a `TerrainGrid`: a rectilinear grid whose column and row spacings are
+chosen against the height error the triangulated grid makes versus the analytic field
+(`fit_grid`): lines are closer where the field curves more (hill tops, the cave's walls),
+so no triangle is spent on detail the sensor could not see.
 """
 
 from __future__ import annotations
@@ -335,16 +333,11 @@ class TerrainGrid:
 
 
 def interpolate(xs, ys, z, x, y):
-    """The triangulated grid's height at (x, y): in the cell's lower triangle (00, 10, 11)
-    z00 + tx (z10 - z00) + ty (z11 - z10), in its upper one z00 + ty (z01 - z00) + tx (z11 - z01).
-    Both are one expression, z00 + a (m - z00) + b (z11 - m), with (a, b, m) chosen per point,
-    so each point is computed once (the same operations, so the same bits) and the corners
-    are gathered from the flat grid (a bird's-eye grid asks for 90,000 points seven times a
-    scan)."""
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    shape = np.broadcast_shapes(x.shape, y.shape)
-    x, y = np.broadcast_to(x, shape).ravel(), np.broadcast_to(y, shape).ravel()
+    """The triangulated grid's height at (x, y). The lower triangle's z00 + tx (z10 - z00) +
+    ty (z11 - z10) and the upper's z00 + ty (z01 - z00) + tx (z11 - z01) are one expression
+    with per-point factors: each point computed once, with the same operations (same bits)."""
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+    shape, x, y = x.shape, x.ravel(), y.ravel()
     nx = len(xs)
     i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, nx - 2)
     j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
