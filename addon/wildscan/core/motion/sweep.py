@@ -118,10 +118,7 @@ def cast_in_chunks(backend: RayBackend, origins, dirs, max_range, ks, progress):
             return timed_backend.cast_scans(o, dirs[rows], max_range, scans)
         return backend.cast(o, dirs[rows], max_range)
 
-    if backend_threads(backend) > 1:
-        parts = in_parts(chunk, len(dirs), per_chunk)
-    else:
-        parts = [chunk(slice(a, min(a + per_chunk, len(dirs)))) for a in range(0, len(dirs), per_chunk)]
+    parts = in_parts(chunk, len(dirs), per_chunk, backend_threads(backend))
     if progress is not None:
         for part in parts:
             progress(len(part.distance))
