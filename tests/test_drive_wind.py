@@ -106,3 +106,25 @@ def test_spheres_of_one_layer_keep_apart():
         np.fill_diagonal(gap, np.inf)
         assert gap.min() >= SEPARATION
     assert layer.max() > 0
+
+
+@pytest.mark.parametrize("amplitude", [0.0, 6.0])
+def test_a_sweeps_chunks_on_two_threads_answer_as_on_one(forest, monkeypatch, amplitude):
+    """The sweep casts its chunks of 2D scans on the cast's threads (core/threads.py) when the
+    caster allows it, the still one and the wind's alike: the same answers as on one thread."""
+    from wildscan.core.backend import THREADS
+    from wildscan.core.motion.sweep import cast_in_chunks
+
+    crop, origin = forest
+    backend = scene(crop, amplitude) if amplitude else make(crop)
+    assert THREADS in backend.capabilities
+    ks = np.arange(130)  # three chunks
+    dirs = fans(ks)
+    answers, told = [], []
+    for threads in ("1", "2"):
+        monkeypatch.setenv("WILDSCAN_CAST_THREADS", threads)
+        answers.append(cast_in_chunks(backend, origin, dirs, 30.0, ks, told.append))
+    one, two = answers
+    assert told == [64_800, 64_800, 10_800] * 2
+    assert np.array_equal(one.class_id, two.class_id) and np.array_equal(one.instance, two.instance)
+    assert one.distance.tobytes() == two.distance.tobytes()

@@ -20,10 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from ...core import detmath as dm
-from ...core.backend import SCAN_TIMES, RayBackend
+from ...core.backend import SCAN_TIMES, THREADS, RayBackend
 from ...core.effects import CLEAR_AIR, Effects, ObjectMotion, Wind
 from ...core.effects.wind import pivots_of
-from ...core.hits import RayHits
+from ...core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
 from ...core.sensors import SensorConfig
 from ...raycast.geometry import SceneGeometry
 
@@ -55,7 +55,10 @@ class MovingScene:
         name: str,
     ):
         self.name = f"{static.name}+{name}"
-        self.capabilities = frozenset({SCAN_TIMES})  # cast_scans; no normals (the paper model)
+        # cast_scans; no normals (the paper model); threads as the still scene's caster allows
+        # (every ray's answer its own, the casters read-only once built)
+        self.capabilities = frozenset({SCAN_TIMES}) | (static.capabilities & {THREADS})
+        self.threads = getattr(static, "threads", None)
         self.static = static
         self.swaying = swaying
         self.sway = sway
@@ -170,6 +173,8 @@ class MovingScene:
         distance = near + found.distance
         keep = (found.distance <= chord) & (distance <= max_range)
         found.distance = np.where(keep, distance, np.inf)
+        found.class_id = np.where(keep, found.class_id, MISS_CLASS).astype(np.int16)
+        found.instance = np.where(keep, found.instance, MISS_INSTANCE).astype(np.int32)
         return ray, found
 
 

@@ -99,25 +99,29 @@ def sweep(
 
 
 def cast_in_chunks(backend: RayBackend, origins, dirs, max_range, ks, progress):
-    """All rays, in chunks of whole 2D scans (columns: `dirs` holds len(ks) of them). A backend
-    that casts at scan times (a scene that moves with time: an effect's, app/drive/wind.py) is
-    told which 2D scan each chunk's rows belong to."""
+    """All rays, in chunks of whole 2D scans (columns: `dirs` holds len(ks) of them), on the
+    cast's threads where the backend allows it (core/threads.py: each ray's answer is its own,
+    so the joined answer is the same bytes however many threads). A backend that casts at
+    scan times (a scene that moves with time: an effect's, app/drive/wind.py) is told which 2D
+    scan each chunk's rows belong to."""
     from ..hits import RayHits
+    from ..threads import backend_threads, in_parts
 
     per_column = len(dirs) // len(ks)
     per_chunk = max(1, CAST_CHUNK // per_column) * per_column
     timed_backend = with_scan_times(backend)
-    timed = None if timed_backend is None else timed_backend.cast_scans
-    parts = []
-    for start in range(0, len(dirs), per_chunk):
-        stop = min(start + per_chunk, len(dirs))
-        o = origins if origins.ndim == 1 else origins[start:stop]
-        if timed is not None:
-            parts.append(timed(o, dirs[start:stop], max_range, ks[start // per_column : stop // per_column]))
-        else:
-            parts.append(backend.cast(o, dirs[start:stop], max_range))
-        if progress is not None:
-            progress(stop - start)
+
+    def chunk(rows: slice) -> RayHits:
+        o = origins if origins.ndim == 1 else origins[rows]
+        if timed_backend is not None:
+            scans = ks[rows.start // per_column : rows.stop // per_column]
+            return timed_backend.cast_scans(o, dirs[rows], max_range, scans)
+        return backend.cast(o, dirs[rows], max_range)
+
+    parts = in_parts(chunk, len(dirs), per_chunk, backend_threads(backend))
+    if progress is not None:
+        for part in parts:
+            progress(len(part.distance))
     return RayHits.joined(parts) if len(parts) != 1 else parts[0]
 
 
