@@ -86,3 +86,19 @@ def test_thread_count_from_the_environment(monkeypatch):
     monkeypatch.setenv(threads.THREADS_ENV, "two")
     with pytest.raises(UserError, match=threads.THREADS_ENV):
         threads.cast_threads()
+
+
+def test_work_in_parts_runs_on_the_threads_it_is_given(monkeypatch):
+    """in_parts: the parts in order; on the caller's thread alone when given 1 thread (a dataset
+    worker's backend says 1), on the pool's when given more."""
+    monkeypatch.setenv(threads.THREADS_ENV, "2")
+
+    def where(part):
+        return part.start, part.stop, threading.current_thread().name
+
+    alone = threads.in_parts(where, 10, 3, threads=1)
+    assert [(a, b) for a, b, _ in alone] == [(0, 3), (3, 6), (6, 9), (9, 10)]
+    assert {name for _, _, name in alone} == {threading.current_thread().name}
+    pooled = threads.in_parts(where, 10, 3, threads=2)
+    assert [(a, b) for a, b, _ in pooled] == [(0, 3), (3, 6), (6, 9), (9, 10)]
+    assert all(name.startswith("wildscan-cast") for _, _, name in pooled)

@@ -89,11 +89,14 @@ def subray_returns(hits: RayHits, sub_world: np.ndarray, beams: slice = slice(No
     )
 
 
-def beam_echoes(hits: RayHits, sub_world: np.ndarray, sensor: SensorConfig) -> Echoes:
+def beam_echoes(
+    hits: RayHits, sub_world: np.ndarray, sensor: SensorConfig, threads: int | None = None
+) -> Echoes:
     """The echoes of every beam (echoes.form_echoes), formed a block of BEAM_BLOCK beams at a
     time, on the cast's threads (core/threads.py). A beam's echoes are its own, so the blocks
     joined are the bytes of one pass over all beams; a block's arrays stay in the CPU's cache,
-    which alone takes a third off the time of one pass (measured on seed 0's hills and forest)."""
+    which alone takes a third off the time of one pass (measured on seed 0's hills and
+    forest). `threads`: as the cast's (None: threads.cast_threads())."""
     s, n, _ = sub_world.shape
     weights = subray_weights(s)
 
@@ -104,7 +107,7 @@ def beam_echoes(hits: RayHits, sub_world: np.ndarray, sensor: SensorConfig) -> E
         echoes.beam += beams.start
         return echoes
 
-    return Echoes.joined(in_parts(block, n, BEAM_BLOCK))
+    return Echoes.joined(in_parts(block, n, BEAM_BLOCK, threads))
 
 
 def realistic_points(
@@ -114,17 +117,19 @@ def realistic_points(
     sensor: SensorConfig,
     cast_range: float,
     effects: Effects = CLEAR_AIR,
+    threads: int | None = None,
 ) -> RealisticPoints:
     """Every point of a realistic scan over the beams of sensor.beam_directions (their
     order). `cast(origins, dirs_world, max_range, normals)` is the backend's cast (maybe
-    reporting progress); `rotation` turns the sensor frame to the world's."""
+    reporting progress); `rotation` turns the sensor frame to the world's; `threads`: those
+    its casts use (threads.backend_threads; None: threads.cast_threads())."""
     sub_sensor = subray_directions(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
     sub_world = np.empty(sub_sensor.shape)
     # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
     # single-echo realistic scan hits exactly where the paper's does; the ring is turned.
     sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
     sub_world[1:] = dm.apply(rotation, sub_sensor[1:])
-    return echo_points(cast, origin, sub_world, sensor, cast_range, effects)
+    return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads)
 
 
 def echo_points(
@@ -134,6 +139,7 @@ def echo_points(
     sensor: SensorConfig,
     cast_range: float,
     effects: Effects = CLEAR_AIR,
+    threads: int | None = None,
 ):
     """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
     world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's.
@@ -144,7 +150,7 @@ def echo_points(
     rays = sub_world.reshape(-1, 3)
     clear = cast(origin, rays, cast_range, True)
     hits = effects.medium(Rays(origin, rays, cast_range), clear)
-    echoes = beam_echoes(hits, sub_world, sensor)
+    echoes = beam_echoes(hits, sub_world, sensor, threads)
     measured = _measured_ranges(echoes, sensor, n)
     keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
     echoes, measured = echoes.subset(keep), measured[keep]

@@ -33,7 +33,7 @@ from .sensors import (
     rotated_beams,
 )
 from .sensors.beams import beam_columns, beam_times
-from .threads import cast_parts
+from .threads import backend_threads, cast_parts
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -288,7 +288,10 @@ def _realistic_cloud(
         untagged.update(hits.untagged_objects)
         return hits
 
-    pts = realistic_points(cast, placement.optical_centre, placement.rotation, sensor, cast_range, effects)
+    threads = backend_threads(backend)  # the echoes formed on the cast's threads (a dataset worker: 1)
+    pts = realistic_points(
+        cast, placement.optical_centre, placement.rotation, sensor, cast_range, effects, threads
+    )
     cloud = PointCloud(
         xyz=_points(placement, frame, sensor, dirs_world, pts.beam, pts.range),
         intensity=pts.intensity.astype(np.float32),

@@ -102,11 +102,11 @@ def cast_parts(
     return out[0] if len(out) == 1 else RayHits.joined(out)
 
 
-def in_parts(fn: Callable[[slice], T], count: int, size: int) -> list[T]:
-    """`fn` of consecutive slices of `size` covering `count` items, in order, on the cast's
-    threads (cast_threads(); numpy releases the GIL inside its array operations)."""
+def in_parts(fn: Callable[[slice], T], count: int, size: int, threads: int | None = None) -> list[T]:
+    """`fn` of consecutive slices of `size` covering `count` items, in order, on `threads`
+    threads (None: cast_threads(); numpy releases the GIL inside its array operations)."""
     pieces = [slice(start, min(start + size, count)) for start in range(0, count, size)] or [slice(0, 0)]
-    threads = cast_threads()
+    threads = cast_threads() if threads is None else threads
     if threads > 1 and len(pieces) > 1:
         return list(_pool_of(threads).map(fn, pieces))
     return [fn(piece) for piece in pieces]
