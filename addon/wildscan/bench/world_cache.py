@@ -18,9 +18,9 @@ import tempfile
 import numpy as np
 
 
-def world_load_steps(spec, seed: int, cache_dir) -> dict[str, dict[str, tuple[float, float]]]:
-    """{"cold": {step: (wall, cpu)}, "warm": {...}} for world `seed` of `spec`, with an
-    empty cache in `cache_dir` at the start."""
+def world_load_steps(spec, seed: int, cache_dir) -> tuple[dict[str, dict[str, tuple[float, float]]], int]:
+    """({"cold": {step: (wall, cpu)}, "warm": {...}}, bytes of the world's cache entries) for
+    world `seed` of `spec`, with an empty cache in `cache_dir` at the start."""
     from ..app.cache.config import cache_config, open_cache
     from ..app.cache.worlds import prepared_world, step, world_inputs, world_poses
     from ..raycast.embree_backend import EmbreeBackend
@@ -38,16 +38,17 @@ def world_load_steps(spec, seed: int, cache_dir) -> dict[str, dict[str, tuple[fl
             world_poses(world, backend, spec.scans_per_world, spec.poses, cache)
         out[label] = steps
         del world, backend
-    return out
+    return out, cache.entries_bytes()
 
 
 def print_world_load_steps(spec, seed: int, stream=None) -> dict:
     stream = stream or sys.stdout
     with tempfile.TemporaryDirectory(prefix="wildscan-bench-world-cache-") as folder:
-        steps = world_load_steps(spec, seed, folder)
+        steps, size = world_load_steps(spec, seed, folder)
     stream.write(
         f"\nworld {seed} ({spec.detail} detail, {spec.vegetation} vegetation, {spec.biome} biome) before "
-        "its first scan, one worker, built (cold cache) and read from the world cache (warm):\n\n"
+        f"its first scan, one worker, built (cold cache) and read from the world cache (warm; its "
+        f"entries {size / 1e6:,.0f} MB):\n\n"
         "| step | cold wall s | cold CPU s | warm wall s | warm CPU s |\n|---|---:|---:|---:|---:|\n"
     )
     names = list(steps["cold"]) + [n for n in steps["warm"] if n not in steps["cold"]]

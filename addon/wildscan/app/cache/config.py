@@ -3,9 +3,10 @@
 
 Default: `$XDG_CACHE_HOME/wildscan` (`~/.cache/wildscan` when XDG_CACHE_HOME is unset),
 resolved by each worker on its own machine (a remote Dask worker keeps its worlds in its
-own user's cache unless --cache names a folder), at most DEFAULT_MAX_GB. A world of the
-default detail with porous vegetation is an entry of about a quarter of a gigabyte (the bench
-says: `wildscan bench-dataset`), so the default keeps some forty worlds.
+own user's cache unless --cache names a folder), at most DEFAULT_MAX_GB: room for the 20
+default worlds of `wildscan bench-dataset` (which prints an entry's size), since a cap below a
+run's worlds would make its least-recently-used order drop each world before the next run
+reads it.
 """
 
 from __future__ import annotations

@@ -110,6 +110,8 @@ class DiskCache:
         cannot be written warns once and is not written again; the run goes on."""
         if not self._writable:
             return
+        if self.path(kind, key).exists():
+            return  # another worker built the same world meanwhile: the same bytes (a pure function)
         try:
             self.root.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(dir=self.root, prefix=TEMP_PREFIX, suffix=SUFFIX)

@@ -60,16 +60,21 @@ class PreparedWorld:
     open_ground: OpenGround
     ground: StandingGround
     cover: CoverGrid | None
-    plan: WorldPlan | None = None  # when just built; None when loaded (poses_for plans it if needed)
+    plan: WorldPlan | None = None  # when just built; None when loaded (world_plan plans it again)
     from_cache: bool = False
     seconds: float = 0.0
     timings: dict[str, tuple[float, float]] = field(default_factory=dict)  # step -> (wall, CPU) s
 
     def world_plan(self) -> WorldPlan:
+        """The plan (only poses not in the cache need it: the sampler reads its sites and zones)."""
         if self.plan is None:
-            i = self.inputs
-            self.plan = plan_world(i["seed"], i["detail"], vegetation=i["vegetation"], biome=i["biome"])
+            self.plan = _plan(self.inputs)
         return self.plan
+
+
+def _plan(inputs: dict) -> WorldPlan:
+    i = inputs
+    return plan_world(i["seed"], i["detail"], vegetation=i["vegetation"], biome=i["biome"])
 
 
 def world_inputs(seed: int, detail: str, vegetation: str, biome: str) -> dict:
@@ -113,8 +118,7 @@ def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
 
     timings = {} if timings is None else timings
     with step(timings, "plan"):
-        i = inputs
-        plan = plan_world(i["seed"], i["detail"], vegetation=i["vegetation"], biome=i["biome"])
+        plan = _plan(inputs)
     with step(timings, "triangles"):
         geometry = plan_geometry(plan)
     with step(timings, "planes and padding"):
