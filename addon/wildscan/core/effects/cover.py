@@ -118,7 +118,12 @@ class GroundCover(Effect):
         """The run that ends at the hit of each of `rows`, from where the ray came down into
         the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
         in it or inf, the class and layer height at the hit)."""
-        rows, _, (cls, above, height, rate) = self._inside(ray, rows, np.maximum(end[rows] - BEFORE_HIT, 0.0))
+        at = np.maximum(end[rows] - BEFORE_HIT, 0.0)
+        if np.ndim(ray.oz) == 0 and len(rows):  # one origin: none above the layer's top within reach
+            reach = float(at.max())
+            low = ray.oz + ray.dz.take(rows) * at <= self.grid.top_within(ray.ox, ray.oy, reach)
+            rows, at = rows[low], at[low]
+        rows, _, (cls, above, height, rate) = self._inside(ray, rows, at)
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         stop_end = end[rows]
         begin = np.maximum(stop_end - back, start[rows])
