@@ -194,6 +194,24 @@ def label_from_reflectivity(intensity: np.ndarray) -> np.ndarray:
     return order[pos].astype(np.uint16)
 
 
+# The label each class's reflectivity reads back as (label_from_reflectivity of every class,
+# taken once here): a scan labels its beams by class id through it, one gather a beam where
+# reading each beam's intensity back took a sorted search, with the same labels.
+LABEL_BY_ID = label_from_reflectivity(REFLECTIVITY_BY_ID)
+
+
+def counts_by_class(label: np.ndarray, bins: np.ndarray, bin_count: int) -> dict[str, list[int]]:
+    """{class id as text: its points' counts in each of `bin_count` bins}, for the classes
+    present, in id order: one bincount over (class, bin) pairs, where one per class read
+    every point once for each class."""
+    label = np.asarray(label, dtype=np.int64)
+    if not len(label):
+        return {}
+    counts = np.bincount(label * bin_count + bins, minlength=(int(label.max()) + 1) * bin_count)
+    counts = counts.reshape(-1, bin_count)
+    return {str(c): counts[c].tolist() for c in np.flatnonzero(counts.sum(axis=1)).tolist()}
+
+
 def colors_of(labels: np.ndarray) -> np.ndarray:
     """(N, 3) uint8 colour tags for PLY labels."""
     return COLOR_BY_ID[np.asarray(labels, dtype=np.intp)]

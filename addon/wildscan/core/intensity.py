@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .classes import NUM_IDS, REFLECTIVITY_BY_ID, WATER_ID, class_by_name
+from .classes import NUM_IDS, REFLECTIVITY_BY_ID, WATER_ID, class_by_name, counts_by_class
 from .world.cover import COVER_INSTANCE_BASE
 
 INTENSITY_MODES = ("physical", "class")
@@ -163,11 +163,7 @@ REMISSION_BINS = 100  # 0.01 wide over [0, 1]
 def remission_histogram(remission: np.ndarray, label: np.ndarray) -> dict[str, list[int]]:
     """{class id: counts of its points per remission bin}, for the classes present."""
     bins = np.clip((np.asarray(remission, dtype=np.float64) * REMISSION_BINS).astype(np.int64), 0, 99)
-    label = np.asarray(label, dtype=np.int64)
-    out = {}
-    for cid in np.unique(label):
-        out[str(int(cid))] = np.bincount(bins[label == cid], minlength=REMISSION_BINS).tolist()
-    return out
+    return counts_by_class(label, bins, REMISSION_BINS)
 
 
 def add_histograms(total: dict[str, list[int]], more: dict[str, list[int]]) -> dict[str, list[int]]:

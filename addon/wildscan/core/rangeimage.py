@@ -69,8 +69,11 @@ def range_image(
     if len(row) and (row.max() >= rows or column.max() >= cols):
         raise ValueError(f"a point's cell lies outside the {rows} x {cols} grid")
     cell = row * cols + column
-    # nearest last, so it is the one the assignment keeps (a stable sort: ties keep file order)
-    order = np.lexsort((-np.arange(len(cell)), -np.asarray(range_m, dtype=np.float64)))
+    if len(cell) and np.bincount(cell, minlength=rows * cols).max() > 1:
+        # nearest last, so it is the one the assignment keeps (a stable sort: ties keep file order)
+        order = np.lexsort((-np.arange(len(cell)), -np.asarray(range_m, dtype=np.float64)))
+    else:
+        order = np.arange(len(cell))  # a point a cell at most (one echo a beam): nothing to choose
     index = np.full(rows * cols, NO_DATA, dtype=np.int32)
     index[cell[order]] = order
     held = index >= 0

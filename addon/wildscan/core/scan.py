@@ -13,7 +13,8 @@ import numpy as np
 
 from .. import __version__
 from .backend import RayBackend, with_normals
-from .classes import WATER_ID, class_table_dict, label_from_reflectivity, reflectivity_of
+from .cast_clock import scanning
+from .classes import LABEL_BY_ID, WATER_ID, class_table_dict, reflectivity_of
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
 from .frames import check_frame, to_world
@@ -23,8 +24,16 @@ from .pause import pause_here
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
 from .reach import check_reach
-from .sensors import DEFAULT_DEVICE, SensorConfig, beam_directions, range_noise, rotated_beam_directions
+from .sensors import (
+    DEFAULT_DEVICE,
+    SensorConfig,
+    beam_directions,
+    range_noise,
+    rotated_beam_directions,
+    rotated_beams,
+)
 from .sensors.beams import beam_columns, beam_times
+from .threads import cast_parts
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -53,17 +62,12 @@ def cast_in_chunks(
     normals: bool = False,
 ):
     """Cast all rays, reporting progress between chunks when asked (with each hit's surface
-    normal when `normals`: the realistic model's)."""
+    normal when `normals`: the realistic model's), in parallel threads where the backend
+    allows it (core/threads.py: the same bytes)."""
     pause_here("casting")
     cast = _caster(backend, normals)
-    if progress is None:
-        return cast(origin, dirs, max_range)
-    parts = []
-    total = len(dirs)
-    for start in range(0, total, PROGRESS_CHUNK):
-        parts.append(cast(origin, dirs[start : start + PROGRESS_CHUNK], max_range))
-        progress(min(start + PROGRESS_CHUNK, total), total)
-    return RayHits.joined(parts)
+    chunk = None if progress is None else PROGRESS_CHUNK
+    return cast_parts(backend, cast, origin, dirs, max_range, chunk, progress)
 
 
 def _caster(backend: RayBackend, normals: bool) -> Callable[[np.ndarray, np.ndarray, float], RayHits]:
@@ -90,15 +94,15 @@ class Returns:
     def cloud(self, xyz: np.ndarray, ring: np.ndarray, sweep: np.ndarray, frame: str, **extra) -> PointCloud:
         """The labeled cloud of the kept beams, at `xyz` (one row per kept beam); ring and
         sweep are per beam, `extra` per beam too (PointCloud.extra fields)."""
-        keep = self.keep
+        keep = np.flatnonzero(self.keep)  # gathered by index: faster than by mask, field by field
         return PointCloud(
             xyz=xyz,
-            intensity=self.intensity[keep].astype(np.float32),
-            label=self.label[keep].astype(np.uint16),
-            instance=np.maximum(self.instance[keep], 0).astype(np.uint32),
-            ring=ring[keep],
-            sweep=sweep[keep],
-            range=self.range[keep].astype(np.float32),
+            intensity=self.intensity.take(keep).astype(np.float32),
+            label=self.label.take(keep).astype(np.uint16),
+            instance=np.maximum(self.instance.take(keep), 0).astype(np.uint32),
+            ring=ring.take(keep),
+            sweep=sweep.take(keep),
+            range=self.range.take(keep).astype(np.float32),
             frame=frame,
             extra={name: values[keep] for name, values in extra.items()},
         )
@@ -110,8 +114,9 @@ def measure(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
     object's reflectivity override changes the intensity, not the label."""
     measured = hits.distance + noise
     keep = hits.hit & (measured >= sensor.min_range) & (measured <= sensor.max_range)
-    intensity = reflectivity_of(np.where(keep, hits.class_id, 0))
-    label = label_from_reflectivity(intensity)
+    kept_class = np.where(keep, hits.class_id, 0)
+    intensity = reflectivity_of(kept_class)
+    label = LABEL_BY_ID[kept_class]  # = label_from_reflectivity(intensity), class by class
     if hits.reflectivity is not None:
         # a `wildscan_reflectivity` override changes what is measured, not the label
         override = keep & ~np.isnan(hits.reflectivity)
@@ -140,30 +145,30 @@ def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str)
 
 
 def frame_directions(
-    placement: Placement, frame: str, sensor: SensorConfig, dirs_world: np.ndarray
+    placement: Placement, frame: str, sensor: SensorConfig, dirs_world: np.ndarray, beams: np.ndarray
 ) -> np.ndarray:
-    """Every beam's direction in the output frame: Eq. 1's in the sensor frame, turned by
-    Eq. 2 (the paper's leveling) in the leveled frame, the cast directions in the world
-    frame. A point is then its range times its beam's direction (plus the optical centre in
-    the world frame): three products, in a fixed order, on every machine."""
+    """The directions of `beams` (indices) in the output frame: Eq. 1's in the sensor frame,
+    turned by Eq. 2 (the paper's leveling) in the leveled frame, the cast directions in the
+    world frame. A point is then its range times its beam's direction (plus the optical
+    centre in the world frame): three products, in a fixed order, on every machine."""
     if frame == "sensor":
-        return beam_directions(sensor.rh_deg, sensor.device)[0]
+        return beam_directions(sensor.rh_deg, sensor.device)[0][beams]
     if frame == "leveled":
         leveling = leveling_matrix(placement.roll_rad, placement.pitch_rad)
-        return rotated_beam_directions(leveling, sensor.rh_deg, sensor.device)
-    return dirs_world
+        return rotated_beams(leveling, sensor.rh_deg, sensor.device, beams)
+    return dirs_world[beams]
 
 
 def _points(placement: Placement, frame: str, sensor: SensorConfig, dirs_world, beams, ranges) -> np.ndarray:
-    """The points of `beams` (a mask or indices) at their `ranges` (all beams' when a mask) in the
-    output frame: range times the beam's direction, plus the optical centre in the world frame."""
-    rho = ranges[beams] if beams.dtype == bool else ranges
-    points = frame_directions(placement, frame, sensor, dirs_world)[beams] * rho[:, None]
+    """The points of `beams` (indices) at their `ranges` (one each) in the output frame: range
+    times the beam's direction, plus the optical centre in the world frame."""
+    points = frame_directions(placement, frame, sensor, dirs_world, beams) * ranges[:, None]
     if frame == "world":
         points += placement.optical_centre
     return points
 
 
+@scanning
 def run_scan(
     backend: RayBackend,
     pose: Pose,
@@ -242,8 +247,9 @@ def _paper_cloud(
     hits = effects.medium(Rays(placement.optical_centre, dirs_world, cast_range), hits)
 
     returns = measure(hits, range_noise(sensor, len(dirs_sensor)), sensor)
+    kept = np.flatnonzero(returns.keep)
     cloud = returns.cloud(
-        _points(placement, frame, sensor, dirs_world, returns.keep, returns.range),
+        _points(placement, frame, sensor, dirs_world, kept, returns.range.take(kept)),
         ring,
         sweep,
         frame,
@@ -251,10 +257,11 @@ def _paper_cloud(
     )
     if weather_of(effects) is not None:
         with_weather_field(cloud)
+    hit_count = int(np.count_nonzero(hits.hit))
     facts = {
-        "returns": int(hits.hit.sum()),
-        "water_returns_dropped": int((hits.class_id == WATER_ID).sum()),
-        "hits": int(hits.hit.sum()),
+        "returns": hit_count,
+        "water_returns_dropped": int(np.count_nonzero(hits.class_id == WATER_ID)),
+        "hits": hit_count,
         "untagged": hits.untagged_objects,
     }
     return cloud, facts
@@ -301,7 +308,7 @@ def _realistic_cloud(
     )
     if weather_of(effects) is not None:
         with_weather_field(cloud)
-    beams_hit = int(len(np.unique(pts.beam)))
+    beams_hit = pts.beams_returning
     facts = {
         "returns": int(len(pts.beam)),
         "hits": beams_hit,

@@ -23,7 +23,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .classes import class_by_name
+from .classes import class_by_name, counts_by_class
 from .placement import COLUMN_HEIGHT
 
 TERRAIN_ID = class_by_name("terrain").id
@@ -75,9 +75,5 @@ HEIGHT_BINS = ("< 0.1", "0.1-0.5", "0.5-1", "1-2", "2-5", ">= 5")
 
 def class_height_histogram(labels: np.ndarray, hag: np.ndarray) -> dict[str, list[int]]:
     """Class id (as text) -> points in each HEIGHT_BINS bin of height above the ground."""
-    labels = np.asarray(labels, dtype=np.int64)
     bins = np.searchsorted(np.asarray(HEIGHT_EDGES), np.asarray(hag, dtype=np.float64), side="right")
-    out = {}
-    for c in np.unique(labels).tolist():
-        out[str(c)] = np.bincount(bins[labels == c], minlength=len(HEIGHT_BINS)).tolist()
-    return out
+    return counts_by_class(labels, bins, len(HEIGHT_BINS))

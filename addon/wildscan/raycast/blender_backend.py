@@ -19,6 +19,7 @@ import bpy
 import numpy as np
 
 from ..core import detmath as dm
+from ..core.cast_clock import CLOCK
 from ..core.classes import UNLABELED
 from ..core.hits import RayHits
 from .base import broadcast_origins, tags_from
@@ -236,7 +237,8 @@ class BlenderRayCastBackend:
         gc_was_enabled = gc.isenabled()
         gc.disable()
         try:
-            found = self._loop(origins, directions, max_range, single_origin, progress)
+            with CLOCK.casting():
+                found = self._loop(origins, directions, max_range, single_origin, progress)
             if found[0]:
                 self._fill(hits, self.depsgraph, origins, directions, max_range, copies, *found)
         finally:

@@ -15,6 +15,7 @@ import gc
 
 import numpy as np
 
+from ..core.cast_clock import CLOCK
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler
 
@@ -71,14 +72,15 @@ class BVHBackend(RefiningBackend):
         was_enabled = gc.isenabled()
         gc.disable()
         try:
-            for start in range(0, len(dirs), _CHUNK):
-                stop = start + _CHUNK
-                rays = zip(local[start:stop].tolist(), dirs[start:stop].tolist())
-                for i, (o, d) in enumerate(rays, start):
-                    _, _, index, dist = ray_cast(o, d, far)
-                    if index is not None:
-                        triangle[i] = index
-                        rough[i] = dist
+            with CLOCK.casting():
+                for start in range(0, len(dirs), _CHUNK):
+                    stop = start + _CHUNK
+                    rays = zip(local[start:stop].tolist(), dirs[start:stop].tolist())
+                    for i, (o, d) in enumerate(rays, start):
+                        _, _, index, dist = ray_cast(o, d, far)
+                        if index is not None:
+                            triangle[i] = index
+                            rough[i] = dist
         finally:
             if was_enabled:
                 gc.enable()

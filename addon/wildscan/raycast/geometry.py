@@ -28,12 +28,10 @@ and no ray slips through; refined ranges are unaffected.
 Cropping
 --------
 A scan cannot see farther than its max range, so only triangles near the pose
-matter. `cropped(center, radius)` keeps every triangle whose axis-aligned
-bounding box comes within `radius` of `center` measured in the XY plane (an
-infinite vertical cylinder). XY, not 3D, because the optical centre's height
-is only known after placement, which itself casts rays down through this
-geometry. The box test is conservative: a triangle that a ray can reach within
-the radius is never dropped; a few farther ones may be kept.
+matter. `cropped(center, radius)` keeps every triangle whose axis-aligned bounding box
+comes within `radius` of `center` in the XY plane (an infinite vertical cylinder: the
+optical centre's height is only known after placement, which casts through this geometry).
+The box test is conservative: a triangle a ray can reach within the radius is never dropped.
 """
 
 from __future__ import annotations
@@ -176,11 +174,23 @@ class SceneGeometry:
             instance=instance.take(triangle),
             untagged_objects=self.untagged_names(triangle[hit]),
         )
-        if not np.isnan(self.reflectivity).all():
+        if self._has_overrides():
             out.reflectivity = np.append(self.reflectivity, np.float32(np.nan)).take(triangle)
         if normals is not None:
-            out.normal = np.concatenate([normals, np.zeros((1, 3))]).take(triangle, axis=0)
+            # gathered, then zeroed on a miss: a miss row appended to every triangle's normal
+            # copied a whole world's normals each cast
+            out.normal = normals.take(np.where(hit, triangle, 0), axis=0)
+            out.normal[~hit] = 0.0
         return out
+
+    def _has_overrides(self) -> bool:
+        """Whether any triangle has a reflectivity override (cached: a whole world's triangles
+        were tested on every cast)."""
+        cached = self.__dict__.get("_overrides")
+        if cached is None or cached[0] is not self.reflectivity:
+            cached = (self.reflectivity, not np.isnan(self.reflectivity).all())
+            self.__dict__["_overrides"] = cached
+        return cached[1]
 
     def _with_miss_row(self) -> tuple[np.ndarray, np.ndarray]:
         """class_id and instance, each with the miss value appended (cached)."""
@@ -400,11 +410,11 @@ def refine_distances(
     triangles (a wire's facets), this does not. Only for a ray lying in the
     triangle's plane is the rough value kept.
     """
-    n = normal[triangle]
+    n = normal.take(triangle, axis=0)  # take: several times faster than fancy indexing of rows
     cos = dm.dot3(n, directions)
-    if len(origins_local) > 1 and origins_local.strides[0] == 0:
+    if origins_local.ndim == 2 and len(origins_local) > 1 and origins_local.strides[0] == 0:
         origins_local = origins_local[0]  # one origin (a scan): used as it is, not gathered per ray
-    gap = d[triangle] - dm.dot3(n, origins_local)
+    gap = d.take(triangle) - dm.dot3(n, origins_local)
     with np.errstate(divide="ignore", invalid="ignore"):
         t = gap / cos
     bad = ~np.isfinite(t) | (np.abs(cos) < _PARALLEL_COS)
@@ -435,6 +445,10 @@ class RefiningBackend:
         raise NotImplementedError
 
     capabilities = frozenset({NORMALS})  # cast(..., normals=True) gives each hit's triangle normal
+    # Threads a scan's large casts are split over (core/threads.py) when the backend has the
+    # THREADS capability: None for core.threads.cast_threads() (the cores, or what the
+    # environment says), 1 in a dataset worker (one worker a core).
+    threads: int | None = None
 
     def cast(
         self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
@@ -447,12 +461,14 @@ class RefiningBackend:
                 out.normal = np.zeros((count, 3))
             return out
         triangle, rough = self._settled_hits(local, dirs, max_range)
-        hit = triangle >= 0
+        hit = np.flatnonzero(triangle >= 0)
         distance = np.full(count, np.inf)
         normal, d = self._planes
-        hit_origins = np.broadcast_to(local[0], (hit.sum(), 3)) if local.strides[0] == 0 else local[hit]
-        distance[hit] = refine_distances(normal, d, hit_origins, dirs[hit], triangle[hit], rough[hit])
-        beyond = hit & (distance > max_range)
+        # one origin (a scan) stays one row; rows gathered with take, far faster than a mask
+        hit_origins = local[0] if local.strides[0] == 0 else local.take(hit, axis=0)
+        exact = refine_distances(normal, d, hit_origins, dirs.take(hit, axis=0), triangle[hit], rough[hit])
+        distance[hit] = exact
+        beyond = hit[exact > max_range]
         triangle[beyond] = -1
         distance[beyond] = np.inf
         return self.geometry.hits(triangle, distance, normal if normals else None)

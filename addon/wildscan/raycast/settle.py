@@ -59,6 +59,14 @@ class Settler:
             geometry, geometry.padded_local_triangles(dtype=np.float64, corners=corners), planes, corners
         )
 
+    @classmethod
+    def restored(cls, geometry, padded, planes, corners, band, neighbours) -> Settler:
+        """A Settler whose `band` and `neighbours` were made before (a world cache's entry,
+        app/cache/worlds.py): the same arrays, not made again."""
+        settler = cls(geometry, padded, planes, corners)
+        settler.__dict__.update(band=band, neighbours=neighbours)  # what cached_property keeps
+        return settler
+
     @cached_property
     def band(self) -> np.ndarray:
         """(T,) float32: a hit whose smallest barycentric coordinate on the padded triangle is
@@ -105,21 +113,20 @@ class Settler:
         size = len(self.normal)
         pairs = sorted_unique(ray * size + cand)  # each (ray, candidate) once, in that order
         ray, cand = pairs // size, pairs % size
-        o, d = rows(local, ray), dirs[ray]
-        n = self.normal[cand]
+        o, d = rows(local, ray), dirs.take(ray, axis=0)
+        n = self.normal.take(cand, axis=0)
         cos = dm.dot3(n, d)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (self.d[cand] - dm.dot3(n, o)) / cos
         ok = np.isfinite(t) & (np.abs(cos) >= _PARALLEL_COS) & (t >= start[ray])
         t = np.where(ok, t, 0.0)
         point = o + t[:, None] * d
-        corners = self.corners[cand]
-        for k in range(3):
-            edge = corners[:, (k + 1) % 3] - corners[:, k]
-            inward = dm.cross(n, edge)
-            length = dm.norm(inward)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ok &= dm.dot3(point - corners[:, k], inward) >= -EDGE_TOLERANCE * length
+        # the three edges k -> k + 1 of every candidate at once, (pairs, 3 edges, 3)
+        corners = self.corners.take(cand, axis=0)
+        inward = dm.cross(n[:, None, :], np.roll(corners, -1, axis=1) - corners)
+        length = dm.norm(inward)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ok &= np.all(dm.dot3(point[:, None, :] - corners, inward) >= -EDGE_TOLERANCE * length, axis=1)
         winner = np.full(len(triangle), -1, dtype=np.int64)
         ray, cand = nearest_per_ray(ray[ok], cand[ok], t[ok])
         winner[ray] = cand
@@ -152,7 +159,7 @@ def rows(points: np.ndarray, index: np.ndarray) -> np.ndarray:
     settling; the arithmetic on it is the same."""
     if points.ndim == 2 and len(points) and points.strides[0] == 0:
         return np.broadcast_to(points[0], (len(index), 3))
-    return points[index]
+    return points.take(index, axis=0)
 
 
 def _band(padded: np.ndarray, corners: np.ndarray) -> np.ndarray:

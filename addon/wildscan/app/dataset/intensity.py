@@ -18,14 +18,15 @@ from ...core.echoes import R_REF
 from ...core.groundtruth import world_points
 
 
-def with_dataset_intensity(mode: str, seed: int, scan: int, backend, result):
+def with_dataset_intensity(mode: str, seed: int, scan: int, backend, result, world=None):
     """`result` (core/scan.py ScanResult) with its cloud's intensity in `mode`, percent, and
-    its metadata saying which (the PLY header and sidecar, LAS's description carry it)."""
+    its metadata saying which (the PLY header and sidecar, LAS's description carry it).
+    `world`: the cloud's points in the world frame, when the caller has them already."""
     cloud = result.cloud
     if mode == "class":
         value = I.class_percent(cloud.label)
     else:
-        value = _physical(seed, scan, backend, result)
+        value = _physical(seed, scan, backend, result, world)
     return replace(
         result,
         cloud=replace(cloud, intensity=value.astype(np.float32)),
@@ -33,9 +34,10 @@ def with_dataset_intensity(mode: str, seed: int, scan: int, backend, result):
     )
 
 
-def _physical(seed: int, scan: int, backend, result) -> np.ndarray:
+def _physical(seed: int, scan: int, backend, result, world=None) -> np.ndarray:
     cloud, placement = result.cloud, result.placement
-    world = world_points(cloud.xyz, placement, cloud.frame)
+    if world is None:
+        world = world_points(cloud.xyz, placement, cloud.frame)
     rho = I.surface_reflectance(seed, cloud.label, cloud.instance, world[:, :2])
     distance = cloud.range.astype(np.float64)
     if "echo" in cloud.extra:

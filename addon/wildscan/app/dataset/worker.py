@@ -1,7 +1,8 @@
 """What a Dask worker runs: one world seed with a batch of its scan indices.
 
 The world is planned once per worker (a small cache keeps it for the next batch of the
-same world) and turned straight into triangles (the Blender-free path: no bpy), which
+same world; the world cache on disk, app/cache/, keeps it for every worker and run) and
+turned straight into triangles (the Blender-free path: no bpy), which
 one Embree scene holds for every scan of that world: placement, the sweep and the
 bird's-eye rays all cast against it, so nothing is cropped or rebuilt per pose (a
 bird's-eye cell on open ground, where the terrain is the only surface, is not cast:
@@ -28,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from ... import __version__
+from ...core.cast_clock import CLOCK
 from ...core.classes import class_by_name
 from ...core.errors import PoseRejected, UserError
 from ...core.groundtruth import (
@@ -40,12 +42,15 @@ from ...core.groundtruth import (
 )
 from ...core.io.files import atomic_outputs
 from ...core.label_schemes import scheme
-from ...core.open_ground import OpenGround, no_open_ground, open_ground
-from ...core.placement import place
-from ...core.posesampler import NoPose, ScanPose, sample_poses
+from ...core.open_ground import OpenGround
+from ...core.posesampler import NoPose
 from ...core.scan import run_scan
 from ...core.traversability import class_height_histogram, support_flags, traversability_fields
-from ...core.world import EXTENT, WorldPlan, plan_world
+from ...core.world import EXTENT
+from ...core.world.cover import CoverGrid
+from ...core.world.ground import StandingGround
+from ..cache.config import open_cache, world_facts
+from ..cache.store import DiskCache
 from .draws import draw_sensor, draw_weather
 from .intensity import scan_intensity_facts, with_dataset_intensity
 from .layout import scan_paths
@@ -59,13 +64,17 @@ RANGE_BINS = 60
 @dataclass
 class WorldContext:
     seed: int
-    plan: WorldPlan
     backend: object
     poses: list
     instances: np.ndarray
     z_range: tuple[float, float]
     open_ground: OpenGround
     build_seconds: float
+    # The ground the robot stands on (terrain mesh, trail flooring): what `hag` and the
+    # bird's-eye `terrain_z` measure from (core/world/ground.py).
+    ground: StandingGround
+    cover: CoverGrid | None = None  # the world's ground cover (None: bare ground)
+    from_cache: bool = False  # the world was read from the world cache, not built
 
     @functools.cached_property
     def file_numbers(self) -> list[int]:
@@ -78,15 +87,9 @@ class WorldContext:
         kept = np.cumsum([not isinstance(p, NoPose) for p in self.poses])
         return [int(n) - 1 for n in kept]
 
-    @functools.cached_property
-    def ground(self):
-        """The ground the robot stands on (terrain mesh, trail flooring): what `hag` and the
-        bird's-eye `terrain_z` measure from (core/world/ground.py)."""
-        return self.plan.standing_ground()
-
     def traversability(self, x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
         """The bird's-eye traversability fields at world points (core/traversability.py)."""
-        cover = self.plan.cover
+        cover = self.cover
         return traversability_fields(
             x,
             y,
@@ -120,12 +123,12 @@ def _world_key(spec: DatasetSpec, seed: int) -> tuple:
     return (seed, spec.detail, spec.vegetation, spec.biome, spec.scans_per_world, spec.poses)
 
 
-def world_context(spec: DatasetSpec, seed: int) -> WorldContext:
+def world_context(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) -> WorldContext:
     _keep_freed_memory()
     key = _world_key(spec, seed)
     if key not in _last_world:
         _last_world.clear()
-        _last_world[key] = build_world(spec, seed)
+        _last_world[key] = build_world(spec, seed, cache)
     return _last_world[key]
 
 
@@ -147,55 +150,38 @@ def _keep_freed_memory() -> None:
         pass  # not glibc: nothing to undo
 
 
-def build_world(spec: DatasetSpec, seed: int) -> WorldContext:
-    from ...raycast.from_plan import plan_geometry
+def build_world(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) -> WorldContext:
+    """The world of `seed` ready to scan: read from the world cache when it holds it, else
+    built (and stored there); its poses likewise (app/cache/worlds.py)."""
+    from ..cache.worlds import prepared_world, world_inputs, world_poses
 
     t0 = time.perf_counter()
-    plan = plan_world(seed, spec.detail, vegetation=spec.vegetation, biome=spec.biome)
-    geometry = plan_geometry(plan)
-    backend = _embree(geometry)
-
-    def accept(candidate: ScanPose) -> bool:
-        try:
-            place(backend, candidate.pose, candidate.z_start)
-        except PoseRejected:
-            return False
-        return True
-
-    p = spec.poses
-    poses = sample_poses(
-        plan, spec.scans_per_world, p.strategy, dict(p.zones), p.min_distance, accept, dict(p.min_scans_with)
-    )
-    low, high = geometry.bounds()
+    world = prepared_world(world_inputs(seed, spec.detail, spec.vegetation, spec.biome), cache)
+    backend = _embree(world.geometry, world.settler)
+    poses, _ = world_poses(world, backend, spec.scans_per_world, spec.poses, cache)
     return WorldContext(
         seed=seed,
-        plan=plan,
         backend=backend,
         poses=poses,
-        instances=np.array([e.instance for e in plan.elements], dtype=np.int64),
-        z_range=(float(low[2]), float(high[2])),
-        open_ground=world_open_ground(plan, geometry),
+        instances=world.instances,
+        z_range=world.z_range,
+        open_ground=world.open_ground,
         build_seconds=time.perf_counter() - t0,
+        ground=world.ground,
+        cover=world.cover,
+        from_cache=world.from_cache,
     )
 
 
-def world_open_ground(plan: WorldPlan, geometry) -> OpenGround:
-    """Where only the terrain lies under a bird's-eye cell; none unless the terrain grid
-    covers the extent (what makes an open cell's answer the terrain: core/open_ground.py)."""
-    xs, ys = plan.grid.xs, plan.grid.ys
-    x0, x1, y0, y1 = EXTENT
-    if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):
-        return no_open_ground(EXTENT)
-    return open_ground(geometry.vertices[:, :2], geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
-
-
-def _embree(geometry):
+def _embree(geometry, settler=None):
     try:
         from ...raycast.embree_backend import EmbreeBackend
 
-        return EmbreeBackend(geometry)
+        backend = EmbreeBackend(geometry, settler=settler)
     except ImportError as e:
         raise UserError(f"a dataset worker needs the embreex wheel (pip install embreex): {e}") from None
+    backend.threads = 1  # one worker a core: its casts on its own thread (core/threads.py)
+    return backend
 
 
 # ---------------------------------------------------------------------------------------
@@ -203,9 +189,17 @@ def _embree(geometry):
 
 
 def scan_batch(
-    spec_json: dict, out: str, seed: int, indices: list[int], version: str, topic: str = "", label: str = ""
+    spec_json: dict,
+    out: str,
+    seed: int,
+    indices: list[int],
+    version: str,
+    topic: str = "",
+    label: str = "",
+    cache: dict | None = None,
 ) -> dict:
-    """Scan `indices` of world `seed` into `out`; return the manifest rows and worker facts."""
+    """Scan `indices` of world `seed` into `out`; return the manifest rows and worker facts.
+    `cache`: where the worker keeps built worlds (app/cache/config.py; None: nowhere)."""
     if version != __version__:
         raise UserError(
             f"this Dask worker runs WildScan {__version__}, the client {version}: install the same on both"
@@ -218,13 +212,19 @@ def scan_batch(
         )
     spec = spec_from_json(spec_json)
     cached = _world_key(spec, seed) in _last_world
-    context = world_context(spec, seed)
+    disk = open_cache(cache)
+    context = world_context(spec, seed, disk)
     build = 0.0 if cached else context.build_seconds
     rows = []
+    before = CLOCK.reading()
     for index in indices:
-        rows.append(scan_one(spec, context, root, index))
+        with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
+            rows.append(scan_one(spec, context, root, index))
         _tick(topic, label)
-    return {"rows": rows, "worker": _worker_facts(build)}
+    source = "memory" if cached else "cache" if context.from_cache else "built"
+    spent = CLOCK.reading() - before
+    facts = _worker_facts(build) | world_facts(source, disk)
+    return {"rows": rows, "worker": facts | {"scan_seconds": spent.scans, "cast_seconds": spent.cast}}
 
 
 def _tick(topic: str, label: str) -> None:
@@ -296,18 +296,19 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             frame,
             choice.z_start,
             None,
-            _effects(weather, sensor, context.plan.cover),
+            _effects(weather, sensor, context.cover),
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
-    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result)
+    world = world_points(result.cloud.xyz, result.placement, frame)  # for intensity and ground truth
+    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result, world)
     placement = result.placement
     row["placement"] = {
         "optical_centre": [float(v) for v in placement.optical_centre],
         "roll_deg": placement.roll_deg,
         "pitch_deg": placement.pitch_deg,
     }
-    written = write_scan(root, encode_scan(spec, context, row, result))
+    written = write_scan(root, encode_scan(spec, context, row, result, world))
     cloud = result.cloud
     row.update(
         status="ok",
@@ -360,15 +361,17 @@ def _class_counts(labels: np.ndarray) -> dict[str, int]:
     return {str(k): int(n) for k, n in enumerate(counts) if n}
 
 
-def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result) -> dict[str, bytes]:
+def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result, world=None) -> dict[str, bytes]:
     """Relative path -> bytes of every file of one scan: the bird's-eye grid, then each format's
-    files from the format table (core/io/formats.py), in the spec's order."""
+    files from the format table (core/io/formats.py), in the spec's order. `world`: the cloud's
+    points in the world frame, when the caller has them already."""
     from ...core.io.formats import WRITERS
     from ...core.io.writer import ScanOutput
 
     cloud, placement, frame = result.cloud, result.placement, row["sensor"]["frame"]
     labels = scheme(spec.label_scheme)
-    world = world_points(cloud.xyz, placement, frame)
+    if world is None:
+        world = world_points(cloud.xyz, placement, frame)
     hag = height_above_ground(world, context.ground)
     paths = scan_paths(spec.formats, row["sequence"], context.file_numbers[row["scan"]])
     grid = bev_grid(
@@ -413,10 +416,10 @@ def write_scan(root: Path, files: dict[str, bytes]) -> list[dict]:
     finals = [root / rel for rel in files]
     for folder in {p.parent for p in finals}:
         folder.mkdir(parents=True, exist_ok=True)
-    # No fsync per file (a flush to disk per file would cost more than writing them): after a
-    # power cut the next run re-checks every file against the manifest's SHA-256 and writes
-    # again any that did not survive.
-    with atomic_outputs(*finals) as temps:
+    # No fsync per file or folder (a flush to disk per scan would cost more than writing its
+    # files): after a power cut the next run re-checks every file against the manifest's
+    # SHA-256 and writes again any that did not survive.
+    with atomic_outputs(*finals, durable=False) as temps:
         for tmp, data in zip(temps, files.values(), strict=True):
             tmp.write_bytes(data)
     return [

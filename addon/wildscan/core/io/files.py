@@ -210,10 +210,11 @@ def writing_to(final: Path):
 
 
 @contextmanager
-def atomic_outputs(*finals: Path):
+def atomic_outputs(*finals: Path, durable: bool = True):
     """Yield one temporary path per target; rename them all into place when the block
     succeeds, and leave none of them (temporary or final) when anything fails or a
-    signal stops the run."""
+    signal stops the run. `durable`: flush the folders' renames to disk before returning
+    (off for a dataset's scans: its next run re-checks every file against the manifest)."""
     finals = tuple(Path(p) for p in finals)
     temps = [temp_path(p) for p in finals]
     placed: list[Path] = []
@@ -231,7 +232,7 @@ def atomic_outputs(*finals: Path):
     except BaseException:  # KeyboardInterrupt too
         remove_quietly([*temps, *placed])
         raise
-    for directory in {p.parent for p in finals}:
+    for directory in {p.parent for p in finals} if durable else ():
         fsync_dir(directory)
     for written in _records:
         written.extend(finals)

@@ -6,7 +6,7 @@ The UTM-30LX-EW on Andabata's rotating head (presets/utm30lx-ew.toml) is the def
 a separate choice, `SensorConfig.model`.
 """
 
-from .beams import beam_directions, directions_at, from_axis_rad, rotated_beam_directions
+from .beams import beam_directions, directions_at, from_axis_rad, rotated_beam_directions, rotated_beams
 from .config import MODELS, SensorConfig, sweep_count
 from .device import BeamTable, Device, Mount, Noise, Optics, RangeLimits, Timing
 from .load import DEFAULT_DEVICE, device_choice, device_from_dict, device_named, load_device, preset_names
@@ -36,5 +36,6 @@ __all__ = [
     "range_noise",
     "range_sigma",
     "rotated_beam_directions",
+    "rotated_beams",
     "sweep_count",
 ]

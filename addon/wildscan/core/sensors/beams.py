@@ -104,12 +104,39 @@ def rotated_beam_directions(
     sin_t, cos_t, sin_p, cos_p = beam_angles(device, float(rh_deg), m_count)
     r = np.asarray(rotation, dtype=np.float64)
     out = np.empty((m_count, device.beams.count, 3))
+    component = np.empty(out.shape[:2])  # computed contiguous, then copied in: faster than in place
     for i in range(3):
         a = cos_p * r[i, 0] + sin_p * r[i, 1]
-        component = out[:, :, i]
         np.multiply(a, sin_t[None, :], out=component)
         component += r[i, 2] * cos_t
+        out[:, :, i] = component
     return out.reshape(-1, 3)
+
+
+def rotated_beams(rotation: np.ndarray, rh_deg: float, device: Device, beams: np.ndarray) -> np.ndarray:
+    """Rows `beams` (indices, column-major) of `rotated_beam_directions(rotation, rh_deg,
+    device)`, the same bits, computed for those beams alone: a scan's points need the
+    directions of the beams that returned one (a third of a Hokuyo scan's), each from the
+    same products in the same order."""
+    beams = np.asarray(beams, dtype=np.intp)
+    if device.head is not None:
+        return _rotated(rotation, beam_directions(rh_deg, device)[0][beams])
+    m_count = sweep_count(rh_deg, device.mount)
+    sin_t, cos_t, sin_p, cos_p = beam_angles(device, float(rh_deg), m_count)
+    column, beam = np.divmod(beams, device.beams.count)
+    planar = sin_p.shape[1] == 1  # one ψ a column (gathered after), or one a beam (before)
+    if not planar:
+        sin_p, cos_p = sin_p.ravel().take(beams)[:, None], cos_p.ravel().take(beams)[:, None]
+    st = sin_t.take(beam)
+    r = np.asarray(rotation, dtype=np.float64)
+    out = np.empty((len(beams), 3))
+    component = np.empty(len(beams))
+    for i in range(3):
+        a = cos_p[:, 0] * r[i, 0] + sin_p[:, 0] * r[i, 1]  # R[i, 0] cos ψ + R[i, 1] sin ψ
+        np.multiply(a.take(column) if planar else a, st, out=component)
+        component += (r[i, 2] * cos_t).take(beam)
+        out[:, i] = component
+    return out
 
 
 def directions_at(head_rad: np.ndarray, device: Device = DEFAULT_DEVICE) -> np.ndarray:

@@ -65,9 +65,14 @@ class FloorTops:
         out = np.full(px.shape, np.nan)
         if not len(self.table):
             return out.reshape(x.shape)
-        b = np.floor((np.column_stack([px, py]) - self.origin) / _BIN).astype(np.intp)
-        near = np.flatnonzero(np.all((b >= 0) & (b < self.shape), axis=1))
-        rows = b[near, 0] * self.shape[1] + b[near, 1]
+        # the points within a bin of the lattice (a superset of those in it), tested first on
+        # their coordinates alone: most of a bird's-eye grid lies far from any trail
+        low, high = self.origin - _BIN, self.origin + (self.shape + 1) * _BIN
+        maybe = np.flatnonzero((px >= low[0]) & (px <= high[0]) & (py >= low[1]) & (py <= high[1]))
+        b = np.floor((np.column_stack([px[maybe], py[maybe]]) - self.origin) / _BIN).astype(np.intp)
+        inside = np.all((b >= 0) & (b < self.shape), axis=1)
+        near, b = maybe[inside], b[inside]
+        rows = b[:, 0] * self.shape[1] + b[:, 1]
         occupied = self.table[rows, 0] >= 0
         near, rows = near[occupied], rows[occupied]
         for start in range(0, len(near), _CHUNK):

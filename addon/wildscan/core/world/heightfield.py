@@ -1,15 +1,13 @@
 """The analytic terrain height h(x, y) and the grid that approximates it (numpy only).
 
-A `Heightfield` is a pure function of (x, y): seeded fractal gradient noise plus
-zone features (hills, flattened plateaus, a lake basin, a cave pit), each a
-smooth (C2) term, so it can be evaluated anywhere, at any density, and always
-gives the same numbers for the same seed.
+A `Heightfield` is a pure function of (x, y): seeded fractal gradient noise plus zone
+features (hills, flattened plateaus, a lake basin, a cave pit), each a smooth (C2) term, so
+it gives the same numbers for the same seed anywhere, at any density.
 
-The terrain mesh is a `TerrainGrid`: a rectilinear grid whose column and row
-spacings are chosen against the height error the triangulated grid makes versus
-the analytic field (`fit_grid`): where the field curves more (hill tops, the
-cave's walls) lines are closer, elsewhere they spread out, so no triangle is
-spent on detail the sensor could not see.
+The terrain mesh is a `TerrainGrid`: a rectilinear grid whose column and row spacings are
+chosen against the height error the triangulated grid makes versus the analytic field
+(`fit_grid`): lines are closer where the field curves more (hill tops, the cave's walls),
+so no triangle is spent on detail the sensor could not see.
 """
 
 from __future__ import annotations
@@ -335,19 +333,25 @@ class TerrainGrid:
 
 
 def interpolate(xs, ys, z, x, y):
+    """The triangulated grid's height at (x, y). The lower triangle's z00 + tx (z10 - z00) +
+    ty (z11 - z10) and the upper's z00 + ty (z01 - z00) + tx (z11 - z01) are one expression
+    with per-point factors: each point computed once, with the same operations (same bits)."""
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
-    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, len(xs) - 2)
+    shape = np.broadcast_shapes(x.shape, y.shape)
+    x, y = np.broadcast_to(x, shape).ravel(), np.broadcast_to(y, shape).ravel()
+    nx = len(xs)
+    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, nx - 2)
     j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
-    tx = np.clip((x - xs[i]) / (xs[i + 1] - xs[i]), 0.0, 1.0)
-    ty = np.clip((y - ys[j]) / (ys[j + 1] - ys[j]), 0.0, 1.0)
-    z00, z10, z01, z11 = z[j, i], z[j, i + 1], z[j + 1, i], z[j + 1, i + 1]
+    tx = np.clip((x - xs.take(i)) / np.diff(xs).take(i), 0.0, 1.0)
+    ty = np.clip((y - ys.take(j)) / np.diff(ys).take(j), 0.0, 1.0)
+    flat, corner = np.ravel(z), j * nx + i
     lower = tx >= ty  # triangle (00, 10, 11)
-    return np.where(
-        lower,
-        z00 + tx * (z10 - z00) + ty * (z11 - z10),
-        z00 + ty * (z01 - z00) + tx * (z11 - z01),
-    )
+    z00, z11 = flat.take(corner), flat.take(corner + (nx + 1))
+    middle = flat.take(np.where(lower, corner + 1, corner + nx))  # z10 below the diagonal, z01 above
+    height = z00 + np.where(lower, tx, ty) * (middle - z00)
+    height += np.where(lower, ty, tx) * (z11 - middle)
+    return height.reshape(shape)
 
 
 def sample_grid(field_fn: Field, xs, ys) -> TerrainGrid:
