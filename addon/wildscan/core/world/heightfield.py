@@ -336,10 +336,8 @@ def interpolate(xs, ys, z, x, y):
     """The triangulated grid's height at (x, y). The lower triangle's z00 + tx (z10 - z00) +
     ty (z11 - z10) and the upper's z00 + ty (z01 - z00) + tx (z11 - z01) are one expression
     with per-point factors: each point computed once, with the same operations (same bits)."""
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    shape = np.broadcast_shapes(x.shape, y.shape)
-    x, y = np.broadcast_to(x, shape).ravel(), np.broadcast_to(y, shape).ravel()
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+    shape, x, y = x.shape, x.ravel(), y.ravel()
     nx = len(xs)
     i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, nx - 2)
     j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
