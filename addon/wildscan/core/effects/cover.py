@@ -26,6 +26,7 @@ import numpy as np
 from .. import detmath as dm
 from ..hits import RayHits
 from ..rng import stage_rng
+from ..threads import in_parts
 from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid, extinction
 from .base import Effect, Rays
 
@@ -35,6 +36,9 @@ TRAMPLED = 0.45  # m
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
 SETTLE = 6  # times a stop outside its own cell's sward goes on along its run (_settle)
+# rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
+# bytes do not depend on the threads
+PART = 32_768
 
 
 class GroundCover(Effect):
@@ -74,7 +78,25 @@ class GroundCover(Effect):
         )
         end = np.minimum(hits.distance, rays.max_range)
         u = stage_rng(self.seed, "cover").random((2, n))
-        again = stage_rng(self.seed, "cover.again")  # the depths of the stops drawn again (_settle)
+        hit = np.isfinite(hits.distance)
+
+        def stops(part: slice):
+            return self._stops(ray.part(part), end[part], hit[part], u[:, part], part.start)
+
+        found = in_parts(stops, n, PART)
+        rows = np.concatenate([part.start + r for part, (r, _, _) in zip(_slices(n), found)])
+        if not len(rows):
+            return hits
+        at, cls = (np.concatenate([f[k] for f in found]) for k in (1, 2))
+        return _with_cover_hits(hits, rows, at, cls, d)
+
+    def _stops(self, ray: _Rays, end, hit, u, first: int):
+        """The stops in the layer of one part of the rays (from ray `first` on; `end` each
+        one's hit or max range, `hit` whether it hit, `u` its two uniforms): (rows in the
+        part, where, class)."""
+        # the depths of the stops drawn again (_settle), a stream a part: the same bytes
+        # however many threads share the parts
+        again = stage_rng(self.seed, f"cover.again.{first // PART}")
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             horizontal = np.sqrt(ray.dx * ray.dx + ray.dy * ray.dy)
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
@@ -83,15 +105,14 @@ class GroundCover(Effect):
             # the run that ends at the hit, for the rays that did not stop in the first one
             start = t0.copy()  # where a run to the hit may begin: past the run from the sensor
             start[a] = leave
-            unstopped = np.isfinite(hits.distance)
+            unstopped = hit.copy()
             unstopped[held_a] = False
             b, stop_b, cls_b, height_b = self._run_to_hit(ray, end, start, np.flatnonzero(unstopped), u[1])
             held_b, at_b, class_b = self._held(ray, b, stop_b, end[b], cls_b, height_b, again)
-        if not len(held_a) and not len(held_b):
-            return hits
-        rows = np.concatenate([held_a, held_b])
-        return _with_cover_hits(
-            hits, rows, np.concatenate([at_a, at_b]), np.concatenate([class_a, class_b]), d
+        return (
+            np.concatenate([held_a, held_b]),
+            np.concatenate([at_a, at_b]),
+            np.concatenate([class_a, class_b]),
         )
 
     def _held(self, ray: _Rays, rows, stop, end, cls, height, rng):
@@ -118,7 +139,12 @@ class GroundCover(Effect):
         """The run that ends at the hit of each of `rows`, from where the ray came down into
         the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
         in it or inf, the class and layer height at the hit)."""
-        rows, _, (cls, above, height, rate) = self._inside(ray, rows, np.maximum(end[rows] - BEFORE_HIT, 0.0))
+        at = np.maximum(end[rows] - BEFORE_HIT, 0.0)
+        if np.ndim(ray.oz) == 0 and len(rows):  # one origin: none above the layer's top within reach
+            reach = float(at.max())
+            low = ray.oz + ray.dz.take(rows) * at <= self.grid.top_within(ray.ox, ray.oy, reach)
+            rows, at = rows[low], at[low]
+        rows, _, (cls, above, height, rate) = self._inside(ray, rows, at)
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         stop_end = end[rows]
         begin = np.maximum(stop_end - back, start[rows])
@@ -214,6 +240,12 @@ class _Rays:
     dy: np.ndarray
     dz: np.ndarray
 
+    def part(self, part: slice) -> _Rays:
+        def cut(v):
+            return v if np.ndim(v) == 0 else v[part]
+
+        return _Rays(*(cut(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
+
     def rows(self, rows: np.ndarray) -> _Rays:
         def pick(v):
             return v if np.ndim(v) == 0 else v.take(rows)
@@ -224,6 +256,11 @@ class _Rays:
         """(x, y, z) of the points t along `rows`."""
         r = self.rows(rows)
         return r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
+
+
+def _slices(count: int) -> list[slice]:
+    """The parts in_parts cuts `count` rays into (PART rays each)."""
+    return [slice(start, min(start + PART, count)) for start in range(0, count, PART)] or [slice(0, 0)]
 
 
 def _stop(begin, end, cls, height, u):

@@ -178,12 +178,25 @@ class CoverGrid:
 
     def may_be_inside_at(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
         """may_be_inside at points (x, y, z)."""
+        flat, inside = self.cells(x, y)
+        return inside & (z <= self._tops().take(flat))
+
+    def top_within(self, x: float, y: float, reach: float) -> float:
+        """The highest any cell's layer reaches within `reach` of (x, y) in x and y (a square
+        around it; -inf where no covered cell is): no point higher lies in the layer there."""
+        ny, nx = self.shape
+        i0, i1 = (int(np.floor((v - self.x0) / self.cell)) for v in (x - reach, x + reach))
+        j0, j1 = (int(np.floor((v - self.y0) / self.cell)) for v in (y - reach, y + reach))
+        window = self._tops().reshape(ny, nx)[max(j0, 0) : max(j1 + 1, 0), max(i0, 0) : max(i1 + 1, 0)]
+        return float(window.max()) if window.size else -np.inf
+
+    def _tops(self) -> np.ndarray:
+        """(ny * nx,) each cell's highest corner plus its layer's height, -inf where bare."""
         if self._top is None:
             g = self.node_ground()
             corners = np.maximum(np.maximum(g[:-1, :-1], g[1:, :-1]), np.maximum(g[:-1, 1:], g[1:, 1:]))
             self._top = np.where(self.class_id > 0, corners + self.height, -np.inf).reshape(-1)
-        flat, inside = self.cells(x, y)
-        return inside & (z <= self._top.take(flat))
+        return self._top
 
     def use_node_ground(self, nodes: np.ndarray) -> None:
         """Take the terrain at the nodes as already computed (by the stage that made the grid)."""
