@@ -183,7 +183,7 @@ def test_backends_agree_on_the_test_world():
     ref = hits["blender"]
     classes = set(ref.class_id[ref.hit].tolist())
     assert len(classes) >= 8  # a varied scan, not just terrain
-    for name in ("bvh", "embree"):
+    for name in ("bvh", "embree", "open3d"):
         h = hits[name]
         same = (h.class_id == ref.class_id) & (h.instance == ref.instance)
         assert same.mean() >= 0.9999, f"{name}: {np.count_nonzero(~same)} of {len(same)} labels differ"
@@ -346,7 +346,7 @@ def test_hidden_objects_are_not_extracted():
 def test_all_backends_are_available_here_and_auto_is_embree():
     empty_scene()
     add_mesh("ground", *grid_mesh(2, 2, 10, 10), "terrain", 1)
-    assert select.available_backends() == ["embree", "bvh", "blender"]
+    assert select.available_backends() == ["embree", "open3d", "bvh", "blender"]
     lines = []
     assert select.make_backend("auto", notify=lines.append).name == "embree"
     for name in BACKENDS:
@@ -354,15 +354,22 @@ def test_all_backends_are_available_here_and_auto_is_embree():
     assert lines == []
 
 
-def test_missing_embreex_falls_back_to_bvh_and_says_so_once(monkeypatch):
+def test_missing_embreex_falls_back_to_open3d_then_bvh_and_says_so_once(monkeypatch):
     empty_scene()
     add_mesh("ground", *grid_mesh(2, 2, 10, 10), "terrain", 1)
     monkeypatch.setitem(sys.modules, "embreex", None)  # import embreex now raises ImportError
     for asked in ("auto", "embree"):
         lines = []
         backend = select.make_backend(asked, notify=lines.append)
-        assert backend.name == "bvh"
-        assert len(lines) == 1 and "'embree'" in lines[0] and "'bvh'" in lines[0] and "embreex" in lines[0]
+        assert backend.name == "open3d"
+        assert len(lines) == 1 and "'embree'" in lines[0] and "'open3d'" in lines[0] and "embreex" in lines[0]
+    assert select.available_backends() == ["open3d", "bvh", "blender"]
+    monkeypatch.setitem(sys.modules, "open3d", None)
+    for asked, wanted in (("auto", "embree"), ("open3d", "open3d")):
+        lines = []
+        assert select.make_backend(asked, notify=lines.append).name == "bvh"
+        assert len(lines) == 1 and f"'{wanted}'" in lines[0] and "'bvh'" in lines[0]
+        assert "pip install" in lines[0]
     assert select.available_backends() == ["bvh", "blender"]
     lines = []
     assert select.make_backend("bvh", notify=lines.append).name == "bvh" and lines == []
@@ -371,21 +378,22 @@ def test_missing_embreex_falls_back_to_bvh_and_says_so_once(monkeypatch):
 def test_fallback_reaches_blender_and_then_fails_clearly(monkeypatch):
     empty_scene()
     real = select.missing_reason
-    monkeypatch.setattr(select, "missing_reason", lambda n: "not here" if n in ("embree", "bvh") else real(n))
+    fast = ("embree", "open3d", "bvh")
+    monkeypatch.setattr(select, "missing_reason", lambda n: "not here" if n in fast else real(n))
     lines = []
     assert select.make_backend("auto", notify=lines.append).name == "blender"
     assert len(lines) == 1 and "'blender'" in lines[0]
     monkeypatch.setattr(select, "missing_reason", lambda n: "not here")
     with pytest.raises(UserError, match="no ray backend"):
         select.make_backend("auto", notify=None)
-    with pytest.raises(UserError, match="backend must be one of auto, embree, bvh, blender"):
+    with pytest.raises(UserError, match="backend must be one of auto, embree, open3d, bvh, blender"):
         select.make_backend("optix")
 
 
 def test_select_imports_without_bpy_or_embreex():
     code = (
         "import sys, wildscan.raycast.select as s, wildscan.raycast.geometry; "
-        "assert not {'bpy', 'mathutils', 'embreex'} & set(sys.modules), sorted(sys.modules)"
+        "assert not {'bpy', 'mathutils', 'embreex', 'open3d'} & set(sys.modules), sorted(sys.modules)"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
 

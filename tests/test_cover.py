@@ -60,6 +60,46 @@ def test_the_default_biome_covers_the_ground_and_leaves_the_trail_and_water_bare
     assert (cls == 0).all() and (height == 0).all()  # on the trail's centre line: bare soil
 
 
+def test_the_cave_is_bare_and_the_plateau_around_it_grows_a_sward():
+    p = plan("mixed")
+    cave, cover = p.layout.cave, p.cover
+    c = cave.pit
+    floor = np.array([c.to_world(u, v) for u, v in ((0.0, 0.0), (-0.5 * c.a, 0.0), (c.a + 2.0, 0.0))])
+    assert (cover.at(floor[:, 0], floor[:, 1])[0] == 0).all()  # the pit's floor, under the roof, the ramp
+    # a ring just outside the pit's edge (inside an element's keep-out margin, off the ramp):
+    # plateau, where the sward grows as anywhere
+    ring = np.array(
+        [c.to_world(-(c.a + 0.5) * np.cos(t), (c.b + 0.5) * np.sin(t)) for t in np.linspace(0.5, 2.6, 12)]
+    )
+    ring = ring[~cave.bare(ring[:, 0], ring[:, 1])]
+    assert len(ring) and (cover.at(ring[:, 0], ring[:, 1])[0] > 0).mean() > 0.5
+
+
+def test_a_cells_leaf_area_is_its_class_lai_whatever_its_height():
+    from wildscan.core.world.cover import LAI, extinction
+
+    heights = np.array([0.12, 0.25, 0.35])  # a lawn, a meadow, a tall patch of it
+    k = extinction(np.full(3, LOW_GRASS), heights)
+    assert np.allclose(k * heights, 0.5 * LAI[LOW_GRASS])  # G LAI: the soil's chance to show is the same
+    assert extinction(np.array([0]), np.array([0.0]))[0] == 0.0
+
+
+def test_leaf_litter_lies_on_the_forests_floor_only():
+    from wildscan.core.world.stages import cover as stage
+
+    p = plan("mixed")
+    n = p.cover.shape[0]
+    centres = p.cover.x0 + (np.arange(n) + 0.5) * p.cover.cell
+    x, y = np.meshgrid(centres, centres)
+    ground = 0.25 * sum(
+        a for a in (p.cover.node_ground()[i : i + n, j : j + n] for i in (0, 1) for j in (0, 1))
+    )
+    shade = stage._shade(p, x, y) & ~stage._bare(p, x, y, ground) & ~stage._wet(p, x, y, ground)
+    forest = stage._in_cell(p, "forest", x, y)
+    litter = shade & (p.cover.class_id == 0)
+    assert litter[forest].any() and not litter[~forest].any()
+
+
 def test_biomes_change_the_mix_not_the_zones():
     a, b = plan("mixed"), plan("scrub")
     assert a.layout.cells == b.layout.cells

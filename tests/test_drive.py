@@ -219,13 +219,15 @@ def test_a_seeds_drive_world_has_the_vegetation_asked_for(world):
     from wildscan.app.drive.world import drive_world
 
     plan, porous = world
-    solid, provenance, trail = drive_world(
-        DriveRequest(out="-", seed=SEED, detail=DETAIL, vegetation="solid")
+    solid = drive_world(DriveRequest(out="-", seed=SEED, detail=DETAIL, vegetation="solid"))
+    assert solid.provenance == {"seed": SEED, "detail": DETAIL, "vegetation": "solid", "world": None}
+    geometry = plan_geometry(solid.plan)
+    assert (
+        geometry.triangle_count == plan_geometry(plan_world(SEED, DETAIL, vegetation="solid")).triangle_count
     )
-    assert provenance == {"seed": SEED, "detail": DETAIL, "vegetation": "solid", "world": None}
-    assert solid.triangle_count == plan_geometry(plan_world(SEED, DETAIL, vegetation="solid")).triangle_count
-    assert solid.triangle_count != porous.triangle_count
-    np.testing.assert_array_equal(trail, plan.layout.trail.path)  # the layout does not depend on it
+    assert geometry.triangle_count != porous.triangle_count
+    np.testing.assert_array_equal(solid.instances, np.unique(geometry.instance))
+    np.testing.assert_array_equal(solid.trail, plan.layout.trail.path)  # the layout does not depend on it
 
 
 def test_a_drive_from_inside_the_cave_with_z_start_stays_under_the_roof(world, tmp_path):

@@ -1,7 +1,10 @@
-"""raycast/parallel.py: a large cast split over threads answers exactly what one thread does
-(every ray's answer is its own), and a dataset worker's backend keeps one thread."""
+"""core/threads.py over the embree backend: a large cast split over threads answers exactly
+what one thread does (every ray's answer is its own), and a dataset worker's backend keeps
+one thread."""
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import pytest
@@ -34,6 +37,7 @@ def _rough_ground_and_litter():
 
 @pytest.mark.parametrize("normals", [False, True])
 def test_a_cast_over_threads_is_the_same_bytes_as_one(normals):
+    from wildscan.core.threads import cast_parts
     from wildscan.raycast.embree_backend import EmbreeBackend
 
     backend = EmbreeBackend(_rough_ground_and_litter())
@@ -43,10 +47,14 @@ def test_a_cast_over_threads_is_the_same_bytes_as_one(normals):
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     origin = np.array([0.3, -0.2, 6.0])
 
-    one = backend.cast(origin, dirs, 40.0, normals)
+    def cast(o, d, reach):
+        return backend.cast(o, d, reach, normals)
+
+    backend.threads = 1
+    one = cast_parts(backend, cast, origin, dirs, 40.0)
     backend.threads = 3
-    three = backend.cast(origin, dirs, 40.0, normals)
-    many_origins = backend.cast(np.broadcast_to(origin, dirs.shape).copy(), dirs, 40.0, normals)
+    three = cast_parts(backend, cast, origin, dirs, 40.0)
+    many_origins = cast_parts(backend, cast, np.broadcast_to(origin, dirs.shape).copy(), dirs, 40.0)
 
     assert one.hit.sum() > 50_000
     for hits in (three, many_origins):
@@ -58,22 +66,25 @@ def test_a_cast_over_threads_is_the_same_bytes_as_one(normals):
 
 
 def test_a_small_cast_stays_on_one_thread(monkeypatch):
-    from concurrent import futures
-
+    from wildscan.core import threads
     from wildscan.raycast.embree_backend import EmbreeBackend
 
     backend = EmbreeBackend(_rough_ground_and_litter())
     backend.threads = 4
-    monkeypatch.setattr(futures, "ThreadPoolExecutor", None)  # would fail if a pool were made
-    hits = backend.cast(np.array([0.0, 0.0, 6.0]), np.tile([0.0, 0.0, -1.0], (1000, 1)), 10.0)
+    monkeypatch.setattr(threads, "_pool_of", None)  # would fail if a pool were asked for
+    dirs = np.tile([0.0, 0.0, -1.0], (1000, 1))
+    hits = threads.cast_parts(backend, backend.cast, np.array([0.0, 0.0, 6.0]), dirs, 10.0)
     assert hits.hit.all()
 
 
-def test_a_commands_backend_uses_the_cores_and_a_dataset_workers_one():
+def test_a_commands_backend_uses_the_cores_and_a_dataset_workers_one(monkeypatch):
     from wildscan.app.dataset.worker import _embree
-    from wildscan.raycast.parallel import available_cores
+    from wildscan.core.threads import THREADS_ENV, backend_threads
     from wildscan.raycast.select import make_backend
 
+    monkeypatch.delenv(THREADS_ENV, raising=False)
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
     geometry = _rough_ground_and_litter()
-    assert make_backend("embree", geometry=geometry, notify=None).threads == available_cores()
-    assert _embree(geometry).threads == 1
+    command = make_backend("embree", geometry=geometry, notify=None)
+    assert backend_threads(command) == len(os.sched_getaffinity(0))
+    assert backend_threads(_embree(geometry)) == 1

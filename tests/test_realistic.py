@@ -258,3 +258,38 @@ def test_a_backend_without_normals_is_refused_for_the_realistic_model():
     with pytest.raises(UserError) as info:
         run_scan(NoNormals(), Pose(0, 0, 0), REALISTIC)
     assert info.value.setting == "backend"
+
+
+def test_echoes_formed_block_by_block_on_threads_are_those_of_one_pass(monkeypatch):
+    """beam_echoes forms echoes a block of beams at a time on the cast's threads: every beam's
+    echoes are its own, so the blocks joined are one pass's bytes (two- and three-echo beams,
+    mixed pixels and beams that hit nothing included)."""
+    from wildscan.core import realistic, threads
+    from wildscan.core.echoes import form_echoes
+    from wildscan.core.footprint import subray_weights
+    from wildscan.raycast.geometry import from_triangles
+
+    rng = np.random.default_rng(11)
+    centres = rng.normal(size=(3000, 3))
+    centres *= (1.0 + 3.0 * rng.random(3000))[:, None] / np.linalg.norm(centres, axis=1)[:, None]
+    leaves = centres[:, None, :] + 0.05 * rng.normal(size=(3000, 3, 3))
+    classes = rng.choice([2, 3, 8], size=3000)  # two leaves of other classes in one echo: a mixed pixel
+    backend = EmbreeBackend(from_triangles(leaves, class_id=classes, instance=np.arange(3000)))
+    d = rng.normal(size=(2000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    e_u = np.cross(d, [0.0, 0.0, 1.0])
+    e_u /= np.linalg.norm(e_u, axis=1)[:, None]
+    sensor = S.SensorConfig(model="realistic", divergence_mrad=40.0)
+    sub = subrays_around(d, e_u, np.cross(d, e_u), sensor.divergence_mrad)
+    hits = backend.cast(np.zeros(3), sub.reshape(-1, 3), 10.0, normals=True)
+    one_pass = form_echoes(
+        realistic.subray_returns(hits, sub), subray_weights(len(sub)), sensor.echo_separation, sensor.echoes
+    )
+    monkeypatch.setattr(realistic, "BEAM_BLOCK", 77)
+    monkeypatch.setenv(threads.THREADS_ENV, "2")
+    blocks = realistic.beam_echoes(hits, sub, sensor)
+    per_beam = np.bincount(one_pass.beam, minlength=len(d))
+    assert (per_beam == 0).any() and (per_beam == 1).any() and (per_beam >= 2).any()
+    assert (one_pass.purity < 1).any()
+    for field in ("beam", "range", "intensity", "label", "purity", "instance"):
+        assert getattr(blocks, field).tobytes() == getattr(one_pass, field).tobytes(), field

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildscan.app.dataset.worker import WorldContext
+from wildscan.app.cache.worlds import ground_arrays, ground_from_arrays
 from wildscan.core.groundtruth import height_above_ground
 from wildscan.core.world import plan_world
 from wildscan.core.world.ground import FloorTops
@@ -38,8 +38,10 @@ def points_on(geometry, instance: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def dataset_ground(plan):
-    """The ground the dataset worker measures `hag` and `terrain_z` from."""
-    return WorldContext(0, plan, None, [], np.zeros(0), (0.0, 1.0), None, 0.0).ground
+    """The ground the dataset worker measures `hag` and `terrain_z` from: the plan's, as its
+    world cache keeps it and reads it back (app/cache/worlds.py)."""
+    ground = plan.standing_ground()
+    return ground_from_arrays(ground_arrays(ground), len(ground.floors))
 
 
 def test_points_on_the_trail_flooring_are_at_height_zero(low_world):

@@ -16,7 +16,7 @@ from wildscan.raycast import select
 from wildscan.raycast.extract import extract_scene
 from wildscan.raycast.geometry import SceneGeometry
 
-BACKENDS = ("blender", "bvh", "embree")
+BACKENDS = ("blender", "bvh", "embree", "open3d")
 
 
 def empty_scene():

@@ -20,6 +20,9 @@ takes to build a world (bpy wheel). One module per suite:
   targets.py      each speed and accuracy goal of the benchmark, met or not.
   devices.py      every device preset's full-frame scan beside Embree's own cast of the same
                   rays (suite "devices").
+  casters.py      every float32 ray caster on the same sealed triangles and rays: build,
+                  memory, rays/s, same PLY bytes (suite "casters"; the candidates that are
+                  not backends are in caster_candidates.py).
 
 backends.py runs the first four (suite "backends", the default) and writes bench.csv,
 bench.png and scaling.md (report.py); config.py holds what a run measures, measure.py the
@@ -38,4 +41,5 @@ touched. Results: bench.csv, bench.png and scaling.md in --out (written together
     wildscan bench --suite world [--seed S] [--details LIST]      (= wildscan bench-world)
     wildscan bench --suite realism [--seed S] [--quick]
     wildscan bench --suite devices [--seed S] [--quick] [--markdown docs/benchmarks.md]
+    wildscan bench --suite casters [--seed S] [--quick] [--markdown docs/benchmarks.md]
 """

@@ -5,7 +5,7 @@ labels, leveling, the cloud) beside Embree's own time for the very same rays (em
 `scene.run` as the backend calls it, with the rays' float32 conversion, and nothing of the
 float64 refinement, settling or labels around it), and their ratio: what WildScan adds to
 the caster. The goal: at most TARGET_RATIO. The scan is timed as a user's runs, its large
-casts split over the cores (raycast/parallel.py), and again on one thread, as a dataset
+casts split over the cores (core/threads.py), and again on one thread, as a dataset
 worker's runs; Embree's own cast is one thread's. Between them, the backend's whole
 cast of the same rays (`backend.cast`: Embree, then every ambiguous hit settled and every
 distance refined in float64) says how much of the rest is the caster's exactness and how
@@ -56,13 +56,14 @@ def embree_cast(backend, origin, dirs, max_range):
 def device_row(name: str, geometry, pose, z_start, runs: int) -> dict:
     from ..core.scan import NOISE_MARGIN_SIGMAS, run_scan
     from ..core.sensors import SensorConfig, device_named, rotated_beam_directions
+    from ..core.threads import backend_threads
 
     device = device_named(name)
     sensor = SensorConfig.for_device(device).validate()
     backend = embree_backend(geometry, pose, sensor)
     run_scan(backend, pose, sensor, FRAME, z_start)  # the first builds the settling's index: untimed
     scans = [timed(run_scan, backend, pose, sensor, FRAME, z_start) for _ in range(runs)]
-    threads, backend.threads = backend.threads, 1
+    threads, backend.threads = backend_threads(backend), 1
     one_thread = [timed(run_scan, backend, pose, sensor, FRAME, z_start)[1] for _ in range(runs)]
     result = scans[0][0]
     placement = result.placement

@@ -1,8 +1,9 @@
 """`wildscan bench --suite drive`: a 60 s drive at 1 m/s along a world's trail, r_h = 1 deg
 (2,400 2D scans, 13 3D scans), with both ROS bags, timed stage by stage.
 
-Target (set for scans in motion, on this 2-core machine): under 10 s for the whole drive, world planning
-and every file included.
+Targets (on this 2-core machine, quiet): at most 4 s for the whole drive without wind and 10 s
+with wind, world planning and every file included; every row is printed beside its target,
+met or not.
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-TARGET_SECONDS = 10.0
+TARGET_SECONDS = 4.0  # without wind
+WIND_TARGET_SECONDS = 10.0
 DRIVE_SECONDS = 60.0
 SPEED = 1.0
 
@@ -56,6 +58,7 @@ def run_case(seed: int, head: str, wind: float, bag: str, folder: Path) -> dict:
     size = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
     return {
         "case": f"{head}, wind {wind:g}, bags {bag}",
+        "wind": wind,
         "seconds": seconds,
         "stages": report.seconds,
         "scans_2d": report.scans_2d,
@@ -82,20 +85,26 @@ def bench_drive(
     return rows
 
 
+def target_seconds(row: dict) -> float:
+    """The target of a row: with wind or without."""
+    return WIND_TARGET_SECONDS if row["wind"] else TARGET_SECONDS
+
+
 def print_rows(seed: int, rows: list[dict]) -> None:
     print(
-        f"wildscan drive: {DRIVE_SECONDS:g} s at {SPEED:g} m/s along the trail of seed {seed}, r_h = 1 deg "
-        f"(target: under {TARGET_SECONDS:g} s with bags)"
+        f"wildscan drive: {DRIVE_SECONDS:g} s at {SPEED:g} m/s along the trail of seed {seed}, r_h = 1 deg, "
+        f"both bags (targets: at most {TARGET_SECONDS:g} s without wind, {WIND_TARGET_SECONDS:g} s with wind)"
     )
     stages = ("world", "crop", "placement", "sweep", "write")
     head = f"  {'case':<32} {'2D':>6} {'3D':>3} {'points':>10} {'MB':>6} " + " ".join(
         f"{s:>9}" for s in stages
     )
-    print(head + f" {'total s':>8}  target")
+    print(head + f" {'total s':>8} {'target':>7}")
     for r in rows:
         times = " ".join(f"{r['stages'].get(s, 0.0):9.2f}" for s in stages)
-        ok = "ok" if r["seconds"] < TARGET_SECONDS else "MISSED"
+        target = target_seconds(r)
+        ok = f"<= {target:g} {'met' if r['seconds'] <= target else 'MISSED'}"
         print(
             f"  {r['case']:<32} {r['scans_2d']:>6,} {r['scans_3d']:>3} {r['points']:>10,} "
-            f"{r['bytes'] / 1e6:>6.0f} {times} {r['seconds']:8.2f}  {ok}"
+            f"{r['bytes'] / 1e6:>6.0f} {times} {r['seconds']:8.2f} {ok}"
         )

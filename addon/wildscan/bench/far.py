@@ -176,7 +176,8 @@ def bench_far(offsets=OFFSETS, backends=None, say=print) -> list[dict]:
     from ..core.checks import one_of
     from ..raycast.select import available_backends
 
-    backends = [one_of(name, "backends", BACKENDS) for name in backends or available_backends()]
+    here = [name for name in available_backends() if name in BACKENDS]
+    backends = [one_of(name, "backends", BACKENDS) for name in backends or here]
     rows = []
     for offset in offsets:
         rows += [dict(r, table="range") for r in measure_offset(offset, backends)]

@@ -7,7 +7,10 @@ porous vegetation give, and what they cost, beside the paper model and the solid
   echoes     a realistic scan of every zone's first valid pose: how many beams return 1, 2
              or 3 echoes, how many points are mixed, how many beams see a trunk behind crown
   speed      the same full r_h = 1 deg scans, placement to PLY written, paper beside
-             realistic (median of RUNS; Blender-free plan geometry, the default backend)
+             realistic, as `wildscan scan` takes them (the world's ground cover included;
+             median of RUNS; Blender-free plan geometry, the default backend), with the share
+             of the realistic scan spent in the backend's cast; every zone against
+             SPEED_TARGET_S
   build      the world of the seed built in Blender at default detail, porous beside solid
              (the worlds before porous vegetation): seconds, peak memory, objects,
              triangles (each in a fresh Python, so peak memory is the build's own)
@@ -20,6 +23,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -31,7 +35,7 @@ from .report import text_table
 POROSITY_SEEDS = 4
 CROWN_TARGET = (0.20, 0.50)
 SKY_TARGET = (0.15, 0.35)
-SPEED_TARGET_S = 0.3
+SPEED_TARGET_S = 0.25  # s, a realistic full r_h = 1 deg scan, in every zone
 RUNS = 3
 DETAIL = "default"
 
@@ -75,11 +79,40 @@ def trunk_behind_crown(cloud) -> int:
     return len({b for b, e in zip(beam[trunk], echo[trunk]) if b in first_crown and e > first_crown[b]})
 
 
+class CastTimer:
+    """A backend that adds up the seconds during which its `cast` runs (the rest of a scan is
+    ours): wall-clock time with at least one cast under way, so casts on parallel threads
+    (core/threads.py) are counted once."""
+
+    def __init__(self, backend, clock=time.perf_counter):
+        self.backend = backend
+        self.name = backend.name
+        self.capabilities = backend.capabilities
+        self.seconds = 0.0
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._running = 0
+        self._since = 0.0
+
+    def cast(self, *args, **kwargs):
+        with self._lock:
+            if not self._running:
+                self._since = self._clock()
+            self._running += 1
+        try:
+            return self.backend.cast(*args, **kwargs)
+        finally:
+            with self._lock:
+                self._running -= 1
+                if not self._running:
+                    self.seconds += self._clock() - self._since
+
+
 def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
     """Per zone: the paper and realistic scans of its first valid pose, timed placement to
     PLY written, and the realistic scan's echoes."""
     from ..app.poses import plan_backend, valid_poses
-    from ..app.scan import make_scene_backend
+    from ..app.scan import make_scene_backend, scan_effects, scene_cover
     from ..core.io.ply import write_scan_files
     from ..core.placement import Pose
     from ..core.scan import run_scan
@@ -101,15 +134,24 @@ def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
             row = {"zone": zone, "pose": (p["x"], p["y"], p["yaw"])}
             for model in ("paper", "realistic"):
                 sensor = SensorConfig(model=model).validate()
-                backend = make_scene_backend("auto", pose, sensor, notify=lambda _t: None, geometry=geometry)
-                times = []
+                effects = scan_effects(None, sensor, scene_cover(geometry))
+                backend = CastTimer(
+                    make_scene_backend("auto", pose, sensor, notify=lambda _t: None, geometry=geometry)
+                )
+                times, casts = [], []
+                # a first scan fills what a backend keeps for every later one (the settling
+                # index: the world's build, not the scan's)
+                run_scan(backend, pose, sensor, z_start=p.get("z_start"), effects=effects)
                 for _ in range(runs):
                     with gc_paused():
+                        backend.seconds = 0.0
                         t0 = time.perf_counter()
-                        result = run_scan(backend, pose, sensor, z_start=p.get("z_start"))
+                        result = run_scan(backend, pose, sensor, z_start=p.get("z_start"), effects=effects)
                         write_scan_files(Path(tmp) / f"{zone}_{model}.ply", result.cloud, result.metadata)
                         times.append(time.perf_counter() - t0)
+                        casts.append(backend.seconds)
                 row[f"{model}_s"] = statistics.median(times)
+                row[f"{model}_cast_s"] = statistics.median(casts)
                 row[f"{model}_points"] = len(result.cloud)
             echoes = result.metadata["echoes"]
             beams = echoes["beams_by_echoes"]
@@ -123,6 +165,17 @@ def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
             )
             rows.append(row)
     return rows
+
+
+def speed_goals(scans: list[dict]) -> list[str]:
+    """One line per zone: its realistic full scan against SPEED_TARGET_S, met or not."""
+    return [
+        f"  realistic full scan, {r['zone']:<6} reference pose {r['realistic_s']:.3f} s "
+        f"<= {SPEED_TARGET_S} s "
+        f"({r['realistic_cast_s'] / r['realistic_s']:.0%} in the cast): "
+        f"{'met' if r['realistic_s'] <= SPEED_TARGET_S else 'NOT met'}"
+        for r in scans
+    ]
 
 
 # Peak memory: VmHWM, this process image's own high-water mark (ru_maxrss would also count
@@ -221,14 +274,18 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
         )
     )
     runs = 1 if quick else RUNS
-    scans = scan_rows(seed, runs, ("hills", "forest") if quick else None)
-    say(f"\n== Full r_h = 1 deg scans, placement to PLY written (median of {runs}), and the realistic echoes")
+    scans = scan_rows(seed, runs)
+    say(
+        f"\n== Full r_h = 1 deg scans, placement to PLY written (median of {runs}; 'in cast': the "
+        "realistic scan's share in the backend's cast), and the realistic echoes"
+    )
     say(
         text_table(
             [
                 "zone",
                 "paper",
                 "realistic",
+                "in cast",
                 "paper pts",
                 "realistic pts",
                 "2 echoes",
@@ -241,6 +298,7 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
                     r["zone"],
                     f"{r['paper_s']:.3f} s",
                     f"{r['realistic_s']:.3f} s",
+                    f"{r['realistic_cast_s'] / r['realistic_s']:.0%}",
                     f"{r['paper_points']:,}",
                     f"{r['realistic_points']:,}",
                     f"{r['share_2']:.1%}",
@@ -281,12 +339,8 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
     porous_sky = skies["porous"]["sky"]
     say(f"  sky from under the forest canopy {porous_sky:.1%} in 15-35 %: {_within(porous_sky, SKY_TARGET)}")
     by_zone = {r["zone"]: r for r in scans}
-    if "hills" in by_zone:
-        t = by_zone["hills"]["realistic_s"]
-        say(
-            f"  realistic full scan at the reference (hills) pose {t:.3f} s < {SPEED_TARGET_S} s: "
-            f"{'met' if t < SPEED_TARGET_S else 'NOT met'}"
-        )
+    for line in speed_goals(scans):
+        say(line)
     if "forest" in by_zone:
         f = by_zone["forest"]
         say(

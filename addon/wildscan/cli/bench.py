@@ -1,4 +1,4 @@
-"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR|biomes]` and
+"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR|biomes|casters]` and
 `wildscan bench-world` (= `bench --suite world`)."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world", "drive", "realism", "far", "weather", "devices", "learn", "biomes")
+SUITES = ("backends", "world", "drive", "realism", "far", "weather", "devices", "learn", "biomes", "casters")
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
@@ -68,7 +68,11 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
         "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md); "
         "biomes: per biome the class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time "
-        "and memory beside the paper biome's (docs/ground.md)",
+        "and memory beside the paper world of the same seeds at the same poses; the default biome also with "
+        "poses uniform over the world, and its bare ground by zone (docs/ground.md); "
+        "casters: every float32 ray caster (embreex, "
+        "Embree filled from numpy, Embree packets, Open3D, Warp, Mitsuba) on the same triangles and rays: "
+        "build time, rays/s on 1 and 2 threads, memory, and whether its scans are the same bytes as embree's",
     )
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
     p.add_argument(
@@ -171,6 +175,12 @@ def _bench_devices():
     return bench_devices
 
 
+def _bench_casters():
+    from ..bench.casters import bench_casters
+
+    return bench_casters
+
+
 def _bench_biomes():
     from ..bench.biomes import bench_biomes
 
@@ -184,6 +194,7 @@ SEED_AND_QUICK_SUITES = {
     "weather": _bench_weather_within_tolerance,
     "devices": _bench_devices,
     "biomes": _bench_biomes,
+    "casters": _bench_casters,
 }
 
 

@@ -98,6 +98,13 @@ class Echoes:
     def subset(self, keep) -> "Echoes":
         return Echoes(*(getattr(self, f)[keep] for f in self.__dataclass_fields__))
 
+    @staticmethod
+    def joined(parts: list["Echoes"]) -> "Echoes":
+        """The echoes of consecutive blocks of beams, in order."""
+        if len(parts) == 1:
+            return parts[0]
+        return Echoes(*(np.concatenate([getattr(p, f) for p in parts]) for f in Echoes.__dataclass_fields__))
+
 
 def axis_ranges(returns: SubrayReturns) -> np.ndarray:
     """Each return's range where the beam axis meets the plane it hit (its own range for a
@@ -177,9 +184,24 @@ def _grouped_echoes(beams: np.ndarray, columns: dict, valid: np.ndarray, separat
 
 
 def _merged(a: Echoes, b: Echoes) -> Echoes:
-    """Two sets of echoes of different beams as one, ordered by beam, then range."""
+    """Two sets of echoes of different beams as one, ordered by beam, then range: what a
+    lexsort of both by (beam, range) gives, by ordering each (`a` one echo a beam, in beam
+    order; `b` in beam order, its echoes by range almost always already) and merging the
+    two runs of beams (a stable sort of two sorted runs is a linear merge)."""
+    b = b.subset(_by_beam_then_range(b))
     both = Echoes(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in Echoes.__dataclass_fields__))
-    return both.subset(np.lexsort((both.range, both.beam)))
+    return both.subset(np.argsort(both.beam, kind="stable"))
+
+
+def _by_beam_then_range(e: Echoes) -> np.ndarray:
+    """The order of a lexsort by (beam, range), found without sorting when the echoes are in
+    it already (a beam's groups come in order of their sub-rays' ranges, so their echoes'
+    ranges nearly always are)."""
+    same_beam = e.beam[1:] == e.beam[:-1]
+    in_order = (e.beam[1:] >= e.beam[:-1]).all() and not (same_beam & ~(e.range[1:] >= e.range[:-1])).any()
+    if in_order:  # (a nan range fails >= and so is sorted as lexsort sorts it)
+        return np.arange(len(e))
+    return np.lexsort((e.range, e.beam))
 
 
 def _no_echoes() -> Echoes:

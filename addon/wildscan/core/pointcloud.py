@@ -96,5 +96,10 @@ class PointCloud:
         return out
 
     def class_counts(self) -> dict[int, int]:
-        ids, counts = np.unique(self.label, return_counts=True)
-        return {int(i): int(c) for i, c in zip(ids, counts)}
+        """Points per class id, in id order (unsigned labels, a scan's: by a bincount, no sort)."""
+        label = np.asarray(self.label)
+        if label.dtype.kind != "u" or not len(label):
+            ids, counts = np.unique(label, return_counts=True)
+            return {int(i): int(c) for i, c in zip(ids, counts)}
+        counts = np.bincount(label.astype(np.intp))
+        return {int(i): int(counts[i]) for i in np.flatnonzero(counts)}

@@ -33,6 +33,7 @@ from .sensors import (
     rotated_beams,
 )
 from .sensors.beams import beam_columns, beam_times
+from .threads import cast_parts
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -61,17 +62,12 @@ def cast_in_chunks(
     normals: bool = False,
 ):
     """Cast all rays, reporting progress between chunks when asked (with each hit's surface
-    normal when `normals`: the realistic model's)."""
+    normal when `normals`: the realistic model's), in parallel threads where the backend
+    allows it (core/threads.py: the same bytes)."""
     pause_here("casting")
     cast = _caster(backend, normals)
-    if progress is None:
-        return cast(origin, dirs, max_range)
-    parts = []
-    total = len(dirs)
-    for start in range(0, total, PROGRESS_CHUNK):
-        parts.append(cast(origin, dirs[start : start + PROGRESS_CHUNK], max_range))
-        progress(min(start + PROGRESS_CHUNK, total), total)
-    return RayHits.joined(parts)
+    chunk = None if progress is None else PROGRESS_CHUNK
+    return cast_parts(backend, cast, origin, dirs, max_range, chunk, progress)
 
 
 def _caster(backend: RayBackend, normals: bool) -> Callable[[np.ndarray, np.ndarray, float], RayHits]:
@@ -312,7 +308,7 @@ def _realistic_cloud(
     )
     if weather_of(effects) is not None:
         with_weather_field(cloud)
-    beams_hit = int(len(np.unique(pts.beam)))
+    beams_hit = pts.beams_returning
     facts = {
         "returns": int(len(pts.beam)),
         "hits": beams_hit,

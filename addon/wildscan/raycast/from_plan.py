@@ -46,7 +46,7 @@ from ..core.world import DEFAULT_BIOME, plan_world
 from .geometry import SceneGeometry, concatenate, local_origin, world_vertices
 
 
-def plan_geometry(plan) -> SceneGeometry:
+def plan_geometry(plan, keep=None) -> SceneGeometry:
     """The scene geometry of a planned world, exactly as extracting it from Blender gives.
 
     `plan` is a `core.world.WorldPlan` (from `plan_world(seed, detail)`). Returns
@@ -54,15 +54,23 @@ def plan_geometry(plan) -> SceneGeometry:
     `geometry.cropped(centre, radius)` or pass it as `geometry=` to
     `raycast.select.make_backend` / `app.scan.scan_current_scene`, which crop the
     same way as the Blender path.
+
+    `keep(elements, matrices)`: a mask of the (ordered) elements to make triangles of, for a
+    caller that crops anyway (a drive); the others keep their object index and name but give
+    no triangles, so a crop inside the kept ones is the crop of the whole world, byte for byte
+    (the offset is then the kept triangles').
     """
     elements = [el for el in blender_order(plan.elements) if len(plan.prototypes[el.proto].faces)]
     matrices = blender_matrices(
         [el.location for el in elements], [el.yaw for el in elements], [el.scale for el in elements]
     )
+    chosen = np.ones(len(elements), dtype=bool) if keep is None else keep(elements, matrices)
     # Meshes are shared between elements: round each prototype to float32 once.
     local: dict[str, np.ndarray] = {}
     parts = []
     for index, (el, matrix) in enumerate(zip(elements, matrices)):
+        if not chosen[index]:
+            continue
         proto = plan.prototypes[el.proto]
         if el.proto not in local:
             local[el.proto] = np.asarray(proto.vertices, dtype=np.float32).reshape(-1, 3).astype(np.float64)

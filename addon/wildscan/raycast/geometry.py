@@ -443,16 +443,9 @@ class RefiningBackend:
         raise NotImplementedError
 
     capabilities = frozenset({NORMALS})  # cast(..., normals=True) gives each hit's triangle normal
-    threads = 1  # a large cast split over this many (parallel.py); a dataset worker's: 1
+    threads: int | None = None  # core/threads.py: None the cores (or the environment), 1 a dataset worker
 
     def cast(
-        self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
-    ) -> RayHits:
-        from .parallel import in_parts
-
-        return in_parts(self._cast, self.threads, origins, directions, max_range, normals)
-
-    def _cast(
         self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
     ) -> RayHits:
         local, dirs = prepare_rays(origins, directions, self.geometry.offset)

@@ -2,21 +2,34 @@
 
 Backends (all give the same labels; see tests/test_backends.py):
   embree   Embree via the `embreex` wheel, batched from numpy: the default.
+  open3d   Open3D's RaycastingScene over the same sealed triangles: the same PLY bytes as embree.
   bvh      mathutils.bvhtree over the same extracted triangles, one ray per Python call.
   blender  Blender's own scene.ray_cast: the reference, slowest, cost grows with objects.
-  auto     the default: the first of embree, bvh, blender that can be imported.
+  auto     the default: the first of embree, open3d, bvh, blender that can be imported.
 
-Why embree is the default: it casts a whole scan's rays in one batch from numpy, so it
-is by far the fastest of the three and its time stays nearly flat in the number of
-objects, while scene.ray_cast's cost a ray grows with them (`wildscan bench` measures
-both, docs/benchmarks.md has its output); its labels and ranges agree with
-scene.ray_cast's; and with sealed edges (geometry.pad_triangles) it has no leaks in the
-stability suite (tests/test_stability.py), where scene.ray_cast lets some rays aimed at
-shared edges and vertices through.
+Why embree is the default. Against scene.ray_cast and the BVH: it casts a whole scan's rays
+in one batch from numpy, so it is by far the fastest of the three and its time stays nearly
+flat in the number of objects, while scene.ray_cast's cost a ray grows with them (`wildscan
+bench` measures both); its labels and ranges agree with scene.ray_cast's; and with sealed
+edges (geometry.pad_triangles) it has no leaks in the stability suite
+(tests/test_stability.py), where scene.ray_cast lets some rays aimed at shared edges and
+vertices through. Against the other float32 casters (`wildscan bench --suite casters`: all
+fed the same sealed triangles and the same scans' rays, docs/benchmarks.md#casters): every
+one of them (embreex as it was, Embree packets through ctypes, Open3D, NVIDIA Warp, Mitsuba 3)
+gives embree's PLY bytes once the float64 settling has decided the ambiguous hits, so cost
+decides, and a world is built once for tens of scans. Embree with its buffers filled by numpy
+(embree_buffers.py) has the cheapest build of them all (about half Open3D's, a sixth of
+Mitsuba's, under half of embreex's own item-by-item upload), adds no more memory than embreex
+did (Open3D a little more, Warp and Mitsuba far more), casts a scan's rays on one thread as
+fast as any (Open3D and Mitsuba are as fast on some ray sets and slower on others; packets
+from a Python loop and Warp's CPU kernel are slower) and releases the GIL while casting.
+Open3D is the fallback: next to embree on build and cast together, and in `make setup`
+already. Warp (CUDA where a GPU exists) and Mitsuba are measured only: their wheels are
+hundreds of MB and neither beats Embree on a CPU.
 
 A missing module is not an error: the next backend in FALLBACK_ORDER is used and
-`notify` gets one line saying which and why. Imports of bpy, mathutils and
-embreex happen only inside functions, so this module imports anywhere.
+`notify` gets one line saying which and why. Imports of bpy, mathutils, embreex and
+open3d happen only inside functions, so this module imports anywhere.
 """
 
 from __future__ import annotations
@@ -27,11 +40,12 @@ from ..core.backend import RayBackend
 from ..core.checks import one_of
 from ..core.errors import UserError
 
-BACKEND_NAMES = ("auto", "embree", "bvh", "blender")
+BACKEND_NAMES = ("auto", "embree", "open3d", "bvh", "blender")
 DEFAULT_BACKEND = "auto"
-FALLBACK_ORDER = ("embree", "bvh", "blender")
+FALLBACK_ORDER = ("embree", "open3d", "bvh", "blender")
 _INSTALL_HINT = {
     "embree": "install the embreex wheel (pip install embreex) into this Python to enable it",
+    "open3d": "install the open3d wheel (pip install open3d) into this Python to enable it",
     "bvh": "it needs Blender's mathutils (run inside Blender or with the bpy wheel)",
     "blender": "it needs Blender's bpy (run inside Blender or with the bpy wheel)",
 }
@@ -48,6 +62,8 @@ def missing_reason(name: str) -> str | None:
     try:
         if name == "embree":
             from embreex import mesh_construction, rtcore_scene  # noqa: F401
+        elif name == "open3d":
+            import open3d  # noqa: F401
         elif name == "bvh":
             from .bvh_backend import load_bvhtree
 
@@ -98,7 +114,7 @@ def make_backend(
     geometry=None,
     notify: Callable[[str], None] | None = print,
 ) -> RayBackend:
-    """A ready backend. For embree/bvh the scene is extracted (cropped to `radius` around
+    """A ready backend. For embree/open3d/bvh the scene is extracted (cropped to `radius` around
     `center` when both are given) unless `geometry` is passed; a passed geometry is
     cropped the same way, so many poses can share one extraction. Call once per command:
     a fallback is announced on every call."""
@@ -111,20 +127,14 @@ def make_backend(
     if chosen == "embree":
         from .embree_backend import EmbreeBackend
 
-        return _on_every_core(EmbreeBackend(geometry))
+        return EmbreeBackend(geometry)
+    if chosen == "open3d":
+        from .open3d_backend import Open3DBackend
+
+        return Open3DBackend(geometry)
     from .bvh_backend import BVHBackend
 
     return BVHBackend(geometry)
-
-
-def _on_every_core(backend):
-    """A backend for one command's scans: its large casts split over the cores it may use
-    (raycast/parallel.py; the bytes are those of one thread). A dataset worker makes its
-    own, one thread each."""
-    from .parallel import available_cores
-
-    backend.threads = available_cores()
-    return backend
 
 
 def _geometry_for(depsgraph, center, radius, geometry):

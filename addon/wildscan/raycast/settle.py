@@ -59,6 +59,14 @@ class Settler:
             geometry, geometry.padded_local_triangles(dtype=np.float64, corners=corners), planes, corners
         )
 
+    @classmethod
+    def restored(cls, geometry, padded, planes, corners, band, neighbours) -> Settler:
+        """A Settler whose `band` and `neighbours` were made before (a world cache's entry,
+        app/cache/worlds.py): the same arrays, not made again."""
+        settler = cls(geometry, padded, planes, corners)
+        settler.__dict__.update(band=band, neighbours=neighbours)  # what cached_property keeps
+        return settler
+
     @cached_property
     def band(self) -> np.ndarray:
         """(T,) float32: a hit whose smallest barycentric coordinate on the padded triangle is

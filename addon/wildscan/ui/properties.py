@@ -58,11 +58,13 @@ _FRAME_TEXT = (
     ("world", "World", "Blender's world frame"),
 )
 _BACKEND_TEXT = {
-    "auto": "The fastest available (embree, else bvh, else blender)",
+    "auto": "The fastest available (embree, else open3d, else bvh, else blender)",
     "embree": "Embree through the embreex wheel (fastest)",
+    "open3d": "Open3D's RaycastingScene over the extracted triangles",
     "bvh": "mathutils BVH tree over the extracted triangles",
     "blender": "Blender's scene.ray_cast (the reference, slowest)",
 }
+_BACKEND_LABEL = {"bvh": "BVH", "open3d": "Open3D"}
 _STORED = {"pose_x": "_pose_x", "pose_y": "_pose_y", "pose_yaw": "_pose_yaw"}
 
 
@@ -253,7 +255,7 @@ class WildScanSettings(PropertyGroup):
     backend: EnumProperty(
         name=label("backend"),
         description="Which ray caster scans (all give the same labels)",
-        items=[(b, b.capitalize() if b != "bvh" else "BVH", _BACKEND_TEXT.get(b, b)) for b in BACKEND_NAMES],
+        items=[(b, _BACKEND_LABEL.get(b, b.capitalize()), _BACKEND_TEXT.get(b, b)) for b in BACKEND_NAMES],
         default="auto",
     )
     keep_previous: BoolProperty(

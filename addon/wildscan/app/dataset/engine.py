@@ -63,6 +63,7 @@ class Engine:
     client: object = None
     cluster: object = None
     ticks: dict[str, int] = field(default_factory=dict)
+    cache: dict | None = None  # the world cache the workers use (app/cache/config.py), None: none
     token: str = field(default_factory=lambda: uuid.uuid4().hex[:8])  # keeps two runs' tasks apart
     _quiet: ExitStack = field(default_factory=ExitStack)
 
@@ -118,7 +119,7 @@ class Engine:
         futures = {}
         for b in batches:
             f = self.client.submit(
-                scan_batch, spec_json, out, b.seed, b.indices, __version__, topic, b.label,
+                scan_batch, spec_json, out, b.seed, b.indices, __version__, topic, b.label, self.cache,
                 key=b.label, pure=False, priority=-b.order,
             )  # fmt: skip
             futures[f] = b

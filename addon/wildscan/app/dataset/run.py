@@ -24,6 +24,7 @@ from ...core.errors import UserError
 from ...core.io import semantickitti as sk
 from ...core.io.files import atomic_outputs, output_directory, write_durably
 from ...core.label_schemes import scheme
+from ..cache.config import count_worlds
 from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
 from .cluster import RunFailed, probe_scheduler
@@ -51,6 +52,7 @@ class RunReport:
     scan_seconds: float = 0.0  # summed over workers: inside their scans, and the cast within
     cast_seconds: float = 0.0
     bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
+    worlds: dict[str, int] = field(default_factory=dict)  # "built" / "cache" -> worlds a worker loaded so
 
 
 # ---------------------------------------------------------------------------------------
@@ -162,15 +164,17 @@ def run_dataset(
     quiet: bool = False,
     say=print,
     warn=None,
+    cache: dict | None = None,
 ) -> RunReport:
     """Make or finish the dataset of `spec` in `out`; `say` gets notes for stdout, `warn` a
-    warning (default: one line on stderr)."""
+    warning (default: one line on stderr). `cache`: the world cache the workers keep built
+    worlds in (app/cache/config.py cache_config; None: none)."""
     if scheduler:  # before anything is written: a wrong address is the user's to fix
         probe_scheduler(scheduler)
     root = output_directory(out, "--out")
     fd = lock(root)
     try:
-        return _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn or _warn)
+        return _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn or _warn, cache)
     finally:
         unlock(root, fd)
 
@@ -179,7 +183,7 @@ def _warn(text: str) -> None:
     sys.stderr.write(f"wildscan dataset: warning: {text}\n")
 
 
-def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn) -> RunReport:
+def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn, cache=None) -> RunReport:
     existing = card.read_dataset_json(root)
     manifest = Manifest.load(root)
     check_same_spec(root, existing, manifest, spec)
@@ -203,7 +207,8 @@ def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn) -> RunR
         root, len(spec.seeds) * spec.scans_per_world, 0, 0, 0, 0.0, False, _engine_name(workers, scheduler)
     )
     report.before = len(manifest.rows)
-    stop = _run_engine(state, pending, workers, scheduler, quiet, report) if any(pending.values()) else None
+    engine = Engine(workers, scheduler, cache=cache)
+    stop = _run_engine(state, pending, engine, quiet, report, warn) if any(pending.values()) else None
     _finish(state, report, stop)
     return report
 
@@ -225,8 +230,7 @@ def _pending(spec: DatasetSpec, manifest: Manifest, limit: int | None) -> dict[i
     return pending
 
 
-def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunReport) -> None:
-    engine = Engine(workers, scheduler)
+def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport, warn=_warn) -> None:
     recorded = len(state.manifest.rows)
     progress = ScanProgress(report.planned, recorded, quiet)
     in_flight: dict[str, int] = {}
@@ -245,6 +249,7 @@ def _run_engine(state: _State, pending, workers, scheduler, quiet, report: RunRe
         report.scan_seconds += facts.get("scan_seconds", 0.0)
         report.cast_seconds += facts.get("cast_seconds", 0.0)
         report.bpy_imported |= facts["bpy_imported"]
+        count_worlds(report.worlds, facts, warn)
         if state.world_rows(batch.seed) is not None:
             state.write_sequence_files(batch.seed)
             state.save()
@@ -324,6 +329,8 @@ def _run_record(report: RunReport) -> dict:
         "world_build_seconds": round(report.world_build_seconds, 3),
         "peak_rss_bytes_per_worker": sorted(report.peak_rss.values()),
         "bpy_imported_by_a_worker": report.bpy_imported,
+        "worlds_from_cache": report.worlds.get("cache", 0),
+        "worlds_built": report.worlds.get("built", 0),
     }
 
 

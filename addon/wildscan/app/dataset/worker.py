@@ -1,7 +1,8 @@
 """What a Dask worker runs: one world seed with a batch of its scan indices.
 
 The world is planned once per worker (a small cache keeps it for the next batch of the
-same world) and turned straight into triangles (the Blender-free path: no bpy), which
+same world; the world cache on disk, app/cache/, keeps it for every worker and run) and
+turned straight into triangles (the Blender-free path: no bpy), which
 one Embree scene holds for every scan of that world: placement, the sweep and the
 bird's-eye rays all cast against it, so nothing is cropped or rebuilt per pose (a
 bird's-eye cell on open ground, where the terrain is the only surface, is not cast:
@@ -41,12 +42,15 @@ from ...core.groundtruth import (
 )
 from ...core.io.files import atomic_outputs
 from ...core.label_schemes import scheme
-from ...core.open_ground import OpenGround, no_open_ground, open_ground
-from ...core.placement import place
-from ...core.posesampler import NoPose, ScanPose, sample_poses
+from ...core.open_ground import OpenGround
+from ...core.posesampler import NoPose
 from ...core.scan import run_scan
 from ...core.traversability import class_height_histogram, support_flags, traversability_fields
-from ...core.world import EXTENT, WorldPlan, plan_world
+from ...core.world import EXTENT
+from ...core.world.cover import CoverGrid
+from ...core.world.ground import StandingGround
+from ..cache.config import open_cache, world_facts
+from ..cache.store import DiskCache
 from .draws import draw_sensor, draw_weather
 from .intensity import scan_intensity_facts, with_dataset_intensity
 from .layout import scan_paths
@@ -60,13 +64,17 @@ RANGE_BINS = 60
 @dataclass
 class WorldContext:
     seed: int
-    plan: WorldPlan
     backend: object
     poses: list
     instances: np.ndarray
     z_range: tuple[float, float]
     open_ground: OpenGround
     build_seconds: float
+    # The ground the robot stands on (terrain mesh, trail flooring): what `hag` and the
+    # bird's-eye `terrain_z` measure from (core/world/ground.py).
+    ground: StandingGround
+    cover: CoverGrid | None = None  # the world's ground cover (None: bare ground)
+    from_cache: bool = False  # the world was read from the world cache, not built
 
     @functools.cached_property
     def file_numbers(self) -> list[int]:
@@ -79,15 +87,9 @@ class WorldContext:
         kept = np.cumsum([not isinstance(p, NoPose) for p in self.poses])
         return [int(n) - 1 for n in kept]
 
-    @functools.cached_property
-    def ground(self):
-        """The ground the robot stands on (terrain mesh, trail flooring): what `hag` and the
-        bird's-eye `terrain_z` measure from (core/world/ground.py)."""
-        return self.plan.standing_ground()
-
     def traversability(self, x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
         """The bird's-eye traversability fields at world points (core/traversability.py)."""
-        cover = self.plan.cover
+        cover = self.cover
         return traversability_fields(
             x,
             y,
@@ -121,12 +123,12 @@ def _world_key(spec: DatasetSpec, seed: int) -> tuple:
     return (seed, spec.detail, spec.vegetation, spec.biome, spec.scans_per_world, spec.poses)
 
 
-def world_context(spec: DatasetSpec, seed: int) -> WorldContext:
+def world_context(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) -> WorldContext:
     _keep_freed_memory()
     key = _world_key(spec, seed)
     if key not in _last_world:
         _last_world.clear()
-        _last_world[key] = build_world(spec, seed)
+        _last_world[key] = build_world(spec, seed, cache)
     return _last_world[key]
 
 
@@ -148,55 +150,38 @@ def _keep_freed_memory() -> None:
         pass  # not glibc: nothing to undo
 
 
-def build_world(spec: DatasetSpec, seed: int) -> WorldContext:
-    from ...raycast.from_plan import plan_geometry
+def build_world(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) -> WorldContext:
+    """The world of `seed` ready to scan: read from the world cache when it holds it, else
+    built (and stored there); its poses likewise (app/cache/worlds.py)."""
+    from ..cache.worlds import prepared_world, world_inputs, world_poses
 
     t0 = time.perf_counter()
-    plan = plan_world(seed, spec.detail, vegetation=spec.vegetation, biome=spec.biome)
-    geometry = plan_geometry(plan)
-    backend = _embree(geometry)
-
-    def accept(candidate: ScanPose) -> bool:
-        try:
-            place(backend, candidate.pose, candidate.z_start)
-        except PoseRejected:
-            return False
-        return True
-
-    p = spec.poses
-    poses = sample_poses(
-        plan, spec.scans_per_world, p.strategy, dict(p.zones), p.min_distance, accept, dict(p.min_scans_with)
-    )
-    low, high = geometry.bounds()
+    world = prepared_world(world_inputs(seed, spec.detail, spec.vegetation, spec.biome), cache)
+    backend = _embree(world.geometry, world.settler)
+    poses, _ = world_poses(world, backend, spec.scans_per_world, spec.poses, cache)
     return WorldContext(
         seed=seed,
-        plan=plan,
         backend=backend,
         poses=poses,
-        instances=np.array([e.instance for e in plan.elements], dtype=np.int64),
-        z_range=(float(low[2]), float(high[2])),
-        open_ground=world_open_ground(plan, geometry),
+        instances=world.instances,
+        z_range=world.z_range,
+        open_ground=world.open_ground,
         build_seconds=time.perf_counter() - t0,
+        ground=world.ground,
+        cover=world.cover,
+        from_cache=world.from_cache,
     )
 
 
-def world_open_ground(plan: WorldPlan, geometry) -> OpenGround:
-    """Where only the terrain lies under a bird's-eye cell; none unless the terrain grid
-    covers the extent (what makes an open cell's answer the terrain: core/open_ground.py)."""
-    xs, ys = plan.grid.xs, plan.grid.ys
-    x0, x1, y0, y1 = EXTENT
-    if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):
-        return no_open_ground(EXTENT)
-    return open_ground(geometry.vertices[:, :2], geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
-
-
-def _embree(geometry):
+def _embree(geometry, settler=None):
     try:
         from ...raycast.embree_backend import EmbreeBackend
 
-        return EmbreeBackend(geometry)
+        backend = EmbreeBackend(geometry, settler=settler)
     except ImportError as e:
         raise UserError(f"a dataset worker needs the embreex wheel (pip install embreex): {e}") from None
+    backend.threads = 1  # one worker a core: its casts on its own thread (core/threads.py)
+    return backend
 
 
 # ---------------------------------------------------------------------------------------
@@ -204,9 +189,17 @@ def _embree(geometry):
 
 
 def scan_batch(
-    spec_json: dict, out: str, seed: int, indices: list[int], version: str, topic: str = "", label: str = ""
+    spec_json: dict,
+    out: str,
+    seed: int,
+    indices: list[int],
+    version: str,
+    topic: str = "",
+    label: str = "",
+    cache: dict | None = None,
 ) -> dict:
-    """Scan `indices` of world `seed` into `out`; return the manifest rows and worker facts."""
+    """Scan `indices` of world `seed` into `out`; return the manifest rows and worker facts.
+    `cache`: where the worker keeps built worlds (app/cache/config.py; None: nowhere)."""
     if version != __version__:
         raise UserError(
             f"this Dask worker runs WildScan {__version__}, the client {version}: install the same on both"
@@ -219,7 +212,8 @@ def scan_batch(
         )
     spec = spec_from_json(spec_json)
     cached = _world_key(spec, seed) in _last_world
-    context = world_context(spec, seed)
+    disk = open_cache(cache)
+    context = world_context(spec, seed, disk)
     build = 0.0 if cached else context.build_seconds
     rows = []
     before = CLOCK.reading()
@@ -227,11 +221,10 @@ def scan_batch(
         with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
             rows.append(scan_one(spec, context, root, index))
         _tick(topic, label)
+    source = "memory" if cached else "cache" if context.from_cache else "built"
     spent = CLOCK.reading() - before
-    return {
-        "rows": rows,
-        "worker": dict(_worker_facts(build), scan_seconds=spent.scans, cast_seconds=spent.cast),
-    }
+    facts = _worker_facts(build) | world_facts(source, disk)
+    return {"rows": rows, "worker": facts | {"scan_seconds": spent.scans, "cast_seconds": spent.cast}}
 
 
 def _tick(topic: str, label: str) -> None:
@@ -303,7 +296,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             frame,
             choice.z_start,
             None,
-            _effects(weather, sensor, context.plan.cover),
+            _effects(weather, sensor, context.cover),
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)

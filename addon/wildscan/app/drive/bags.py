@@ -95,18 +95,18 @@ class BagFeed:
         ranges = np.where(returns.keep, returns.range, np.inf)
         ranges[~returns.keep & np.isfinite(returns.range) & (returns.range < self.sensor.min_range)] = -np.inf
         intensities = np.where(returns.keep, returns.intensity, 0.0)
-        for row, k in enumerate(range(result.k0, result.k1)):
-            stamp = k * self.ns_per_scan
-            beams = slice(row * self.per_column, (row + 1) * self.per_column)
-            base = (ODOM, BASE_LINK, self.motion.ground[k], self.q_base[k])
-            frames = [base]
-            if self.geometry is not None:
-                frames.append((BASE_LINK, LASER, (0.0, 0.0, COLUMN_HEIGHT), self.q_laser[k]))
-            for bag in self.bags:
-                bag.tf(stamp, frames)
-                bag.odometry(stamp, self.motion.ground[k], self.q_base[k], self.linear[k], self.angular[k])
-                if self.geometry is not None:
-                    bag.laser_scan(stamp, self.geometry, ranges[beams], intensities[beams])
+        ks = np.arange(result.k0, result.k1)
+        frames = [(ODOM, BASE_LINK)]
+        translations, rotations = [self.motion.ground[ks]], [self.q_base[ks]]
+        if self.geometry is not None:
+            frames.append((BASE_LINK, LASER))
+            translations.append(np.broadcast_to((0.0, 0.0, COLUMN_HEIGHT), (len(ks), 3)))
+            rotations.append(self.q_laser[ks])
+        poses = (np.stack(translations, axis=1), np.stack(rotations, axis=1))
+        odometry = (self.motion.ground[ks], self.q_base[ks], self.linear[ks], self.angular[ks])
+        laser = (ranges.reshape(len(ks), -1), intensities.reshape(len(ks), -1))
+        for bag in self.bags:
+            bag.scans(ks * self.ns_per_scan, frames, poses, odometry, self.geometry, laser)
 
     def clouds(self, result: Sweep) -> None:
         """The raw and the deskewed cloud of a 3D scan, stamped at its first beam and recorded

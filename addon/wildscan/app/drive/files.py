@@ -22,13 +22,14 @@ import json
 import os
 import re
 import shutil
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from ...core.errors import UserError
 from ...core.io import semantickitti as sk
-from ...core.io.files import fsync_dir, user_path, write_durably
+from ...core.io.files import fsync_dir, user_path
 from ...core.io.formats import WRITERS
 from ...core.io.writer import ScanOutput
 
@@ -60,6 +61,8 @@ class Staging:
         self.dir = root / f".wildscan-drive.tmp-{os.getpid()}"
         shutil.rmtree(self.dir, ignore_errors=True)
         self.dir.mkdir()
+        self._syncer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="wildscan-fsync")
+        self._syncs: list[Future] = []
 
     def path(self, relative: str) -> Path:
         """Where to write `relative` now (its folders made)."""
@@ -68,7 +71,11 @@ class Staging:
         return target
 
     def write(self, relative: str, data: bytes) -> None:
-        write_durably(self.path(relative), lambda f: f.write(data))
+        """Write `relative`; its fsync runs on a thread of its own while the drive goes on
+        (the disk's wait overlaps the sweeps), and `commit` waits for every one."""
+        path = self.path(relative)
+        path.write_bytes(data)
+        self._syncs.append(self._syncer.submit(_fsync, path))
 
     def files(self) -> list[str]:
         """Every file staged so far, relative to the root, sorted."""
@@ -77,6 +84,8 @@ class Staging:
     def commit(self) -> list[str]:
         """Move every staged file into place; remove what the previous drive wrote and this one
         did not. Returns the files in place."""
+        for sync in self._syncs:
+            sync.result()  # every staged file is on disk before any is renamed into place
         previous = previous_files(self.root)
         written = self.files()
         folders = set()
@@ -97,7 +106,16 @@ class Staging:
         return written
 
     def discard(self) -> None:
+        self._syncer.shutdown(wait=True, cancel_futures=True)
         shutil.rmtree(self.dir, ignore_errors=True)
+
+
+def _fsync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def remove_emptied_folders(root: Path, relative: str) -> None:

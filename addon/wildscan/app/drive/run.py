@@ -33,9 +33,10 @@ from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
 from . import files
 from .bags import BagFeed, open_bags
+from .memory import keep_freed_memory
 from .request import DriveRequest
 from .wind import drive_effects, moving_scene
-from .world import crop_along, drive_path, drive_world
+from .world import drive_path, drive_world
 
 
 @dataclass
@@ -67,12 +68,13 @@ def run_drive(request: DriveRequest, progress=None, say=print) -> DriveReport:
 
 
 def _drive(request: DriveRequest, progress, say) -> DriveReport:
+    keep_freed_memory()  # the sweeps' arrays reuse heap pages instead of faulting in new ones
     clock = _Clock()
     request.check()
     files.check_out_dir(request.out)
     path = None if request.trail else drive_path(request, None)  # a bad CSV is found before the world
-    geometry, provenance, trail = drive_world(request)
-    path = path or drive_path(request, trail)
+    world = drive_world(request)
+    path = path or drive_path(request, world.trail)
     sensor = request.sensor
     period = sensor.device.timing.column_period_s
     plan = schedule(path, request.speed, sensor.sweeps, request.scans, period)
@@ -80,11 +82,11 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
     effects = drive_effects(request.wind, request.wind_seed)
-    if request.weather or geometry.cover is not None:  # every ray draws its own particles, its sward depth
+    if request.weather or world.cover is not None:  # every ray draws its own particles, its sward depth
         from ..scan import scan_effects
 
-        effects = Effects(effects.items + scan_effects(request.weather, sensor, geometry.cover).items)
-    backend = _backend(request, effects, crop_along(geometry, xy, crop_radius(sensor)), say)
+        effects = Effects(effects.items + scan_effects(request.weather, sensor, world.cover).items)
+    backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
     check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
@@ -92,7 +94,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
 
     from ...core.io.files import output_directory
 
-    context = _Context(request, provenance, motion, geometry.instance, backend)
+    context = _Context(request, world.provenance, motion, world.instances, backend)
     stage = files.Staging(output_directory(request.out))
     try:
         with ExitStack() as bags:
@@ -217,7 +219,7 @@ class _Context:
         scan = ScanOutput(deskewed, {}, self.labels, world_instances=self.world_instances)
         kitti = {"velodyne": paths["velodyne"], "labels": paths["labels"]}
         files.stage_format(stage, "semantickitti", scan, kitti)
-        np.add.at(self.class_points, self.labels.map(deskewed.label), 1)
+        self.class_points += np.bincount(self.labels.map(deskewed.label), minlength=len(self.class_points))
         self.pose_matrices.append(pose_matrix(start, frame))
         self.start_times.append(float(self.motion.times[result.k0]))
         self.scans.append(

@@ -1,14 +1,18 @@
 """The world a drive sees, the path through it, and one crop of its triangles around the path.
 
-A seed's world is planned and turned into triangles without Blender (raycast/from_plan.py);
-a .blend file is opened and extracted (bpy). Its trail is the one the seed's layout drew
+A seed's world is planned and turned into triangles without Blender (raycast/from_plan.py),
+only the elements that may reach the path's corridor; a .blend file is opened and extracted
+(bpy). Its trail is the one the seed's layout drew
 (recorded on the world's collection): the layout is the same at every detail level.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
+from ...core import detmath as dm
 from ...core.errors import UserError
 from ...core.motion.trajectory import Path, polyline_path, step_lengths, straight_path
 from ...raycast.geometry import SceneGeometry, local_origin
@@ -16,13 +20,37 @@ from .request import DriveRequest
 
 TRAIL_STAGE = "trail"
 CROP_STEP = 1.0  # m between the path's points whose neighbourhoods make the crop
+CORRIDOR_MARGIN = 1.0  # m: elements this much beyond the crop's reach are still made into triangles
 
 
-def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray | None]:
-    """(the world's triangles, where they came from, the trail's centre line or None)."""
+@dataclass
+class DriveWorld:
+    """The world a drive sees: where it came from, its trail, and its triangles near a path."""
+
+    provenance: dict
+    trail: np.ndarray | None  # the trail's centre line, or None
+    instances: np.ndarray  # every instance of the whole world (SemanticKITTI numbers them)
+    cover: object  # the ground cover (core/world/cover.py), or None
+    geometry: SceneGeometry | None = None  # a .blend's triangles, all of them
+    plan: object = None  # or a seed's plan, turned into triangles only near the path
+
+    def crop(self, xy: np.ndarray, radius: float) -> SceneGeometry:
+        """`crop_along` of the world's triangles: a seed's world makes triangles only of the
+        elements that may reach the path's corridor (the crop is the same, byte for byte)."""
+        if self.plan is None:
+            return crop_along(self.geometry, xy, radius)
+        from ...raycast.from_plan import plan_geometry
+
+        lo, hi = corridor_box(xy, radius)
+        prototypes = self.plan.prototypes
+        return crop_along(plan_geometry(self.plan, keep=_elements_within(prototypes, lo, hi)), xy, radius)
+
+
+def drive_world(request: DriveRequest) -> DriveWorld:
+    """The world the request names: a seed's planned (its triangles made later, near the
+    path: `DriveWorld.crop`), or a .blend file's extracted."""
     if request.seed is not None:
         from ...core.world import plan_world
-        from ...raycast.from_plan import plan_geometry
 
         plan = plan_world(request.seed, request.detail, vegetation=request.vegetation)
         provenance = {
@@ -31,7 +59,9 @@ def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray 
             "vegetation": request.vegetation,
             "world": None,
         }
-        return plan_geometry(plan), provenance, plan.layout.trail.path
+        with_faces = [el.instance for el in plan.elements if len(plan.prototypes[el.proto].faces)]
+        instances = np.unique(np.asarray(with_faces, dtype=np.int32))
+        return DriveWorld(provenance, plan.layout.trail.path, instances, plan.cover, plan=plan)
     from ...blender.scene_io import open_world, scene_provenance
     from ...raycast.extract import extract_scene
 
@@ -39,7 +69,8 @@ def drive_world(request: DriveRequest) -> tuple[SceneGeometry, dict, np.ndarray 
     seed, blend = scene_provenance()
     geometry = extract_scene()
     provenance = {"seed": seed, "detail": None, "vegetation": None, "world": blend}
-    return geometry, provenance, _trail_of_blend(seed, geometry)
+    trail = _trail_of_blend(seed, geometry)
+    return DriveWorld(provenance, trail, np.unique(geometry.instance), geometry.cover, geometry=geometry)
 
 
 def _trail_of_blend(seed: int | None, geometry: SceneGeometry) -> np.ndarray | None:
@@ -90,20 +121,71 @@ def crop_along(geometry: SceneGeometry, xy: np.ndarray, radius: float) -> SceneG
     if np.all(xy == xy[0]):
         return geometry.cropped(xy[0], radius)
     samples = _samples(_thinned(xy, CROP_STEP / 2), CROP_STEP)
-    corners = geometry.vertices[:, :2][geometry.faces]
-    lo, hi = corners.min(axis=1), corners.max(axis=1)
     reach = radius + CROP_STEP / 2  # every point of the path is within half a step of a sample
-    near = np.all((lo <= samples.max(axis=0) + reach) & (hi >= samples.min(axis=0) - reach), axis=1)
-    candidates = np.flatnonzero(near)
+    lo, hi = samples.min(axis=0) - reach, samples.max(axis=0) + reach
+    candidates, box_lo, box_hi = _boxes_meeting(geometry, lo, hi)
+    near = np.zeros(len(candidates), dtype=bool)
+    (lo_x, lo_y), (hi_x, hi_y) = box_lo, box_hi
+    for px, py in samples.tolist():
+        # the box's point nearest the sample, as np.clip finds it: min(max(p, lo), hi)
+        gx = np.minimum(np.maximum(px, lo_x), hi_x) - px
+        gy = np.minimum(np.maximum(py, lo_y), hi_y) - py
+        near |= gx * gx + gy * gy <= reach * reach
     keep = np.zeros(geometry.triangle_count, dtype=bool)
-    lo_c, hi_c = lo[candidates], hi[candidates]
-    for point in samples:
-        gap = np.clip(point, lo_c, hi_c) - point
-        keep[candidates[gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= reach * reach]] = True
+    keep[candidates[near]] = True
     part = geometry.subset(keep)
     centre = 0.5 * (samples.min(axis=0) + samples.max(axis=0))
     part.offset = local_origin(part.vertices, part.faces, centre)
     return part
+
+
+def corridor_box(xy: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) xy corners of a box holding every triangle box `crop_along` keeps, with
+    CORRIDOR_MARGIN to spare."""
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    if np.all(xy == xy[0]):
+        points, reach = xy[:1], radius
+    else:
+        points, reach = _samples(_thinned(xy, CROP_STEP / 2), CROP_STEP), radius + CROP_STEP / 2
+    return points.min(axis=0) - reach - CORRIDOR_MARGIN, points.max(axis=0) + reach + CORRIDOR_MARGIN
+
+
+def _elements_within(prototypes, lo: np.ndarray, hi: np.ndarray):
+    """plan_geometry's `keep`: the elements whose triangles may come inside the box lo..hi.
+    An element's vertices are its prototype's turned and scaled by its matrix, so they lie
+    within |matrix| (Frobenius, at least its largest stretch) times the prototype's farthest
+    vertex of the element's location."""
+    far: dict[str, float] = {}
+
+    def keep(elements, matrices) -> np.ndarray:
+        for el in elements:
+            if el.proto not in far:
+                far[el.proto] = float(dm.norm(np.asarray(prototypes[el.proto].vertices).reshape(-1, 3)).max())
+        linear = matrices[:, :3, :3]
+        stretch = np.sqrt((linear * linear).sum(axis=(1, 2)))
+        size = stretch * np.array([far[el.proto] for el in elements])
+        centre = matrices[:, :2, 3]
+        return np.all((centre - size[:, None] <= hi) & (centre + size[:, None] >= lo), axis=1)
+
+    return keep
+
+
+def _boxes_meeting(geometry: SceneGeometry, lo: np.ndarray, hi: np.ndarray):
+    """(the triangles whose xy bounding box meets the box lo..hi, their boxes' low corners
+    (x (C,), y (C,)) and high corners), column by column: a reduction over a (T, 3) axis is slow."""
+    faces = geometry.faces
+    inside = np.ones(len(faces), dtype=bool)
+    columns = []
+    for axis in range(2):
+        corner = geometry.vertices[:, axis][faces]
+        low = np.minimum(np.minimum(corner[:, 0], corner[:, 1]), corner[:, 2])
+        high = np.maximum(np.maximum(corner[:, 0], corner[:, 1]), corner[:, 2])
+        inside &= (low <= hi[axis]) & (high >= lo[axis])
+        columns.append((low, high))
+    candidates = np.flatnonzero(inside)
+    box_lo = tuple(low[candidates] for low, _ in columns)
+    box_hi = tuple(high[candidates] for _, high in columns)
+    return candidates, box_lo, box_hi
 
 
 def _thinned(xy: np.ndarray, step: float) -> np.ndarray:

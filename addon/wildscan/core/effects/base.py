@@ -55,6 +55,11 @@ class ObjectMotion(Protocol):
         """Vertices (V, 3) of objects `vertex_object` (V,) where they are at time t (s)."""
         ...
 
+    def turns(self, t, objects: np.ndarray) -> np.ndarray:
+        """(P, 3, 3) the rotation of objects[i] about its pivot at time t[i] (s): a rigid turn,
+        so a ray meets the posed object where the ray turned back meets the object at rest."""
+        ...
+
 
 class Effect:
     """The base of every effect: no hook until a subclass sets its flag and method.

@@ -19,12 +19,14 @@ the same bytes on every machine.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .. import detmath as dm
 from ..hits import RayHits
 from ..rng import stage_rng
-from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, EXTINCTION, CoverGrid
+from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid, extinction
 from .base import Effect, Rays
 
 # The robot flattens what it stands on: within this horizontal distance of the sensor no cover
@@ -32,7 +34,7 @@ from .base import Effect, Rays
 TRAMPLED = 0.45  # m
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
-SETTLE = 2  # times a stop above its own cell's sward is moved down into it
+SETTLE = 6  # times a stop outside its own cell's sward goes on along its run (_settle)
 
 
 class GroundCover(Effect):
@@ -44,12 +46,12 @@ class GroundCover(Effect):
     cell where it ends (or starts): the terrain there as a plane (its slope) and the layer's
     height there, so the ray's height above the terrain changes linearly along it and the run
     is where that height lies between 0 and the layer's. The ray stops at its drawn optical
-    depth into the run (Exp(1) / (G LAD)); the stop is kept only where it lies inside the layer
-    as the grid says (CoverGrid.class_inside), labelled with the class of its own cell. A constant
-    number of array operations a ray: the cost does not grow with the runs' lengths. What this
-    leaves out: a beam skimming through a sward and out again before a farther hit (a crest's
-    grass tops), and a layer whose height or class changes along one run (the run's end cell
-    decides its length)."""
+    depth into the run (Exp(1) / (G LAD), LAD = LAI / the layer's height); the stop is kept
+    only where it lies inside the layer as the grid says (CoverGrid.class_inside), labelled
+    with the class of its own cell. A constant number of array operations a ray: the cost does
+    not grow with the runs' lengths. What this leaves out: a beam skimming through a sward and
+    out again before a farther hit (a crest's grass tops), and a layer whose height or class
+    changes along one run (the run's end cell decides its length)."""
 
     name = "cover"
     changes_medium = True
@@ -63,118 +65,199 @@ class GroundCover(Effect):
 
     def medium(self, rays: Rays, hits: RayHits) -> RayHits:
         n = len(hits.distance)
-        o = np.broadcast_to(np.asarray(rays.origins, dtype=np.float64), (n, 3))
+        o = np.asarray(rays.origins, dtype=np.float64)
         d = np.asarray(rays.directions, dtype=np.float64)
+        # each ray's origin and direction as x, y, z arrays (an origin: 3 numbers, or n each)
+        ray = _Rays(
+            *(o[k] if o.ndim == 1 else np.ascontiguousarray(o[:, k]) for k in range(3)),
+            *(np.ascontiguousarray(d[:, k]) for k in range(3)),
+        )
         end = np.minimum(hits.distance, rays.max_range)
         u = stage_rng(self.seed, "cover").random((2, n))
-        horizontal = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
+        again = stage_rng(self.seed, "cover.again")  # the depths of the stops drawn again (_settle)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            horizontal = np.sqrt(ray.dx * ray.dx + ray.dy * ray.dy)
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
-            # the run from the sensor, past the trampled ground, until the ray rises out of the layer
-            rows = np.flatnonzero((t0 < end) & self._may_start_inside(rays.origins, o, d, t0))
-            cls_a, above_a, height_a, rate_a, inside_a = self._layer_at(o, d, t0, rows)
-            leave = np.where(rate_a > 0, t0 + (height_a - above_a) / rate_a, np.inf)
-            leave = np.minimum(np.minimum(leave, t0 + LONGEST_RUN), end)
-            stop = _stop(t0, leave, cls_a, u[0], inside_a)
-            # the run that ends at the hit, from where the ray came down into the layer
-            at = np.maximum(end - BEFORE_HIT, 0.0)
-            rows = np.flatnonzero(np.isfinite(hits.distance) & ~np.isfinite(stop))
-            rows = rows[self.grid.may_be_inside(o[rows] + d[rows] * at[rows, None])]
-            cls_b, above_b, height_b, rate_b, inside_b = self._layer_at(o, d, at, rows)
-            back = np.minimum(np.where(rate_b < 0, (height_b - above_b) / -rate_b, LONGEST_RUN), LONGEST_RUN)
-            begin = np.maximum(end - back, np.where(inside_a, leave, t0))
-            stop_b = _stop(begin, end, cls_b, u[1], inside_b)
-            stop = np.minimum(stop, stop_b)
-            cls = self._settle(o, d, stop, np.where(np.isfinite(stop_b), end, np.inf), u[1])
-        if not (cls > 0).any():
+            a, leave, stop_a, cls_a, height_a = self._run_from_sensor(ray, t0, end, u[0])
+            held_a, at_a, class_a = self._held(ray, a, stop_a, leave, cls_a, height_a, again)
+            # the run that ends at the hit, for the rays that did not stop in the first one
+            start = t0.copy()  # where a run to the hit may begin: past the run from the sensor
+            start[a] = leave
+            unstopped = np.isfinite(hits.distance)
+            unstopped[held_a] = False
+            b, stop_b, cls_b, height_b = self._run_to_hit(ray, end, start, np.flatnonzero(unstopped), u[1])
+            held_b, at_b, class_b = self._held(ray, b, stop_b, end[b], cls_b, height_b, again)
+        if not len(held_a) and not len(held_b):
             return hits
-        return _with_cover_hits(hits, cls > 0, stop, cls, d)
+        rows = np.concatenate([held_a, held_b])
+        return _with_cover_hits(
+            hits, rows, np.concatenate([at_a, at_b]), np.concatenate([class_a, class_b]), d
+        )
 
-    def _settle(self, o, d, stop, end, u):
-        """The class at each stop inside the layer as the grid has it (0: none). A stop that
-        came out above its own cell's top (the run's length was taken from its end cell, and
-        the sward is lower here) moves down to where the ray enters this cell's layer and is
-        drawn again from there (at most SETTLE times; then the ray passes on to its hit)."""
-        n = len(stop)
-        cls = np.zeros(n, dtype=np.int16)
-        todo = np.flatnonzero(np.isfinite(stop))
+    def _held(self, ray: _Rays, rows, stop, end, cls, height, rng):
+        """Of the stops of one run (rows, where each stops or inf, the run's end, its anchor
+        cell's class and layer height): those that hold inside the layer (_settle): (their
+        rows, where, the class of their cell)."""
+        stopped = np.isfinite(stop)
+        rows, stop = rows[stopped], stop[stopped]
+        got = self._settle(ray.rows(rows), stop, end[stopped], cls[stopped], height[stopped], rng)
+        held = got > 0
+        return rows[held], stop[held], got[held]
+
+    def _run_from_sensor(self, ray: _Rays, t0, end, u):
+        """The run from the sensor, past the trampled ground, until the ray rises out of the
+        layer (or reaches its hit): (the rays that start it inside the layer, where each leaves
+        the layer, where each stops in it or inf)."""
+        rows = np.flatnonzero((t0 < end) & self._may_start_inside(ray, t0))
+        rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0[rows])
+        leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
+        leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end[rows])
+        return rows, leave, _stop(t, leave, cls, height, u[rows]), cls, height
+
+    def _run_to_hit(self, ray: _Rays, end, start, rows, u):
+        """The run that ends at the hit of each of `rows`, from where the ray came down into
+        the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
+        in it or inf, the class and layer height at the hit)."""
+        rows, _, (cls, above, height, rate) = self._inside(ray, rows, np.maximum(end[rows] - BEFORE_HIT, 0.0))
+        back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
+        stop_end = end[rows]
+        begin = np.maximum(stop_end - back, start[rows])
+        return rows, _stop(begin, stop_end, cls, height, u[rows]), cls, height
+
+    def _inside(self, ray: _Rays, rows, t):
+        """Of `rows`, those whose point t along lies inside the layer: (those rows, their t,
+        _layer's class, height above the terrain, layer height and rate there)."""
+        x, y, z = ray.at(rows, t)
+        near = self.grid.may_be_inside_at(x, y, z)
+        rows, t, x, y, z = rows[near], t[near], x[near], y[near], z[near]
+        cls, above, height, rate, inside = self._layer(x, y, z, ray.rows(rows))
+        return rows[inside], t[inside], (cls[inside], above[inside], height[inside], rate[inside])
+
+    def _settle(self, ray: _Rays, stop, end, anchor_cls, anchor_height, rng):
+        """The class at each stop (of `ray`'s rays) inside the layer as the grid has it (0:
+        none); `stop` is updated in place. A run's length and medium are its anchor cell's (where
+        it ends, or starts); along a long run (a grazing beam over several cells) a stop can come
+        out where this cell's sward is lower, or bare ground (a trail, a rock), or another class.
+        Such a ray goes on from there (from where it comes down into this cell's sward, when it
+        is above it): its depth is drawn again (from `rng`), in this cell's sward or, where this
+        cell has none, in the anchor's, until its run's `end`; at most SETTLE times, then it
+        passes. (Dropping such stops instead would let grazing beams through a meadow far more
+        often than Beer-Lambert says.)"""
+        cls = np.zeros(len(stop), dtype=np.int16)
+        todo = np.arange(len(stop))
         for attempt in range(SETTLE + 1):
             if len(todo) == 0:
                 break
-            c, above, height, rate, inside = self._layer_at(o[todo], d[todo], stop[todo])
+            x, y, z = ray.at(todo, stop[todo])
+            c, above, height, _, inside = self._layer(x, y, z, None)
             cls[todo[inside]] = c[inside]
-            lower = ~inside & (c > 0) & (above > height) & (rate < 0) & np.isfinite(end[todo])
-            if attempt == SETTLE:
-                lower[:] = False
-            again = todo[lower]
-            begin = stop[again] + (above[lower] - height[lower]) / -rate[lower]
-            stop[todo[~inside]] = np.inf
-            stop[again] = _stop(begin, end[again], c[lower], u[again], np.ones(len(again), dtype=bool))
-            todo = again[np.isfinite(stop[again])]
+            out = np.flatnonzero(~inside)
+            rows = todo[out]
+            t = stop[rows]
+            stop[rows] = np.inf
+            if attempt == SETTLE or len(out) == 0:
+                break
+            # above a lower sward the ray comes down into: on from where it enters it
+            high = np.flatnonzero((c[out] > 0) & (above[out] > height[out]))
+            rate = self._rate(x[out[high]], y[out[high]], ray.rows(rows[high]))
+            down = high[rate < 0]
+            t[down] += (above[out[down]] - height[out[down]]) / -rate[rate < 0]
+            here = c[out] > 0
+            medium_cls = np.where(here, c[out], anchor_cls[rows])
+            medium_height = np.where(here, height[out], anchor_height[rows])
+            stop[rows] = _stop(t, end[rows], medium_cls, medium_height, rng.random(len(rows)))
+            todo = rows[np.isfinite(stop[rows])]
         return cls
 
-    def _layer_at(self, o, d, t, rows=None):
-        """At distance t along each ray: the cover class, the height above the terrain, the
-        layer's height, how fast the height above the terrain changes along the ray (its climb
-        less the terrain's slope along it, per metre) and whether the point is inside the layer.
-        With `rows`, only those rays are looked at (the others: class 0, outside)."""
-        if rows is not None:
-            n = len(t)
-            part = self._layer_at(o[rows], d[rows], t[rows])
-            full = [
-                np.zeros(n, dtype=np.int16),
-                np.zeros(n),
-                np.zeros(n),
-                np.zeros(n),
-                np.zeros(n, dtype=bool),
-            ]
-            for whole, values in zip(full, part):
-                whole[rows] = values
-            return tuple(full)
-        p = o + d * t[:, None]
-        cls, height, ground, gx, gy = self.grid.surface(p)
-        above = p[:, 2] - ground
-        rate = d[:, 2] - (gx * d[:, 0] + gy * d[:, 1])
+    def _layer(self, x, y, z, ray: _Rays | None):
+        """At points (x, y, z) along rays `ray`: the cover class, the height above the
+        terrain, the layer's height, how fast the height above the terrain changes along the
+        ray (its climb less the terrain's slope along it, per metre; None without `ray`) and
+        whether the point is inside the layer."""
+        cls, height, ground, gx, gy = self.grid.surface_at(x, y, slopes=ray is not None)
+        above = z - ground
+        rate = None if ray is None else ray.dz - (gx * ray.dx + gy * ray.dy)
         inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
         return cls, above, height, rate, inside
 
-    def _may_start_inside(self, origins, o, d, t0) -> np.ndarray:
+    def _rate(self, x, y, ray: _Rays):
+        """_layer's rate alone."""
+        _, _, _, gx, gy = self.grid.surface_at(x, y)
+        return ray.dz - (gx * ray.dx + gy * ray.dy)
+
+    def _may_start_inside(self, ray: _Rays, t0) -> np.ndarray:
         """Rays whose point t0 along (TRAMPLED from a single origin, in x and y) can lie in the
         layer: not above the highest terrain node plus the tallest cell around the origin (a
         cheap bound that spares the upward rays). Origins per ray (a drive): every ray."""
-        if np.ndim(origins) != 1:
+        if np.ndim(ray.ox) != 0:
             return np.ones(len(t0), dtype=bool)
         g = self.grid
         reach = int(np.ceil(TRAMPLED / g.cell)) + 1
-        i = int(np.floor((origins[0] - g.x0) / g.cell))
-        j = int(np.floor((origins[1] - g.y0) / g.cell))
+        i = int(np.floor((ray.ox - g.x0) / g.cell))
+        j = int(np.floor((ray.oy - g.y0) / g.cell))
         ny, nx = g.shape
         i0, i1, j0, j1 = max(i - reach, 0), min(i + reach + 1, nx), max(j - reach, 0), min(j + reach + 1, ny)
         if i0 >= i1 or j0 >= j1:
             return np.zeros(len(t0), dtype=bool)
         top = g.node_ground()[j0 : j1 + 1, i0 : i1 + 1].max() + g.height[j0:j1, i0:i1].max() + BOTTOM_SLACK
-        return o[:, 2] + d[:, 2] * t0 <= top
+        return ray.oz + ray.dz * t0 <= top
 
 
-def _stop(begin, end, cls, u, inside):
+@dataclass(frozen=True)
+class _Rays:
+    """Rays as x, y, z arrays: origins (numbers: one origin for all, or arrays) and directions."""
+
+    ox: np.ndarray | float
+    oy: np.ndarray | float
+    oz: np.ndarray | float
+    dx: np.ndarray
+    dy: np.ndarray
+    dz: np.ndarray
+
+    def rows(self, rows: np.ndarray) -> _Rays:
+        def pick(v):
+            return v if np.ndim(v) == 0 else v.take(rows)
+
+        return _Rays(*(pick(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
+
+    def at(self, rows: np.ndarray, t: np.ndarray):
+        """(x, y, z) of the points t along `rows`."""
+        r = self.rows(rows)
+        return r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
+
+
+def _stop(begin, end, cls, height, u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
-    depth -log(1 - u), Exp(1), over the class's extinction per metre."""
-    rate = EXTINCTION[cls]
-    go = inside & (begin < end) & (rate > 0)
+    depth -log(1 - u), Exp(1), over the extinction per metre of its class and layer height."""
+    rate = extinction(cls, height)
+    # -log(1 - u) >= u: where u / rate already reaches past the run's end (a nanometre and a
+    # relative 1e-12 to spare, far above the log's and the sum's rounding) the ray passes, and
+    # its log need not be taken (the same result, most runs from the sensor being short)
+    go = (begin < end) & (rate > 0) & (u < rate * (end - begin + 1e-9) * (1.0 + 1e-12))
     t = np.full(len(begin), np.inf)
     t[go] = begin[go] - dm.log(1.0 - u[go]) / rate[go]
     return np.where(t < end, t, np.inf)
 
 
-def _with_cover_hits(hits: RayHits, stopped, t_stop, cls_stop, dirs) -> RayHits:
-    """The hits with the rays that stopped in the cover replaced by a hit there."""
-    distance = np.where(stopped, t_stop, hits.distance)
-    class_id = np.where(stopped, cls_stop, hits.class_id).astype(np.int16)
-    instance = np.where(stopped, COVER_INSTANCE_BASE + cls_stop, hits.instance).astype(np.int32)
+def _with_cover_hits(hits: RayHits, rows, t_stop, cls, dirs) -> RayHits:
+    """The hits with the rays `rows`, which stopped in the cover at `t_stop` in cells of class
+    `cls`, replaced by a hit there."""
+    distance = _replaced(hits.distance, rows, t_stop)
+    class_id = _replaced(hits.class_id.astype(np.int16, copy=False), rows, cls)
+    instance = _replaced(
+        hits.instance.astype(np.int32, copy=False), rows, COVER_INSTANCE_BASE + cls.astype(np.int32)
+    )
     normal = None
     if hits.normal is not None:  # a sward faces every beam: its normal is the beam's reverse
-        normal = np.where(stopped[:, None], -dirs, hits.normal)
+        normal = _replaced(hits.normal, rows, -dirs[rows])
     reflectivity = None
     if hits.reflectivity is not None:
-        reflectivity = np.where(stopped, np.float32(np.nan), hits.reflectivity).astype(np.float32)
+        reflectivity = _replaced(hits.reflectivity.astype(np.float32, copy=False), rows, np.float32(np.nan))
     return RayHits(distance, class_id, instance, hits.untagged_objects, normal, reflectivity)
+
+
+def _replaced(values: np.ndarray, rows: np.ndarray, new) -> np.ndarray:
+    """A copy of `values` (in the type that holds both) with `rows` set to `new`."""
+    out = np.array(values, dtype=np.result_type(values, new))
+    out[rows] = new
+    return out

@@ -6,9 +6,9 @@ small rotations that change with time: each object oscillates along the wind's d
 at its own seeded frequency and phase, with a weaker crosswind component. Grass moves
 most and fastest, crowns least and slowest. Everything else stands still, and every
 triangle keeps its class and instance, so labels stay exact. The sway is detmath's (the
-posed foliage decides hits: the same bits on every CPU). The caster that poses the
-triangles for each column's time is app/drive/wind.py `moving_scene`, which asks the
-effect (`moving_classes`, `motion`) as base.py describes.
+posed foliage decides hits: the same bits on every CPU). The caster that casts each
+column's rays at the foliage as it is at the column's time is app/drive/wind.py
+`moving_scene`, which asks the effect (`moving_classes`, `motion`) as base.py describes.
 """
 
 from __future__ import annotations
@@ -70,14 +70,22 @@ class Sway:
         self.frequency = rng.uniform(low, high)
         self.phase = rng.uniform(0, 2 * math.pi, (count, 2))
 
-    def rotvecs(self, t: float) -> np.ndarray:
-        """(E, 3) each object's rotation at time t (s): a tilt about a horizontal axis."""
-        w = 2 * math.pi * self.frequency * t
-        along = self.amplitude * dm.sin(w + self.phase[:, 0])
-        across = CROSSWIND * self.amplitude * dm.sin(1.7 * w + self.phase[:, 1])
+    def rotvecs(self, t, objects=None) -> np.ndarray:
+        """(E, 3) each object's rotation at time t (s): a tilt about a horizontal axis. With
+        `objects` (P,) given, `t` scalar or (P,): the rotation of objects[i] at t[i]."""
+        if objects is None:
+            objects = np.arange(len(self.frequency))
+        frequency, amplitude, phase = self.frequency[objects], self.amplitude[objects], self.phase[objects]
+        w = 2 * math.pi * frequency * t
+        along = amplitude * dm.sin(w + phase[:, 0])
+        across = CROSSWIND * amplitude * dm.sin(1.7 * w + phase[:, 1])
         tilt = along[:, None] * self.along + across[:, None] * np.array([-self.along[1], self.along[0]])
         # tilting the top towards `tilt` is a rotation about z x tilt
         return np.column_stack([-tilt[:, 1], tilt[:, 0], np.zeros(len(tilt))])
+
+    def turns(self, t, objects: np.ndarray) -> np.ndarray:
+        """(P, 3, 3) the rotation of objects[i] (about its pivot) at time t[i] (or t)."""
+        return matrix(self.rotvecs(t, objects))
 
     def posed(self, vertices: np.ndarray, vertex_object: np.ndarray, t: float) -> np.ndarray:
         """Vertices (V, 3) of the objects `vertex_object` (V,) where they are at time t."""

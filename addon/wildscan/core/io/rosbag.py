@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
+from .rosbag_layout import LASER_SCAN_FIELDS, laser_scan_layout, odometry_layout, tf_layout
 
 ROS2_STORAGES = ("mcap", "sqlite3")
 ODOM, BASE_LINK, SENSOR, LASER = "odom", "base_link", "sensor", "laser"
@@ -147,6 +148,10 @@ class DriveBag:
         self.connections[topic] = conn
         self.counts[topic] = 0
 
+    def _write_bytes(self, topic: str, data, bag_ns: int) -> None:
+        self.writer.write(self.connections[topic], bag_ns, data)
+        self.counts[topic] += 1
+
     def _write(self, topic: str, message, bag_ns: int) -> None:
         msgtype = message.__msgtype__
         data = (
@@ -219,6 +224,46 @@ class DriveBag:
             **geometry,
         )
         self._write("/laser2D", message, stamp_ns)
+
+    def scans(self, stamps_ns: np.ndarray, frames, poses, odometry, geometry: dict | None, laser) -> None:
+        """Many 2D scans' tf, odometry and (with `geometry`) LaserScan messages at once, each
+        2D scan's in that order, serialized as `tf`, `odometry` and `laser_scan` would
+        (rosbag_layout.py). `frames`: the tf's (parent, child) pairs; `poses`: their
+        (translations (R, F, 3), quaternions (R, F, 4)); `odometry`: (position, quaternion,
+        linear, angular), (R, 3 or 4) each; `laser`: (ranges, intensities), (R, beams) each."""
+        cdr = not self.ros1
+        stamps = np.asarray(stamps_ns, dtype=np.int64)
+        count = len(stamps)
+        sec, nanosec = stamps // 10**9, stamps % 10**9
+        messages = []
+
+        def stamped(topic: str, prefixes) -> dict:
+            values = {}
+            for prefix in prefixes:
+                values[f"{prefix}sec"], values[f"{prefix}nanosec"] = sec, nanosec
+                if self.ros1:
+                    values[f"{prefix}seq"] = self.counts[topic] + np.arange(count)
+            return values
+
+        translations, rotations = poses
+        values = stamped("/tf", [f"{i}." for i in range(len(frames))])
+        for i in range(len(frames)):
+            values[f"{i}.translation"], values[f"{i}.rotation"] = translations[:, i], rotations[:, i]
+        messages.append(("/tf", tf_layout(cdr, tuple(frames)).pack(count, **values)))
+        position, quaternion, linear, angular = odometry
+        values = stamped("/odom", [""])
+        values.update(position=position, orientation=quaternion, linear=linear, angular=angular)
+        messages.append(("/odom", odometry_layout(cdr, ODOM, BASE_LINK).pack(count, **values)))
+        if geometry is not None:
+            ranges, intensities = laser
+            values = stamped("/laser2D", [""])
+            values.update({name: geometry[name] for name in LASER_SCAN_FIELDS})
+            values.update(ranges=ranges, intensities=intensities)
+            layout = laser_scan_layout(cdr, LASER, np.shape(ranges)[1])
+            messages.append(("/laser2D", layout.pack(count, **values)))
+        for row, stamp in enumerate(stamps.tolist()):
+            for topic, raw in messages:
+                self._write_bytes(topic, raw[row].tobytes(), stamp)
 
     def points(self, topic: str, stamp_ns: int, bag_ns: int, records: np.ndarray) -> None:
         """One 3D scan's PointCloud2 (records of POINT_DTYPE or WEATHER_POINT_DTYPE) in frame `sensor`."""

@@ -15,8 +15,16 @@ import numpy as np
 from .. import detmath as dm
 from ..backend import RayBackend
 from ..errors import PoseRejected
+from ..leveling import roll_pitch_from_slopes
 from ..placement import (
+    ARM_X,
+    ARM_Y,
+    COLUMN_HEIGHT,
     LASER_CLEARANCE,
+    LASERS,
+    MAX_TILT_DEG,
+    MAX_UNEVENNESS,
+    TERRAIN_ID,
     Placement,
     Pose,
     cast_lasers_many,
@@ -75,17 +83,92 @@ def place_all(
 def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance) -> Motion:
     """The placements with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
+    stood = stand_all(poses, rows)
     placements = []
     for i, (pose, row) in enumerate(zip(poses, rows)):
-        try:
+        if stood.fits[i]:
+            placements.append(stood.placement(i, pose, lasers_of(pose, row)))
+            continue
+        try:  # `stand` says why, in the words a static scan's placement uses
             placements.append(stand(pose, float(z_start[i]), lasers_of(pose, row)))
         except PoseRejected as e:
             _reject(i, times, distance, e.message)
-    return motion_of(placements, times, distance)
+    return motion_of(placements, times, distance, np.where(stood.fits[:, None, None], stood.rotation, np.nan))
 
 
-def motion_of(placements: list[Placement], times: np.ndarray, distance: np.ndarray) -> Motion:
-    rotation = np.stack([p.rotation for p in placements])
+@dataclass
+class Stood:
+    """`stand`'s arithmetic for many poses at once (detmath's scalar and array functions give
+    the same bits): where each pose's placement fits, its values."""
+
+    fits: np.ndarray  # (K,) all four lasers on terrain, even and flat enough
+    roll: np.ndarray  # (K,) rad
+    pitch: np.ndarray
+    ground: np.ndarray  # (K, 3) where the column meets the ground
+    optical: np.ndarray  # (K, 3) the optical centre
+    rotation: np.ndarray  # (K, 3, 3) sensor -> world
+
+    def placement(self, i: int, pose: Pose, lasers) -> Placement:
+        return Placement(
+            pose=pose,
+            optical_centre=self.optical[i],
+            ground_centre=self.ground[i],
+            roll_rad=float(self.roll[i]),
+            pitch_rad=float(self.pitch[i]),
+            lasers=lasers,
+        )
+
+
+def stand_all(poses: list[Pose], rows) -> Stood:
+    """`stand` for every pose (rows of `cast_lasers_many`), as arrays; a pose that does not
+    fit is left to `stand` to reject."""
+    origins = np.stack([row[0] for row in rows]) if rows else np.zeros((0, len(LASERS), 3))
+    distance = np.stack([row[1] for row in rows]) if rows else np.zeros((0, len(LASERS)))
+    class_id = np.stack([row[2] for row in rows]) if rows else np.zeros((0, len(LASERS)), dtype=int)
+    z = origins[:, :, 2] - distance  # LaserHit.hit_z
+    z_front, z_rear, z_left, z_right = z.T
+    with np.errstate(invalid="ignore"):
+        unevenness = abs((z_front + z_rear) - (z_left + z_right)) / 2
+        roll, pitch = roll_pitch_from_slopes(
+            (z_front - z_rear) / (2 * ARM_X), (z_left - z_right) / (2 * ARM_Y)
+        )
+        tilt = dm.degrees(dm.arccos(np.maximum(-1.0, np.minimum(1.0, dm.cos(roll) * dm.cos(pitch)))))
+        fits = (
+            np.all(class_id == TERRAIN_ID, axis=1) & (unevenness <= MAX_UNEVENNESS) & (tilt <= MAX_TILT_DEG)
+        )
+    xy = np.array([[pose.x, pose.y] for pose in poses]).reshape(-1, 2)
+    yaw = dm.radians(np.array([pose.yaw_deg for pose in poses], dtype=np.float64))
+    rotation = sensor_to_world_matrices(roll, pitch, yaw)
+    ground = np.column_stack([xy, (z_front + z_rear + z_left + z_right) / 4])
+    optical = ground + dm.apply(rotation, [0.0, 0.0, COLUMN_HEIGHT])
+    return Stood(fits, roll, pitch, ground, optical, rotation)
+
+
+def sensor_to_world_matrices(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) `leveling.sensor_to_world_matrix` of each (roll, pitch, yaw): the same
+    entries (rot_z, the paper's pitch matrix, rot_x) and the same products, batched."""
+    count = len(roll)
+    zero, one = np.zeros(count), np.ones(count)
+    s, c = dm.sincos(-roll)
+    turn_x = np.stack([one, zero, zero, zero, c, -s, zero, s, c], axis=1).reshape(-1, 3, 3)
+    s, c = dm.sincos(-pitch)
+    tilt = np.stack([c, zero, -s, zero, one, zero, s, zero, c], axis=1).reshape(-1, 3, 3)
+    s, c = dm.sincos(yaw)
+    heading = np.stack([c, -s, zero, s, c, zero, zero, zero, one], axis=1).reshape(-1, 3, 3)
+    return dm.matmul(heading, dm.matmul(tilt, turn_x))
+
+
+def motion_of(
+    placements: list[Placement], times: np.ndarray, distance: np.ndarray, rotation: np.ndarray | None = None
+) -> Motion:
+    """The motion of the placements; `rotation` (K, 3, 3): their rotations where known (NaN
+    rows are asked of the placement)."""
+    if rotation is None or np.isnan(rotation).any():
+        known = rotation
+        rotation = np.stack([p.rotation for p in placements])
+        if known is not None:
+            keep = ~np.isnan(known).any(axis=(1, 2))
+            rotation[keep] = known[keep]
     relative = dm.matmul(np.swapaxes(rotation[:-1], 1, 2), rotation[1:])  # R_k^T R_{k+1}
     step = log_map(relative)
     same = np.all(rotation[1:] == rotation[:-1], axis=(1, 2))

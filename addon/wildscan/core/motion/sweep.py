@@ -146,10 +146,11 @@ def _by_attitude(local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """(K, N, 3) directions in each 2D scan's sensor frame -> (K * N, 3) world directions,
     2D scans sharing one attitude turned by one product."""
     n = local.shape[1]
-    out = np.empty((local.shape[0] * n, 3))
-    for a, b in _runs(rotation):
-        out[a * n : b * n] = dm.apply(rotation[a], local[a:b].reshape(-1, 3))
-    return out
+    if len(_runs(rotation)) == 1:
+        return dm.apply(rotation[0], local.reshape(-1, 3))
+    # one matrix a ray: the same products in the same order as one matrix a run (detmath's
+    # apply multiplies element by element), without a Python loop over the 2D scans
+    return dm.apply(np.repeat(rotation, n, axis=0), local.reshape(-1, 3))
 
 
 def _origins(motion: Motion, k0: int, k1: int, fraction: np.ndarray) -> np.ndarray:
@@ -174,11 +175,11 @@ def _deskewed(
     out = vectors.copy()
     relative = dm.matmul(start_r.T, rotation[k0:k1])  # R_k0^T R_k
     relative[np.all(rotation[k0:k1] == start_r, axis=(1, 2))] = np.eye(3)
-    for a, b in _runs(relative):
-        if np.array_equal(relative[a], np.eye(3)):
-            continue
-        rows = (scan_of >= a) & (scan_of < b)
-        out[rows] = dm.apply(relative[a], vectors[rows])
+    # the points of 2D scans that turned, each by its own scan's matrix (a point of a scan at the
+    # start's attitude is left exactly as it is: no product, so even the sign of a zero stays)
+    turned = np.flatnonzero(~np.all(relative == np.eye(3), axis=(1, 2))[scan_of])
+    if len(turned):
+        out[turned] = dm.apply(relative[scan_of[turned]], vectors[turned])
     offset = dm.apply(start_r.T, centre[k0:k1] - start_c)  # R_k0^T (c_k - c_k0), one row a 2D scan
     step = dm.apply(start_r.T, centre[k0 + 1 : k1 + 1] - centre[k0:k1])
     if np.any(offset != 0) or np.any(step != 0):

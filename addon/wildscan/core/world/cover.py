@@ -31,21 +31,31 @@ HIGH_GRASS = class_by_name("high grass").id
 BUSH = class_by_name("bush").id
 COVER_CLASSES = (LOW_GRASS, HIGH_GRASS, BUSH)
 
-# Leaf area index (m^2/m^2; Asner et al. 2003, above) and the layer's typical height (m), so
-# LAD = LAI / height. Heights: a grazed or mown meadow sward 0.1-0.3 m, tall grass and reeds
-# 0.6-1.2 m, fern and bramble undergrowth 0.4-1 m (field descriptions of European grassland
-# and woodland ground flora; the grid's own heights vary around these).
+# Leaf area index (m^2/m^2; Asner et al. 2003, above) and the layer's typical height (m).
+# Heights: a grazed or mown meadow sward 0.1-0.3 m, tall grass and reeds 0.6-1.2 m, fern and
+# bramble undergrowth 0.4-1 m (field descriptions of European grassland and woodland ground
+# flora; the grid's own heights vary around these).
 LAI = {LOW_GRASS: 1.7, HIGH_GRASS: 6.3, BUSH: 2.1}
 TYPICAL_HEIGHT = {LOW_GRASS: 0.25, HIGH_GRASS: 0.8, BUSH: 0.7}
-LAD = {c: LAI[c] / TYPICAL_HEIGHT[c] for c in COVER_CLASSES}  # m^2/m^3
 # Ross's G function: the mean projection of unit leaf area on a plane normal to the beam; 0.5
 # for a spherical (random) leaf angle distribution (Ross 1981, The Radiation Regime and
 # Architecture of Plant Stands; the value HELIOS++ and most canopy models use).
 G_SPHERICAL = 0.5
-# Attenuation per metre of path inside the layer (1/m): Beer-Lambert, P(pass s) = exp(-G LAD s).
-EXTINCTION = np.zeros(max(BY_ID) + 1, dtype=np.float64)
+# G LAI per class (0 for bare ground). A cell's leaf area density is its class's LAI over the
+# cell's own height (LAD = LAI / h): LAI is leaf area per ground area, the figure of the
+# vegetation type whatever its height, so a cell's height spreads its leaf area, it does not
+# add to it (a short sward is a dense one: a 0.12 m lawn hides the soil as a meadow does).
+G_LAI = np.zeros(max(BY_ID) + 1, dtype=np.float64)
 for _c in COVER_CLASSES:
-    EXTINCTION[_c] = G_SPHERICAL * LAD[_c]
+    G_LAI[_c] = G_SPHERICAL * LAI[_c]
+
+
+def extinction(cls: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """Attenuation per metre of path (1/m) in cells of class `cls` and layer height `height`:
+    Beer-Lambert, P(pass s) = exp(-G LAD s) with LAD = LAI / height; 0 on bare ground."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(height > 0, G_LAI[cls] / height, 0.0)
+
 
 # A cover point's instance: one per class, above every element stage's block (plan.py), so a
 # cover return never shares an instance with an element.
@@ -81,6 +91,7 @@ class CoverGrid:
         self.terrain_z = np.asarray(self.terrain_z, dtype=np.float64)
         self._nodes: np.ndarray | None = None
         self._top: np.ndarray | None = None
+        self._table: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -91,7 +102,9 @@ class CoverGrid:
         ny, nx = self.shape
         i = np.floor((np.asarray(x) - self.x0) / self.cell).astype(np.int64)
         j = np.floor((np.asarray(y) - self.y0) / self.cell).astype(np.int64)
-        inside = (i >= 0) & (i < nx) & (j >= 0) & (j < ny)
+        inside = (i.astype(np.uint64) < nx) & (j.astype(np.uint64) < ny)  # negatives wrap to huge
+        if np.all(inside):
+            return j * nx + i, inside
         return np.clip(j, 0, ny - 1) * nx + np.clip(i, 0, nx - 1), inside
 
     def ground(self, x, y) -> np.ndarray:
@@ -106,26 +119,48 @@ class CoverGrid:
         return cls, height
 
     def surface(self, points: np.ndarray):
-        """At points (N, 3): (class, layer height, terrain height, its slope d/dx, d/dy). The
-        terrain here is the world's sampled at the grid's nodes, bilinear in between (the
-        world's mesh follows it within centimetres); outside the grid the class is 0."""
+        """At points (N, 3): (class, layer height, terrain height, its slope d/dx, d/dy)
+        (surface_at)."""
         p = np.asarray(points, dtype=np.float64)
+        return self.surface_at(np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]))
+
+    def surface_at(self, x: np.ndarray, y: np.ndarray, slopes: bool = True):
+        """At points (x, y): (class, layer height, terrain height, its slope d/dx, d/dy; the
+        slopes None unless `slopes`). The terrain here is the world's sampled at the grid's
+        nodes, bilinear in between (the world's mesh follows it within centimetres); outside
+        the grid the class is 0."""
         ny, nx = self.shape
-        fx = (p[:, 0] - self.x0) / self.cell
-        fy = (p[:, 1] - self.y0) / self.cell
+        fx = (x - self.x0) / self.cell
+        fy = (y - self.y0) / self.cell
         i = np.floor(fx).astype(np.int64)
         j = np.floor(fy).astype(np.int64)
-        out = (i < 0) | (i >= nx) | (j < 0) | (j >= ny)
-        i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
-        tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
-        z = self.node_ground()
-        z00, z10, z01, z11 = z[j, i], z[j, i + 1], z[j + 1, i], z[j + 1, i + 1]
-        ground = (z00 * (1 - tx) + z10 * tx) * (1 - ty) + (z01 * (1 - tx) + z11 * tx) * ty
-        gx = ((z10 - z00) * (1 - ty) + (z11 - z01) * ty) / self.cell
-        gy = ((z01 - z00) * (1 - tx) + (z11 - z10) * tx) / self.cell
-        cls = np.where(out, 0, self.class_id[j, i]).astype(np.int16)
-        height = np.where(out, 0.0, self.height[j, i])
-        return cls, height, ground, gx, gy
+        out = (i.astype(np.uint64) >= nx) | (j.astype(np.uint64) >= ny)  # negatives wrap to huge
+        if out.any():  # (inside the grid fx - i lies in [0, 1) already: no clipping to do)
+            i, j = np.clip(i, 0, nx - 1), np.clip(j, 0, ny - 1)
+            tx, ty = np.clip(fx - i, 0.0, 1.0), np.clip(fy - j, 0.0, 1.0)
+        else:
+            tx, ty = fx - i, fy - j
+        # one gather a point: its cell's record (48 contiguous bytes)
+        z00, z10, z01, z11, height, cls = self._cell_table().take(j * nx + i, axis=0).T
+        sx, sy = 1 - tx, 1 - ty
+        ground = (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
+        gx = gy = None
+        if slopes:
+            gx = ((z10 - z00) * sy + (z11 - z01) * ty) / self.cell
+            gy = ((z01 - z00) * sx + (z11 - z10) * tx) / self.cell
+        if out.any():
+            cls, height = np.where(out, 0, cls), np.where(out, 0.0, height)
+        return cls.astype(np.int16), height, ground, gx, gy
+
+    def _cell_table(self) -> np.ndarray:
+        """(ny * nx, 6) float64, a row a cell (row-major): the terrain at its four corners
+        (x0y0, x1y0, x0y1, x1y1), its layer's height and its class. Built once: surface_at()
+        gathers a point's whole cell in one step (the values are the grid's own, exactly)."""
+        if self._table is None:
+            z = self.node_ground()
+            fields = (z[:-1, :-1], z[:-1, 1:], z[1:, :-1], z[1:, 1:], self.height, self.class_id)
+            self._table = np.stack([np.asarray(f, dtype=np.float64).reshape(-1) for f in fields], axis=1)
+        return self._table
 
     def class_inside(self, points: np.ndarray) -> np.ndarray:
         """int16 (N,): the cover class at points (N, 3) inside the layer, 0 elsewhere. The
@@ -138,13 +173,17 @@ class CoverGrid:
     def may_be_inside(self, points: np.ndarray) -> np.ndarray:
         """A cheap superset of class_inside(points) > 0: over a covered cell and not above its
         highest node plus its height (one gather a point; for skipping the exact test)."""
-        if self._top is None:
-            z = self.node_ground()
-            corners = np.maximum(np.maximum(z[:-1, :-1], z[1:, :-1]), np.maximum(z[:-1, 1:], z[1:, 1:]))
-            self._top = np.where(self.class_id > 0, corners + self.height, -np.inf)
         p = np.asarray(points, dtype=np.float64)
-        flat, inside = self.cells(p[:, 0], p[:, 1])
-        return inside & (p[:, 2] <= self._top.reshape(-1)[flat])
+        return self.may_be_inside_at(p[:, 0], p[:, 1], p[:, 2])
+
+    def may_be_inside_at(self, x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """may_be_inside at points (x, y, z)."""
+        if self._top is None:
+            g = self.node_ground()
+            corners = np.maximum(np.maximum(g[:-1, :-1], g[1:, :-1]), np.maximum(g[:-1, 1:], g[1:, 1:]))
+            self._top = np.where(self.class_id > 0, corners + self.height, -np.inf).reshape(-1)
+        flat, inside = self.cells(x, y)
+        return inside & (z <= self._top.take(flat))
 
     def use_node_ground(self, nodes: np.ndarray) -> None:
         """Take the terrain at the nodes as already computed (by the stage that made the grid)."""
@@ -173,7 +212,11 @@ class CoverGrid:
         return out
 
     def nbytes(self) -> int:
-        return int(self.class_id.nbytes + self.height.nbytes + self.terrain_z.nbytes)
+        """The bytes of the grid as a scan uses it: its arrays and the lookup tables a scan
+        builds (the terrain at the nodes, the cells' records and tops), built or not yet."""
+        ny, nx = self.shape
+        tables = 8 * ((ny + 1) * (nx + 1) + ny * nx * 7)
+        return int(self.class_id.nbytes + self.height.nbytes + self.terrain_z.nbytes + tables)
 
     # -- as plain lists and arrays (a .blend's custom properties, a geometry file) ----------
 

@@ -21,6 +21,8 @@ from ..plan import Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
 from ..shapes.primitives import box
 
 STAGE = "cave"
+RAMP_HALF_WIDTH = 1.5  # m, the flat part of the ramp out of the pit
+RAMP_BLEND = 1.5  # m, its side slopes
 
 
 @dataclass
@@ -55,6 +57,15 @@ class Cave(ZoneShape):
         bad |= (u > 0) & (u < self.pit.a + self.ramp_length + radius) & (np.abs(v) < 3.5 + radius)
         bad |= self.under_roof(u, v, radius)
         return bad
+
+    def bare(self, x, y) -> np.ndarray:
+        """The cave itself, where nothing grows: the pit with its walls, the ramp with its side
+        slopes, and the ground under the roof (keep_out less an element's margins)."""
+        u, v = self.pit.local(x, y)
+        bare = self.pit.radius(x, y) < 1.0
+        bare |= (u > 0) & (u < self.pit.a + self.ramp_length) & (np.abs(v) < RAMP_HALF_WIDTH + RAMP_BLEND)
+        bare |= self.under_roof(u, v)
+        return bare
 
     def pose_keep_out(self, plan: WorldPlan, x, y, allow_pit: bool) -> np.ndarray:
         """The pit's walls and the roof, unless the pose is one of the sites in the pit."""
@@ -99,7 +110,7 @@ def shape_terrain(hf: Heightfield, cave: Cave, cell: Rect) -> float:
     window = EllipseWindow(Ellipse(p.cx, p.cy, 1.0, 1.0, 0.0), cave.plateau_radius, cave.plateau_radius + 3.0)
     level = hf.mean_over(window, cell)
     hf.features.append(Flatten(window, level))
-    hf.features.append(Pit(cave.pit, cave.depth, 0.6, cave.ramp_length, 1.5, 1.5))
+    hf.features.append(Pit(cave.pit, cave.depth, 0.6, cave.ramp_length, RAMP_HALF_WIDTH, RAMP_BLEND))
     return level
 
 

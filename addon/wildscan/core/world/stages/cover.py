@@ -3,13 +3,15 @@ terrain and each zone's character; none in the paper biome.
 
 Per 0.5 m cell, in this order (the first that holds decides):
 
-  bare          where an element may not stand (the trail, the water, the cave's pit, ramp and
-                roof, the park's fence line), on slopes steeper than 38 deg, under rocks
-                and deadwood
+  bare          where an element may not stand (the trail's tread, the water, the park's fence
+                line), the cave itself (its pit, ramp and roof), on slopes steeper than 38 deg,
+                under rocks and deadwood
   tall grass    where it is wet: the lake's shore (up to WET_ABOVE_LAKE above the water) and
                 basins (ground BASIN_DEPTH below its surroundings); reeds by the lake
   undergrowth   under a tree's crown (shade), the biome's share of it (ferns, bramble: bush);
-                the rest of the forest floor is leaf litter (bare) or shade grass
+                the rest of the forest's floor is leaf litter (bare) or shade grass, the rest
+                under a tree outside the forest shade grass (a lone tree's litter does not
+                cover the meadow under it)
   open ground   the biome's shares of shrubs (bush) and tall grass, the rest meadow (low grass);
                 the park's lawn is short mown grass
 
@@ -58,7 +60,7 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     cls[wet] = C.HIGH_GRASS
     under = shade & (patch < biome.undergrowth)
     cls[under] = C.BUSH
-    shade_grass = shade & ~under & (tall < SHADE_GRASS)
+    shade_grass = shade & ~under & ((tall < SHADE_GRASS) | ~_in_cell(plan, "forest", x, y))
     cls[shade_grass] = C.LOW_GRASS
     shrub = open_ & (patch > 1.0 - biome.open_shrub)
     cls[shrub] = C.BUSH
@@ -90,7 +92,10 @@ def _bare(plan: WorldPlan, x, y, ground) -> np.ndarray:
         near = (
             (x > x0 - ZONE_MARGIN) & (x < x1 + ZONE_MARGIN) & (y > y0 - ZONE_MARGIN) & (y < y1 + ZONE_MARGIN)
         )
-        bare[near] |= shape.keep_out(plan, x[near], y[near], need)
+        bare_here = getattr(shape, "bare", None)  # the zone's own bare ground, else where elements keep out
+        bare[near] |= (
+            bare_here(x[near], y[near]) if bare_here else shape.keep_out(plan, x[near], y[near], need)
+        )
     gy, gx = np.gradient(ground, C.CELL)
     bare |= gx * gx + gy * gy > BARE_SLOPE_TAN * BARE_SLOPE_TAN  # products only: the same bits everywhere
     for el in plan.elements:
@@ -104,6 +109,11 @@ def _wet(plan: WorldPlan, x, y, ground) -> np.ndarray:
     shore = (ground < plan.water_z + WET_ABOVE_LAKE) & (x > x0) & (x < x1) & (y > y0) & (y < y1)
     k = int(round(BASIN_RADIUS / C.CELL))
     return shore | (ground < _box_mean(ground, k) - BASIN_DEPTH)
+
+
+def _in_cell(plan: WorldPlan, zone: str, x, y) -> np.ndarray:
+    x0, x1, y0, y1 = plan.layout.cells[zone]
+    return (x > x0) & (x < x1) & (y > y0) & (y < y1)
 
 
 def _shade(plan: WorldPlan, x, y) -> np.ndarray:

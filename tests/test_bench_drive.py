@@ -1,0 +1,36 @@
+"""`wildscan bench --suite drive` prints each drive beside its own target (with wind or
+without), met or not. No timing here: the rows are made up."""
+
+from __future__ import annotations
+
+from wildscan.bench.drive import TARGET_SECONDS, WIND_TARGET_SECONDS, print_rows
+
+
+def row(wind: float, seconds: float) -> dict:
+    stages = {"world": 1.0, "crop": 0.1, "placement": 0.2, "sweep": seconds - 1.5, "write": 0.2}
+    return {
+        "case": f"stepped, wind {wind:g}, bags both",
+        "wind": wind,
+        "seconds": seconds,
+        "stages": stages,
+        "scans_2d": 2400,
+        "scans_3d": 13,
+        "points": 870_000,
+        "files": 90,
+        "bytes": 259e6,
+    }
+
+
+def test_each_row_is_printed_beside_its_target(capsys):
+    print_rows(
+        0, [row(0.0, TARGET_SECONDS - 0.5), row(0.0, TARGET_SECONDS + 0.5), row(3.0, 9.0), row(3.0, 11.0)]
+    )
+    lines = capsys.readouterr().out.splitlines()
+    assert f"at most {TARGET_SECONDS:g} s without wind, {WIND_TARGET_SECONDS:g} s with wind" in lines[0]
+    verdicts = [line.split()[-2:] for line in lines[2:]]
+    assert verdicts == [
+        [f"{TARGET_SECONDS:g}", "met"],
+        [f"{TARGET_SECONDS:g}", "MISSED"],
+        [f"{WIND_TARGET_SECONDS:g}", "met"],
+        [f"{WIND_TARGET_SECONDS:g}", "MISSED"],
+    ]
