@@ -138,7 +138,10 @@ class Settler:
 
 def unique_and_inverse(values: np.ndarray, bound: int) -> tuple[np.ndarray, np.ndarray]:
     """np.unique(values, return_inverse=True) for integers in [0, bound): marked in a table
-    instead of sorted (a sort of every pair's candidate took most of the settling)."""
+    instead of sorted (a sort of every pair's candidate took most of the settling), unless
+    the table would be far longer than the values (a whole world's triangles, a few rays)."""
+    if bound > 16 * len(values):
+        return np.unique(values, return_inverse=True)
     present = np.zeros(bound, dtype=bool)
     present[values] = True
     unique = np.flatnonzero(present)
