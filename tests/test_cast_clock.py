@@ -53,3 +53,22 @@ def test_the_printed_line_gives_the_share_and_the_ratio():
         "cast 2.00 s of 4.00 s in scans (50 %), scan/cast 2.00x"
     )
     assert cast_share_line(Reading(cast=1.5)) == "cast 1.50 s (no scans timed)"
+
+
+def test_casts_on_parallel_threads_are_counted_once(monkeypatch):
+    import types
+
+    from wildscan.core import cast_clock
+
+    now = [100.0]
+    monkeypatch.setattr(cast_clock, "time", types.SimpleNamespace(perf_counter=lambda: now[0]))
+    clock = cast_clock.CastClock()
+    first, second = clock.casting(), clock.casting()
+    first.__enter__()  # at 100: one thread's cast begins
+    now[0] = 101.0
+    second.__enter__()  # another thread's begins while the first runs
+    now[0] = 102.0
+    first.__exit__(None, None, None)
+    now[0] = 103.0
+    second.__exit__(None, None, None)
+    assert clock.reading().cast == 3.0  # 100 to 103 with a cast under way; summed, it would be 4

@@ -116,11 +116,11 @@ def test_the_worker_scans_the_solid_world_with_the_realistic_model(dataset):
     from wildscan.core.scan import run_scan
 
     spec = load_spec(dataset.parent / "spec.toml")
-    context = build_world(spec, 1)
-    assert context.plan.vegetation == "solid"
+    assert spec.vegetation == "solid"
+    context = build_world(spec, 1)  # the worker's world (it keeps no plan: its cover, its backend)
     choice = context.poses[0]
     sensor = draw_sensor(spec.sensor, 1, 0)
-    effects = scan_effects(None, sensor, context.plan.cover)  # the default biome's sward, as the worker
+    effects = scan_effects(None, sensor, context.cover)  # the default biome's sward, as the worker
     result = run_scan(context.backend, choice.pose, sensor, "leveled", choice.z_start, None, effects)
     records, _ = read_ply(scan_files(dataset, "ply", "ply")[0])
     np.testing.assert_array_equal(records["x"], result.cloud.xyz[:, 0].astype(np.float32))

@@ -8,13 +8,14 @@ that limit is always visible.
 The backends over extracted triangles time their caster's call (Embree's `scene.run`, the
 BVHTree loop) with `CLOCK.casting()`; a whole scan (core/scan.py run_scan, a drive's sweep)
 is timed with `@scanning`, which also notes how much of the cast happened inside scans.
-Seconds are wall-clock (time.perf_counter), summed per process; casts made on several
-threads at once are summed each, so their share can exceed the wall time they took.
+Seconds are wall-clock (time.perf_counter), summed per process; the cast's are the time
+with at least one cast under way, so casts on parallel threads (core/threads.py) count once.
 """
 
 from __future__ import annotations
 
 import functools
+import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -38,6 +39,9 @@ class CastClock:
     def __init__(self) -> None:
         self.total = Reading()
         self._depth = 0  # scans within scans (a bench's wrapper) are counted once
+        self._lock = threading.Lock()
+        self._casting = 0  # casts under way (on parallel threads)
+        self._since = 0.0  # when the first of them began
 
     def reading(self) -> Reading:
         t = self.total
@@ -45,15 +49,21 @@ class CastClock:
 
     @contextmanager
     def casting(self):
-        """Time one call of the caster itself."""
-        start = time.perf_counter()
+        """Time one call of the caster itself (overlapping calls on other threads once)."""
+        with self._lock:
+            if not self._casting:
+                self._since = time.perf_counter()
+            self._casting += 1
         try:
             yield
         finally:
-            seconds = time.perf_counter() - start
-            self.total.cast += seconds
-            if self._depth:
-                self.total.cast_in_scans += seconds
+            with self._lock:
+                self._casting -= 1
+                if not self._casting:
+                    seconds = time.perf_counter() - self._since
+                    self.total.cast += seconds
+                    if self._depth:
+                        self.total.cast_in_scans += seconds
 
     @contextmanager
     def scan(self):

@@ -177,20 +177,17 @@ class SceneGeometry:
         if self._has_overrides():
             out.reflectivity = np.append(self.reflectivity, np.float32(np.nan)).take(triangle)
         if normals is not None:
-            # gathered, then zeroed on a miss: a miss row appended to every triangle's normal
-            # copied a whole world's normals each cast
+            # zeroed on a miss (a miss row appended copied a whole world's normals each cast)
             out.normal = normals.take(np.where(hit, triangle, 0), axis=0)
             out.normal[~hit] = 0.0
         return out
 
     def _has_overrides(self) -> bool:
-        """Whether any triangle has a reflectivity override (cached: a whole world's triangles
-        were tested on every cast)."""
-        cached = self.__dict__.get("_overrides")
-        if cached is None or cached[0] is not self.reflectivity:
-            cached = (self.reflectivity, not np.isnan(self.reflectivity).all())
-            self.__dict__["_overrides"] = cached
-        return cached[1]
+        """Whether any triangle's reflectivity is overridden (tested once, not every cast)."""
+        seen, answer = self.__dict__.get("_overrides", (None, False))
+        if seen is not self.reflectivity:
+            self.__dict__["_overrides"] = (self.reflectivity, answer := not np.isnan(self.reflectivity).all())
+        return answer
 
     def _with_miss_row(self) -> tuple[np.ndarray, np.ndarray]:
         """class_id and instance, each with the miss value appended (cached)."""
@@ -414,9 +411,8 @@ def refine_distances(
     cos = dm.dot3(n, directions)
     if origins_local.ndim == 2 and len(origins_local) > 1 and origins_local.strides[0] == 0:
         origins_local = origins_local[0]  # one origin (a scan): used as it is, not gathered per ray
-    gap = d.take(triangle) - dm.dot3(n, origins_local)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = gap / cos
+        t = (d.take(triangle) - dm.dot3(n, origins_local)) / cos
     bad = ~np.isfinite(t) | (np.abs(cos) < _PARALLEL_COS)
     t[bad] = rough[bad]
     return np.maximum(t, 0.0)
@@ -445,17 +441,13 @@ class RefiningBackend:
         raise NotImplementedError
 
     capabilities = frozenset({NORMALS})  # cast(..., normals=True) gives each hit's triangle normal
-    # Threads a scan's large casts are split over (core/threads.py) when the backend has the
-    # THREADS capability: None for core.threads.cast_threads() (the cores, or what the
-    # environment says), 1 in a dataset worker (one worker a core).
-    threads: int | None = None
+    threads: int | None = None  # core/threads.py: None the cores (or the environment), 1 a dataset worker
 
     def cast(
         self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False
     ) -> RayHits:
         local, dirs = prepare_rays(origins, directions, self.geometry.offset)
-        count = len(dirs)
-        if count == 0 or not self._ready():
+        if (count := len(dirs)) == 0 or not self._ready():
             out = RayHits.empty(count)
             if normals:
                 out.normal = np.zeros((count, 3))

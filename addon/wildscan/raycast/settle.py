@@ -98,7 +98,7 @@ class Settler:
         else:
             u, v = bary
         smallest = np.minimum(np.minimum(u, v), (1.0 - u) - v)
-        return hit & (smallest < self.band[triangle])
+        return hit & (smallest < self.band.take(triangle))
 
     def decide(self, local, dirs, triangle, start) -> np.ndarray:
         """For rays (local origins, dirs) that hit `triangle` in its band: the triangle among it
@@ -117,20 +117,37 @@ class Settler:
         n = self.normal.take(cand, axis=0)
         cos = dm.dot3(n, d)
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = (self.d[cand] - dm.dot3(n, o)) / cos
+            t = (self.d.take(cand) - dm.dot3(n, o)) / cos
         ok = np.isfinite(t) & (np.abs(cos) >= _PARALLEL_COS) & (t >= start[ray])
         t = np.where(ok, t, 0.0)
         point = o + t[:, None] * d
-        # the three edges k -> k + 1 of every candidate at once, (pairs, 3 edges, 3)
-        corners = self.corners.take(cand, axis=0)
-        inward = dm.cross(n[:, None, :], np.roll(corners, -1, axis=1) - corners)
-        length = dm.norm(inward)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ok &= np.all(dm.dot3(point[:, None, :] - corners, inward) >= -EDGE_TOLERANCE * length, axis=1)
+        # each edge's inward normal once per candidate triangle, then gathered for its pairs
+        unique, of_pair = unique_and_inverse(cand, len(self.normal))
+        corners, normal = self.corners.take(unique, axis=0), self.normal.take(unique, axis=0)
+        for k in range(3):
+            inward = dm.cross(normal, corners[:, (k + 1) % 3] - corners[:, k])
+            tolerance = -EDGE_TOLERANCE * dm.norm(inward)
+            corner = corners[:, k].take(of_pair, axis=0)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ok &= dm.dot3(point - corner, inward.take(of_pair, axis=0)) >= tolerance.take(of_pair)
         winner = np.full(len(triangle), -1, dtype=np.int64)
         ray, cand = nearest_per_ray(ray[ok], cand[ok], t[ok])
         winner[ray] = cand
         return winner
+
+
+def unique_and_inverse(values: np.ndarray, bound: int) -> tuple[np.ndarray, np.ndarray]:
+    """np.unique(values, return_inverse=True) for integers in [0, bound): marked in a table
+    instead of sorted (a sort of every pair's candidate took most of the settling), unless
+    the table would be far longer than the values (a whole world's triangles, a few rays)."""
+    if bound > 16 * len(values):
+        return np.unique(values, return_inverse=True)
+    present = np.zeros(bound, dtype=bool)
+    present[values] = True
+    unique = np.flatnonzero(present)
+    place = np.empty(bound, dtype=np.intp)
+    place[unique] = np.arange(len(unique))
+    return unique, place.take(values)
 
 
 def sorted_unique(keys: np.ndarray) -> np.ndarray:

@@ -333,23 +333,21 @@ class TerrainGrid:
 
 
 def interpolate(xs, ys, z, x, y):
-    """The triangulated grid's height at (x, y). The lower triangle's z00 + tx (z10 - z00) +
-    ty (z11 - z10) and the upper's z00 + ty (z01 - z00) + tx (z11 - z01) are one expression
-    with per-point factors: each point computed once, with the same operations (same bits)."""
+    """The triangulated grid's height: z00 + tx (z10 - z00) + ty (z11 - z10) in a cell's lower
+    triangle, z00 + ty (z01 - z00) + tx (z11 - z01) in its upper one; as z00 + a (m - z00) +
+    b (z11 - m) with (a, b, m) chosen per point: one evaluation a point, the same bits."""
     x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
-    shape, x, y = x.shape, x.ravel(), y.ravel()
-    nx = len(xs)
+    shape, x, y, nx = x.shape, x.ravel(), y.ravel(), len(xs)
     i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, nx - 2)
     j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
     tx = np.clip((x - xs.take(i)) / np.diff(xs).take(i), 0.0, 1.0)
     ty = np.clip((y - ys.take(j)) / np.diff(ys).take(j), 0.0, 1.0)
-    flat, corner = np.ravel(z), j * nx + i
-    lower = tx >= ty  # triangle (00, 10, 11)
+    flat, corner, lower = np.ravel(z), j * nx + i, tx >= ty  # lower: triangle (00, 10, 11)
     z00, z11 = flat.take(corner), flat.take(corner + (nx + 1))
     middle = flat.take(np.where(lower, corner + 1, corner + nx))  # z10 below the diagonal, z01 above
-    height = z00 + np.where(lower, tx, ty) * (middle - z00)
-    height += np.where(lower, ty, tx) * (z11 - middle)
-    return height.reshape(shape)
+    return (
+        z00 + np.where(lower, tx, ty) * (middle - z00) + np.where(lower, ty, tx) * (z11 - middle)
+    ).reshape(shape)
 
 
 def sample_grid(field_fn: Field, xs, ys) -> TerrainGrid:
