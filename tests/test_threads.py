@@ -84,8 +84,9 @@ def test_thread_count_from_the_environment(monkeypatch):
     monkeypatch.setenv(threads.THREADS_ENV, "3")
     assert threads.cast_threads() == 3
     monkeypatch.setenv(threads.THREADS_ENV, "two")
-    with pytest.raises(UserError, match=threads.THREADS_ENV):
+    with pytest.raises(UserError, match="must be a whole number of threads from 1, got 'two'") as caught:
         threads.cast_threads()
+    assert caught.value.setting == threads.THREADS_ENV  # the CLI names it once, before the message
 
 
 def test_work_in_parts_runs_on_the_threads_it_is_given(monkeypatch):

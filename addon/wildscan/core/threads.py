@@ -40,9 +40,7 @@ def cast_threads() -> int:
     value = os.environ.get(THREADS_ENV, "").strip()
     if value:
         if not value.isdigit() or int(value) < 1:
-            raise UserError(
-                f"{THREADS_ENV} must be a whole number of threads from 1, got {value!r}", setting=THREADS_ENV
-            )
+            raise UserError(f"must be a whole number of threads from 1, got {value!r}", setting=THREADS_ENV)
         return int(value)
     omp = os.environ.get("OMP_NUM_THREADS", "").strip()
     if omp.isdigit() and int(omp) >= 1:
