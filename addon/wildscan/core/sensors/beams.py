@@ -104,12 +104,11 @@ def rotated_beam_directions(
     sin_t, cos_t, sin_p, cos_p = beam_angles(device, float(rh_deg), m_count)
     r = np.asarray(rotation, dtype=np.float64)
     out = np.empty((m_count, device.beams.count, 3))
-    component = np.empty(out.shape[:2])  # computed contiguous, then copied in: faster than in place
+    component = np.empty(out.shape[:2])  # computed contiguous, then summed into place
     for i in range(3):
         a = cos_p * r[i, 0] + sin_p * r[i, 1]
         np.multiply(a, sin_t[None, :], out=component)
-        component += r[i, 2] * cos_t
-        out[:, :, i] = component
+        np.add(component, r[i, 2] * cos_t, out=out[:, :, i])
     return out.reshape(-1, 3)
 
 
@@ -141,10 +140,11 @@ def rotated_beams(
     for i in range(3):
         a = cos_p[:, 0] * r[i, 0] + sin_p[:, 0] * r[i, 1]  # R[i, 0] cos ψ + R[i, 1] sin ψ
         np.multiply(a.take(column) if planar else a, st, out=component)
-        component += (r[i, 2] * cos_t).take(beam)
-        if ranges is not None:
-            component *= ranges
-        out[:, i] = component
+        if ranges is None:
+            np.add(component, (r[i, 2] * cos_t).take(beam), out=out[:, i])
+        else:
+            component += (r[i, 2] * cos_t).take(beam)
+            np.multiply(component, ranges, out=out[:, i])
     return out
 
 
