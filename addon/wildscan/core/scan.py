@@ -6,6 +6,7 @@ runs the same with Blender's scene.ray_cast or a fast backend.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -90,21 +91,23 @@ class Returns:
     intensity: np.ndarray  # (N,) reflectivity (0 where no point)
     label: np.ndarray  # (N,) class id read back from the reflectivity
     instance: np.ndarray  # (N,) instance of the element hit (-1 for none)
+    beams: np.ndarray | None = None  # the beam of each row (measure_returning); None: row i is beam i
 
     def cloud(self, xyz: np.ndarray, ring: np.ndarray, sweep: np.ndarray, frame: str, **extra) -> PointCloud:
         """The labeled cloud of the kept beams, at `xyz` (one row per kept beam); ring and
         sweep are per beam, `extra` per beam too (PointCloud.extra fields)."""
         keep = np.flatnonzero(self.keep)  # gathered by index: faster than by mask, field by field
+        beams = keep if self.beams is None else self.beams.take(keep)
         return PointCloud(
             xyz=xyz,
             intensity=self.intensity.take(keep).astype(np.float32),
             label=self.label.take(keep).astype(np.uint16),
             instance=np.maximum(self.instance.take(keep), 0).astype(np.uint32),
-            ring=ring.take(keep),
-            sweep=sweep.take(keep),
+            ring=ring.take(beams),
+            sweep=sweep.take(beams),
             range=self.range.take(keep).astype(np.float32),
             frame=frame,
-            extra={name: values[keep] for name, values in extra.items()},
+            extra={name: values.take(beams, axis=0) for name, values in extra.items()},
         )
 
 
@@ -124,6 +127,16 @@ def measure(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
     # A beam whose first hit is water returns nothing (the paper drops them).
     keep &= label != WATER_ID
     return Returns(keep, measured, intensity, label, hits.instance)
+
+
+def measure_returning(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
+    """`measure` of the beams that hit something, the only ones that can return a point: a
+    row each (the same values as their rows of `measure`), `beams` their indices. A scan's
+    cloud needs no more, and a Hokuyo's beams are two thirds sky."""
+    beams = np.flatnonzero(hits.hit)
+    returns = measure(hits.rows(beams), noise.take(beams), sensor)
+    returns.beams = beams
+    return returns
 
 
 def with_weather_field(cloud: PointCloud) -> None:
@@ -162,6 +175,9 @@ def frame_directions(
 def _points(placement: Placement, frame: str, sensor: SensorConfig, dirs_world, beams, ranges) -> np.ndarray:
     """The points of `beams` (indices) at their `ranges` (one each) in the output frame: range
     times the beam's direction, plus the optical centre in the world frame."""
+    if frame == "leveled":  # Eq. 2's directions, each times its range as it is made
+        leveling = leveling_matrix(placement.roll_rad, placement.pitch_rad)
+        return rotated_beams(leveling, sensor.rh_deg, sensor.device, beams, ranges)
     points = frame_directions(placement, frame, sensor, dirs_world, beams) * ranges[:, None]
     if frame == "world":
         points += placement.optical_centre
@@ -224,11 +240,19 @@ def run_scan(
 
 def device_fields(sensor: SensorConfig) -> dict[str, np.ndarray]:
     """Each beam's `column` and `time` (PointCloud.extra) for a device other than the default;
-    none for the default, whose files keep their bytes (its `sweep` is its column)."""
+    none for the default, whose files keep their bytes (its `sweep` is its column). Read-only,
+    made once per device and r_h."""
     if sensor.device == DEFAULT_DEVICE:
         return {}
-    rh, device = sensor.rh_deg, sensor.device
-    return {"column": beam_columns(rh, device), "time": beam_times(rh, device)}
+    return dict(_device_fields(sensor.rh_deg, sensor.device))
+
+
+@functools.lru_cache(maxsize=8)
+def _device_fields(rh_deg: float, device) -> tuple[tuple[str, np.ndarray], ...]:
+    fields = (("column", beam_columns(rh_deg, device)), ("time", beam_times(rh_deg, device)))
+    for _, values in fields:
+        values.flags.writeable = False
+    return fields
 
 
 def _paper_cloud(
@@ -246,10 +270,10 @@ def _paper_cloud(
     hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress)
     hits = effects.medium(Rays(placement.optical_centre, dirs_world, cast_range), hits)
 
-    returns = measure(hits, range_noise(sensor, len(dirs_sensor)), sensor)
-    kept = np.flatnonzero(returns.keep)
+    returns = measure_returning(hits, range_noise(sensor, len(dirs_sensor)), sensor)
+    kept = np.flatnonzero(returns.keep)  # rows, one a beam that hit
     cloud = returns.cloud(
-        _points(placement, frame, sensor, dirs_world, kept, returns.range.take(kept)),
+        _points(placement, frame, sensor, dirs_world, returns.beams.take(kept), returns.range.take(kept)),
         ring,
         sweep,
         frame,
@@ -257,7 +281,7 @@ def _paper_cloud(
     )
     if weather_of(effects) is not None:
         with_weather_field(cloud)
-    hit_count = int(np.count_nonzero(hits.hit))
+    hit_count = len(returns.beams)
     facts = {
         "returns": hit_count,
         "water_returns_dropped": int(np.count_nonzero(hits.class_id == WATER_ID)),

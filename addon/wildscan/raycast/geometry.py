@@ -162,22 +162,25 @@ class SceneGeometry:
 
     def hits(self, triangle: np.ndarray, distance: np.ndarray, normals: np.ndarray | None = None) -> RayHits:
         """RayHits from per-ray hit triangle index (-1 for a miss) and distance (inf for a
-        miss); with the per-triangle unit `normals` (local_planes) given, each hit's normal."""
+        miss, as given); with the per-triangle unit `normals` (local_planes) given, each hit's
+        normal."""
         triangle = np.asarray(triangle, dtype=np.int64)
-        hit = triangle >= 0
         # One gather each from arrays ending in a miss row (index -1 is the last): faster than
         # boolean masks on big batches (the realistic model casts a million sub-rays a scan).
         class_id, instance = self._with_miss_row()
+        hit_class = class_id.take(triangle)
         out = RayHits(
-            distance=np.where(hit, distance, np.inf),
-            class_id=class_id.take(triangle),
+            distance=distance,
+            class_id=hit_class,
             instance=instance.take(triangle),
-            untagged_objects=self.untagged_names(triangle[hit]),
+            # read off the gathered classes: a miss's is MISS_CLASS, never untagged
+            untagged_objects=self.names_of(triangle[hit_class == 0]) if self.object_names else frozenset(),
         )
         if self._has_overrides():
             out.reflectivity = np.append(self.reflectivity, np.float32(np.nan)).take(triangle)
         if normals is not None:
             # zeroed on a miss (a miss row appended copied a whole world's normals each cast)
+            hit = triangle >= 0
             out.normal = normals.take(np.where(hit, triangle, 0), axis=0)
             out.normal[~hit] = 0.0
         return out
@@ -204,8 +207,11 @@ class SceneGeometry:
         """Names of the untagged (class 0) objects owning these triangles."""
         if not len(triangles) or not self.object_names:
             return frozenset()
-        untagged = triangles[self.class_id[triangles] == 0]
-        idx = np.unique(self.object_index[untagged])
+        return self.names_of(triangles[self.class_id[triangles] == 0])
+
+    def names_of(self, triangles: np.ndarray) -> frozenset[str]:
+        """Names of the objects owning these triangles."""
+        idx = np.unique(self.object_index.take(triangles))
         return frozenset(self.object_names[i] for i in idx if 0 <= i < len(self.object_names))
 
 
@@ -458,7 +464,9 @@ class RefiningBackend:
         normal, d = self._planes
         # one origin (a scan) stays one row; rows gathered with take, far faster than a mask
         hit_origins = local[0] if local.strides[0] == 0 else local.take(hit, axis=0)
-        exact = refine_distances(normal, d, hit_origins, dirs.take(hit, axis=0), triangle[hit], rough[hit])
+        exact = refine_distances(
+            normal, d, hit_origins, dirs.take(hit, axis=0), triangle.take(hit), rough.take(hit)
+        )
         distance[hit] = exact
         beyond = hit[exact > max_range]
         triangle[beyond] = -1

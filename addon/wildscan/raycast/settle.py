@@ -104,50 +104,92 @@ class Settler:
         """For rays (local origins, dirs) that hit `triangle` in its band: the triangle among it
         and its neighbours hit first in float64 beyond distance `start` (ties: lowest index),
         or -1 where none is."""
-        corner_pos, starts, owners = self.neighbours
-        pos = corner_pos[triangle].ravel()
-        counts = starts[pos + 1] - starts[pos]
-        ray = np.repeat(np.repeat(np.arange(len(triangle)), 3), counts)
-        first = np.repeat(starts[pos] - np.cumsum(counts) + counts, counts)
-        cand = owners[first + np.arange(counts.sum())]
-        size = len(self.normal)
-        pairs = sorted_unique(ray * size + cand)  # each (ray, candidate) once, in that order
-        ray, cand = pairs // size, pairs % size
-        o, d = rows(local, ray), dirs.take(ray, axis=0)
-        n = self.normal.take(cand, axis=0)
-        cos = dm.dot3(n, d)
+        ray, entry, cand = self.pairs(triangle)
+        # vectors as three contiguous columns, not (P, 3) rows: the same products and sums
+        # (detmath's order), on contiguous arrays, and the pairs outside dropped as found
+        normal = self.normal.take(cand, axis=0)
+        normal = [np.ascontiguousarray(normal[:, k]) for k in range(3)]
+        d = [dirs[:, k].take(ray) for k in range(3)]
+        n = [column.take(entry) for column in normal]
+        cos = dot_columns(n, d)
+        if local.ndim == 2 and len(local) > 1 and local.strides[0] == 0:
+            # one origin (a scan): each candidate plane's offset from it once, then gathered
+            o = [local[0, k] for k in range(3)]
+            reach = (self.d.take(cand) - dot_columns(normal, o)).take(entry)
+        else:
+            o = [local[:, k].take(ray) for k in range(3)]
+            reach = self.d.take(cand).take(entry) - dot_columns(n, o)
         with np.errstate(divide="ignore", invalid="ignore"):
-            t = (self.d.take(cand) - dm.dot3(n, o)) / cos
-        ok = np.isfinite(t) & (np.abs(cos) >= _PARALLEL_COS) & (t >= start[ray])
-        t = np.where(ok, t, 0.0)
-        point = o + t[:, None] * d
-        # each edge's inward normal once per candidate triangle, then gathered for its pairs
-        unique, of_pair = unique_and_inverse(cand, len(self.normal))
-        corners, normal = self.corners.take(unique, axis=0), self.normal.take(unique, axis=0)
+            t = reach / cos
+        alive = np.flatnonzero(np.isfinite(t) & (np.abs(cos) >= _PARALLEL_COS) & (t >= start.take(ray)))
+        t, entry, ray = t.take(alive), entry.take(alive), ray.take(alive)
+        point = [at(o[k], alive) + t * d[k].take(alive) for k in range(3)]
+        corners = self.corners.take(cand, axis=0)
         for k in range(3):
-            inward = dm.cross(normal, corners[:, (k + 1) % 3] - corners[:, k])
-            tolerance = -EDGE_TOLERANCE * dm.norm(inward)
-            corner = corners[:, k].take(of_pair, axis=0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ok &= dm.dot3(point - corner, inward.take(of_pair, axis=0)) >= tolerance.take(of_pair)
+            inside = np.flatnonzero(inside_edge(point, entry, normal, corners[:, k], corners[:, (k + 1) % 3]))
+            t, entry, ray = t.take(inside), entry.take(inside), ray.take(inside)
+            point = [column.take(inside) for column in point]
         winner = np.full(len(triangle), -1, dtype=np.int64)
-        ray, cand = nearest_per_ray(ray[ok], cand[ok], t[ok])
+        ray, cand = nearest_per_ray(ray, cand.take(entry), t)
         winner[ray] = cand
         return winner
 
+    def pairs(self, triangle: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(ray, entry, candidates): every (ray, candidate) pair once, sorted, as the ray's
+        index and the entry of its candidate in `candidates`, a (hit triangle, candidate)
+        list. Rays share their hit triangles (a multi-beam lidar's thousands of ambiguous hits
+        fall on a few hundred terrain cells): each hit triangle's candidates are found once."""
+        hit_triangles, group_of_ray = np.unique(triangle, return_inverse=True)
+        group, cand = self.candidates(hit_triangles)
+        group_starts = np.r_[0, np.cumsum(np.bincount(group, minlength=len(hit_triangles)))]
+        counts = (group_starts[1:] - group_starts[:-1]).take(group_of_ray)
+        ray = np.repeat(np.arange(len(triangle)), counts)
+        # each ray's run of entries is its triangle's, in candidate order
+        entry = np.repeat(group_starts.take(group_of_ray) - np.cumsum(counts) + counts, counts)
+        entry += np.arange(len(entry))
+        return ray, entry, cand
 
-def unique_and_inverse(values: np.ndarray, bound: int) -> tuple[np.ndarray, np.ndarray]:
-    """np.unique(values, return_inverse=True) for integers in [0, bound): marked in a table
-    instead of sorted (a sort of every pair's candidate took most of the settling), unless
-    the table would be far longer than the values (a whole world's triangles, a few rays)."""
-    if bound > 16 * len(values):
-        return np.unique(values, return_inverse=True)
-    present = np.zeros(bound, dtype=bool)
-    present[values] = True
-    unique = np.flatnonzero(present)
-    place = np.empty(bound, dtype=np.intp)
-    place[unique] = np.arange(len(unique))
-    return unique, place.take(values)
+    def candidates(self, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(group, candidate) pairs, sorted: for each of `triangles` (its index in them, the
+        group), every triangle with a corner at one of its corners' positions, itself
+        included, each once."""
+        corner_pos, starts, owners = self.neighbours
+        pos = corner_pos.take(triangles, axis=0).ravel()
+        counts = starts.take(pos + 1) - starts.take(pos)
+        group = np.repeat(np.repeat(np.arange(len(triangles)), 3), counts)
+        first = np.repeat(starts.take(pos) - np.cumsum(counts) + counts, counts)
+        cand = owners.take(first + np.arange(len(first)))
+        size = len(self.normal)
+        keys = sorted_unique(group * size + cand)  # each (group, candidate) once, in that order
+        return keys // size, keys % size
+
+
+def inside_edge(
+    point: list, entry: np.ndarray, normal: list, start: np.ndarray, end: np.ndarray
+) -> np.ndarray:
+    """Whether each pair's `point` (three columns) is on the inner side of its candidate's edge
+    from corner `start` to `end` ((E, 3) per entry), within EDGE_TOLERANCE: the edge's inward
+    normal (normal x edge) once per entry, then gathered for the pairs."""
+    inward = cross_columns(normal, [end[:, j] - start[:, j] for j in range(3)])
+    tolerance = -EDGE_TOLERANCE * np.sqrt(dot_columns(inward, inward))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        offset = [point[j] - start[:, j].take(entry) for j in range(3)]
+        return dot_columns(offset, [column.take(entry) for column in inward]) >= tolerance.take(entry)
+
+
+def dot_columns(a: list, b: list):
+    """dm.dot3 of vectors given as three columns (or scalars) each: (a0 b0 + a1 b1) + a2 b2."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross_columns(a: list, b: list) -> list:
+    """dm.cross of vectors given as three columns each: the same products and differences."""
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def at(values, index: np.ndarray):
+    """values.take(index), or a scalar (one origin's coordinate) as it is."""
+    return values if np.ndim(values) == 0 else values.take(index)
 
 
 def sorted_unique(keys: np.ndarray) -> np.ndarray:

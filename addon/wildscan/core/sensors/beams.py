@@ -104,26 +104,32 @@ def rotated_beam_directions(
     sin_t, cos_t, sin_p, cos_p = beam_angles(device, float(rh_deg), m_count)
     r = np.asarray(rotation, dtype=np.float64)
     out = np.empty((m_count, device.beams.count, 3))
-    component = np.empty(out.shape[:2])  # computed contiguous, then copied in: faster than in place
+    component = np.empty(out.shape[:2])  # computed contiguous, then summed into place
     for i in range(3):
         a = cos_p * r[i, 0] + sin_p * r[i, 1]
         np.multiply(a, sin_t[None, :], out=component)
-        component += r[i, 2] * cos_t
-        out[:, :, i] = component
+        np.add(component, r[i, 2] * cos_t, out=out[:, :, i])
     return out.reshape(-1, 3)
 
 
-def rotated_beams(rotation: np.ndarray, rh_deg: float, device: Device, beams: np.ndarray) -> np.ndarray:
+def rotated_beams(
+    rotation: np.ndarray, rh_deg: float, device: Device, beams: np.ndarray, ranges: np.ndarray | None = None
+) -> np.ndarray:
     """Rows `beams` (indices, column-major) of `rotated_beam_directions(rotation, rh_deg,
     device)`, the same bits, computed for those beams alone: a scan's points need the
     directions of the beams that returned one (a third of a Hokuyo scan's), each from the
-    same products in the same order."""
+    same products in the same order. With `ranges` (one a beam): each direction times its
+    range, the points (the same products as `rotated_beams(...) * ranges[:, None]`)."""
     beams = np.asarray(beams, dtype=np.intp)
     if device.head is not None:
-        return _rotated(rotation, beam_directions(rh_deg, device)[0][beams])
+        out = _rotated(rotation, beam_directions(rh_deg, device)[0][beams])
+        return out if ranges is None else out * ranges[:, None]
     m_count = sweep_count(rh_deg, device.mount)
     sin_t, cos_t, sin_p, cos_p = beam_angles(device, float(rh_deg), m_count)
-    column, beam = np.divmod(beams, device.beams.count)
+    # each beam's column read from the scan's table (a gather), where divmod's integer
+    # division took a third of the work
+    column = beam_directions(rh_deg, device)[2].take(beams).astype(np.intp)
+    beam = beams - column * device.beams.count
     planar = sin_p.shape[1] == 1  # one ψ a column (gathered after), or one a beam (before)
     if not planar:
         sin_p, cos_p = sin_p.ravel().take(beams)[:, None], cos_p.ravel().take(beams)[:, None]
@@ -134,8 +140,11 @@ def rotated_beams(rotation: np.ndarray, rh_deg: float, device: Device, beams: np
     for i in range(3):
         a = cos_p[:, 0] * r[i, 0] + sin_p[:, 0] * r[i, 1]  # R[i, 0] cos ψ + R[i, 1] sin ψ
         np.multiply(a.take(column) if planar else a, st, out=component)
-        component += (r[i, 2] * cos_t).take(beam)
-        out[:, i] = component
+        if ranges is None:
+            np.add(component, (r[i, 2] * cos_t).take(beam), out=out[:, i])
+        else:
+            component += (r[i, 2] * cos_t).take(beam)
+            np.multiply(component, ranges, out=out[:, i])
     return out
 
 
