@@ -297,11 +297,12 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             choice.z_start,
             None,
             _effects(weather, sensor, context.cover),
+            incidence=spec.intensity == "physical",  # the physical intensity's cos θ, from the sweep
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
     world = world_points(result.cloud.xyz, result.placement, frame)  # for intensity and ground truth
-    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result, world)
+    result = with_dataset_intensity(spec.intensity, context.seed, index, result, world)
     placement = result.placement
     row["placement"] = {
         "optical_centre": [float(v) for v in placement.optical_centre],
