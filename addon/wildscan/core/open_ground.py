@@ -61,12 +61,20 @@ def open_ground(
 ) -> OpenGround:
     """The open ground of a world whose terrain covers `extent` (x0, x1, y0, y1), given the
     vertices' xy (V, 2) and the faces (T, 3) of every triangle that is not terrain."""
+    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
+    x_range = _corner_range(np.ascontiguousarray(xy[:, 0], dtype=np.float64), faces)
+    y_range = _corner_range(np.ascontiguousarray(xy[:, 1], dtype=np.float64), faces)
+    return open_outside(x_range, y_range, extent, cell)
+
+
+def open_outside(x_range, y_range, extent, cell: float = RASTER_CELL) -> OpenGround:
+    """The raster over `extent` whose open cells are those no box reaches: the boxes are
+    x_range = (least x, greatest x) and y_range likewise, one entry each, grown by MARGIN (the
+    extent's border cells are never open)."""
     x0, x1, y0, y1 = extent
     nx, ny = _raster_shape(extent, cell)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
     boxes = []
-    for axis, origin, count in ((0, x0, nx), (1, y0, ny)):
-        low, high = _corner_range(np.ascontiguousarray(xy[:, axis], dtype=np.float64), faces)
+    for (low, high), origin, count in ((x_range, x0, nx), (y_range, y0, ny)):
         boxes.append(np.clip(_raster_index(low - MARGIN, origin, cell), 0, count - 1))
         boxes.append(np.clip(_raster_index(high + MARGIN, origin, cell), 0, count - 1))
     covered = _covered(*boxes, nx, ny)
