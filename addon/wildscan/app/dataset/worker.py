@@ -93,12 +93,11 @@ class WorldContext:
         kept = np.cumsum([not isinstance(p, NoPose) for p in self.poses])
         return [int(n) - 1 for n in kept]
 
-    def traversability(self, x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
-        """The bird's-eye traversability fields at world points (core/traversability.py)."""
-        cover = self.cover
-        return traversability_fields(
-            x, y, self.ground, None if cover is None else (lambda px, py: cover.at(px, py)[1]), self.cast_up
-        )
+    def traversability(self, x: np.ndarray, y: np.ndarray, z=None) -> dict[str, np.ndarray]:
+        """The bird's-eye traversability fields at world points (core/traversability.py); `z`:
+        the ground's height there, when known."""
+        cover = None if self.cover is None else (lambda px, py: self.cover.at(px, py)[1])
+        return traversability_fields(x, y, self.ground, cover, self.cast_up, z)
 
     @functools.cached_property
     def open_sky(self) -> OpenGround:
