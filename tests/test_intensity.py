@@ -186,3 +186,15 @@ def test_a_paper_scans_incidence_is_the_surface_along_each_beam_without_a_second
     if weather is not None:
         assert (result.cloud.label == PARTICLE_ID).sum() > 100
     assert run_scan(backend, Pose(0.0, 0.0, 0.0), sensor, "world").incidence is None  # not asked
+
+
+def test_the_terrain_fields_corner_draws_are_the_same_from_a_table_or_point_by_point():
+    """Many points over a few cells (a scan: one hash a corner, in a table) and a few points far
+    apart (one hash a point) give each point the same number as it gets alone."""
+    rng = np.random.default_rng(5)
+    compact = rng.uniform(-30, 30, (5000, 2))
+    sparse = rng.uniform(-5000, 5000, (20, 2))
+    for xy in (compact, sparse, np.concatenate([compact, sparse])):
+        alone = np.array([I._terrain_field(3, p[None, :])[0] for p in xy[:50]])
+        assert np.array_equal(I._terrain_field(3, xy)[:50], alone)
+    assert I.hash_unit(np.int64(1), np.arange(4)).shape == (4,) and I.hash_unit(np.int64(1)).shape == ()
