@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .open_ground import MARGIN, OpenGround, _corner_range, no_open_ground, open_outside
+from .open_ground import BLOCK, MARGIN, OpenGround, corner_boxes, no_open_ground, open_outside_blocks
 from .world.heightfield import TerrainGrid
 
 Z_MARGIN = 1e-3  # m by which a harmless triangle stays below the lowest upward ray's start
@@ -46,26 +46,36 @@ def open_sky(
     xs, ys = terrain.xs, terrain.ys
     if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):
         return no_open_ground(extent)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    corners = [np.ascontiguousarray(vertices[:, axis], dtype=np.float64) for axis in range(3)]
-    (x_lo, x_hi), (y_lo, y_hi), (_, z_hi) = (_corner_range(v, faces) for v in corners)
-    lowest = _lowest_node_around(terrain, x_lo, x_hi, y_lo, y_hi)
-    reach = z_hi + Z_MARGIN >= lowest + start_height  # NaN lowest (a wide box): reaches
-    reach |= np.isnan(lowest)
-    return open_outside((x_lo[reach], x_hi[reach]), (y_lo[reach], y_hi[reach]), extent)
+    faces = np.asarray(faces).reshape(-1, 3)
+    lowest = _LowestGround(terrain)
+
+    def reaching_boxes():
+        for start in range(0, len(faces), BLOCK):
+            low, high = corner_boxes(vertices, faces[start : start + BLOCK])
+            (x_lo, y_lo), (x_hi, y_hi, z_hi) = low[:, :2].T, high.T
+            low = lowest(x_lo, x_hi, y_lo, y_hi)
+            reach = (z_hi + Z_MARGIN >= low + start_height) | np.isnan(low)  # NaN: a wide box
+            yield (x_lo[reach], x_hi[reach]), (y_lo[reach], y_hi[reach])
+
+    return open_outside_blocks(reaching_boxes(), extent)
 
 
-def _lowest_node_around(terrain: TerrainGrid, x_lo, x_hi, y_lo, y_hi) -> np.ndarray:
+class _LowestGround:
     """Per box, the lowest grid node of a node rectangle holding the box grown by MARGIN (the
     grid's lowest point over the box or below it); NaN where that rectangle is wider than
     _SPAN nodes either way."""
-    i_lo, i_hi = _NodeIndex(terrain.xs).around(x_lo - MARGIN, x_hi + MARGIN)
-    j_lo, j_hi = _NodeIndex(terrain.ys).around(y_lo - MARGIN, y_hi + MARGIN)
-    lowest = (
-        _block_minimum(np.asarray(terrain.z, dtype=np.float64)).ravel().take(j_lo * len(terrain.xs) + i_lo)
-    )
-    lowest[(i_hi - i_lo >= _SPAN) | (j_hi - j_lo >= _SPAN)] = np.nan
-    return lowest
+
+    def __init__(self, terrain: TerrainGrid):
+        self.x_nodes, self.y_nodes = _NodeIndex(terrain.xs), _NodeIndex(terrain.ys)
+        self.nx = len(terrain.xs)
+        self.block_min = _block_minimum(np.asarray(terrain.z, dtype=np.float64)).ravel()
+
+    def __call__(self, x_lo, x_hi, y_lo, y_hi) -> np.ndarray:
+        i_lo, i_hi = self.x_nodes.around(x_lo - MARGIN, x_hi + MARGIN)
+        j_lo, j_hi = self.y_nodes.around(y_lo - MARGIN, y_hi + MARGIN)
+        lowest = self.block_min.take(j_lo * self.nx + i_lo)
+        lowest[(i_hi - i_lo >= _SPAN) | (j_hi - j_lo >= _SPAN)] = np.nan
+        return lowest
 
 
 def _block_minimum(z: np.ndarray) -> np.ndarray:
