@@ -146,3 +146,55 @@ def test_the_lookup_figures_do_not_depend_on_the_order_scans_were_added():
             I.add_histograms(total, h)
         totals.append((I.lookup_accuracy(total), I.balanced_lookup_accuracy(total), I.majority_share(total)))
     assert totals[0] == totals[1] == totals[2]
+
+
+def _second_cast_incidence(backend, result, reach: float) -> np.ndarray:
+    """|cos θ| of the surface along each point's beam, cast again through the point as far as
+    `reach` (how the physical intensity found it before the sweep's own normals), 1 where none."""
+    world = result.cloud.xyz.astype(np.float64)
+    origin = result.placement.optical_centre
+    offset = world - origin
+    length = np.linalg.norm(offset, axis=1)
+    dirs = offset / length[:, None]
+    hits = backend.cast(origin, dirs, reach, True)
+    cos = np.abs(np.einsum("ij,ij->i", hits.normal, dirs))
+    return np.where(np.isfinite(hits.distance), cos, 1.0)
+
+
+@pytest.mark.parametrize("weather", [None, {"snow": 30.0}])
+def test_a_paper_scans_incidence_is_the_surface_along_each_beam_without_a_second_cast(weather):
+    """run_scan(..., incidence=True): each point's |cos θ| from the sweep's own hits, what a
+    second cast along its beam within the sweep's reach finds; a snowflake's point takes the
+    surface behind it (1 where none is within reach)."""
+    from wildscan.core.classes import PARTICLE_ID
+    from wildscan.core.effects import CLEAR_AIR, Effects, Weather
+    from wildscan.core.placement import Pose
+    from wildscan.core.scan import NOISE_MARGIN_SIGMAS, run_scan
+    from wildscan.core.sensors import SensorConfig
+
+    from tests.helpers.analytic import weather_scene
+
+    backend = weather_scene()
+    effects = CLEAR_AIR if weather is None else Effects((Weather.of(weather, seed=1),))
+    sensor = SensorConfig(rh_deg=4.0, noise_sigma=0.0)
+    result = run_scan(backend, Pose(0.0, 0.0, 0.0), sensor, "world", effects=effects, incidence=True)
+    assert result.incidence.shape == (len(result.cloud),)
+    reach = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma  # the sweep's
+    expected = _second_cast_incidence(backend, result, reach)
+    np.testing.assert_allclose(result.incidence, expected, rtol=0, atol=1e-9)
+    assert 0.05 < result.incidence.min() < 0.5 and result.incidence.max() > 0.99  # ground and walls
+    if weather is not None:
+        assert (result.cloud.label == PARTICLE_ID).sum() > 100
+    assert run_scan(backend, Pose(0.0, 0.0, 0.0), sensor, "world").incidence is None  # not asked
+
+
+def test_the_terrain_fields_corner_draws_are_the_same_from_a_table_or_point_by_point():
+    """Many points over a few cells (a scan: one hash a corner, in a table) and a few points far
+    apart (one hash a point) give each point the same number as it gets alone."""
+    rng = np.random.default_rng(5)
+    compact = rng.uniform(-30, 30, (5000, 2))
+    sparse = rng.uniform(-5000, 5000, (20, 2))
+    for xy in (compact, sparse, np.concatenate([compact, sparse])):
+        alone = np.array([I._terrain_field(3, p[None, :])[0] for p in xy[:50]])
+        assert np.array_equal(I._terrain_field(3, xy)[:50], alone)
+    assert I.hash_unit(np.int64(1), np.arange(4)).shape == (4,) and I.hash_unit(np.int64(1)).shape == ()

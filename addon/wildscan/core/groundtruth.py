@@ -87,12 +87,13 @@ def bev_grid(
     placement: Placement,
     extent: tuple[float, float, float, float],
     z_range: tuple[float, float],
-    traversability: Callable[[np.ndarray, np.ndarray], dict[str, np.ndarray]] | None = None,
+    traversability: Callable[[np.ndarray, np.ndarray, np.ndarray], dict[str, np.ndarray]] | None = None,
 ) -> np.ndarray:
     """The (300, 300) BEV_DTYPE grid of a scan (see the module docstring).
     `top_classes(origins (N,3), max_range)` gives the class of the first surface straight
     below each origin (0 for none); `z_range` is the lowest and highest height of any surface;
-    `traversability(x, y)` the traversability fields at world points (NaN without it)."""
+    `traversability(x, y, z)` the traversability fields at world points, z the ground's height
+    there (NaN without it)."""
     u = bev_cell_centres()
     uu, vv = np.meshgrid(u, u, indexing="ij")
     s, c = dm.sincos(placement.yaw_rad)
@@ -101,12 +102,13 @@ def bev_grid(
     grid = np.zeros(uu.shape, dtype=BEV_DTYPE)
     x0, x1, y0, y1 = extent
     inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
-    grid["terrain_z"] = np.where(inside, ground(x, y) - oz, np.nan)
+    z = ground(x, y)
+    grid["terrain_z"] = np.where(inside, z - oz, np.nan)
     start = z_range[1] + _ABOVE
     origins = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, start)])
     top = np.asarray(top_classes(origins, start - z_range[0] + _ABOVE)).reshape(uu.shape)
     grid["top_class"] = np.where(inside, top, 0)
-    fields = traversability(x, y) if traversability is not None else {}
+    fields = traversability(x, y, z) if traversability is not None else {}
     for name in ("cover_height", "slope", "overhead"):
         grid[name] = np.where(inside, fields[name], np.nan) if name in fields else np.nan
     return grid

@@ -85,11 +85,14 @@ TERRAIN_ID = class_by_name("terrain").id
 def hash_unit(*keys: np.ndarray) -> np.ndarray:
     """A uniform number in [0, 1) per row of integer keys (splitmix64 of their mix): the same
     on every machine, and one surface's number does not depend on which others were seen."""
-    h = np.zeros(np.broadcast_shapes(*(np.shape(k) for k in keys)), dtype=np.uint64)
+    shape = np.broadcast_shapes(*(np.shape(k) for k in keys))
+    # element by element, so mixed while it is still one number for the leading scalar keys
+    # (a scan's seed and number) and broadcast only by the keys that vary: the same bits
+    h = np.zeros((), dtype=np.uint64)
     with np.errstate(over="ignore"):
         for k in keys:
             h = _splitmix(h ^ np.asarray(k).astype(np.int64).astype(np.uint64))
-    return (h >> np.uint64(11)).astype(np.float64) * 2.0**-53
+    return np.array(np.broadcast_to((h >> np.uint64(11)).astype(np.float64) * 2.0**-53, shape))
 
 
 def _splitmix(x: np.ndarray) -> np.ndarray:
@@ -105,15 +108,29 @@ def _terrain_field(seed: int, xy: np.ndarray) -> np.ndarray:
     g = np.asarray(xy, dtype=np.float64) / TERRAIN_CELL
     i = np.floor(g).astype(np.int64)
     f = g - i
-    s = np.int64(seed)
+    draw = _cell_draws(np.int64(seed), i)
 
     def corner(dx, dy):
-        return hash_unit(s, np.int64(0x7E44A1), i[:, 0] + dx, i[:, 1] + dy)
+        return draw(i[:, 0] + dx, i[:, 1] + dy)
 
     fx, fy = f[:, 0], f[:, 1]
     top = corner(0, 0) * (1 - fx) + corner(1, 0) * fx
     bottom = corner(0, 1) * (1 - fx) + corner(1, 1) * fx
     return top * (1 - fy) + bottom * fy
+
+
+def _cell_draws(seed: np.int64, cells: np.ndarray):
+    """The draw of each lattice corner (ix, iy) around `cells` (N, 2): hashed once per corner
+    into a table when the corners are fewer than the points (a scan's terrain spans a few
+    dozen cells), else per point; the same numbers either way."""
+    low = cells.min(axis=0) if len(cells) else np.zeros(2, dtype=np.int64)
+    size = (cells.max(axis=0) + 2 - low) if len(cells) else np.ones(2, dtype=np.int64)
+    if size[0] * size[1] > len(cells):
+        return lambda ix, iy: hash_unit(seed, np.int64(0x7E44A1), ix, iy)
+    table = hash_unit(
+        seed, np.int64(0x7E44A1), low[0] + np.arange(size[0])[:, None], low[1] + np.arange(size[1])[None, :]
+    )
+    return lambda ix, iy: table[ix - low[0], iy - low[1]]
 
 
 def surface_reflectance(

@@ -28,6 +28,7 @@ import numpy as np
 
 RASTER_CELL = 0.1  # m
 MARGIN = 0.01  # m by which every other triangle's bounding box is grown
+BLOCK = 1 << 17  # triangles at a time (a porous world has a million): bounds the temporaries
 
 
 @dataclass(frozen=True)
@@ -61,15 +62,46 @@ def open_ground(
 ) -> OpenGround:
     """The open ground of a world whose terrain covers `extent` (x0, x1, y0, y1), given the
     vertices' xy (V, 2) and the faces (T, 3) of every triangle that is not terrain."""
+    faces = np.asarray(faces).reshape(-1, 3)
+
+    def boxes():
+        for start in range(0, len(faces), BLOCK):
+            low, high = corner_boxes(xy, faces[start : start + BLOCK])
+            yield (low[:, 0], high[:, 0]), (low[:, 1], high[:, 1])
+
+    return open_outside_blocks(boxes(), extent, cell)
+
+
+def corner_boxes(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle, the least and the greatest of each coordinate over its three corners:
+    (T, D) each, for vertices (V, D)."""
+    a, b, c = (np.asarray(vertices, dtype=np.float64).take(faces[:, k], axis=0) for k in range(3))
+    return np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+
+
+def open_outside(x_range, y_range, extent, cell: float = RASTER_CELL) -> OpenGround:
+    """The raster over `extent` whose open cells are those no box reaches: the boxes are
+    x_range = (least x, greatest x) and y_range likewise, one entry each, grown by MARGIN (the
+    extent's border cells are never open)."""
+    return open_outside_blocks([(x_range, y_range)], extent, cell)
+
+
+def open_outside_blocks(blocks, extent, cell: float = RASTER_CELL) -> OpenGround:
+    """open_outside of the boxes of every (x_range, y_range) of `blocks`, taken a block at a
+    time (what bounds the temporaries of a million boxes)."""
     x0, x1, y0, y1 = extent
     nx, ny = _raster_shape(extent, cell)
-    faces = np.asarray(faces, dtype=np.int64).reshape(-1, 3)
-    boxes = []
-    for axis, origin, count in ((0, x0, nx), (1, y0, ny)):
-        low, high = _corner_range(np.ascontiguousarray(xy[:, axis], dtype=np.float64), faces)
-        boxes.append(np.clip(_raster_index(low - MARGIN, origin, cell), 0, count - 1))
-        boxes.append(np.clip(_raster_index(high + MARGIN, origin, cell), 0, count - 1))
-    covered = _covered(*boxes, nx, ny)
+    diff = np.zeros((nx + 1) * (ny + 1))  # whole counts, exact in float64
+    for x_range, y_range in blocks:
+        boxes = []
+        for (low, high), origin, count in ((x_range, x0, nx), (y_range, y0, ny)):
+            boxes.append(np.clip(_raster_index(low - MARGIN, origin, cell), 0, count - 1))
+            boxes.append(np.clip(_raster_index(high + MARGIN, origin, cell), 0, count - 1))
+        diff += _box_corners(*boxes, nx, ny)
+    counts = diff.reshape(nx + 1, ny + 1)
+    np.cumsum(counts, axis=0, out=counts)  # in place: the raster is 2.25 M cells
+    np.cumsum(counts, axis=1, out=counts)
+    covered = counts[:nx, :ny] > 0
     covered[[0, -1], :] = True
     covered[:, [0, -1]] = True
     return OpenGround(float(x0), float(y0), float(cell), ~covered)
@@ -87,20 +119,13 @@ def _raster_shape(extent, cell: float) -> tuple[int, int]:
     return int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
 
 
-def _corner_range(values: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per triangle, the least and the greatest of a coordinate over its three corners."""
-    a, b, c = (values[faces[:, k]] for k in range(3))
-    return np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
-
-
-def _covered(i0, i1, j0, j1, nx: int, ny: int) -> np.ndarray:
-    """(nx, ny) bool: the cells inside any of the index boxes [i0, i1] x [j0, j1]. Each box
-    adds +1 at two corners and -1 at the other two of a difference array; its running sums
-    along both axes count the boxes over each cell."""
+def _box_corners(i0, i1, j0, j1, nx: int, ny: int) -> np.ndarray:
+    """The difference array ((nx + 1) * (ny + 1)) of the index boxes [i0, i1] x [j0, j1]:
+    each box adds +1 at two corners and -1 at the other two; its running sums along both axes
+    count the boxes over each cell."""
     rows, cols = nx + 1, ny + 1
     corners = np.concatenate(
         [i0 * cols + j0, (i1 + 1) * cols + j0, i0 * cols + j1 + 1, (i1 + 1) * cols + j1 + 1]
     )
-    signs = np.repeat(np.array([1, -1, -1, 1], dtype=np.int64), len(i0))
-    diff = np.bincount(corners, weights=signs, minlength=rows * cols).astype(np.int64).reshape(rows, cols)
-    return np.cumsum(np.cumsum(diff, axis=0), axis=1)[:nx, :ny] > 0
+    signs = np.repeat(np.array([1.0, -1.0, -1.0, 1.0]), len(i0))
+    return np.bincount(corners, weights=signs, minlength=rows * cols)

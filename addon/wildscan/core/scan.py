@@ -7,12 +7,13 @@ runs the same with Blender's scene.ray_cast or a fast backend.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
 
 from .. import __version__
+from . import detmath as dm
 from .backend import RayBackend, with_normals
 from .cast_clock import scanning
 from .classes import LABEL_BY_ID, WATER_ID, class_table_dict, reflectivity_of
@@ -52,6 +53,9 @@ class ScanResult:
     untagged_objects: frozenset[str] = field(default=frozenset())
     beams: int = 0
     hits: int = 0
+    # |cos θ| between each point's beam and the surface along it (behind a sward's or a weather
+    # particle's point; 1 where none): a paper scan's, when run_scan was asked for it
+    incidence: np.ndarray | None = None
 
 
 def cast_in_chunks(
@@ -193,8 +197,11 @@ def run_scan(
     z_start: float | None = None,
     progress: Progress | None = None,
     effects: Effects = CLEAR_AIR,
+    incidence: bool = False,
 ) -> ScanResult:
-    """One 3D scan from `pose` with `sensor`, through `effects`' medium (none: clear air)."""
+    """One 3D scan from `pose` with `sensor`, through `effects`' medium (none: clear air).
+    `incidence`: a paper scan also gives each point's |cos θ| (ScanResult.incidence), from the
+    normals of the sweep's own hits (a dataset's physical intensity: no second cast)."""
     sensor.validate()
     check_frame(frame)
     if sensor.realistic:
@@ -208,8 +215,11 @@ def run_scan(
     if sensor.realistic:
         cloud, facts = _realistic_cloud(backend, placement, sensor, frame, cast_range, progress, effects)
     else:
-        cloud, facts = _paper_cloud(backend, placement, sensor, frame, cast_range, progress, effects)
+        cloud, facts = _paper_cloud(
+            backend, placement, sensor, frame, cast_range, progress, effects, incidence
+        )
     untagged = facts.pop("untagged")
+    cos_incidence = facts.pop("incidence", None)
     metadata = {
         "wildscan_version": __version__,
         "pose": pose.to_dict(),
@@ -235,6 +245,7 @@ def run_scan(
         untagged_objects=untagged,
         beams=beam_count,
         hits=facts["hits"],
+        incidence=cos_incidence,
     )
 
 
@@ -263,17 +274,23 @@ def _paper_cloud(
     cast_range: float,
     progress,
     effects: Effects,
+    incidence: bool = False,
 ):
-    """The paper's scan: one thin ray a beam, its first hit, intensity = reflectivity."""
+    """The paper's scan: one thin ray a beam, its first hit, intensity = reflectivity (with
+    `incidence`, the hits' normals asked for and each point's |cos θ| in facts["incidence"])."""
     dirs_sensor, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)
     dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device)
-    hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress)
+    hits = cast_in_chunks(backend, placement.optical_centre, dirs_world, cast_range, progress, incidence)
+    surface = hits  # before the medium: the surface along each beam, behind a sward or a particle
+    if incidence:
+        hits = replace(hits, normal=None)  # the medium need not carry the normals
     hits = effects.medium(Rays(placement.optical_centre, dirs_world, cast_range), hits)
 
     returns = measure_returning(hits, range_noise(sensor, len(dirs_sensor)), sensor)
     kept = np.flatnonzero(returns.keep)  # rows, one a beam that hit
+    beams = returns.beams.take(kept)  # the beam of each point
     cloud = returns.cloud(
-        _points(placement, frame, sensor, dirs_world, returns.beams.take(kept), returns.range.take(kept)),
+        _points(placement, frame, sensor, dirs_world, beams, returns.range.take(kept)),
         ring,
         sweep,
         frame,
@@ -288,7 +305,17 @@ def _paper_cloud(
         "hits": hit_count,
         "untagged": hits.untagged_objects,
     }
+    if incidence:
+        facts["incidence"] = _surface_incidence(surface, dirs_world, beams)
     return cloud, facts
+
+
+def _surface_incidence(surface: RayHits, dirs_world: np.ndarray, beams: np.ndarray) -> np.ndarray:
+    """|cos θ| of the surface each of `beams` (a point's beam) meets, 1 where it meets none: a point of a sward
+    or a weather particle takes the surface's behind it along its beam, as a second cast of
+    the beam through the point would find it."""
+    cos = np.abs(dm.dot3(surface.normal.take(beams, axis=0), dirs_world.take(beams, axis=0)))
+    return np.where(np.isfinite(surface.distance.take(beams)), cos, 1.0)
 
 
 def _realistic_cloud(

@@ -48,15 +48,16 @@ def traversability_fields(
     ground: Callable[[np.ndarray, np.ndarray], np.ndarray],
     cover_height: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
     cast_up: Callable[[np.ndarray, float], np.ndarray],
+    z: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """cover_height, slope and overhead (float32, the shape of x) at world points (x, y).
     `ground(x, y)`: the standing ground's height; `cover_height(x, y)`: the sward's (None: no
     cover); `cast_up(origins (N,3), max_range)`: the distance to the first surface straight up
-    from each origin (inf where none)."""
+    from each origin (inf where none); `z`: ground(x, y), when the caller has it already."""
     h = SLOPE_STEP
     gx = (ground(x + h, y) - ground(x - h, y)) / (2 * h)
     gy = (ground(x, y + h) - ground(x, y - h)) / (2 * h)
-    z = ground(x, y)
+    z = ground(x, y) if z is None else z
     origins = np.column_stack([np.ravel(x), np.ravel(y), np.ravel(z) + ROBOT_HEIGHT])
     up = np.asarray(cast_up(origins, OVERHEAD_REACH)).reshape(np.shape(x))
     cover = np.zeros(np.shape(x)) if cover_height is None else cover_height(x, y)

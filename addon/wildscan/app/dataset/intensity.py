@@ -1,10 +1,11 @@
 """A dataset scan's intensity (SPEC.toml `intensity`, core/intensity.py): set on the cloud
 before any format encodes it, so PLY, LAS and SemanticKITTI carry the same number.
 
-`physical` needs each point's incidence: the paper model's scan has no normals, so the
-beams of its points are cast again (one Embree cast, ~15 ms a scan) with normals; the
-realistic model's echo energy already holds cos θ and the footprint's coverage, which are
-kept, its class reflectivity swapped for the surface's own and its range law for R_NEAR's.
+`physical` needs each point's incidence: a paper scan run with `incidence=True` has it, from
+the normals of the sweep's own hits (core/scan.py ScanResult.incidence; a sward's or a weather
+particle's point faces its beam: cos θ = 1); the realistic model's echo energy already holds
+cos θ and the footprint's coverage, which are kept, its class reflectivity swapped for the
+surface's own and its range law for R_NEAR's.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from ...core.echoes import R_REF
 from ...core.groundtruth import world_points
 
 
-def with_dataset_intensity(mode: str, seed: int, scan: int, backend, result, world=None):
+def with_dataset_intensity(mode: str, seed: int, scan: int, result, world=None):
     """`result` (core/scan.py ScanResult) with its cloud's intensity in `mode`, percent, and
     its metadata saying which (the PLY header and sidecar, LAS's description carry it).
     `world`: the cloud's points in the world frame, when the caller has them already."""
@@ -26,7 +27,7 @@ def with_dataset_intensity(mode: str, seed: int, scan: int, backend, result, wor
     if mode == "class":
         value = I.class_percent(cloud.label)
     else:
-        value = _physical(seed, scan, backend, result, world)
+        value = _physical(seed, scan, result, world)
     return replace(
         result,
         cloud=replace(cloud, intensity=value.astype(np.float32)),
@@ -34,7 +35,7 @@ def with_dataset_intensity(mode: str, seed: int, scan: int, backend, result, wor
     )
 
 
-def _physical(seed: int, scan: int, backend, result, world=None) -> np.ndarray:
+def _physical(seed: int, scan: int, result, world=None) -> np.ndarray:
     cloud, placement = result.cloud, result.placement
     if world is None:
         world = world_points(cloud.xyz, placement, cloud.frame)
@@ -43,7 +44,7 @@ def _physical(seed: int, scan: int, backend, result, world=None) -> np.ndarray:
     if "echo" in cloud.extra:
         coverage = _realistic_coverage(cloud.intensity, cloud.label, distance)
     else:
-        coverage = _incidence(backend, placement.optical_centre, world)
+        coverage = _incidence(result)
     return I.physical_percent(rho, coverage, distance, I.speckle(seed, scan, len(cloud)))
 
 
@@ -56,19 +57,11 @@ def _realistic_coverage(energy: np.ndarray, label: np.ndarray, distance: np.ndar
     return np.clip(np.nan_to_num(cos, nan=1.0, posinf=1.0), 0.0, 1.0)
 
 
-def _incidence(backend, origin: np.ndarray, world: np.ndarray) -> np.ndarray:
-    """|cos θ| of each point's surface, cast again along its beam with normals (1 where the
-    cast finds nothing: a weather particle, which has no surface)."""
-    if not len(world):
-        return np.ones(0)
-    offset = world - origin
-    length = np.linalg.norm(offset, axis=1)
-    dirs = offset / np.maximum(length, 1e-12)[:, None]
-    hits = backend.cast(origin, dirs, float(length.max()) + 1.0, True)
-    if hits.normal is None:
-        return np.ones(len(world))
-    cos = np.abs(np.einsum("ij,ij->i", hits.normal, dirs))
-    return np.where(np.isfinite(hits.distance), cos, 1.0)
+def _incidence(result) -> np.ndarray:
+    """|cos θ| of each point of a paper scan: the sweep's own (run_scan(..., incidence=True))."""
+    if result.incidence is None:
+        raise ValueError("a paper scan's physical intensity needs run_scan(..., incidence=True)")
+    return result.incidence
 
 
 def scan_intensity_facts(cloud) -> dict:

@@ -43,9 +43,15 @@ from ...core.groundtruth import (
 from ...core.io.files import atomic_outputs
 from ...core.label_schemes import scheme
 from ...core.open_ground import OpenGround
+from ...core.open_sky import open_sky
 from ...core.posesampler import NoPose
 from ...core.scan import run_scan
-from ...core.traversability import class_height_histogram, support_flags, traversability_fields
+from ...core.traversability import (
+    ROBOT_HEIGHT,
+    class_height_histogram,
+    support_flags,
+    traversability_fields,
+)
 from ...core.world import EXTENT
 from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
@@ -87,20 +93,26 @@ class WorldContext:
         kept = np.cumsum([not isinstance(p, NoPose) for p in self.poses])
         return [int(n) - 1 for n in kept]
 
-    def traversability(self, x: np.ndarray, y: np.ndarray) -> dict[str, np.ndarray]:
-        """The bird's-eye traversability fields at world points (core/traversability.py)."""
-        cover = self.cover
-        return traversability_fields(
-            x,
-            y,
-            self.ground,
-            None if cover is None else (lambda px, py: cover.at(px, py)[1]),
-            lambda origins, reach: (
-                self.backend.cast(
-                    origins, np.broadcast_to(np.array([0.0, 0.0, 1.0]), origins.shape), reach
-                ).distance
-            ),
-        )
+    def traversability(self, x: np.ndarray, y: np.ndarray, z=None) -> dict[str, np.ndarray]:
+        """The bird's-eye traversability fields at world points (core/traversability.py); `z`:
+        the ground's height there, when known."""
+        cover = None if self.cover is None else (lambda px, py: self.cover.at(px, py)[1])
+        return traversability_fields(x, y, self.ground, cover, self.cast_up, z)
+
+    @functools.cached_property
+    def open_sky(self) -> OpenGround:
+        """Where an upward ray from the robot's height meets nothing (core/open_sky.py)."""
+        g = self.backend.geometry
+        return open_sky(g.vertices, g.faces, self.ground.terrain, ROBOT_HEIGHT, EXTENT)
+
+    def cast_up(self, origins: np.ndarray, reach: float) -> np.ndarray:
+        """Distance to the first surface straight up from each origin (inf for none): cast,
+        but under open sky, where the cast would meet nothing (core/open_sky.py)."""
+        distance = np.full(len(origins), np.inf)
+        cast = np.flatnonzero(~self.open_sky.contains(origins[:, 0], origins[:, 1]))
+        up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (len(cast), 3))
+        distance[cast] = self.backend.cast(origins[cast], up, reach).distance
+        return distance
 
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
         """Class of the first surface straight below each origin (0 for none): the terrain
@@ -297,11 +309,12 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             choice.z_start,
             None,
             _effects(weather, sensor, context.cover),
+            incidence=spec.intensity == "physical",  # the physical intensity's cos θ, from the sweep
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
     world = world_points(result.cloud.xyz, result.placement, frame)  # for intensity and ground truth
-    result = with_dataset_intensity(spec.intensity, context.seed, index, context.backend, result, world)
+    result = with_dataset_intensity(spec.intensity, context.seed, index, result, world)
     placement = result.placement
     row["placement"] = {
         "optical_centre": [float(v) for v in placement.optical_centre],
