@@ -115,17 +115,17 @@ def step(timings: dict[str, tuple[float, float]], name: str):
 def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
     """Plan the world, make its triangles and everything the sealed caster reads."""
     from ...raycast.from_plan import plan_geometry
+    from ...raycast.sealing import sealed_settler
 
     timings = {} if timings is None else timings
     with step(timings, "plan"):
         plan = _plan(inputs)
     with step(timings, "triangles"):
         geometry = plan_geometry(plan)
-    with step(timings, "planes and padding"):
-        corners = geometry.local_triangles()
-        settler = Settler.sealing(geometry, geometry.local_planes(corners), corners)
+    with step(timings, "planes, padding and bands"):
+        settler = sealed_settler(geometry)
     with step(timings, "settling index"):
-        settler.band, settler.neighbours  # made now, so they are stored with the rest  # noqa: B018
+        settler.neighbours  # made now, so it is stored with the rest  # noqa: B018
     with step(timings, "open ground, ground, instances"):
         low, high = geometry.bounds()
         world = PreparedWorld(
