@@ -46,3 +46,24 @@ def test_near_a_polyline_is_the_distance_below_the_limit():
         assert np.array_equal(near, polyline_distance(path, pts) < limit)
         assert 0 < near.sum() < len(pts)
     assert not polyline_near(path, pts[:0], 1.0).size
+
+
+def test_the_field_on_a_lattice_seen_before_is_the_field_made_afresh():
+    """Heightfield keeps the last lattice's noise: evaluated again there with other features
+    (the planner lowering its hills), it gives what a field without that memory gives."""
+    from dataclasses import replace
+
+    from wildscan.core.world.heightfield import Bumps, FractalNoise, Heightfield, RectWindow
+
+    def field(gain):
+        bumps = Bumps(((10.0, -5.0),), (6.0,), (15.0,), RectWindow(-50.0, 50.0, -50.0, 50.0, 10.0), gain)
+        return Heightfield(FractalNoise(np.random.default_rng(5), 60.0, 4), 4.0, [bumps])
+
+    gx, gy = np.meshgrid(np.linspace(-60.0, 60.0, 61), np.linspace(-60.0, 60.0, 47))
+    kept = field(1.0)
+    first = kept.raw(gx, gy)
+    kept.features[0] = replace(kept.features[0], gain=0.5)
+    assert kept.raw(gx, gy).tobytes() == field(0.5).raw(gx, gy).tobytes()
+    assert kept.raw(gx + 1.0, gy).tobytes() == field(0.5).raw(gx + 1.0, gy).tobytes()  # other points
+    assert first.tobytes() == field(1.0).raw(gx, gy).tobytes()
+    assert not np.array_equal(first, kept.raw(gx, gy))

@@ -259,16 +259,33 @@ class Heightfield:
     offset: float = 0.0
     scale: float = 1.0
 
+    # the last lattice's noise, by the bytes of its x and y: the planner evaluates the field on
+    # one lattice again and again (the relief, while it lowers the hills), and only the
+    # features change between those calls
+    _noise_memo: tuple = field(default=(), repr=False, compare=False)
+
     def raw(self, x, y):
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
-        h = self.amplitude * self.noise(x, y)
+        h = self.amplitude * self._noise_at(x, y)
         for feature in self.features:
             h = feature.apply(x, y, h)
         return h
 
     def __call__(self, x, y):
         return self.scale * (self.raw(x, y) - self.offset)
+
+    def _noise_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """self.noise(x, y), kept for the next call on the same points (the same values)."""
+        if x.size < 1024:  # elements' single points: not worth the comparison
+            return self.noise(x, y)
+        key = (id(self.noise), x.shape, y.shape, x.tobytes(), y.tobytes())
+        if self._noise_memo and self._noise_memo[0] == key:
+            return self._noise_memo[1]
+        values = self.noise(x, y)
+        values.flags.writeable = False  # shared by the calls that read it
+        self._noise_memo = (key, values)
+        return values
 
     def mean_over(self, window, extent: Sequence[float], spacing: float = 1.0) -> float:
         """Window-weighted mean height (what a plateau is flattened to)."""
