@@ -13,8 +13,10 @@ also on the spec's [poses] and scans_per_world: sampling them again needs the pl
 world loaded from the cache with poses it has never had is planned once more for them.
 
 Not cached: the ray caster's own acceleration structure (Embree's BVH cannot be saved), so
-a warm load still uploads the padded triangles and builds the BVH; and the offset-local
-corners of the triangles, a gather from the vertices that costs less than reading them.
+a warm load still uploads the padded triangles and builds the BVH; the offset-local
+corners of the triangles, a gather from the vertices that costs less than reading them; and
+the neighbour index's CSR offsets, counted again from the corners' position ids (stored, with
+the neighbours, as int32: the index's values are vertex and triangle numbers).
 
 Every array is stored bit for bit and used as it is, so a scan of a world loaded from the
 cache gives the same bytes as a scan of one just built (tests/test_world_cache.py).
