@@ -7,7 +7,8 @@ settling bands (one pass: raycast/sealing.py), the settling index, the rest (ope
 standing ground, instances), writing the entry, the caster's upload, its BVH (built on the
 first cast) and the poses (sampled with the placement check); warm, reading and verifying
 the entry, unpacking it, the same upload and BVH (Embree cannot save a BVH: it is built
-again from the cached padded triangles) and the poses read back. Wall and CPU seconds: on a busy machine the CPU seconds say more.
+again from the cached padded triangles) and the poses read back. Wall and CPU seconds: on a
+busy machine the CPU seconds say more.
 """
 
 from __future__ import annotations
