@@ -21,6 +21,8 @@ def test_the_worker_environment_keeps_dasks_and_the_users_settings(monkeypatch):
     assert {"glibc.malloc.arena_max=1", "glibc.malloc.mmap_max=0"} <= set(tunables)
     monkeypatch.delenv("GLIBC_TUNABLES")
     assert heap.worker_environ({})["GLIBC_TUNABLES"] == heap.WORKER_TUNABLES
+    monkeypatch.setenv("GLIBC_TUNABLES", heap.WORKER_TUNABLES)  # a second cluster of one run
+    assert heap.worker_environ({})["GLIBC_TUNABLES"] == heap.WORKER_TUNABLES
 
 
 def test_the_local_cluster_starts_its_workers_with_it(monkeypatch):

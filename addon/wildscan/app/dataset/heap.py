@@ -43,5 +43,8 @@ def worker_environ(nanny_environ: dict) -> dict:
     pre-spawn-environ) without its trim threshold, and the tunables above after any the
     user has set."""
     env = {k: v for k, v in nanny_environ.items() if k != "MALLOC_TRIM_THRESHOLD_"}
-    env["GLIBC_TUNABLES"] = ":".join(t for t in (os.environ.get("GLIBC_TUNABLES", ""), WORKER_TUNABLES) if t)
+    given = os.environ.get("GLIBC_TUNABLES", "")
+    if WORKER_TUNABLES not in given:  # the nanny sets its environment in this very process
+        given = ":".join(t for t in (given, WORKER_TUNABLES) if t)
+    env["GLIBC_TUNABLES"] = given
     return env
