@@ -2,12 +2,13 @@
 from the world cache (warm), step by step: part of `wildscan bench-dataset`.
 
 The same steps a worker takes (app/cache/worlds.py, app/dataset/worker.py build_world), in
-this process, on one world: cold, the plan, the triangles, the planes and padded triangles,
-the settling index, the rest (open ground, standing ground, instances), writing the entry,
-the caster's upload, its BVH (built on the first cast) and the poses (sampled with the
-placement check); warm, reading and verifying the entry, unpacking it, the same upload and
-BVH (Embree cannot save a BVH: it is built again from the cached padded triangles) and the
-poses read back. Wall and CPU seconds: on a busy machine the CPU seconds say more.
+this process, on one world: cold, the plan, the triangles, the planes, padded triangles and
+settling bands (one pass: raycast/sealing.py), the settling index, the rest (open ground,
+standing ground, instances), writing the entry, the caster's upload, its BVH (built on the
+first cast) and the poses (sampled with the placement check); warm, reading and verifying
+the entry, unpacking it, the same upload and BVH (Embree cannot save a BVH: it is built
+again from the cached padded triangles) and the poses read back. Wall and CPU seconds: on a
+busy machine the CPU seconds say more.
 """
 
 from __future__ import annotations

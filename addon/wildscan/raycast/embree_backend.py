@@ -36,6 +36,7 @@ import numpy as np
 from ..core.backend import THREADS
 from ..core.cast_clock import CLOCK
 from .geometry import RefiningBackend, SceneGeometry
+from .sealing import sealed_settler
 from .settle import Settler
 
 # Rays are cast a little past max range in float32, then cut in float64, so a
@@ -47,11 +48,9 @@ def sealed(geometry: SceneGeometry, settler: Settler | None = None):
     """(planes, settler) of a sealed float32 caster over `geometry`: the padded triangles it
     uploads and the float64 data settling its answers needs. Pass a `settler` made before
     (Settler.sealing over the same geometry) to share it between casters."""
-    if settler is not None:
-        return (settler.normal, settler.d), settler
-    corners = geometry.local_triangles()  # gathered once for the planes and the padding
-    planes = geometry.local_planes(corners)
-    return planes, Settler.sealing(geometry, planes, corners)
+    if settler is None:
+        settler = sealed_settler(geometry)  # planes, padding and bands in one pass
+    return (settler.normal, settler.d), settler
 
 
 class EmbreeBackend(RefiningBackend):

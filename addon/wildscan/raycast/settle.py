@@ -80,7 +80,7 @@ class Settler:
         triangles of different objects or meshes meeting at one point are neighbours too."""
         position = position_ids(self.geometry.vertices)
         corner_pos = position[self.geometry.faces]
-        order = np.argsort(corner_pos.ravel(), kind="stable")
+        order = stable_order(corner_pos.ravel())
         triangles = order // 3
         starts = np.r_[0, np.cumsum(np.bincount(corner_pos.ravel(), minlength=position.max() + 1))]
         return corner_pos, starts, triangles
@@ -219,6 +219,17 @@ def rows(points: np.ndarray, index: np.ndarray) -> np.ndarray:
     if points.ndim == 2 and len(points) and points.strides[0] == 0:
         return np.broadcast_to(points[0], (len(index), 3))
     return points.take(index, axis=0)
+
+
+def stable_order(keys: np.ndarray) -> np.ndarray:
+    """np.argsort(keys, kind="stable") for integer keys in [0, 2**32): two passes of numpy's
+    radix sort on 16-bit digits (low, then high: the second pass keeps the first's order among
+    equal high digits), ~2.5x faster than the merge sort numpy uses for wider integers."""
+    if not len(keys) or keys.min() < 0 or keys.max() >= 1 << 32:
+        return np.argsort(keys, kind="stable")
+    low = np.argsort((keys & 0xFFFF).astype(np.uint16), kind="stable")
+    high = np.argsort((keys >> 16).astype(np.uint16).take(low), kind="stable")
+    return low.take(high)
 
 
 def _band(padded: np.ndarray, corners: np.ndarray) -> np.ndarray:

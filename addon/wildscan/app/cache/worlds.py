@@ -13,8 +13,10 @@ also on the spec's [poses] and scans_per_world: sampling them again needs the pl
 world loaded from the cache with poses it has never had is planned once more for them.
 
 Not cached: the ray caster's own acceleration structure (Embree's BVH cannot be saved), so
-a warm load still uploads the padded triangles and builds the BVH; and the offset-local
-corners of the triangles, a gather from the vertices that costs less than reading them.
+a warm load still uploads the padded triangles and builds the BVH; the offset-local
+corners of the triangles, a gather from the vertices that costs less than reading them; and
+the neighbour index's CSR offsets, counted again from the corners' position ids (stored, with
+the neighbours, as int32: the index's values are vertex and triangle numbers).
 
 Every array is stored bit for bit and used as it is, so a scan of a world loaded from the
 cache gives the same bytes as a scan of one just built (tests/test_world_cache.py).
@@ -115,17 +117,17 @@ def step(timings: dict[str, tuple[float, float]], name: str):
 def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
     """Plan the world, make its triangles and everything the sealed caster reads."""
     from ...raycast.from_plan import plan_geometry
+    from ...raycast.sealing import sealed_settler
 
     timings = {} if timings is None else timings
     with step(timings, "plan"):
         plan = _plan(inputs)
     with step(timings, "triangles"):
         geometry = plan_geometry(plan)
-    with step(timings, "planes and padding"):
-        corners = geometry.local_triangles()
-        settler = Settler.sealing(geometry, geometry.local_planes(corners), corners)
+    with step(timings, "planes, padding and bands"):
+        settler = sealed_settler(geometry)
     with step(timings, "settling index"):
-        settler.band, settler.neighbours  # made now, so they are stored with the rest  # noqa: B018
+        settler.neighbours  # made now, so it is stored with the rest  # noqa: B018
     with step(timings, "open ground, ground, instances"):
         low, high = geometry.bounds()
         world = PreparedWorld(
@@ -165,9 +167,10 @@ def to_entry(world: PreparedWorld) -> tuple[dict, dict[str, np.ndarray]]:
         normal=s.normal,
         d=s.d,
         band=s.band,
-        corner_pos=corner_pos,
-        starts=starts,
-        owners=owners,
+        # int32 (indices of vertices and triangles, which int32 faces bound) and no CSR
+        # offsets (a count away: neighbour_index): a sixth of the entry's bytes
+        corner_pos=corner_pos.astype(np.int32),
+        owners=owners.astype(np.int32),
         instances=world.instances,
         open_ground=og.is_open,
         **ground_arrays(ground),
@@ -181,6 +184,7 @@ def to_entry(world: PreparedWorld) -> tuple[dict, dict[str, np.ndarray]]:
         "z_range": list(world.z_range),
         "open_ground": [og.x0, og.y0, og.cell],
         "floors": len(ground.floors),
+        "positions": len(starts) - 1,
         "cover": world.cover is not None,
     }
     return meta, arrays
@@ -200,7 +204,7 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         (arrays["normal"], arrays["d"]),
         geometry.local_triangles(),
         arrays["band"],
-        (arrays["corner_pos"], arrays["starts"], arrays["owners"]),
+        neighbour_index(arrays["corner_pos"], arrays["owners"], meta["positions"]),
     )
     x0, y0, cell = meta["open_ground"]
     return PreparedWorld(
@@ -213,6 +217,14 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         ground=ground_from_arrays(arrays, meta["floors"]),
         cover=cover,
     )
+
+
+def neighbour_index(corner_pos: np.ndarray, owners: np.ndarray, positions: int):
+    """Settler.neighbours from an entry: (corner_pos, starts, owners) as int64, the CSR offsets
+    counted again over the `positions` vertex positions, as Settler.neighbours makes them."""
+    corner_pos = corner_pos.astype(np.int64)
+    starts = np.r_[0, np.cumsum(np.bincount(corner_pos.ravel(), minlength=positions))]
+    return corner_pos, starts, owners.astype(np.int64)
 
 
 def ground_arrays(ground: StandingGround) -> dict[str, np.ndarray]:

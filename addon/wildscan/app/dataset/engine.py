@@ -86,9 +86,14 @@ class Engine:
         import dask
         from distributed import LocalCluster
 
+        from .heap import NANNY_ENVIRON, worker_environ
+
         # Workers sample their task's stack for the dashboard's profile, which a local
-        # cluster here does not serve: time taken from the scans for nothing.
-        with dask.config.set({"distributed.worker.profile.enabled": False}):
+        # cluster here does not serve: time taken from the scans for nothing. Their memory
+        # stays theirs (heap.py).
+        settings = {"distributed.worker.profile.enabled": False}
+        settings[NANNY_ENVIRON] = worker_environ(dask.config.get(NANNY_ENVIRON, {}))
+        with dask.config.set(settings):
             return LocalCluster(
                 n_workers=self.workers or os.cpu_count() or 1,
                 threads_per_worker=1,

@@ -36,6 +36,23 @@ def polyline_distance(path: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return best
 
 
+def polyline_near(path: np.ndarray, pts: np.ndarray, limit: float) -> np.ndarray:
+    """polyline_distance(path, pts) < limit, the distance computed only for the points in the
+    path's bounding box grown by limit + 1 m: one farther out is farther than limit + 1 m
+    from every segment, far beyond any rounding, and each point's distance is the same
+    computation with or without the others (a scatter's candidates, mostly in other zones,
+    took a quarter of a world's plan)."""
+    grow = limit + 1.0
+    low, high = path.min(axis=0) - grow, path.max(axis=0) + grow
+    maybe = np.flatnonzero(
+        (pts[:, 0] >= low[0]) & (pts[:, 0] <= high[0]) & (pts[:, 1] >= low[1]) & (pts[:, 1] <= high[1])
+    )
+    near = np.zeros(len(pts), dtype=bool)
+    if len(maybe):
+        near[maybe] = polyline_distance(path, pts[maybe]) < limit
+    return near
+
+
 def catmull_rom(ctrl: np.ndarray, step: float) -> np.ndarray:
     """A smooth curve through control points, resampled every `step` metres."""
     p = np.vstack([2 * ctrl[0] - ctrl[1], ctrl, 2 * ctrl[-1] - ctrl[-2]])

@@ -19,6 +19,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .. import detmath as dm
+from .grid_height import interpolate
 from .shapes.primitives import grid_heightfield
 
 Field = Callable[[np.ndarray, np.ndarray], np.ndarray]
@@ -48,8 +49,8 @@ class GradientNoise:
         self.gy, self.gx = dm.sincos(angles)
 
     def _corner(self, i, j, dx, dy):
-        g = self.perm[self.perm[i] + j]
-        return self.gx[g] * dx + self.gy[g] * dy
+        g = self.perm.take(self.perm.take(i) + j)  # take: the same gathers, faster than indexing
+        return self.gx.take(g) * dx + self.gy.take(g) * dy
 
     def __call__(self, x, y):
         x = np.asarray(x, dtype=np.float64)
@@ -259,16 +260,33 @@ class Heightfield:
     offset: float = 0.0
     scale: float = 1.0
 
+    # the last lattice's noise, by the bytes of its x and y: the planner evaluates the field on
+    # one lattice again and again (the relief, while it lowers the hills), and only the
+    # features change between those calls
+    _noise_memo: tuple = field(default=(), repr=False, compare=False)
+
     def raw(self, x, y):
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
-        h = self.amplitude * self.noise(x, y)
+        h = self.amplitude * self._noise_at(x, y)
         for feature in self.features:
             h = feature.apply(x, y, h)
         return h
 
     def __call__(self, x, y):
         return self.scale * (self.raw(x, y) - self.offset)
+
+    def _noise_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """self.noise(x, y), kept for the next call on the same points (the same values)."""
+        if x.size < 1024:  # elements' single points: not worth the comparison
+            return self.noise(x, y)
+        key = (id(self.noise), x.shape, y.shape, x.tobytes(), y.tobytes())
+        if self._noise_memo and self._noise_memo[0] == key:
+            return self._noise_memo[1]
+        values = self.noise(x, y)
+        values.flags.writeable = False  # shared by the calls that read it
+        self._noise_memo = (key, values)
+        return values
 
     def mean_over(self, window, extent: Sequence[float], spacing: float = 1.0) -> float:
         """Window-weighted mean height (what a plateau is flattened to)."""
@@ -330,24 +348,6 @@ class TerrainGrid:
 
     def mesh(self) -> tuple[np.ndarray, np.ndarray]:
         return grid_heightfield(self.xs, self.ys, self.z)
-
-
-def interpolate(xs, ys, z, x, y):
-    """The triangulated grid's height: z00 + tx (z10 - z00) + ty (z11 - z10) in a cell's lower
-    triangle, z00 + ty (z01 - z00) + tx (z11 - z01) in its upper one; as z00 + a (m - z00) +
-    b (z11 - m) with (a, b, m) chosen per point: one evaluation a point, the same bits."""
-    x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
-    shape, x, y, nx = x.shape, x.ravel(), y.ravel(), len(xs)
-    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, nx - 2)
-    j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
-    tx = np.clip((x - xs.take(i)) / np.diff(xs).take(i), 0.0, 1.0)
-    ty = np.clip((y - ys.take(j)) / np.diff(ys).take(j), 0.0, 1.0)
-    flat, corner, lower = np.ravel(z), j * nx + i, tx >= ty  # lower: triangle (00, 10, 11)
-    z00, z11 = flat.take(corner), flat.take(corner + (nx + 1))
-    middle = flat.take(np.where(lower, corner + 1, corner + nx))  # z10 below the diagonal, z01 above
-    return (
-        z00 + np.where(lower, tx, ty) * (middle - z00) + np.where(lower, ty, tx) * (z11 - middle)
-    ).reshape(shape)
 
 
 def sample_grid(field_fn: Field, xs, ys) -> TerrainGrid:

@@ -51,6 +51,8 @@ ELEMENT_STAGES = (
 STAGE_INSTANCE_BASE = {name: 10_000 * k for k, name in enumerate(ELEMENT_STAGES)}
 STAGE_INSTANCE_BLOCK = 10_000
 
+# ground_under's six directions (sin, cos): the same values each call, made once
+_RIM = tuple(zip(*dm.sincos(np.linspace(0, 2 * np.pi, 6, endpoint=False))))
 SITE_CLEARANCE = 1.0  # m kept free of elements around every reserved pose site
 
 # How vegetation is modelled (a world option, orthogonal to the detail level): "porous"
@@ -210,8 +212,7 @@ class WorldPlan(ElementSet):
     def ground_under(self, x, y, radius: float):
         """Lowest terrain height under a disc, so nothing floats on a slope."""
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-        sin, cos = dm.sincos(np.linspace(0, 2 * np.pi, 6, endpoint=False))
-        zs = [self.ground(x, y)] + [self.ground(x + radius * c, y + radius * s) for s, c in zip(sin, cos)]
+        zs = [self.ground(x, y)] + [self.ground(x + radius * c, y + radius * s) for s, c in _RIM]
         return np.min(zs, axis=0)
 
     def in_water(self, x, y, margin: float = 0.0):

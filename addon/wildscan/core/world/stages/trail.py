@@ -7,7 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import detmath as dm
-from ..geometry2d import Rect, catmull_rom, long_axis, polyline_distance, polyline_length, resample
+from ..geometry2d import (
+    Rect,
+    catmull_rom,
+    long_axis,
+    polyline_distance,
+    polyline_length,
+    polyline_near,
+    resample,
+)
 from ..plan import Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
 
 STAGE = "trail"
@@ -28,7 +36,8 @@ class Trail(ZoneShape):
         return polyline_distance(self.path, np.column_stack([np.ravel(x), np.ravel(y)])).reshape(np.shape(x))
 
     def keep_out(self, plan: WorldPlan, x, y, need: Clearance) -> np.ndarray:
-        return self.distance(x, y) < self.width / 2 + need.radius + 0.3
+        pts = np.column_stack([np.ravel(x), np.ravel(y)])
+        return polyline_near(self.path, pts, self.width / 2 + need.radius + 0.3).reshape(np.shape(x))
 
     def features(self, plan: WorldPlan) -> dict:
         return {"width": rounded(self.width), "length": rounded(polyline_length(self.path))}
