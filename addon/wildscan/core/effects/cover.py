@@ -35,12 +35,13 @@ from .base import Effect, Rays
 TRAMPLED = 0.45  # m
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
-SETTLE = 6  # times a stop outside its own cell's sward goes on along its run (_settle)
+SETTLE = 3  # times a stop outside its own cell's sward goes on along its run (_settle)
 # rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
 # bytes do not depend on the threads
 PART = 49_152
 # a settle pass on at most this many stops takes the slopes with the cells (one lookup, not two)
 FEW = 4096
+CELL_EXIT = 1e-6  # m past a cell's edge, where a ray going on from it starts (in the next cell)
 
 
 class GroundCover(Effect):
@@ -194,7 +195,10 @@ class GroundCover(Effect):
             stop[rows] = np.inf
             if attempt == SETTLE or len(out) == 0:
                 break
-            # above a lower sward the ray comes down into: on from where it enters it
+            # above a lower sward the ray comes down into: on from where it enters it; over
+            # bare ground or rising above this cell's sward: on from where it leaves the cell
+            # (none of its stops would hold before, and the depths are memoryless: the law of
+            # the next stop is that of the stops drawn again and again until one is past it)
             c, above, height = c[out], above[out], height[out]
             high = np.flatnonzero((c > 0) & (above > height))
             hr = r.rows(out[high])
@@ -204,12 +208,25 @@ class GroundCover(Effect):
                 rate = self._rate(x[out[high]], y[out[high]], hr)
             down = high[rate < 0]
             t[down] += (above[down] - height[down]) / -rate[rate < 0]
+            on = np.concatenate([np.flatnonzero(c == 0), high[rate >= 0]])
+            t[on] = self._cell_exit(x[out[on]], y[out[on]], r.rows(out[on]), t[on])
             here = c > 0
             medium_cls = np.where(here, c, anchor_cls[rows])
             medium_height = np.where(here, height, anchor_height[rows])
             stop[rows] = _stop(t, end[rows], medium_cls, medium_height, rng.random(len(rows)))
             todo = rows[np.isfinite(stop[rows])]
         return cls
+
+    def _cell_exit(self, x, y, ray: _Rays, t):
+        """Where the rays `ray`, at t along them at (x, y), leave their cell (in x and y; a
+        micrometre past its edge): inf for a ray with no way out (straight up or down)."""
+        g = self.grid
+        ix = np.floor((x - g.x0) / g.cell)
+        iy = np.floor((y - g.y0) / g.cell)
+        to_x = ((ix + (ray.dx > 0)) * g.cell + g.x0 - x) / ray.dx
+        to_y = ((iy + (ray.dy > 0)) * g.cell + g.y0 - y) / ray.dy
+        out = t + np.minimum(np.where(ray.dx != 0, to_x, np.inf), np.where(ray.dy != 0, to_y, np.inf))
+        return out + CELL_EXIT
 
     def _rate(self, x, y, ray: _Rays):
         """How fast the height above the terrain changes along the rays at points (x, y)."""
