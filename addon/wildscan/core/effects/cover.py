@@ -74,11 +74,9 @@ class GroundCover(Effect):
         n = len(hits.distance)
         o = np.asarray(rays.origins, dtype=np.float64)
         d = np.asarray(rays.directions, dtype=np.float64)
-        # each ray's origin and direction as x, y, z arrays (an origin: 3 numbers, or n each)
-        ray = _Rays(
-            *(o[k] if o.ndim == 1 else np.ascontiguousarray(o[:, k]) for k in range(3)),
-            *(np.ascontiguousarray(d[:, k]) for k in range(3)),
-        )
+        # each ray's origin and direction as x, y, z arrays (an origin: 3 numbers, or n each),
+        # made contiguous a part at a time, on the part's thread
+        ray = _Rays(*(o[k] if o.ndim == 1 else o[:, k] for k in range(3)), *(d[:, k] for k in range(3)))
         end = np.minimum(hits.distance, rays.max_range)
         hit = np.isfinite(hits.distance)
 
@@ -264,7 +262,7 @@ class _Rays:
 
     def part(self, part: slice) -> _Rays:
         def cut(v):
-            return v if np.ndim(v) == 0 else v[part]
+            return v if np.ndim(v) == 0 else np.ascontiguousarray(v[part])
 
         return _Rays(*(cut(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
 
