@@ -35,7 +35,7 @@ from .base import Effect, Rays
 TRAMPLED = 0.45  # m
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
-SETTLE = 3  # times a stop outside its own cell's sward goes on along its run (_settle)
+SETTLE = 4  # times a stop outside its own cell's sward goes on along its run (_settle)
 # rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
 # bytes do not depend on the threads
 PART = 49_152
