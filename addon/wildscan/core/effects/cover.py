@@ -10,11 +10,15 @@ That is the turbid-medium model HELIOS++ uses for vegetation voxels (Winiwarter 
 the cell it stopped in, so a grass point lies inside the grass layer and every label stays
 exact. Rays that do not stop keep their surface hit.
 
-Cost: a constant number of array operations a ray, whatever its range.
+Cost: a constant number of array operations a ray in the layer, whatever its range; the rays
+that cannot be in it (above every cell's top within reach, or whose run from the sensor reaches
+their hit) are left out before any cell is looked up.
 
-Determinism: each ray's optical depth is -log(1 - u) with u from a PCG64 generator seeded from
-(the scan's noise seed, "cover"), in ray order, and the log is detmath's, so the same scan gives
-the same bytes on every machine.
+Determinism: the rays are taken in fixed parts of PART rays (on the cast's threads); each part
+draws from its own PCG64 generator seeded from (the scan's noise seed, "cover.part.K"), in ray
+order: the uniforms of the rays that start in the layer, of those whose hit is in it, then of
+the stops drawn again. Each optical depth is -log(1 - u) with detmath's log, so the same scan
+gives the same bytes on every machine, however many threads.
 """
 
 from __future__ import annotations
