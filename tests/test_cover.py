@@ -301,3 +301,12 @@ def test_the_sward_medium_gives_the_same_bytes_on_one_thread_or_two(monkeypatch)
     assert np.array_equal(one.xyz, two.xyz) and np.array_equal(one.label, two.label)
     grass = one.instance >= COVER_INSTANCE_BASE
     assert grass.any() and plan("mixed").cover.inside_layer(one.xyz[grass]).all()
+
+
+def test_the_biomes_bench_finds_the_caves_roof_above_the_terrain_and_none_on_the_hills():
+    from wildscan.bench.biomes import _terrain_overhead
+
+    cave = scan("mixed", "cave", frame="leveled")
+    hills = scan("mixed", "hills", frame="leveled")
+    assert _terrain_overhead(plan("mixed"), cave) > 100
+    assert _terrain_overhead(plan("mixed"), hills) == 0
