@@ -284,3 +284,29 @@ def test_the_realistic_model_puts_pure_sward_echoes_inside_the_layer():
     pure = (cloud.instance >= COVER_INSTANCE_BASE) & (cloud.extra["mixed"] == 0)
     assert pure.sum() > 1000
     assert p.cover.inside_layer(cloud.xyz[pure]).mean() > 0.99
+
+
+def test_the_sward_medium_gives_the_same_bytes_on_one_thread_or_two(monkeypatch):
+    """Its parts are fixed (effects/cover.py PART) and each draws from its own stream, so the
+    threads that share them do not change a ray's stop; a grazing stop that goes on stays in
+    the layer (every held stop is checked against the grid)."""
+    from wildscan.core.effects import cover as medium
+
+    monkeypatch.setattr(medium, "PART", 4096)  # several parts in one scan
+    clouds = []
+    for threads in ("1", "2"):
+        monkeypatch.setenv("WILDSCAN_CAST_THREADS", threads)
+        clouds.append(scan("mixed", "hills").cloud)
+    one, two = clouds
+    assert np.array_equal(one.xyz, two.xyz) and np.array_equal(one.label, two.label)
+    grass = one.instance >= COVER_INSTANCE_BASE
+    assert grass.any() and plan("mixed").cover.inside_layer(one.xyz[grass]).all()
+
+
+def test_the_biomes_bench_finds_the_caves_roof_above_the_terrain_and_none_on_the_hills():
+    from wildscan.bench.biomes import _terrain_overhead
+
+    cave = scan("mixed", "cave", frame="leveled")
+    hills = scan("mixed", "hills", frame="leveled")
+    assert _terrain_overhead(plan("mixed"), cave) > 100
+    assert _terrain_overhead(plan("mixed"), hills) == 0

@@ -10,11 +10,15 @@ That is the turbid-medium model HELIOS++ uses for vegetation voxels (Winiwarter 
 the cell it stopped in, so a grass point lies inside the grass layer and every label stays
 exact. Rays that do not stop keep their surface hit.
 
-Cost: a constant number of array operations a ray, whatever its range.
+Cost: a constant number of array operations a ray in the layer, whatever its range; the rays
+that cannot be in it (above every cell's top within reach, or whose run from the sensor reaches
+their hit) are left out before any cell is looked up.
 
-Determinism: each ray's optical depth is -log(1 - u) with u from a PCG64 generator seeded from
-(the scan's noise seed, "cover"), in ray order, and the log is detmath's, so the same scan gives
-the same bytes on every machine.
+Determinism: the rays are taken in fixed parts of PART rays (on the cast's threads); each part
+draws from its own PCG64 generator seeded from (the scan's noise seed, "cover.part.K"), in ray
+order: the uniforms of the rays that start in the layer, of those whose hit is in it, then of
+the stops drawn again. Each optical depth is -log(1 - u) with detmath's log, so the same scan
+gives the same bytes on every machine, however many threads.
 """
 
 from __future__ import annotations
@@ -35,10 +39,13 @@ from .base import Effect, Rays
 TRAMPLED = 0.45  # m
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
-SETTLE = 6  # times a stop outside its own cell's sward goes on along its run (_settle)
+SETTLE = 4  # times a stop outside its own cell's sward goes on along its run (_settle)
 # rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
 # bytes do not depend on the threads
-PART = 32_768
+PART = 49_152
+# a settle pass on at most this many stops takes the slopes with the cells (one lookup, not two)
+FEW = 4096
+CELL_EXIT = 1e-6  # m past a cell's edge, where a ray going on from it starts (in the next cell)
 
 
 class GroundCover(Effect):
@@ -71,17 +78,14 @@ class GroundCover(Effect):
         n = len(hits.distance)
         o = np.asarray(rays.origins, dtype=np.float64)
         d = np.asarray(rays.directions, dtype=np.float64)
-        # each ray's origin and direction as x, y, z arrays (an origin: 3 numbers, or n each)
-        ray = _Rays(
-            *(o[k] if o.ndim == 1 else np.ascontiguousarray(o[:, k]) for k in range(3)),
-            *(np.ascontiguousarray(d[:, k]) for k in range(3)),
-        )
+        # each ray's origin and direction as x, y, z arrays (an origin: 3 numbers, or n each),
+        # made contiguous a part at a time, on the part's thread
+        ray = _Rays(*(o[k] if o.ndim == 1 else o[:, k] for k in range(3)), *(d[:, k] for k in range(3)))
         end = np.minimum(hits.distance, rays.max_range)
-        u = stage_rng(self.seed, "cover").random((2, n))
         hit = np.isfinite(hits.distance)
 
         def stops(part: slice):
-            return self._stops(ray.part(part), end[part], hit[part], u[:, part], part.start)
+            return self._stops(ray.part(part), end[part], hit[part], part.start)
 
         found = in_parts(stops, n, PART)
         rows = np.concatenate([part.start + r for part, (r, _, _) in zip(_slices(n), found)])
@@ -90,73 +94,78 @@ class GroundCover(Effect):
         at, cls = (np.concatenate([f[k] for f in found]) for k in (1, 2))
         return _with_cover_hits(hits, rows, at, cls, d)
 
-    def _stops(self, ray: _Rays, end, hit, u, first: int):
+    def _stops(self, ray: _Rays, end, hit, first: int):
         """The stops in the layer of one part of the rays (from ray `first` on; `end` each
-        one's hit or max range, `hit` whether it hit, `u` its two uniforms): (rows in the
-        part, where, class)."""
-        # the depths of the stops drawn again (_settle), a stream a part: the same bytes
-        # however many threads share the parts
-        again = stage_rng(self.seed, f"cover.again.{first // PART}")
+        one's hit or max range, `hit` whether it hit): (rows in the part, where, class).
+
+        Both runs of a ray are found first and their stops settled together (one _settle, so
+        its passes are paid once a part); a ray whose run from the sensor holds keeps that
+        stop, else its run to the hit's."""
+        # a stream a part, drawn only for the rays in the layer: the same bytes however many
+        # threads share the parts
+        rng = stage_rng(self.seed, f"cover.part.{first // PART}")
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             horizontal = np.sqrt(ray.dx * ray.dx + ray.dy * ray.dy)
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
-            a, leave, stop_a, cls_a, height_a = self._run_from_sensor(ray, t0, end, u[0])
-            held_a, at_a, class_a = self._held(ray, a, stop_a, leave, cls_a, height_a, again)
-            # the run that ends at the hit, for the rays that did not stop in the first one
-            start = t0.copy()  # where a run to the hit may begin: past the run from the sensor
+            a, leave, stop_a, cls_a, height_a = self._run_from_sensor(ray, t0, end, rng)
+            # a run to the hit begins past the run from the sensor: none where that reaches
+            # the hit (a beam coming down through the sward near the robot, most of them)
+            start = t0
             start[a] = leave
-            unstopped = hit.copy()
-            unstopped[held_a] = False
-            b, stop_b, cls_b, height_b = self._run_to_hit(ray, end, start, np.flatnonzero(unstopped), u[1])
-            held_b, at_b, class_b = self._held(ray, b, stop_b, end[b], cls_b, height_b, again)
-        return (
-            np.concatenate([held_a, held_b]),
-            np.concatenate([at_a, at_b]),
-            np.concatenate([class_a, class_b]),
-        )
-
-    def _held(self, ray: _Rays, rows, stop, end, cls, height, rng):
-        """Of the stops of one run (rows, where each stops or inf, the run's end, its anchor
-        cell's class and layer height): those that hold inside the layer (_settle): (their
-        rows, where, the class of their cell)."""
-        stopped = np.isfinite(stop)
-        rows, stop = rows[stopped], stop[stopped]
-        got = self._settle(ray.rows(rows), stop, end[stopped], cls[stopped], height[stopped], rng)
+            to_hit = np.flatnonzero(hit & (start < end))
+            b, stop_b, cls_b, height_b = self._run_to_hit(ray, end, start, to_hit, rng)
+            ka, kb = np.isfinite(stop_a), np.isfinite(stop_b)
+            rows = np.concatenate([a[ka], b[kb]])
+            stop = np.concatenate([stop_a[ka], stop_b[kb]])
+            run_end = np.concatenate([leave[ka], end.take(b[kb])])
+            anchor_cls = np.concatenate([cls_a[ka], cls_b[kb]])
+            anchor_height = np.concatenate([height_a[ka], height_b[kb]])
+            got = self._settle(ray.rows(rows), stop, run_end, anchor_cls, anchor_height, rng)
         held = got > 0
-        return rows[held], stop[held], got[held]
+        n_a = int(ka.sum())
+        held_a = rows[:n_a][held[:n_a]]
+        taken = np.zeros(len(end), dtype=bool)
+        taken[held_a] = True
+        keep = held.copy()
+        keep[n_a:] &= ~taken[rows[n_a:]]  # the run from the sensor's stop first
+        return rows[keep], stop[keep], got[keep]
 
-    def _run_from_sensor(self, ray: _Rays, t0, end, u):
+    def _run_from_sensor(self, ray: _Rays, t0, end, rng):
         """The run from the sensor, past the trampled ground, until the ray rises out of the
         layer (or reaches its hit): (the rays that start it inside the layer, where each leaves
-        the layer, where each stops in it or inf)."""
+        the layer, where each stops in it or inf, the class and layer height where it starts)."""
         rows = np.flatnonzero((t0 < end) & self._may_start_inside(ray, t0))
-        rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0[rows])
+        rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0.take(rows))
         leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
-        leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end[rows])
-        return rows, leave, _stop(t, leave, cls, height, u[rows]), cls, height
+        leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end.take(rows))
+        return rows, leave, _stop(t, leave, cls, height, rng.random(len(rows))), cls, height
 
-    def _run_to_hit(self, ray: _Rays, end, start, rows, u):
+    def _run_to_hit(self, ray: _Rays, end, start, rows, rng):
         """The run that ends at the hit of each of `rows`, from where the ray came down into
         the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
         in it or inf, the class and layer height at the hit)."""
-        at = np.maximum(end[rows] - BEFORE_HIT, 0.0)
+        at = np.maximum(end.take(rows) - BEFORE_HIT, 0.0)
         if np.ndim(ray.oz) == 0 and len(rows):  # one origin: none above the layer's top within reach
             reach = float(at.max())
             low = ray.oz + ray.dz.take(rows) * at <= self.grid.top_within(ray.ox, ray.oy, reach)
             rows, at = rows[low], at[low]
         rows, _, (cls, above, height, rate) = self._inside(ray, rows, at)
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
-        stop_end = end[rows]
-        begin = np.maximum(stop_end - back, start[rows])
-        return rows, _stop(begin, stop_end, cls, height, u[rows]), cls, height
+        stop_end = end.take(rows)
+        begin = np.maximum(stop_end - back, start.take(rows))
+        return rows, _stop(begin, stop_end, cls, height, rng.random(len(rows))), cls, height
 
     def _inside(self, ray: _Rays, rows, t):
         """Of `rows`, those whose point t along lies inside the layer: (those rows, their t,
-        _layer's class, height above the terrain, layer height and rate there)."""
-        x, y, z = ray.at(rows, t)
-        near = self.grid.may_be_inside_at(x, y, z)
-        rows, t, x, y, z = rows[near], t[near], x[near], y[near], z[near]
-        cls, above, height, rate, inside = self._layer(x, y, z, ray.rows(rows))
+        class, height above the terrain, layer height and rate there: the height above the
+        terrain changes along the ray at that rate, its climb less the slope of the terrain)."""
+        r = ray.rows(rows)
+        x, y, z = r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
+        near, (cls, height, ground, gx, gy) = self.grid.surface_near(x, y, z)
+        r, above = r.rows(near), z.take(near) - ground
+        rate = r.dz - (gx * r.dx + gy * r.dy)
+        inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
+        rows, t = rows.take(near), t.take(near)
         return rows[inside], t[inside], (cls[inside], above[inside], height[inside], rate[inside])
 
     def _settle(self, ray: _Rays, stop, end, anchor_cls, anchor_height, rng):
@@ -168,46 +177,61 @@ class GroundCover(Effect):
         is above it): its depth is drawn again (from `rng`), in this cell's sward or, where this
         cell has none, in the anchor's, until its run's `end`; at most SETTLE times, then it
         passes. (Dropping such stops instead would let grazing beams through a meadow far more
-        often than Beer-Lambert says.)"""
+        often than Beer-Lambert says.) The passes after the first are on a few rays each: they
+        take the terrain's slopes with the cells (one lookup a pass)."""
         cls = np.zeros(len(stop), dtype=np.int16)
         todo = np.arange(len(stop))
         for attempt in range(SETTLE + 1):
             if len(todo) == 0:
                 break
-            x, y, z = ray.at(todo, stop[todo])
-            c, above, height, _, inside = self._layer(x, y, z, None)
+            r, t = ray.rows(todo), stop.take(todo)
+            x, y, z = r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
+            few = len(todo) <= FEW
+            c, height, ground, gx, gy = self.grid.surface_at(x, y, slopes=few)
+            above = z - ground
+            inside = (c > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
             cls[todo[inside]] = c[inside]
             out = np.flatnonzero(~inside)
             rows = todo[out]
-            t = stop[rows]
+            t = t[out]
             stop[rows] = np.inf
             if attempt == SETTLE or len(out) == 0:
                 break
-            # above a lower sward the ray comes down into: on from where it enters it
-            high = np.flatnonzero((c[out] > 0) & (above[out] > height[out]))
-            rate = self._rate(x[out[high]], y[out[high]], ray.rows(rows[high]))
+            # above a lower sward the ray comes down into: on from where it enters it; over
+            # bare ground or rising above this cell's sward: on from where it leaves the cell
+            # (none of its stops would hold before, and the depths are memoryless: the law of
+            # the next stop is that of the stops drawn again and again until one is past it)
+            c, above, height = c[out], above[out], height[out]
+            high = np.flatnonzero((c > 0) & (above > height))
+            hr = r.rows(out[high])
+            if few:
+                rate = hr.dz - (gx[out[high]] * hr.dx + gy[out[high]] * hr.dy)
+            else:
+                rate = self._rate(x[out[high]], y[out[high]], hr)
             down = high[rate < 0]
-            t[down] += (above[out[down]] - height[out[down]]) / -rate[rate < 0]
-            here = c[out] > 0
-            medium_cls = np.where(here, c[out], anchor_cls[rows])
-            medium_height = np.where(here, height[out], anchor_height[rows])
+            t[down] += (above[down] - height[down]) / -rate[rate < 0]
+            on = np.concatenate([np.flatnonzero(c == 0), high[rate >= 0]])
+            t[on] = self._cell_exit(x[out[on]], y[out[on]], r.rows(out[on]), t[on])
+            here = c > 0
+            medium_cls = np.where(here, c, anchor_cls[rows])
+            medium_height = np.where(here, height, anchor_height[rows])
             stop[rows] = _stop(t, end[rows], medium_cls, medium_height, rng.random(len(rows)))
             todo = rows[np.isfinite(stop[rows])]
         return cls
 
-    def _layer(self, x, y, z, ray: _Rays | None):
-        """At points (x, y, z) along rays `ray`: the cover class, the height above the
-        terrain, the layer's height, how fast the height above the terrain changes along the
-        ray (its climb less the terrain's slope along it, per metre; None without `ray`) and
-        whether the point is inside the layer."""
-        cls, height, ground, gx, gy = self.grid.surface_at(x, y, slopes=ray is not None)
-        above = z - ground
-        rate = None if ray is None else ray.dz - (gx * ray.dx + gy * ray.dy)
-        inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
-        return cls, above, height, rate, inside
+    def _cell_exit(self, x, y, ray: _Rays, t):
+        """Where the rays `ray`, at t along them at (x, y), leave their cell (in x and y; a
+        micrometre past its edge): inf for a ray with no way out (straight up or down)."""
+        g = self.grid
+        ix = np.floor((x - g.x0) / g.cell)
+        iy = np.floor((y - g.y0) / g.cell)
+        to_x = ((ix + (ray.dx > 0)) * g.cell + g.x0 - x) / ray.dx
+        to_y = ((iy + (ray.dy > 0)) * g.cell + g.y0 - y) / ray.dy
+        out = t + np.minimum(np.where(ray.dx != 0, to_x, np.inf), np.where(ray.dy != 0, to_y, np.inf))
+        return out + CELL_EXIT
 
     def _rate(self, x, y, ray: _Rays):
-        """_layer's rate alone."""
+        """How fast the height above the terrain changes along the rays at points (x, y)."""
         _, _, _, gx, gy = self.grid.surface_at(x, y)
         return ray.dz - (gx * ray.dx + gy * ray.dy)
 
@@ -242,7 +266,7 @@ class _Rays:
 
     def part(self, part: slice) -> _Rays:
         def cut(v):
-            return v if np.ndim(v) == 0 else v[part]
+            return v if np.ndim(v) == 0 else np.ascontiguousarray(v[part])
 
         return _Rays(*(cut(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
 

@@ -152,6 +152,27 @@ class CoverGrid:
             cls, height = np.where(out, 0, cls), np.where(out, 0.0, height)
         return cls.astype(np.int16), height, ground, gx, gy
 
+    def surface_near(self, x: np.ndarray, y: np.ndarray, z: np.ndarray):
+        """The points (x, y, z) that may lie in the layer (may_be_inside_at), as indices, and
+        surface_at (with slopes) at those: one cell lookup for both, the same values."""
+        ny, nx = self.shape
+        fx = (x - self.x0) / self.cell
+        fy = (y - self.y0) / self.cell
+        i = np.floor(fx).astype(np.int64)
+        j = np.floor(fy).astype(np.int64)
+        inside = (i.astype(np.uint64) < nx) & (j.astype(np.uint64) < ny)  # negatives wrap to huge
+        flat = j * nx + i if inside.all() else np.clip(j, 0, ny - 1) * nx + np.clip(i, 0, nx - 1)
+        near = np.flatnonzero(inside & (z <= self._tops().take(flat)))
+        flat = flat.take(near)
+        # inside the grid fx - i lies in [0, 1): surface_at's values, exactly
+        tx, ty = fx.take(near) - i.take(near), fy.take(near) - j.take(near)
+        z00, z10, z01, z11, height, cls = self._cell_table().take(flat, axis=0).T
+        sx, sy = 1 - tx, 1 - ty
+        ground = (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
+        gx = ((z10 - z00) * sy + (z11 - z01) * ty) / self.cell
+        gy = ((z01 - z00) * sx + (z11 - z10) * tx) / self.cell
+        return near, (cls.astype(np.int16), height, ground, gx, gy)
+
     def _cell_table(self) -> np.ndarray:
         """(ny * nx, 6) float64, a row a cell (row-major): the terrain at its four corners
         (x0y0, x1y0, x0y1, x1y1), its layer's height and its class. Built once: surface_at()
