@@ -41,13 +41,13 @@ computed hits are products and sums in a fixed order (detmath): the same bytes o
 from __future__ import annotations
 
 import functools
-import os
 
 import numpy as np
 
 from . import detmath as dm
 from .classes import PARTICLE_ID, class_by_name
 from .hits import RayHits
+from .footprint import subray_directions
 from .sensors import Device, sweep_count
 
 # A neighbour's point this far off the plane of the axis's hit (m) marks an edge or a fold. A
@@ -65,10 +65,15 @@ GRAZING_COS = 0.3
 # angle's sine: 1 % at 0.5 deg).
 PARALLEL_COS = 0.99996
 THIN_REACH = (2, 2)  # beams along the scan line and columns around a thin element's, cast whole
-EMPTY_REACH = tuple(int(x) for x in os.environ.get("C2F_EMPTY_REACH", "3,2").split(","))
+# A beam whose axis met nothing, nor did any axis this many beams along the scan line and
+# columns around it, has a ring that meets nothing: a twig, a blade or a wire against the sky
+# is met by some axis near it (measured on the realism poses: 8 and 8 lose under 1 % of the
+# high grass and wire points a cast ring finds, 2 and 2 up to 20 %).
+EMPTY_REACH = (8, 8)
 # Elements whose footprint is a mix by nature, or thin enough to lie between two axes.
-POROUS = tuple(n for n in os.environ.get("C2F_POROUS", "treetop,bush,low grass,high grass").split(",") if n)
+POROUS = ("treetop", "bush", "low grass", "high grass")
 THIN = ("wire", "pole")
+SIDES = 4  # a beam's neighbours: before and after along the scan line, the columns before and after
 
 
 def _class_mask(names) -> np.ndarray:
@@ -83,163 +88,208 @@ _THIN = _class_mask(THIN)
 
 
 class BeamGrid:
-    """Beams as a scan lays them out: columns (one a head angle, `per_column` beams each, in
-    firing order), several head sweeps of `columns` columns one after another. `neighbours`
-    (4, N): the beam before and after along the scan line (by angle from the axis) and the
-    same beam in the column before and after (of the same sweep); -1 where there is none."""
+    """Beams as a scan lays them out (sensors.beam_directions' order): columns, one a head
+    angle, of `per_column` beams in firing order; `sweeps` head sweeps of `columns` columns
+    one after another. `view` lays an array over the beams out as (columns, beams) with the
+    beams of a column in order of their angle from the axis, so a beam's neighbours are the
+    next entries: along the scan line within a row, across columns (of one sweep) between
+    rows."""
 
     def __init__(self, from_axis_deg, columns: int, sweeps: int = 1):
-        per_column = len(from_axis_deg)
         order = np.argsort(np.asarray(from_axis_deg, dtype=np.float64), kind="stable")
-        before = np.full(per_column, -1, dtype=np.int64)
-        after = np.full(per_column, -1, dtype=np.int64)
-        before[order[1:]] = order[:-1]
-        after[order[:-1]] = order[1:]
-        total = columns * sweeps
-        column = np.repeat(np.arange(total, dtype=np.int64), per_column)
-        beam = np.tile(np.arange(per_column, dtype=np.int64), total)
-        start = column * per_column
-        in_sweep = column % columns
-        out = np.empty((4, total * per_column), dtype=np.int64)
-        out[0] = np.where(before[beam] >= 0, start + before[beam], -1)
-        out[1] = np.where(after[beam] >= 0, start + after[beam], -1)
-        out[2] = np.where(in_sweep > 0, start - per_column + beam, -1)
-        out[3] = np.where(in_sweep < columns - 1, start + per_column + beam, -1)
-        self.per_column = per_column
-        self.neighbours = out
-        out.flags.writeable = False
+        self.per_column = len(order)
+        self.columns = columns
+        self.shape = (columns * sweeps, self.per_column)
+        self._order = None if (order == np.arange(len(order))).all() else order
+        self._back = None if self._order is None else np.argsort(order)
+        # pairs of consecutive columns within one sweep (rows i, i + 1 of `view`)
+        self.same_sweep = (np.arange(self.shape[0] - 1) + 1) % columns != 0
 
     def __len__(self) -> int:
-        return self.neighbours.shape[1]
+        return self.shape[0] * self.shape[1]
+
+    def view(self, values: np.ndarray) -> np.ndarray:
+        """(N, ...) values of the beams as (columns, beams by angle, ...)."""
+        grid = values.reshape(self.shape + values.shape[1:])
+        return grid if self._order is None else grid[:, self._order]
+
+    def unview(self, grid: np.ndarray) -> np.ndarray:
+        """`view`'s inverse: (N, ...) in the beams' order."""
+        if self._order is not None:
+            grid = grid[:, self._back]
+        return grid.reshape((len(self),) + grid.shape[2:])
+
+    def sides(self, sub_dirs: np.ndarray) -> np.ndarray:
+        """(S - 1, columns, beams) int8: for each ring sub-ray of the footprints `sub_dirs`
+        (S, N, 3 in the beams' order, sub-ray 0 the axis), the side its offset from the axis
+        points to most nearly: 0 the beam before along the scan line, 1 the one after, 2 the
+        column before, 3 the one after (whether or not that neighbour exists). Which it is
+        changes over a scan: the UTM-30LX-EW's fan crosses the head's axis, where the way
+        across columns turns round."""
+        axis = self.view(sub_dirs[0])
+        unit = []
+        for along in (1, 0):  # along the scan line, then across columns: central differences
+            step = np.empty_like(axis)
+            inner = [slice(None)] * 2
+            inner[along] = slice(1, -1)
+            ahead, behind = list(inner), list(inner)
+            ahead[along], behind[along] = slice(2, None), slice(None, -2)
+            step[tuple(inner)] = axis[tuple(ahead)] - axis[tuple(behind)]
+            first, second, last, before_last = ([slice(None)] * 2 for _ in range(4))
+            first[along], second[along], last[along], before_last[along] = 0, 1, -1, -2
+            step[tuple(first)] = axis[tuple(second)] - axis[tuple(first)]
+            step[tuple(last)] = axis[tuple(last)] - axis[tuple(before_last)]
+            with np.errstate(invalid="ignore"):  # where columns meet (the head's axis): no way across
+                unit.append(np.nan_to_num(step / dm.norm(step)[..., None]))
+        out = np.empty((len(sub_dirs) - 1,) + self.shape, dtype=np.int8)
+        for k, ring in enumerate(sub_dirs[1:]):
+            offset = self.view(ring) - axis
+            line, across = dm.dot3(offset, unit[0]), dm.dot3(offset, unit[1])
+            out[k] = np.where(np.abs(line) >= np.abs(across), (line > 0) * 1, 2 + (across > 0) * 1)
+        return out
 
 
 @functools.lru_cache(maxsize=4)
-def scan_grid(device: Device, rh_deg: float) -> BeamGrid:
-    """The grid of the beams of sensors.beam_directions(rh_deg, device), cached."""
+def scan_grid(device: Device, rh_deg: float, divergence_mrad: float) -> tuple[BeamGrid, np.ndarray] | None:
+    """(the grid of the beams of sensors.beam_directions(rh_deg, device), the side of each
+    ring sub-ray of a footprint of `divergence_mrad`: BeamGrid.sides), cached; None where the
+    scan is too small a grid (fewer than 3 beams or columns): then every sub-ray is cast."""
     columns = sweep_count(rh_deg, device.mount)
     sweeps = device.head.steps if device.head is not None else 1
-    return BeamGrid(device.beams.from_axis_deg, columns, sweeps)
+    grid = BeamGrid(device.beams.from_axis_deg, columns, sweeps)
+    if min(grid.shape) < 3:
+        return None
+    sides = grid.sides(subray_directions(rh_deg, divergence_mrad, device))
+    sides.flags.writeable = False
+    return grid, sides
 
 
-def needs_footprint(axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid) -> np.ndarray:
-    """(N,) bool: the beams whose ring sub-rays must be cast (see the module docstring), from
-    the hits of every beam's axis (with normals) in the grid's order."""
-    nb = grid.neighbours
-    present = np.logical_and.reduce(nb >= 0, axis=0)
-    at = np.where(nb >= 0, nb, 0)
-    distance, cls, instance = axis.distance, axis.class_id, axis.instance
+def rings_to_cast(axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid, sides: np.ndarray) -> np.ndarray:
+    """(S - 1, N) bool: the ring sub-rays that must be cast (see the module docstring), from
+    the hits of every beam's axis (with normals) and the side of each ring sub-ray."""
+    view = grid.view
+    distance, cls, instance = view(axis.distance), view(axis.class_id), view(axis.instance)
     hit = np.isfinite(distance)
-    # nothing met in a window around: the ring meets nothing either
-    empty = ~_grown(hit, grid, EMPTY_REACH)
     known = (cls >= 0) & (cls < len(_POROUS))
     cls_index = np.where(known, cls, 0)
-    smooth = hit & known & ~_POROUS[cls_index] & ~_THIN[cls_index]
-    for k in range(nb.shape[0]):
-        smooth &= (instance[at[k]] == instance) & (cls[at[k]] == cls) & hit[at[k]]
-    normal = axis.normal
-    facing = dm.dot3(normal, axis_dirs)
-    smooth &= np.abs(facing) >= GRAZING_COS
-    # each neighbour's point measured off the axis's plane: n·(t' a' - t a), from the optical
-    # centre both leave (the origin cancels)
-    with np.errstate(invalid="ignore"):
-        own = facing * distance
-        for k in range(nb.shape[0]):
-            off = dm.dot3(normal, axis_dirs[at[k]]) * distance[at[k]] - own
-            smooth &= np.abs(off) <= FLAT_TOLERANCE
-            smooth &= np.abs(dm.dot3(normal, normal[at[k]])) >= PARALLEL_COS
     thin = hit & known & _THIN[cls_index]
-    coarse = present & (empty | smooth) & ~_grown(thin, grid, THIN_REACH)
-    return ~coarse
+    normal = [np.ascontiguousarray(view(axis.normal[:, k])) for k in range(3)]
+    direction = [view(axis_dirs[:, k]) for k in range(3)]
+    with np.errstate(invalid="ignore", over="ignore"):
+        point = [distance * direction[k] for k in range(3)]  # from the optical centre
+        facing = (normal[0] * direction[0] + normal[1] * direction[1]) + normal[2] * direction[2]
+        solid = hit & known & ~_POROUS[cls_index] & ~thin & (np.abs(facing) >= GRAZING_COS)
+        same = _same_plane(grid, solid, cls, instance, point, normal)
+    empty = ~_grown(hit, EMPTY_REACH)
+    near_thin = _grown(thin, THIN_REACH)
+    same = np.stack(same)
+    cast = np.empty((len(sides), len(grid)), dtype=bool)
+    for k, side in enumerate(sides):
+        on_plane = np.take_along_axis(same, side[None].astype(np.intp), axis=0)[0]
+        cast[k] = grid.unview(~((on_plane | empty) & ~near_thin))
+    return cast
 
 
-def _grown(mark: np.ndarray, grid: BeamGrid, reach: tuple[int, int]) -> np.ndarray:
-    """`mark` grown by reach[0] beams each way along the scan line, then by reach[1] columns
-    each way (a rectangle of the grid around every marked beam)."""
-    grown = mark
-    for side, steps in ((0, reach[0]), (2, reach[1])):
-        for _ in range(steps):
-            step = grown.copy()
-            for k in (side, side + 1):
-                nb = grid.neighbours[k]
-                has = nb >= 0
-                step[has] |= grown[nb[has]]
-            grown = step
+def _same_plane(grid: BeamGrid, solid, cls, instance, point, normal) -> list[np.ndarray]:
+    """Per side (neighbour_offsets' order), (columns, beams): the beam and its neighbour on
+    that side met the same element on one plane (each point within FLAT_TOLERANCE of the
+    other's plane, the planes within PARALLEL_COS), both `solid`."""
+    out = [np.zeros(grid.shape, dtype=bool) for _ in range(SIDES)]
+    lower = ((slice(None), slice(None, -1)), (slice(None, -1), slice(None)))
+    upper = ((slice(None), slice(1, None)), (slice(1, None), slice(None)))
+    for along, (a, b) in enumerate(zip(lower, upper)):
+        gap = [point[k][b] - point[k][a] for k in range(3)]
+        off_a = (normal[0][a] * gap[0] + normal[1][a] * gap[1]) + normal[2][a] * gap[2]
+        off_b = (normal[0][b] * gap[0] + normal[1][b] * gap[1]) + normal[2][b] * gap[2]
+        parallel = (normal[0][a] * normal[0][b] + normal[1][a] * normal[1][b]) + normal[2][a] * normal[2][b]
+        pair = solid[a] & solid[b] & (cls[a] == cls[b]) & (instance[a] == instance[b])
+        pair &= (np.abs(off_a) <= FLAT_TOLERANCE) & (np.abs(off_b) <= FLAT_TOLERANCE)
+        pair &= np.abs(parallel) >= PARALLEL_COS
+        if along == 1:
+            pair &= grid.same_sweep[:, None]
+        out[2 * along + 1][a] = pair  # the neighbour after (along the line, or the next column)
+        out[2 * along][b] = pair  # the one before
+    return out
+
+
+def _grown(mark: np.ndarray, reach: tuple[int, int]) -> np.ndarray:
+    """`mark` (columns, beams) grown by reach[0] beams each way along the scan line, then by
+    reach[1] columns each way: true wherever a marked beam lies in that rectangle around."""
+    grown = mark.copy()
+    for step in range(1, reach[0] + 1):
+        grown[:, step:] |= mark[:, :-step]
+        grown[:, :-step] |= mark[:, step:]
+    rows = grown.copy()
+    for step in range(1, reach[1] + 1):
+        grown[step:] |= rows[:-step]
+        grown[:-step] |= rows[step:]
     return grown
 
 
-def planar_ring(axis: RayHits, sub_world: np.ndarray, beams: np.ndarray, cast_range: float) -> RayHits:
-    """The hits of the ring sub-rays (S - 1 of them, sub-ray-major as `sub_world[1:]`) of
-    `beams`, computed on the plane of each one's axis hit: t_k = t_0 (n·a)/(n·s_k) (none past
-    `cast_range`, none where the axis met nothing), the axis's element, normal and
-    reflectivity."""
-    ring = sub_world[1:, beams]
-    rings = ring.shape[0]
-    t0 = axis.distance.take(beams)
-    normal = axis.normal.take(beams, axis=0)
-    facing = dm.dot3(normal, sub_world[0].take(beams, axis=0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (t0 * facing)[None] / dm.dot3(normal[None], ring)
-    met = np.isfinite(t) & (t > 0) & (t <= cast_range)
-    distance = np.where(met, t, np.inf).ravel()
-    met = met.ravel()
-
-    def tiled(values, missing):
-        out = np.tile(values.take(beams, axis=0), (rings,) + (1,) * (values.ndim - 1))
-        out[~met] = missing
-        return out
-
-    return RayHits(
-        distance=distance,
-        class_id=tiled(axis.class_id, -1),
-        instance=tiled(axis.instance, -1),
-        untagged_objects=axis.untagged_objects,
-        normal=tiled(axis.normal, 0.0),
-        reflectivity=None if axis.reflectivity is None else tiled(axis.reflectivity, np.nan),
-    )
-
-
-def footprint_hits(cast, origin: np.ndarray, sub_world: np.ndarray, cast_range: float, grid: BeamGrid):
-    """(the first hits of every sub-ray (S·N, sub-ray-major, as one cast of them all would
-    give, with normals), the beams whose ring was cast). `cast(origins, dirs, max_range,
-    normals)` is the backend's cast; the axes are cast, then the rings of the beams
-    `needs_footprint` names; the other rings are `planar_ring`'s."""
+def footprint_hits(cast, origin: np.ndarray, sub_world: np.ndarray, cast_range: float, grid, sides):
+    """(the first hits of every sub-ray (S·N, sub-ray-major, as one cast of them all gives,
+    with normals), the ring sub-rays that were cast ((S - 1, N) bool)). `cast(origins, dirs,
+    max_range, normals)` is the backend's cast: the axes are cast, then the ring sub-rays
+    `rings_to_cast` names; the others meet the plane of their axis's hit (module docstring)."""
     s, n, _ = sub_world.shape
     axis = cast(origin, sub_world[0], cast_range, True)
-    fine = needs_footprint(axis, sub_world[0], grid)
-    cast_beams = np.flatnonzero(fine)
-    computed = np.flatnonzero(~fine)
-    ring_cast = cast(origin, sub_world[1:, cast_beams].reshape(-1, 3), cast_range, True)
-    ring_planar = planar_ring(axis, sub_world, computed, cast_range)
-    return _assembled(axis, [(cast_beams, ring_cast), (computed, ring_planar)], s, n), fine
+    fine = rings_to_cast(axis, sub_world[0], grid, sides)
+    hits = _on_axis_planes(axis, sub_world, cast_range)
+    rows = np.flatnonzero(fine)  # over the rings' (S - 1)·N sub-rays, sub-ray-major
+    cast_hits = cast(origin, sub_world[1:].reshape(-1, 3).take(rows, axis=0), cast_range, True)
+    _put_rows(hits, n + rows, cast_hits)
+    return hits, fine
 
 
-def _assembled(axis: RayHits, rings, s: int, n: int) -> RayHits:
-    """One RayHits of S·N sub-rays, sub-ray-major: row 0 the axes, rows 1.. the rings, each of
-    `rings` ((beams, their ring's hits sub-ray-major)) put in its beams' columns."""
-    overrides = axis.reflectivity is not None or any(h.reflectivity is not None for _, h in rings)
+def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float) -> RayHits:
+    """The hits of every sub-ray (S·N, sub-ray-major) on the plane of its beam's axis hit:
+    t_k = t_0 (n·a)/(n·s_k), with the axis's element, normal and reflectivity; none where the
+    axis met nothing or t_k is past `cast_range` (or the plane is parallel to the sub-ray)."""
+    s, n, _ = sub_world.shape
+    normal = axis.normal
+    facing = dm.dot3(normal, sub_world[0])
     distance = np.empty((s, n))
+    distance[0] = axis.distance
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        along = axis.distance * facing
+        for k in range(1, s):
+            distance[k] = along / dm.dot3(normal, sub_world[k])
+    ring = distance[1:]
+    missed = ~((ring > 0) & (ring <= cast_range))  # nan (no axis hit) and inf fail both
+    ring[missed] = np.inf
     cls = np.empty((s, n), dtype=axis.class_id.dtype)
+    cls[:] = axis.class_id
+    cls[1:][missed] = -1
     instance = np.empty((s, n), dtype=axis.instance.dtype)
-    normal = np.empty((s, n, 3))
-    reflectivity = np.empty((s, n), dtype=np.float32) if overrides else None
-    distance[0], cls[0], instance[0], normal[0] = axis.distance, axis.class_id, axis.instance, axis.normal
-    if overrides:
-        reflectivity[0] = axis.overrides()
-    untagged = set(axis.untagged_objects)
-    for beams, hits in rings:
-        shape = (s - 1, len(beams))
-        distance[1:, beams] = hits.distance.reshape(shape)
-        cls[1:, beams] = hits.class_id.reshape(shape)
-        instance[1:, beams] = hits.instance.reshape(shape)
-        normal[1:, beams] = hits.normal.reshape(shape + (3,))
-        if overrides:
-            reflectivity[1:, beams] = hits.overrides().reshape(shape)
-        untagged |= hits.untagged_objects
+    instance[:] = axis.instance
+    instance[1:][missed] = -1
+    normals = np.empty((s, n, 3))
+    normals[:] = normal
+    normals[1:][missed] = 0.0
+    reflectivity = None
+    if axis.reflectivity is not None:
+        reflectivity = np.empty((s, n), dtype=np.float32)
+        reflectivity[:] = axis.reflectivity
+        reflectivity[1:][missed] = np.nan
     return RayHits(
-        distance=distance.ravel(),
-        class_id=cls.ravel(),
-        instance=instance.ravel(),
-        untagged_objects=frozenset(untagged),
-        normal=normal.reshape(-1, 3),
-        reflectivity=None if reflectivity is None else reflectivity.ravel(),
+        distance.ravel(),
+        cls.ravel(),
+        instance.ravel(),
+        axis.untagged_objects,
+        normals.reshape(-1, 3),
+        reflectivity,
     )
+
+
+def _put_rows(hits: RayHits, rows: np.ndarray, new: RayHits) -> None:
+    """`hits`' rows `rows` set to `new`'s (in place; an override array made where `new` has
+    overrides and `hits` none)."""
+    hits.distance[rows] = new.distance
+    hits.class_id[rows] = new.class_id
+    hits.instance[rows] = new.instance
+    hits.normal[rows] = new.normal
+    if new.reflectivity is not None or hits.reflectivity is not None:
+        if hits.reflectivity is None:
+            hits.reflectivity = hits.overrides()
+        hits.reflectivity[rows] = new.overrides()
+    hits.untagged_objects = hits.untagged_objects | new.untagged_objects

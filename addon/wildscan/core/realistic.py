@@ -130,7 +130,7 @@ def realistic_points(
     # single-echo realistic scan hits exactly where the paper's does; the ring is turned.
     sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
     sub_world[1:] = dm.apply(rotation, sub_sensor[1:])
-    grid = scan_grid(sensor.device, float(sensor.rh_deg))
+    grid = scan_grid(sensor.device, float(sensor.rh_deg), float(sensor.divergence_mrad))
     return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads, grid)
 
 
@@ -142,22 +142,22 @@ def echo_points(
     cast_range: float,
     effects: Effects = CLEAR_AIR,
     threads: int | None = None,
-    grid: BeamGrid | None = None,
+    grid: tuple[BeamGrid, np.ndarray] | None = None,
 ):
     """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
     world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's.
     The sub-rays' first hits pass through `effects`' medium; following the axis to settle
     labels (AxisHits) looks at the surfaces alone, so a surface behind a particle keeps its
     exact label, and a particle's echo is on its particle unless it merged with a surface.
-    `grid`: how the beams lie on the scan's grid (coarse_footprint.scan_grid): the rings are
-    then cast only where the footprint may hold more than one surface (coarse to fine); None:
-    every sub-ray is cast."""
+    `grid`: how the beams and their ring sub-rays lie on the scan's grid
+    (coarse_footprint.scan_grid): ring sub-rays are then cast only where the footprint may
+    hold more than one surface (coarse to fine); None: every sub-ray is cast."""
     s, n, _ = sub_world.shape
     rays = sub_world.reshape(-1, 3)
     if grid is None or s == 1:
         clear, fine = cast(origin, rays, cast_range, True), None
     else:
-        clear, fine = footprint_hits(cast, origin, sub_world, cast_range, grid)
+        clear, fine = footprint_hits(cast, origin, sub_world, cast_range, *grid)
     hits = effects.medium(Rays(origin, rays, cast_range), clear)
     echoes = beam_echoes(hits, sub_world, sensor, threads)
     measured = _measured_ranges(echoes, sensor, n)
@@ -181,7 +181,7 @@ def echo_points(
         "water_subrays": int(np.count_nonzero(hits.class_id == WATER_ID)),
     }
     if fine is not None:
-        stats["footprints_cast"] = int(np.count_nonzero(fine))
+        stats["ring_subrays_cast"] = int(np.count_nonzero(fine))
     if hits is not clear:
         stats["particle_points"] = int(particle.sum())
     return RealisticPoints(
