@@ -49,6 +49,7 @@ from .classes import PARTICLE_ID, class_by_name
 from .footprint import subray_directions
 from .hits import RayHits
 from .sensors import Device, sweep_count
+from .threads import in_parts
 
 # A neighbour's point this far off the plane of the axis's hit (m) marks an edge or a fold. A
 # ring sub-ray lies a third of the way to its nearest neighbour (1.5 of 4.4 mrad for the
@@ -73,6 +74,7 @@ EMPTY_REACH = (8, 8)
 # Elements whose footprint is a mix by nature, or thin enough to lie between two axes.
 POROUS = ("treetop", "bush", "low grass", "high grass")
 THIN = ("wire", "pole")
+BLOCK = 32_768  # beams a block of _on_axis_planes (fixed: the bytes do not depend on the threads)
 SIDES = 4  # a beam's neighbours: before and after along the scan line, the columns before and after
 
 
@@ -227,59 +229,61 @@ def _grown(mark: np.ndarray, reach: tuple[int, int]) -> np.ndarray:
     return grown
 
 
-def footprint_hits(cast, origin: np.ndarray, sub_world: np.ndarray, cast_range: float, grid, sides):
+def footprint_hits(
+    cast, origin: np.ndarray, sub_world: np.ndarray, cast_range: float, grid, sides, threads=None
+):
     """(the first hits of every sub-ray (S·N, sub-ray-major, as one cast of them all gives,
     with normals), the ring sub-rays that were cast ((S - 1, N) bool)). `cast(origins, dirs,
     max_range, normals)` is the backend's cast: the axes are cast, then the ring sub-rays
-    `rings_to_cast` names; the others meet the plane of their axis's hit (module docstring)."""
+    `rings_to_cast` names; the others meet the plane of their axis's hit (module docstring).
+    `threads`: those the cast uses (None: threads.cast_threads())."""
     s, n, _ = sub_world.shape
     axis = cast(origin, sub_world[0], cast_range, True)
     fine = rings_to_cast(axis, sub_world[0], grid, sides)
-    hits = _on_axis_planes(axis, sub_world, cast_range)
+    hits = _on_axis_planes(axis, sub_world, cast_range, threads)
     rows = np.flatnonzero(fine)  # over the rings' (S - 1)·N sub-rays, sub-ray-major
     cast_hits = cast(origin, sub_world[1:].reshape(-1, 3).take(rows, axis=0), cast_range, True)
     _put_rows(hits, n + rows, cast_hits)
     return hits, fine
 
 
-def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float) -> RayHits:
+def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, threads=None) -> RayHits:
     """The hits of every sub-ray (S·N, sub-ray-major) on the plane of its beam's axis hit:
     t_k = t_0 (n·a)/(n·s_k), with the axis's element, normal and reflectivity; none where the
-    axis met nothing or t_k is past `cast_range` (or the plane is parallel to the sub-ray)."""
+    axis met nothing or t_k is past `cast_range` (or the plane is parallel to the sub-ray).
+    Made a block of BLOCK beams at a time on `threads` (each beam's are its own)."""
     s, n, _ = sub_world.shape
-    normal = axis.normal
-    facing = dm.dot3(normal, sub_world[0])
     distance = np.empty((s, n))
-    distance[0] = axis.distance
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        along = axis.distance * facing
-        for k in range(1, s):
-            distance[k] = along / dm.dot3(normal, sub_world[k])
-    ring = distance[1:]
-    missed = ~((ring > 0) & (ring <= cast_range))  # nan (no axis hit) and inf fail both
-    ring[missed] = np.inf
     cls = np.empty((s, n), dtype=axis.class_id.dtype)
-    cls[:] = axis.class_id
-    cls[1:][missed] = -1
     instance = np.empty((s, n), dtype=axis.instance.dtype)
-    instance[:] = axis.instance
-    instance[1:][missed] = -1
     normals = np.empty((s, n, 3))
-    normals[:] = normal
-    normals[1:][missed] = 0.0
-    reflectivity = None
-    if axis.reflectivity is not None:
-        reflectivity = np.empty((s, n), dtype=np.float32)
-        reflectivity[:] = axis.reflectivity
-        reflectivity[1:][missed] = np.nan
-    return RayHits(
-        distance.ravel(),
-        cls.ravel(),
-        instance.ravel(),
-        axis.untagged_objects,
-        normals.reshape(-1, 3),
-        reflectivity,
-    )
+    overrides = axis.reflectivity
+    reflectivity = None if overrides is None else np.empty((s, n), dtype=np.float32)
+
+    def block(b: slice) -> None:
+        normal = axis.normal[b]
+        distance[0, b] = axis.distance[b]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            along = axis.distance[b] * dm.dot3(normal, sub_world[0, b])
+            for k in range(1, s):
+                distance[k, b] = along / dm.dot3(normal, sub_world[k, b])
+        ring = distance[1:, b]
+        missed = ~((ring > 0) & (ring <= cast_range))  # nan (no axis hit) and inf fail both
+        ring[missed] = np.inf
+        for out, values, none in (
+            (cls, axis.class_id, -1),
+            (instance, axis.instance, -1),
+            (normals, normal, 0.0),
+        ):
+            out[:, b] = values[b] if values is not normal else normal
+            out[1:, b][missed] = none
+        if reflectivity is not None:
+            reflectivity[:, b] = overrides[b]
+            reflectivity[1:, b][missed] = np.nan
+
+    in_parts(block, n, BLOCK, threads)
+    flat = (distance.ravel(), cls.ravel(), instance.ravel(), axis.untagged_objects)
+    return RayHits(*flat, normal=normals.reshape(-1, 3), reflectivity=reflectivity)
 
 
 def _put_rows(hits: RayHits, rows: np.ndarray, new: RayHits) -> None:

@@ -27,7 +27,7 @@ from .coarse_footprint import BeamGrid, footprint_hits, scan_grid
 from .echoes import Echoes, SubrayReturns, form_echoes
 from .effects import CLEAR_AIR, Effects, Rays
 from .errors import UserError
-from .footprint import subray_directions, subray_weights
+from .footprint import ring_columns, subray_directions, subray_weights, turn_rings
 from .hits import RayHits
 from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
 from .threads import in_parts
@@ -129,7 +129,9 @@ def realistic_points(
     # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
     # single-echo realistic scan hits exactly where the paper's does; the ring is turned.
     sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
-    sub_world[1:] = dm.apply(rotation, sub_sensor[1:])
+    columns = ring_columns(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
+    ring = sub_world[1:]
+    in_parts(lambda beams: turn_rings(rotation, columns, ring, beams), ring.shape[1], BEAM_BLOCK, threads)
     grid = scan_grid(sensor.device, float(sensor.rh_deg), float(sensor.divergence_mrad))
     return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads, grid)
 
@@ -157,7 +159,7 @@ def echo_points(
     if grid is None or s == 1:
         clear, fine = cast(origin, rays, cast_range, True), None
     else:
-        clear, fine = footprint_hits(cast, origin, sub_world, cast_range, *grid)
+        clear, fine = footprint_hits(cast, origin, sub_world, cast_range, *grid, threads)
     hits = effects.medium(Rays(origin, rays, cast_range), clear)
     echoes = beam_echoes(hits, sub_world, sensor, threads)
     measured = _measured_ranges(echoes, sensor, n)
