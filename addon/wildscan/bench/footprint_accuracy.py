@@ -116,7 +116,7 @@ def accuracy_table(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
             f"{r['count_differs']:.2%}",
             f"{r['max_range_diff'] * 1000:.1f} mm",
             f"{r['points_full']:,} / {r['points_fine']:,}",
-            f"{r['worst_class']} {r['worst_class_lost']:.1%}",
+            f"{r['worst_class']} {r['worst_class_lost']:.1%}" if r["worst_class_lost"] > 0 else "none",
         ]
         for r in rows
     ]
