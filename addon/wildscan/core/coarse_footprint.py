@@ -184,11 +184,15 @@ def rings_to_cast(axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid, sides: n
         same = _same_plane(grid, solid, cls, instance, point, normal)
     empty = ~_grown(hit, EMPTY_REACH)
     near_thin = _grown(thin, THIN_REACH)
-    same = np.stack(same)
+    computed = empty & ~near_thin
     cast = np.empty((len(sides), len(grid)), dtype=bool)
-    for k, side in enumerate(sides):
-        on_plane = np.take_along_axis(same, side[None].astype(np.intp), axis=0)[0]
-        cast[k] = grid.unview(~((on_plane | empty) & ~near_thin))
+    for k, toward in enumerate(sides):
+        on_plane = np.zeros(grid.shape, dtype=bool)
+        for side in range(SIDES):
+            pointing = toward == side
+            if pointing.any():  # (a ring sub-ray points to one or two sides over a scan)
+                on_plane |= pointing & same[side]
+        cast[k] = grid.unview(~(computed | (on_plane & ~near_thin)))
     return cast
 
 
@@ -262,24 +266,28 @@ def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, thr
 
     def block(b: slice) -> None:
         normal = axis.normal[b]
-        distance[0, b] = axis.distance[b]
+        t0 = axis.distance[b]
+        distance[0, b] = t0
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            along = axis.distance[b] * dm.dot3(normal, sub_world[0, b])
+            # an axis that met nothing has a zero normal: inf * 0 / 0 = nan, fixed below
+            along = t0 * dm.dot3(normal, sub_world[0, b])
             for k in range(1, s):
                 distance[k, b] = along / dm.dot3(normal, sub_world[k, b])
         ring = distance[1:, b]
-        missed = ~((ring > 0) & (ring <= cast_range))  # nan (no axis hit) and inf fail both
-        ring[missed] = np.inf
-        for out, values, none in (
-            (cls, axis.class_id, -1),
-            (instance, axis.instance, -1),
-            (normals, normal, 0.0),
-        ):
-            out[:, b] = values[b] if values is not normal else normal
-            out[1:, b][missed] = none
+        cls[:, b] = axis.class_id[b]
+        instance[:, b] = axis.instance[b]
+        normals[:, b] = normal
         if reflectivity is not None:
             reflectivity[:, b] = overrides[b]
-            reflectivity[1:, b][missed] = np.nan
+        # none where the axis met nothing (its class, instance and normal say none already),
+        # nor past cast_range, behind the origin or parallel (nan and inf fail both tests)
+        missed = ~((ring > 0) & (ring <= cast_range))
+        ring[missed] = np.inf
+        k, j = np.nonzero(missed & np.isfinite(t0))  # the axis met something, not the sub-ray: rare
+        for out, none in ((cls, -1), (instance, -1), (normals, 0.0)):
+            out[1:, b][k, j] = none
+        if reflectivity is not None:
+            reflectivity[1:, b][k, j] = np.nan
 
     in_parts(block, n, BLOCK, threads)
     flat = (distance.ravel(), cls.ravel(), instance.ravel(), axis.untagged_objects)
