@@ -411,3 +411,18 @@ def test_a_re_drive_without_bags_leaves_no_empty_bag_folder_and_keeps_a_users_fi
     (out / "mine" / "notes.txt").write_text("mine")
     remove_emptied_folders(out, "mine/drive.bag")
     assert (out / "mine" / "notes.txt").read_text() == "mine"
+
+
+def test_every_staged_file_is_synced_before_it_is_moved_into_place(tmp_path, monkeypatch):
+    """A bag writer fills its file through `Staging.path`, not `write`: commit syncs it too."""
+    from wildscan.app.drive import files
+
+    synced = []
+    monkeypatch.setattr(files, "_fsync", lambda path: synced.append(path.relative_to(stage.dir).as_posix()))
+    stage = files.Staging(tmp_path)
+    stage.write("raw/000000.ply", b"ply")
+    stage.path("drive_ros2/drive_ros2.mcap").write_bytes(b"mcap")
+    stage.path("drive.bag").write_bytes(b"bag")
+    written = stage.commit()
+    assert sorted(synced) == sorted(written) == ["drive.bag", "drive_ros2/drive_ros2.mcap", "raw/000000.ply"]
+    assert (tmp_path / "drive.bag").read_bytes() == b"bag"

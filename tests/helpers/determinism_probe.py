@@ -44,6 +44,11 @@ def world_hashes(plan) -> dict[str, str]:
     }
 
 
+# The worlds `probe` planned (and hashed), for the drive of the same seed: under QEMU a
+# second plan_world of the same world would be a minute of the emulated run for nothing new.
+PLANNED: dict[tuple[int, str], object] = {}
+
+
 def probe(seed: int, detail: str, rh: float, zones: list[str]) -> dict[str, str]:
     from wildscan.app.poses import valid_poses
     from wildscan.core.io.ply import write_scan_files
@@ -56,6 +61,7 @@ def probe(seed: int, detail: str, rh: float, zones: list[str]) -> dict[str, str]
     from wildscan.raycast.select import make_backend
 
     plan = plan_world(seed, detail)
+    PLANNED[(seed, detail)] = plan
     out = {f"world {k}": v for k, v in world_hashes(plan).items()}
     geometry = plan_geometry(plan)
     g = geometry
@@ -86,7 +92,17 @@ def drive_hashes(seed: int, detail: str) -> dict[str, str]:
     float64 poses and points before the files round them (float32 PLYs, 9-digit text)."""
     from wildscan.app.drive import DriveRequest, run_drive
     from wildscan.app.drive import run as drive_run
+    from wildscan.core import world as world_module
     from wildscan.core.sensor import SensorConfig
+
+    planner = world_module.plan_world
+
+    def planned(seed_, detail_="default", **options):
+        # the default world probe() hashed already is the drive's world; any other is planned
+        known = PLANNED.get((seed_, detail_))
+        if known is not None and _default_world(options):
+            return known
+        return planner(seed_, detail_, **options)
 
     sweeps = []
     original = drive_run.sweep
@@ -112,10 +128,12 @@ def drive_hashes(seed: int, detail: str) -> dict[str, str]:
             bag="both",
         )
         drive_run.sweep = recording
+        world_module.plan_world = planned
         try:
             report = run_drive(request, say=lambda text: None)
         finally:
             drive_run.sweep = original
+            world_module.plan_world = planner
         files = sorted(f for f in out.rglob("*") if f.is_file())
         hashes = {f"drive {f.relative_to(out)}": sha(f.read_bytes()) for f in files}
     hashes["drive points"] = json.dumps(report.points)
@@ -123,6 +141,14 @@ def drive_hashes(seed: int, detail: str) -> dict[str, str]:
     hashes["drive float64 motion"] = sha(motion.centre, motion.ground, motion.rotation, motion.step)
     hashes["drive float64 points"] = sha(*[c.xyz for _, s in sweeps for c in (s.raw, s.deskewed)])
     return hashes
+
+
+def _default_world(options: dict) -> bool:
+    from wildscan.core.world import DEFAULT_BIOME, DEFAULT_VEGETATION
+
+    vegetation = options.get("vegetation", DEFAULT_VEGETATION)
+    biome = options.get("biome", DEFAULT_BIOME)
+    return not options.get("params") and vegetation == DEFAULT_VEGETATION and biome == DEFAULT_BIOME
 
 
 if __name__ == "__main__":

@@ -63,6 +63,7 @@ class Staging:
         self.dir.mkdir()
         self._syncer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="wildscan-fsync")
         self._syncs: list[Future] = []
+        self._synced: set[str] = set()  # relative paths whose fsync `write` queued
 
     def path(self, relative: str) -> Path:
         """Where to write `relative` now (its folders made)."""
@@ -76,6 +77,7 @@ class Staging:
         path = self.path(relative)
         path.write_bytes(data)
         self._syncs.append(self._syncer.submit(_fsync, path))
+        self._synced.add(relative)
 
     def files(self) -> list[str]:
         """Every file staged so far, relative to the root, sorted."""
@@ -84,10 +86,13 @@ class Staging:
     def commit(self) -> list[str]:
         """Move every staged file into place; remove what the previous drive wrote and this one
         did not. Returns the files in place."""
+        written = self.files()
+        # files written through `path` by their own writers (the ROS bags) are synced here
+        unsynced = [f for f in written if f not in self._synced]
+        self._syncs.extend(self._syncer.submit(_fsync, self.dir / f) for f in unsynced)
         for sync in self._syncs:
             sync.result()  # every staged file is on disk before any is renamed into place
         previous = previous_files(self.root)
-        written = self.files()
         folders = set()
         for relative in written:
             final = self.root / relative
