@@ -291,7 +291,8 @@ def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, thr
 
     in_parts(block, n, BLOCK, threads)
     flat = (distance.ravel(), cls.ravel(), instance.ravel(), axis.untagged_objects)
-    return RayHits(*flat, normal=normals.reshape(-1, 3), reflectivity=reflectivity)
+    overridden = None if reflectivity is None else reflectivity.ravel()
+    return RayHits(*flat, normal=normals.reshape(-1, 3), reflectivity=overridden)
 
 
 def _put_rows(hits: RayHits, rows: np.ndarray, new: RayHits) -> None:
