@@ -11,6 +11,8 @@ porous vegetation give, and what they cost, beside the paper model and the solid
              median of RUNS; Blender-free plan geometry, the default backend), with the share
              of the realistic scan spent in the backend's cast; every zone against
              SPEED_TARGET_S
+  footprint  the coarse-to-fine footprint (core/coarse_footprint.py) against every sub-ray
+             cast, per beam, at the same poses (bench/footprint_accuracy.py)
   build      the world of the seed built in Blender at default detail, porous beside solid
              (the worlds before porous vegetation): seconds, peak memory, objects,
              triangles (each in a fresh Python, so peak memory is the build's own)
@@ -18,6 +20,7 @@ porous vegetation give, and what they cost, beside the paper model and the solid
 
 from __future__ import annotations
 
+import functools
 import json
 import statistics
 import subprocess
@@ -108,22 +111,29 @@ class CastTimer:
                     self.seconds += self._clock() - self._since
 
 
+@functools.lru_cache(maxsize=1)
+def scene_and_poses(seed: int, zones: tuple[str, ...]):
+    """(the plan geometry of `seed`'s world, the first valid pose of each of `zones`)."""
+    from ..app.poses import plan_backend, valid_poses
+    from ..core.world import plan_world
+    from ..raycast.from_plan import plan_geometry
+
+    plan = plan_world(seed, DETAIL)
+    return plan_geometry(plan), valid_poses(plan, plan_backend(plan), 1, zones)
+
+
 def scan_rows(seed: int, runs: int, zones=None) -> list[dict]:
     """Per zone: the paper and realistic scans of its first valid pose, timed placement to
     PLY written, and the realistic scan's echoes."""
-    from ..app.poses import plan_backend, valid_poses
     from ..app.scan import make_scene_backend, scan_effects, scene_cover
     from ..core.io.ply import write_scan_files
     from ..core.placement import Pose
     from ..core.scan import run_scan
     from ..core.sensors import SensorConfig
-    from ..core.world import ZONES, plan_world
-    from ..raycast.from_plan import plan_geometry
+    from ..core.world import ZONES
     from .measure import gc_paused
 
-    plan = plan_world(seed, DETAIL)
-    geometry = plan_geometry(plan)
-    poses = valid_poses(plan, plan_backend(plan), 1, zones or ZONES)
+    geometry, poses = scene_and_poses(seed, tuple(zones or ZONES))
     rows = []
     with tempfile.TemporaryDirectory(prefix="wildscan-realism-") as tmp:
         for zone, found in poses.items():
@@ -310,6 +320,15 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
             ],
         )
     )
+    from ..core.world import ZONES
+    from .footprint_accuracy import accuracy_rows, accuracy_table
+
+    accuracy = accuracy_rows(*scene_and_poses(seed, tuple(ZONES)))
+    say(
+        "\n== The coarse-to-fine footprint against every sub-ray cast, per beam (clear air: "
+        "bench/footprint_accuracy.py)"
+    )
+    say(text_table(*accuracy_table(accuracy)))
     builds = [] if quick else build_rows(seed)
     if builds:
         say(f"\n== The world of seed {seed} built in Blender at {DETAIL} detail (a fresh Python each)")
@@ -348,4 +367,4 @@ def bench_realism(seed: int = 0, quick: bool = False, stream=None) -> dict:
             "crown on "
             f"{f['trunk_behind_crown']:,} beams: {'met' if f['trunk_behind_crown'] > 0 else 'NOT met'}"
         )
-    return {"crowns": crowns, "sky": skies, "scans": scans, "builds": builds}
+    return {"crowns": crowns, "sky": skies, "scans": scans, "footprint": accuracy, "builds": builds}

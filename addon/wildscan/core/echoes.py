@@ -138,9 +138,7 @@ def form_echoes(returns: SubrayReturns, weights: np.ndarray, separation: float, 
             whole &= (columns["cls"][k] == columns["cls"][0]) & (columns["inst"][k] == columns["inst"][0])
     simple = _whole_beam_echoes(np.flatnonzero(whole), columns)
     rest = np.flatnonzero(~whole & np.logical_or.reduce(valid, axis=0))
-    grouped = _grouped_echoes(
-        rest, {k: v[:, rest].T for k, v in columns.items()}, valid[:, rest].T, separation
-    )
+    grouped = _grouped_echoes(rest, {k: v[:, rest] for k, v in columns.items()}, separation)
     return _strongest(_merged(simple, grouped), max_echoes)
 
 
@@ -160,19 +158,24 @@ def _whole_beam_echoes(beams: np.ndarray, columns: dict) -> Echoes:
     )
 
 
-def _grouped_echoes(beams: np.ndarray, columns: dict, valid: np.ndarray, separation: float) -> Echoes:
+def _grouped_echoes(beams: np.ndarray, columns: dict, separation: float) -> Echoes:
     """The other beams: their returns sorted by range and split where the gap exceeds the
-    separation; `columns` and `valid` hold these beams' rows (beam-major, (M, S))."""
+    separation; `columns` hold these beams' returns, (S, M) sub-ray-major, `t` inf where
+    there is none."""
     if not len(beams):
         return _no_echoes()
-    order = np.argsort(columns["t"], axis=1, kind="stable")
-    columns = {k: np.take_along_axis(v, order, axis=1) for k, v in columns.items()}
-    valid = np.take_along_axis(valid, order, axis=1)
+    s, m = columns["t"].shape
+    order = np.argsort(columns["t"].T, axis=1, kind="stable")  # (M, S): each beam's by range
+    # each beam's returns in that order, gathered from the sub-ray-major rows in one take
+    # (take_along_axis built the same index arrays per column, several times slower)
+    at = order * m + np.arange(m)[:, None]
+    columns = {k: v.ravel().take(at) for k, v in columns.items()}
+    valid = columns["t"] < np.inf
     group = np.zeros(valid.shape, dtype=np.int64)
     with np.errstate(invalid="ignore"):  # inf - inf past the last return
         group[:, 1:] = np.cumsum(np.diff(columns["t"], axis=1) > separation, axis=1)
     flat = np.flatnonzero(valid.ravel())
-    row = flat // valid.shape[1]
+    row = flat // s
     f = {k: v.ravel()[flat] for k, v in columns.items()}
     grp = group.ravel()[flat]
     starts_mask = np.empty(len(flat), dtype=bool)
@@ -224,11 +227,7 @@ def _summarise(f: dict, echo: np.ndarray, starts: np.ndarray, beam: np.ndarray) 
     first = f["t_axis"][starts]
     deviation = np.bincount(echo, f["energy"] * (f["t_axis"] - first[echo]), count)
     rng = first + deviation / energy
-    by_class = np.bincount(echo * NUM_IDS + f["cls"].astype(np.int64), f["energy"], count * NUM_IDS).reshape(
-        count, NUM_IDS
-    )
-    label = np.argmax(by_class, axis=1)
-    purity = by_class[np.arange(count), label] / energy
+    label, purity = _labels(f, echo, starts, energy)
     # the instance of the labeled class's strongest return (the first of equals)
     score = np.where(f["cls"] == label[echo], f["energy"], -1.0)
     best = np.maximum.reduceat(score, starts)
@@ -244,6 +243,30 @@ def _summarise(f: dict, echo: np.ndarray, starts: np.ndarray, beam: np.ndarray) 
         purity=np.minimum(purity, 1.0),
         instance=instance.astype(np.int32),
     )
+
+
+def _labels(f: dict, echo: np.ndarray, starts: np.ndarray, energy: np.ndarray):
+    """(the class holding most of each group's energy (the lowest id of equals), its share of
+    the energy). A group of one class is that class, share 1 (its sums are the same sums in
+    the same order); only groups of several classes (or of no energy) are summed class by
+    class."""
+    cls = f["cls"].astype(np.int64)
+    label = cls[starts]
+    purity = np.ones(len(starts))
+    several = np.zeros(len(starts), dtype=bool)
+    several[echo[cls != label[echo]]] = True
+    several |= ~(energy > 0)
+    if several.any():
+        mixed = np.flatnonzero(several)
+        place = np.full(len(starts), -1, dtype=np.int64)
+        place[mixed] = np.arange(len(mixed))
+        mine = place[echo] >= 0
+        by_class = np.bincount(
+            place[echo[mine]] * NUM_IDS + cls[mine], f["energy"][mine], len(mixed) * NUM_IDS
+        ).reshape(len(mixed), NUM_IDS)
+        label[mixed] = np.argmax(by_class, axis=1)
+        purity[mixed] = by_class[np.arange(len(mixed)), label[mixed]] / energy[mixed]
+    return label, purity
 
 
 def _strongest(echoes: Echoes, max_echoes: int) -> Echoes:

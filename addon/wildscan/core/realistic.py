@@ -23,10 +23,11 @@ import numpy as np
 from . import detmath as dm
 from .backend import RayBackend, with_normals
 from .classes import PARTICLE_ID, WATER_ID
+from .coarse_footprint import BeamGrid, footprint_hits, scan_grid
 from .echoes import Echoes, SubrayReturns, form_echoes
 from .effects import CLEAR_AIR, Effects, Rays
 from .errors import UserError
-from .footprint import subray_directions, subray_weights
+from .footprint import ring_columns, subray_directions, subray_weights, turn_rings
 from .hits import RayHits
 from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
 from .threads import in_parts
@@ -128,8 +129,11 @@ def realistic_points(
     # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
     # single-echo realistic scan hits exactly where the paper's does; the ring is turned.
     sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
-    sub_world[1:] = dm.apply(rotation, sub_sensor[1:])
-    return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads)
+    columns = ring_columns(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
+    ring = sub_world[1:]
+    in_parts(lambda beams: turn_rings(rotation, columns, ring, beams), ring.shape[1], BEAM_BLOCK, threads)
+    grid = scan_grid(sensor.device, float(sensor.rh_deg), float(sensor.divergence_mrad))
+    return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads, grid)
 
 
 def echo_points(
@@ -140,15 +144,22 @@ def echo_points(
     cast_range: float,
     effects: Effects = CLEAR_AIR,
     threads: int | None = None,
+    grid: tuple[BeamGrid, np.ndarray] | None = None,
 ):
     """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
     world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's.
     The sub-rays' first hits pass through `effects`' medium; following the axis to settle
     labels (AxisHits) looks at the surfaces alone, so a surface behind a particle keeps its
-    exact label, and a particle's echo is on its particle unless it merged with a surface."""
+    exact label, and a particle's echo is on its particle unless it merged with a surface.
+    `grid`: how the beams and their ring sub-rays lie on the scan's grid
+    (coarse_footprint.scan_grid): ring sub-rays are then cast only where the footprint may
+    hold more than one surface (coarse to fine); None: every sub-ray is cast."""
     s, n, _ = sub_world.shape
     rays = sub_world.reshape(-1, 3)
-    clear = cast(origin, rays, cast_range, True)
+    if grid is None or s == 1:
+        clear, fine = cast(origin, rays, cast_range, True), None
+    else:
+        clear, fine = footprint_hits(cast, origin, sub_world, cast_range, *grid, threads)
     hits = effects.medium(Rays(origin, rays, cast_range), clear)
     echoes = beam_echoes(hits, sub_world, sensor, threads)
     measured = _measured_ranges(echoes, sensor, n)
@@ -171,6 +182,8 @@ def echo_points(
         "mixed_points": int((~on_surface).sum()),
         "water_subrays": int(np.count_nonzero(hits.class_id == WATER_ID)),
     }
+    if fine is not None:
+        stats["ring_subrays_cast"] = int(np.count_nonzero(fine))
     if hits is not clear:
         stats["particle_points"] = int(particle.sum())
     return RealisticPoints(

@@ -1,0 +1,309 @@
+"""Coarse to fine: a scan's ring sub-rays cast only where the footprint may hold more than one
+surface (numpy only).
+
+The realistic model samples each beam's footprint with SUBRAYS sub-rays (footprint.py): the
+axis and a ring of four around it, along the scan line (u) and along the head's turn (v).
+Casting them was most of a realistic scan's time, yet most beams land whole on one smooth
+surface (a slope of terrain, a rock's face, a trunk's side), where a ring sub-ray only meets
+the plane the axis met, a hair beside it. So every beam's axis is cast first; then each ring
+sub-ray is judged by the beam's neighbour on its side on the scan's grid (the next beam along
+the scan line for ±u, the same beam of the next column for ±v), which lies farther out than
+the sub-ray (4.4 and ~17 mrad against 1.5 for the UTM-30LX-EW at r_h = 1 deg). The sub-ray
+lies between the axis and that neighbour, so:
+
+  - where both met the same element on one plane (same class and instance, each point within
+    FLAT_TOLERANCE of the other's plane, the planes parallel within PARALLEL_COS, facing the
+    axis more squarely than GRAZING_COS, the element neither porous nor thin), the sub-ray
+    meets that plane too: its hit is computed, t_k = t_0 (n·a)/(n·s_k), with the axis's
+    element, normal and reflectivity;
+  - where no axis met anything within EMPTY_REACH beams and columns around, the sub-ray meets
+    nothing either (the sky);
+  - everywhere else it is cast: an edge, a step, a fold between facets, porous vegetation
+    (a crown's leaves, a bush, grass blades: a mix by nature), anything within THIN_REACH of
+    an axis that met a wire or a pole (a wire runs between the rows of beams), a beam at the
+    edge of the grid on that side.
+
+Computed and cast hits then go on alike: through the medium (the ground cover's sward stops
+each sub-ray at its own depth, as before: a beam in grass still returns 2-3 echoes as often),
+into the echoes and the settling of labels.
+
+What this misses, measured against casting every sub-ray on the realism suite's poses
+(docs/realism.md, "Coarse to fine"): an object no axis met and smaller than the gap between
+neighbouring axes that a ring sub-ray would have met, or one in front of a plane whose edge
+lies between an axis and its neighbour; a computed hit differs from the cast one by
+round-off on the same triangle, by a fraction of FLAT_TOLERANCE across a fold. Cast sub-rays
+get the very hits they got before (each ray's answer is its own).
+
+Determinism: which sub-rays are cast follows from the float64-settled axis hits alone, and the
+computed hits are products and sums in a fixed order: the same bytes on every machine.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from . import detmath as dm
+from .classes import PARTICLE_ID, class_by_name
+from .footprint import subray_directions
+from .hits import RayHits
+from .sensors import Device, sweep_count
+from .threads import in_parts
+
+# A neighbour's point this far off the plane of the axis's hit (m) marks an edge or a fold. A
+# ring sub-ray lies a third of the way to its nearest neighbour (1.5 of 4.4 mrad for the
+# UTM-30LX-EW), so on a surface that bends between them its plane point is off by a fraction of
+# this: well under the sensor's range noise (30 mm, datasheet), and under 1/SUBRAYS of it in
+# the echo's energy-weighted range.
+FLAT_TOLERANCE = 0.01
+# |cos| of the hit plane to the axis below which a beam is cast whole: the same bound as the
+# echoes' (echoes.MIN_AXIS_COS), past which a sub-ray's point on the plane runs far off.
+GRAZING_COS = 0.3
+# Neighbours' planes this close to parallel to the axis's (cos of 0.5 deg): the ring's sub-rays
+# then meet one plane, so their incidence and their echo's intensity are the axis's (a fold
+# of the terrain between facets changes cos of incidence, so the intensity, by up to the
+# angle's sine: 1 % at 0.5 deg).
+PARALLEL_COS = 0.99996
+THIN_REACH = (2, 2)  # beams along the scan line and columns around a thin element's, cast whole
+# A beam whose axis met nothing, nor did any axis this many beams along the scan line and
+# columns around it, has a ring that meets nothing: a twig, a blade or a wire against the sky
+# is met by some axis near it (measured on the realism poses: 8 and 8 lose under 1 % of the
+# high grass and wire points a cast ring finds, 2 and 2 up to 20 %).
+EMPTY_REACH = (8, 8)
+# Elements whose footprint is a mix by nature, or thin enough to lie between two axes.
+POROUS = ("treetop", "bush", "low grass", "high grass")
+THIN = ("wire", "pole")
+BLOCK = 32_768  # beams a block of _on_axis_planes (fixed: the bytes do not depend on the threads)
+SIDES = 4  # a beam's neighbours: before and after along the scan line, the columns before and after
+
+
+def _class_mask(names) -> np.ndarray:
+    mask = np.zeros(PARTICLE_ID + 1, dtype=bool)
+    for name in names:
+        mask[class_by_name(name).id] = True
+    return mask
+
+
+_POROUS = _class_mask(POROUS)
+_THIN = _class_mask(THIN)
+
+
+class BeamGrid:
+    """Beams as a scan lays them out (sensors.beam_directions' order): columns, one a head
+    angle, of `per_column` beams in firing order; `sweeps` head sweeps of `columns` columns
+    one after another. `view` lays an array over the beams out as (columns, beams) with the
+    beams of a column in order of their angle from the axis, so a beam's neighbours are the
+    next entries: along the scan line within a row, across columns (of one sweep) between
+    rows."""
+
+    def __init__(self, from_axis_deg, columns: int, sweeps: int = 1):
+        order = np.argsort(np.asarray(from_axis_deg, dtype=np.float64), kind="stable")
+        self.per_column = len(order)
+        self.columns = columns
+        self.shape = (columns * sweeps, self.per_column)
+        self._order = None if (order == np.arange(len(order))).all() else order
+        self._back = None if self._order is None else np.argsort(order)
+        # pairs of consecutive columns within one sweep (rows i, i + 1 of `view`)
+        self.same_sweep = (np.arange(self.shape[0] - 1) + 1) % columns != 0
+
+    def __len__(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    def view(self, values: np.ndarray) -> np.ndarray:
+        """(N, ...) values of the beams as (columns, beams by angle, ...)."""
+        grid = values.reshape(self.shape + values.shape[1:])
+        return grid if self._order is None else grid[:, self._order]
+
+    def unview(self, grid: np.ndarray) -> np.ndarray:
+        """`view`'s inverse: (N, ...) in the beams' order."""
+        if self._order is not None:
+            grid = grid[:, self._back]
+        return grid.reshape((len(self),) + grid.shape[2:])
+
+    def sides(self, sub_dirs: np.ndarray) -> np.ndarray:
+        """(S - 1, columns, beams) int8: for each ring sub-ray of the footprints `sub_dirs`
+        (S, N, 3 in the beams' order, sub-ray 0 the axis), the side its offset from the axis
+        points to most nearly: 0 the beam before along the scan line, 1 the one after, 2 the
+        column before, 3 the one after (whether or not that neighbour exists). Which it is
+        changes over a scan: the UTM-30LX-EW's fan crosses the head's axis, where the way
+        across columns turns round."""
+        axis = self.view(sub_dirs[0])
+        unit = []
+        for along in (1, 0):  # along the scan line, then across columns: central differences
+            step = np.empty_like(axis)
+            inner = [slice(None)] * 2
+            inner[along] = slice(1, -1)
+            ahead, behind = list(inner), list(inner)
+            ahead[along], behind[along] = slice(2, None), slice(None, -2)
+            step[tuple(inner)] = axis[tuple(ahead)] - axis[tuple(behind)]
+            first, second, last, before_last = ([slice(None)] * 2 for _ in range(4))
+            first[along], second[along], last[along], before_last[along] = 0, 1, -1, -2
+            step[tuple(first)] = axis[tuple(second)] - axis[tuple(first)]
+            step[tuple(last)] = axis[tuple(last)] - axis[tuple(before_last)]
+            with np.errstate(invalid="ignore"):  # where columns meet (the head's axis): no way across
+                unit.append(np.nan_to_num(step / dm.norm(step)[..., None]))
+        out = np.empty((len(sub_dirs) - 1,) + self.shape, dtype=np.int8)
+        for k, ring in enumerate(sub_dirs[1:]):
+            offset = self.view(ring) - axis
+            line, across = dm.dot3(offset, unit[0]), dm.dot3(offset, unit[1])
+            out[k] = np.where(np.abs(line) >= np.abs(across), (line > 0) * 1, 2 + (across > 0) * 1)
+        return out
+
+
+@functools.lru_cache(maxsize=4)
+def scan_grid(device: Device, rh_deg: float, divergence_mrad: float) -> tuple[BeamGrid, np.ndarray] | None:
+    """(the grid of the beams of sensors.beam_directions(rh_deg, device), the side of each
+    ring sub-ray of a footprint of `divergence_mrad`: BeamGrid.sides), cached; None where the
+    scan is too small a grid (fewer than 3 beams or columns): then every sub-ray is cast."""
+    columns = sweep_count(rh_deg, device.mount)
+    sweeps = device.head.steps if device.head is not None else 1
+    grid = BeamGrid(device.beams.from_axis_deg, columns, sweeps)
+    if min(grid.shape) < 3:
+        return None
+    sides = grid.sides(subray_directions(rh_deg, divergence_mrad, device))
+    sides.flags.writeable = False
+    return grid, sides
+
+
+def rings_to_cast(axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid, sides: np.ndarray) -> np.ndarray:
+    """(S - 1, N) bool: the ring sub-rays that must be cast (see the module docstring), from
+    the hits of every beam's axis (with normals) and the side of each ring sub-ray."""
+    view = grid.view
+    distance, cls, instance = view(axis.distance), view(axis.class_id), view(axis.instance)
+    hit = np.isfinite(distance)
+    known = (cls >= 0) & (cls < len(_POROUS))
+    cls_index = np.where(known, cls, 0)
+    thin = hit & known & _THIN[cls_index]
+    normal = [np.ascontiguousarray(view(axis.normal[:, k])) for k in range(3)]
+    direction = [view(axis_dirs[:, k]) for k in range(3)]
+    with np.errstate(invalid="ignore", over="ignore"):
+        point = [distance * direction[k] for k in range(3)]  # from the optical centre
+        facing = (normal[0] * direction[0] + normal[1] * direction[1]) + normal[2] * direction[2]
+        solid = hit & known & ~_POROUS[cls_index] & ~thin & (np.abs(facing) >= GRAZING_COS)
+        same = _same_plane(grid, solid, cls, instance, point, normal)
+    empty = ~_grown(hit, EMPTY_REACH)
+    near_thin = _grown(thin, THIN_REACH)
+    computed = empty & ~near_thin
+    cast = np.empty((len(sides), len(grid)), dtype=bool)
+    for k, toward in enumerate(sides):
+        on_plane = np.zeros(grid.shape, dtype=bool)
+        for side in range(SIDES):
+            pointing = toward == side
+            if pointing.any():  # (a ring sub-ray points to one or two sides over a scan)
+                on_plane |= pointing & same[side]
+        cast[k] = grid.unview(~(computed | (on_plane & ~near_thin)))
+    return cast
+
+
+def _same_plane(grid: BeamGrid, solid, cls, instance, point, normal) -> list[np.ndarray]:
+    """Per side (0 before, 1 after along the scan line, 2 the column before, 3 after), an array
+    (columns, beams): the beam and its neighbour on that side met the same element on one
+    plane (each point within FLAT_TOLERANCE of the other's plane, the planes parallel within
+    PARALLEL_COS), both `solid`."""
+    out = [np.zeros(grid.shape, dtype=bool) for _ in range(SIDES)]
+    lower = ((slice(None), slice(None, -1)), (slice(None, -1), slice(None)))
+    upper = ((slice(None), slice(1, None)), (slice(1, None), slice(None)))
+    for along, (a, b) in enumerate(zip(lower, upper)):
+        gap = [point[k][b] - point[k][a] for k in range(3)]
+        off_a = (normal[0][a] * gap[0] + normal[1][a] * gap[1]) + normal[2][a] * gap[2]
+        off_b = (normal[0][b] * gap[0] + normal[1][b] * gap[1]) + normal[2][b] * gap[2]
+        parallel = (normal[0][a] * normal[0][b] + normal[1][a] * normal[1][b]) + normal[2][a] * normal[2][b]
+        pair = solid[a] & solid[b] & (cls[a] == cls[b]) & (instance[a] == instance[b])
+        pair &= (np.abs(off_a) <= FLAT_TOLERANCE) & (np.abs(off_b) <= FLAT_TOLERANCE)
+        pair &= np.abs(parallel) >= PARALLEL_COS
+        if along == 1:
+            pair &= grid.same_sweep[:, None]
+        out[2 * along + 1][a] = pair  # the neighbour after (along the line, or the next column)
+        out[2 * along][b] = pair  # the one before
+    return out
+
+
+def _grown(mark: np.ndarray, reach: tuple[int, int]) -> np.ndarray:
+    """`mark` (columns, beams) grown by reach[0] beams each way along the scan line, then by
+    reach[1] columns each way: true wherever a marked beam lies in that rectangle around."""
+    grown = mark.copy()
+    for step in range(1, reach[0] + 1):
+        grown[:, step:] |= mark[:, :-step]
+        grown[:, :-step] |= mark[:, step:]
+    rows = grown.copy()
+    for step in range(1, reach[1] + 1):
+        grown[step:] |= rows[:-step]
+        grown[:-step] |= rows[step:]
+    return grown
+
+
+def footprint_hits(
+    cast, origin: np.ndarray, sub_world: np.ndarray, cast_range: float, grid, sides, threads=None
+):
+    """(the first hits of every sub-ray (S·N, sub-ray-major, as one cast of them all gives,
+    with normals), the ring sub-rays that were cast ((S - 1, N) bool)). `cast(origins, dirs,
+    max_range, normals)` is the backend's cast: the axes are cast, then the ring sub-rays
+    `rings_to_cast` names; the others meet the plane of their axis's hit (module docstring).
+    `threads`: those the cast uses (None: threads.cast_threads())."""
+    s, n, _ = sub_world.shape
+    axis = cast(origin, sub_world[0], cast_range, True)
+    fine = rings_to_cast(axis, sub_world[0], grid, sides)
+    hits = _on_axis_planes(axis, sub_world, cast_range, threads)
+    rows = np.flatnonzero(fine)  # over the rings' (S - 1)·N sub-rays, sub-ray-major
+    cast_hits = cast(origin, sub_world[1:].reshape(-1, 3).take(rows, axis=0), cast_range, True)
+    _put_rows(hits, n + rows, cast_hits)
+    return hits, fine
+
+
+def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, threads=None) -> RayHits:
+    """The hits of every sub-ray (S·N, sub-ray-major) on the plane of its beam's axis hit:
+    t_k = t_0 (n·a)/(n·s_k), with the axis's element, normal and reflectivity; none where the
+    axis met nothing or t_k is past `cast_range` (or the plane is parallel to the sub-ray).
+    Made a block of BLOCK beams at a time on `threads` (each beam's are its own)."""
+    s, n, _ = sub_world.shape
+    distance = np.empty((s, n))
+    cls = np.empty((s, n), dtype=axis.class_id.dtype)
+    instance = np.empty((s, n), dtype=axis.instance.dtype)
+    normals = np.empty((s, n, 3))
+    overrides = axis.reflectivity
+    reflectivity = None if overrides is None else np.empty((s, n), dtype=np.float32)
+
+    def block(b: slice) -> None:
+        normal = axis.normal[b]
+        t0 = axis.distance[b]
+        distance[0, b] = t0
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            # an axis that met nothing has a zero normal: inf * 0 / 0 = nan, fixed below
+            along = t0 * dm.dot3(normal, sub_world[0, b])
+            for k in range(1, s):
+                distance[k, b] = along / dm.dot3(normal, sub_world[k, b])
+        ring = distance[1:, b]
+        cls[:, b] = axis.class_id[b]
+        instance[:, b] = axis.instance[b]
+        normals[:, b] = normal
+        if reflectivity is not None:
+            reflectivity[:, b] = overrides[b]
+        # none where the axis met nothing (its class, instance and normal say none already),
+        # nor past cast_range, behind the origin or parallel (nan and inf fail both tests)
+        missed = ~((ring > 0) & (ring <= cast_range))
+        ring[missed] = np.inf
+        k, j = np.nonzero(missed & np.isfinite(t0))  # the axis met something, not the sub-ray: rare
+        for out, none in ((cls, -1), (instance, -1), (normals, 0.0)):
+            out[1:, b][k, j] = none
+        if reflectivity is not None:
+            reflectivity[1:, b][k, j] = np.nan
+
+    in_parts(block, n, BLOCK, threads)
+    flat = (distance.ravel(), cls.ravel(), instance.ravel(), axis.untagged_objects)
+    overridden = None if reflectivity is None else reflectivity.ravel()
+    return RayHits(*flat, normal=normals.reshape(-1, 3), reflectivity=overridden)
+
+
+def _put_rows(hits: RayHits, rows: np.ndarray, new: RayHits) -> None:
+    """`hits`' rows `rows` set to `new`'s (in place; an override array made where `new` has
+    overrides and `hits` none)."""
+    hits.distance[rows] = new.distance
+    hits.class_id[rows] = new.class_id
+    hits.instance[rows] = new.instance
+    hits.normal[rows] = new.normal
+    if new.reflectivity is not None or hits.reflectivity is not None:
+        if hits.reflectivity is None:
+            hits.reflectivity = hits.overrides()
+        hits.reflectivity[rows] = new.overrides()
+    hits.untagged_objects = hits.untagged_objects | new.untagged_objects
