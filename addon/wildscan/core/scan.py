@@ -311,9 +311,9 @@ def _paper_cloud(
 
 
 def _surface_incidence(surface: RayHits, dirs_world: np.ndarray, beams: np.ndarray) -> np.ndarray:
-    """|cos θ| of the surface each of `beams` (a point's beam) meets, 1 where it meets none: a point of a sward
-    or a weather particle takes the surface's behind it along its beam, as a second cast of
-    the beam through the point would find it."""
+    """|cos θ| of the surface each of `beams` (a point's beam) meets, 1 where it meets none:
+    a point of a sward or a weather particle takes the surface's behind it along its beam, as
+    a second cast of the beam through the point would find it."""
     cos = np.abs(dm.dot3(surface.normal.take(beams, axis=0), dirs_world.take(beams, axis=0)))
     return np.where(np.isfinite(surface.distance.take(beams)), cos, 1.0)
 
