@@ -236,20 +236,14 @@ class GroundCover(Effect):
         return ray.dz - (gx * ray.dx + gy * ray.dy)
 
     def _may_start_inside(self, ray: _Rays, t0) -> np.ndarray:
-        """Rays whose point t0 along (TRAMPLED from a single origin, in x and y) can lie in the
-        layer: not above the highest terrain node plus the tallest cell around the origin (a
-        cheap bound that spares the upward rays). Origins per ray (a drive): every ray."""
+        """Rays whose point t0 along (at most TRAMPLED from a single origin, in x and y) can lie
+        in the layer: not above the highest layer top of the cells that square around the
+        origin touches (CoverGrid.top_within; a cheap bound that spares the upward rays and
+        those over a low sward). Origins per ray (a drive): every ray."""
         if np.ndim(ray.ox) != 0:
             return np.ones(len(t0), dtype=bool)
-        g = self.grid
-        reach = int(np.ceil(TRAMPLED / g.cell)) + 1
-        i = int(np.floor((ray.ox - g.x0) / g.cell))
-        j = int(np.floor((ray.oy - g.y0) / g.cell))
-        ny, nx = g.shape
-        i0, i1, j0, j1 = max(i - reach, 0), min(i + reach + 1, nx), max(j - reach, 0), min(j + reach + 1, ny)
-        if i0 >= i1 or j0 >= j1:
-            return np.zeros(len(t0), dtype=bool)
-        top = g.node_ground()[j0 : j1 + 1, i0 : i1 + 1].max() + g.height[j0:j1, i0:i1].max() + BOTTOM_SLACK
+        # a micrometre more than TRAMPLED: a point's own rounding never takes it past the square
+        top = self.grid.top_within(ray.ox, ray.oy, TRAMPLED + 1e-6)
         return ray.oz + ray.dz * t0 <= top
 
 
@@ -289,14 +283,11 @@ def _slices(count: int) -> list[slice]:
 
 def _stop(begin, end, cls, height, u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
-    depth -log(1 - u), Exp(1), over the extinction per metre of its class and layer height."""
-    rate = extinction(cls, height)
-    # -log(1 - u) >= u: where u / rate already reaches past the run's end (a nanometre and a
-    # relative 1e-12 to spare, far above the log's and the sum's rounding) the ray passes, and
-    # its log need not be taken (the same result, most runs from the sensor being short)
-    go = (begin < end) & (rate > 0) & (u < rate * (end - begin + 1e-9) * (1.0 + 1e-12))
-    t = np.full(len(begin), np.inf)
-    t[go] = begin[go] - dm.log(1.0 - u[go]) / rate[go]
+    depth -log(1 - u), Exp(1), over the extinction per metre of its class and layer height.
+    (Taken for every ray of the run, whole arrays: most of them stop, and a ray that passes,
+    a run that is empty or a medium of no extinction gives a point at or past its end, or
+    nan, never a stop.)"""
+    t = begin - dm.log(1.0 - u) / extinction(cls, height)
     return np.where(t < end, t, np.inf)
 
 
