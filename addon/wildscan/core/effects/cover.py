@@ -43,8 +43,6 @@ SETTLE = 4  # times a stop outside its own cell's sward goes on along its run (_
 # rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
 # bytes do not depend on the threads
 PART = 49_152
-# a settle pass on at most this many stops takes the slopes with the cells (one lookup, not two)
-FEW = 4096
 CELL_EXIT = 1e-6  # m past a cell's edge, where a ray going on from it starts (in the next cell)
 
 
@@ -87,20 +85,24 @@ class GroundCover(Effect):
         def stops(part: slice):
             return self._stops(ray.part(part), end[part], hit[part], part.start)
 
-        found = in_parts(stops, n, PART)
-        rows = np.concatenate([part.start + r for part, (r, _, _) in zip(_slices(n), found)])
+        found = [_PartStops(part.start, *f) for part, f in zip(_slices(n), in_parts(stops, n, PART))]
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            self._redraw_all(o, d, found)
+        rows, at, cls = _kept(found, n)
         if not len(rows):
             return hits
-        at, cls = (np.concatenate([f[k] for f in found]) for k in (1, 2))
         return _with_cover_hits(hits, rows, at, cls, d)
 
     def _stops(self, ray: _Rays, end, hit, first: int):
         """The stops in the layer of one part of the rays (from ray `first` on; `end` each
-        one's hit or max range, `hit` whether it hit): (rows in the part, where, class).
+        one's hit or max range, `hit` whether it hit), as far as one part settles them:
+        (rows in the part, how many of them are runs from the sensor (first), where each
+        stops, its class (0: none yet), the redraws it leaves (_Redraws: _redraw_all settles
+        those of every part at once)).
 
         Both runs of a ray are found first and their stops settled together (one _settle, so
         its passes are paid once a part); a ray whose run from the sensor holds keeps that
-        stop, else its run to the hit's."""
+        stop, else its run to the hit's (_kept)."""
         # a stream a part, drawn only for the rays in the layer: the same bytes however many
         # threads share the parts
         rng = stage_rng(self.seed, f"cover.part.{first // PART}")
@@ -120,15 +122,8 @@ class GroundCover(Effect):
             run_end = np.concatenate([leave[ka], end.take(b[kb])])
             anchor_cls = np.concatenate([cls_a[ka], cls_b[kb]])
             anchor_height = np.concatenate([height_a[ka], height_b[kb]])
-            got = self._settle(ray.rows(rows), stop, run_end, anchor_cls, anchor_height, rng)
-        held = got > 0
-        n_a = int(ka.sum())
-        held_a = rows[:n_a][held[:n_a]]
-        taken = np.zeros(len(end), dtype=bool)
-        taken[held_a] = True
-        keep = held.copy()
-        keep[n_a:] &= ~taken[rows[n_a:]]  # the run from the sensor's stop first
-        return rows[keep], stop[keep], got[keep]
+            cls, redraws = self._settle(ray.rows(rows), stop, run_end, anchor_cls, anchor_height, rng)
+        return rows, int(ka.sum()), stop, cls, redraws
 
     def _run_from_sensor(self, ray: _Rays, t0, end, rng):
         """The run from the sensor, past the trampled ground, until the ray rises out of the
@@ -170,54 +165,89 @@ class GroundCover(Effect):
 
     def _settle(self, ray: _Rays, stop, end, anchor_cls, anchor_height, rng):
         """The class at each stop (of `ray`'s rays) inside the layer as the grid has it (0:
-        none); `stop` is updated in place. A run's length and medium are its anchor cell's (where
+        none), and the redraws left (_Redraws); `stop` is updated in place (inf where the stop
+        came out of the layer). A run's length and medium are its anchor cell's (where
         it ends, or starts); along a long run (a grazing beam over several cells) a stop can come
         out where this cell's sward is lower, or bare ground (a trail, a rock), or another class.
         Such a ray goes on from there (from where it comes down into this cell's sward, when it
         is above it): its depth is drawn again (from `rng`), in this cell's sward or, where this
         cell has none, in the anchor's, until its run's `end`; at most SETTLE times, then it
-        passes. (Dropping such stops instead would let grazing beams through a meadow far more
-        often than Beer-Lambert says.) The passes after the first are on a few rays each: they
-        take the terrain's slopes with the cells (one lookup a pass)."""
-        cls = np.zeros(len(stop), dtype=np.int16)
-        todo = np.arange(len(stop))
-        for attempt in range(SETTLE + 1):
-            if len(todo) == 0:
-                break
-            r, t = ray.rows(todo), stop.take(todo)
-            x, y, z = r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
-            few = len(todo) <= FEW
-            c, height, ground, gx, gy = self.grid.surface_at(x, y, slopes=few)
+        passes (_redraw_all). (Dropping such stops instead would let grazing beams through a
+        meadow far more often than Beer-Lambert says.) The uniforms of the redraws are drawn
+        here, as many as they could take: the stream is the part's own and nothing draws from
+        it after, so they are the numbers a pass at a time would draw."""
+        x, y, z = ray.at(stop)
+        c, height, ground, _, _ = self.grid.surface_at(x, y, slopes=False)
+        inside = _in_layer(c, z - ground, height)
+        cls = np.where(inside, c, 0).astype(np.int16, copy=False)
+        out = np.flatnonzero(~inside)
+        t = stop.take(out)
+        stop[out] = np.inf
+        medium = (end.take(out), anchor_cls.take(out), anchor_height.take(out))
+        return cls, _Redraws(out, t, *medium, rng.random(len(out) * SETTLE))
+
+    def _redraw_all(self, origins: np.ndarray, dirs: np.ndarray, found: list[_PartStops]) -> None:
+        """The redraws of every part's stops that came out of the layer (_settle), at once: a
+        few rays (grazing beams), so a pass costs its array operations once, not once a part.
+        Their arrays are kept compact, one cell lookup (with the terrain's slopes) a pass; each
+        pass takes the next uniforms of each ray's part in the rays' order. A redrawn stop that
+        holds is set in its part's `stop` and `cls`."""
+        parts = [f for f in found if len(f.redraws.slot)]
+        if not parts:
+            return
+        # each pending stop: its part (k), its place in its part's arrays (slot), its ray
+        part = np.concatenate([np.full(len(f.redraws.slot), k) for k, f in enumerate(parts)])
+        slot = np.concatenate([f.redraws.slot for f in parts])
+        rays = np.concatenate([f.first + f.rows.take(f.redraws.slot) for f in parts])
+        t, end, anchor_cls, anchor_height = (
+            np.concatenate([getattr(f.redraws, name) for f in parts])
+            for name in ("t", "end", "cls", "height")
+        )
+        # whole rows of the (n, 3) arrays (a column's take would copy the whole column first)
+        ray = _Rays(
+            *(origins if origins.ndim == 1 else origins.take(rays, axis=0).T), *dirs.take(rays, axis=0).T
+        ).rows(np.arange(len(rays)))
+        drawn = [0] * len(parts)
+        x, y, z = ray.at(t)
+        c, height, ground, gx, gy = self.grid.surface_at(x, y)
+        for _ in range(SETTLE):
             above = z - ground
-            inside = (c > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
-            cls[todo[inside]] = c[inside]
-            out = np.flatnonzero(~inside)
-            rows = todo[out]
-            t = t[out]
-            stop[rows] = np.inf
-            if attempt == SETTLE or len(out) == 0:
-                break
             # above a lower sward the ray comes down into: on from where it enters it; over
             # bare ground or rising above this cell's sward: on from where it leaves the cell
             # (none of its stops would hold before, and the depths are memoryless: the law of
             # the next stop is that of the stops drawn again and again until one is past it)
-            c, above, height = c[out], above[out], height[out]
-            high = np.flatnonzero((c > 0) & (above > height))
-            hr = r.rows(out[high])
-            if few:
-                rate = hr.dz - (gx[out[high]] * hr.dx + gy[out[high]] * hr.dy)
-            else:
-                rate = self._rate(x[out[high]], y[out[high]], hr)
-            down = high[rate < 0]
-            t[down] += (above[down] - height[down]) / -rate[rate < 0]
-            on = np.concatenate([np.flatnonzero(c == 0), high[rate >= 0]])
-            t[on] = self._cell_exit(x[out[on]], y[out[on]], r.rows(out[on]), t[on])
             here = c > 0
-            medium_cls = np.where(here, c, anchor_cls[rows])
-            medium_height = np.where(here, height, anchor_height[rows])
-            stop[rows] = _stop(t, end[rows], medium_cls, medium_height, rng.random(len(rows)))
-            todo = rows[np.isfinite(stop[rows])]
-        return cls
+            high = here & (above > height)
+            rate = ray.dz - (gx * ray.dx + gy * ray.dy)
+            down = high & (rate < 0)
+            on = ~here | (high & (rate >= 0))
+            t = np.where(down, t + (above - height) / -rate, t)
+            t = np.where(on, self._cell_exit(x, y, ray, t), t)
+            medium_cls, medium_height = np.where(here, c, anchor_cls), np.where(here, height, anchor_height)
+            t = _stop(t, end, medium_cls, medium_height, _next_uniforms(parts, part, drawn))
+            going = np.flatnonzero(np.isfinite(t))
+            if not len(going):
+                return
+            ray, part, slot, t = ray.rows(going), part.take(going), slot.take(going), t.take(going)
+            end, anchor_cls, anchor_height = (
+                end.take(going),
+                anchor_cls.take(going),
+                anchor_height.take(going),
+            )
+            x, y, z = ray.at(t)
+            c, height, ground, gx, gy = self.grid.surface_at(x, y)
+            inside = _in_layer(c, z - ground, height)
+            for k in np.unique(part[inside]).tolist():
+                held = inside & (part == k)
+                parts[k].stop[slot[held]] = t[held]
+                parts[k].cls[slot[held]] = c[held]
+            out = np.flatnonzero(~inside)
+            if not len(out):
+                return
+            ray, part, slot, t = ray.rows(out), part.take(out), slot.take(out), t.take(out)
+            x, y, z = x.take(out), y.take(out), z.take(out)
+            end, anchor_cls, anchor_height = end.take(out), anchor_cls.take(out), anchor_height.take(out)
+            c, height, ground, gx, gy = (v.take(out) for v in (c, height, ground, gx, gy))
 
     def _cell_exit(self, x, y, ray: _Rays, t):
         """Where the rays `ray`, at t along them at (x, y), leave their cell (in x and y; a
@@ -230,11 +260,6 @@ class GroundCover(Effect):
         out = t + np.minimum(np.where(ray.dx != 0, to_x, np.inf), np.where(ray.dy != 0, to_y, np.inf))
         return out + CELL_EXIT
 
-    def _rate(self, x, y, ray: _Rays):
-        """How fast the height above the terrain changes along the rays at points (x, y)."""
-        _, _, _, gx, gy = self.grid.surface_at(x, y)
-        return ray.dz - (gx * ray.dx + gy * ray.dy)
-
     def _may_start_inside(self, ray: _Rays, t0) -> np.ndarray:
         """Rays whose point t0 along (at most TRAMPLED from a single origin, in x and y) can lie
         in the layer: not above the highest layer top of the cells that square around the
@@ -245,6 +270,59 @@ class GroundCover(Effect):
         # a micrometre more than TRAMPLED: a point's own rounding never takes it past the square
         top = self.grid.top_within(ray.ox, ray.oy, TRAMPLED + 1e-6)
         return ray.oz + ray.dz * t0 <= top
+
+
+@dataclass(frozen=True)
+class _Redraws:
+    """The stops of a part that came out of the layer at their first try (_settle): their
+    places in the part's stops (slot), where they came out (t), their runs' ends, their anchors'
+    classes and layer heights, and the part's uniforms for their redraws."""
+
+    slot: np.ndarray
+    t: np.ndarray
+    end: np.ndarray
+    cls: np.ndarray
+    height: np.ndarray
+    uniforms: np.ndarray
+
+
+@dataclass(frozen=True)
+class _PartStops:
+    """One part's stops (_stops): rows in the part (the runs from the sensor first, n_a of
+    them), where each stops and its class (0: none), the redraws left; `first` is the part's
+    first ray."""
+
+    first: int
+    rows: np.ndarray
+    n_a: int
+    stop: np.ndarray
+    cls: np.ndarray
+    redraws: _Redraws
+
+
+def _next_uniforms(parts: list[_PartStops], part: np.ndarray, drawn: list[int]) -> np.ndarray:
+    """The next uniform of each ray's part (`part`: index into `parts`, the rays in part
+    order), in the rays' order; `drawn` counts each part's uniforms taken, updated."""
+    counts = np.bincount(part, minlength=len(parts)).tolist()
+    out = []
+    for k, count in enumerate(counts):
+        out.append(parts[k].redraws.uniforms[drawn[k] : drawn[k] + count])
+        drawn[k] += count
+    return np.concatenate(out)
+
+
+def _kept(found: list[_PartStops], n: int):
+    """(rays, where, class) of the stops that hold, of every part: a ray whose run from the
+    sensor holds keeps that stop, else its run to the hit's."""
+    rows = np.concatenate([f.first + f.rows for f in found])
+    stop = np.concatenate([f.stop for f in found])
+    cls = np.concatenate([f.cls for f in found])
+    from_sensor = np.concatenate([np.arange(len(f.rows)) < f.n_a for f in found])
+    held = cls > 0
+    taken = np.zeros(n, dtype=bool)
+    taken[rows[held & from_sensor]] = True
+    keep = held & (from_sensor | ~taken[rows])  # the run from the sensor's stop first
+    return rows[keep], stop[keep], cls[keep]
 
 
 @dataclass(frozen=True)
@@ -270,10 +348,15 @@ class _Rays:
 
         return _Rays(*(pick(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
 
-    def at(self, rows: np.ndarray, t: np.ndarray):
-        """(x, y, z) of the points t along `rows`."""
-        r = self.rows(rows)
-        return r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
+    def at(self, t: np.ndarray):
+        """(x, y, z) of the points t along the rays."""
+        return self.ox + self.dx * t, self.oy + self.dy * t, self.oz + self.dz * t
+
+
+def _in_layer(cls, above, height) -> np.ndarray:
+    """Whether points `above` the terrain lie in the layer of their cell (class `cls`, layer
+    height `height`): CoverGrid.class_inside's test."""
+    return (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
 
 
 def _slices(count: int) -> list[slice]:
@@ -287,7 +370,12 @@ def _stop(begin, end, cls, height, u):
     (Taken for every ray of the run, whole arrays: most of them stop, and a ray that passes,
     a run that is empty or a medium of no extinction gives a point at or past its end, or
     nan, never a stop.)"""
-    t = begin - dm.log(1.0 - u) / extinction(cls, height)
+    return _stop_at(begin, end, cls, height, dm.log(1.0 - u))
+
+
+def _stop_at(begin, end, cls, height, log_1_u):
+    """_stop, given log(1 - u)."""
+    t = begin - log_1_u / extinction(cls, height)
     return np.where(t < end, t, np.inf)
 
 
