@@ -109,36 +109,42 @@ class GroundCover(Effect):
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             horizontal = np.sqrt(ray.dx * ray.dx + ray.dy * ray.dy)
             t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
-            a, leave, stop_a, cls_a, height_a = self._run_from_sensor(ray, t0, end, rng)
+            a, t_a, leave, cls_a, height_a = self._run_from_sensor(ray, t0, end)
             # a run to the hit begins past the run from the sensor: none where that reaches
             # the hit (a beam coming down through the sward near the robot, most of them)
             start = t0
             start[a] = leave
             to_hit = np.flatnonzero(hit & (start < end))
-            b, stop_b, cls_b, height_b = self._run_to_hit(ray, end, start, to_hit, rng)
-            ka, kb = np.isfinite(stop_a), np.isfinite(stop_b)
-            rows = np.concatenate([a[ka], b[kb]])
-            stop = np.concatenate([stop_a[ka], stop_b[kb]])
-            run_end = np.concatenate([leave[ka], end.take(b[kb])])
-            anchor_cls = np.concatenate([cls_a[ka], cls_b[kb]])
-            anchor_height = np.concatenate([height_a[ka], height_b[kb]])
+            b, begin_b, end_b, cls_b, height_b = self._run_to_hit(ray, end, start, to_hit)
+            # both runs' stops at once: the uniforms of the runs from the sensor, then of the
+            # runs to the hit, as two draws would give them
+            rows, begin, run_end = (
+                np.concatenate([a, b]),
+                np.concatenate([t_a, begin_b]),
+                np.concatenate([leave, end_b]),
+            )
+            anchor_cls, anchor_height = np.concatenate([cls_a, cls_b]), np.concatenate([height_a, height_b])
+            stop = _stop(begin, run_end, anchor_cls, anchor_height, rng.random(len(rows)))
+            k = np.flatnonzero(np.isfinite(stop))
+            rows, stop, run_end = rows.take(k), stop.take(k), run_end.take(k)
+            anchor_cls, anchor_height = anchor_cls.take(k), anchor_height.take(k)
             cls, redraws = self._settle(ray.rows(rows), stop, run_end, anchor_cls, anchor_height, rng)
-        return rows, int(ka.sum()), stop, cls, redraws
+        return rows, int(np.searchsorted(k, len(a))), stop, cls, redraws
 
-    def _run_from_sensor(self, ray: _Rays, t0, end, rng):
+    def _run_from_sensor(self, ray: _Rays, t0, end):
         """The run from the sensor, past the trampled ground, until the ray rises out of the
-        layer (or reaches its hit): (the rays that start it inside the layer, where each leaves
-        the layer, where each stops in it or inf, the class and layer height where it starts)."""
+        layer (or reaches its hit): (the rays that start it inside the layer, where each starts
+        and leaves the layer, the class and layer height where it starts)."""
         rows = np.flatnonzero((t0 < end) & self._may_start_inside(ray, t0))
         rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0.take(rows))
         leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
         leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end.take(rows))
-        return rows, leave, _stop(t, leave, cls, height, rng.random(len(rows))), cls, height
+        return rows, t, leave, cls, height
 
-    def _run_to_hit(self, ray: _Rays, end, start, rows, rng):
+    def _run_to_hit(self, ray: _Rays, end, start, rows):
         """The run that ends at the hit of each of `rows`, from where the ray came down into
-        the layer (not before `start`): (the rays whose hit lies in the layer, where each stops
-        in it or inf, the class and layer height at the hit)."""
+        the layer (not before `start`): (the rays whose hit lies in the layer, where each one's
+        run begins and ends, the class and layer height at the hit)."""
         at = np.maximum(end.take(rows) - BEFORE_HIT, 0.0)
         if np.ndim(ray.oz) == 0 and len(rows):  # one origin: none above the layer's top within reach
             reach = float(at.max())
@@ -148,7 +154,7 @@ class GroundCover(Effect):
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         stop_end = end.take(rows)
         begin = np.maximum(stop_end - back, start.take(rows))
-        return rows, _stop(begin, stop_end, cls, height, rng.random(len(rows))), cls, height
+        return rows, begin, stop_end, cls, height
 
     def _inside(self, ray: _Rays, rows, t):
         """Of `rows`, those whose point t along lies inside the layer: (those rows, their t,
