@@ -165,7 +165,9 @@ class CoverGrid:
         near = np.flatnonzero(inside & (z <= self._tops().take(flat)))
         flat = flat.take(near)
         # inside the grid fx - i lies in [0, 1): surface_at's values, exactly
-        tx, ty = fx.take(near) - i.take(near), fy.take(near) - j.take(near)
+        fx -= i
+        fy -= j
+        tx, ty = fx.take(near), fy.take(near)
         z00, z10, z01, z11, height, cls = self._cell_table().take(flat, axis=0).T
         sx, sy = 1 - tx, 1 - ty
         ground = (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
