@@ -16,9 +16,12 @@ their hit) are left out before any cell is looked up.
 
 Determinism: the rays are taken in fixed parts of PART rays (on the cast's threads); each part
 draws from its own PCG64 generator seeded from (the scan's noise seed, "cover.part.K"), in ray
-order: the uniforms of the rays that start in the layer, of those whose hit is in it, then of
-the stops drawn again. Each optical depth is -log(1 - u) with detmath's log, so the same scan
-gives the same bytes on every machine, however many threads.
+order: the uniforms of the rays that start in the layer, of those whose hit is in it, then (at
+once, as many as SETTLE redraws could take) of the stops drawn again. The redraws (a few grazing
+beams) are settled after the parts, every part's at once, each pass taking the next uniforms of
+each ray's own part: the numbers a part drawing pass by pass would take. Each optical depth is
+-log(1 - u) with detmath's log, so the same scan gives the same bytes on every machine, however
+many threads.
 """
 
 from __future__ import annotations
