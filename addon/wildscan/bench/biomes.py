@@ -38,7 +38,7 @@ FULL = (20, 50)  # worlds x scans of the default biome (the issue's target set)
 OTHERS = (4, 10)  # worlds x scans of each other biome
 QUICK = (2, 6)  # every biome with --quick
 TIMED = 3  # poses a world whose scans are timed beside paper's
-REPEATS = 2  # a timed scan is the fastest of this many (the machine is shared)
+REPEATS = 3  # a timed scan is the fastest of this many, after an untimed one (the machine is shared)
 TARGETS = {"grass": (0.30, 1.0), "bush": (0.12, 1.0), "ground": (0.0, 0.15), "tree": (0.12, 0.35)}
 COST_LIMIT = 1.3
 OVERHEAD = "terrain overhead"  # by_zone's count of _terrain_overhead (not a class)
@@ -73,12 +73,19 @@ def _world(seed: int, biome: str, count: int, strategy: str = "zones"):
 
 
 def _timed_scans(runs) -> list[float]:
-    """Each of `runs` (plan, backend, pose, cover) timed the fastest of REPEATS, the runs
-    interleaved (seconds; nan where the pose is not valid in that world)."""
+    """Each of `runs` (plan, backend, pose, cover) timed the fastest of REPEATS, after one
+    untimed scan of each, the runs interleaved, every other round in reverse order (seconds;
+    nan where the pose is not valid in that world). (With the best of two and no untimed
+    scan, the paper world's time at a forest pose came out up to 1.3x the same pose's in the
+    mixed world without its sward, whose geometry costs the same: outliers that made the
+    sward look cheaper.)"""
+    for run in runs:
+        _scan(*run)
     best = [float("inf")] * len(runs)
-    for _ in range(REPEATS):
-        for k, run in enumerate(runs):
-            result, t = _scan(*run)
+    for round_ in range(REPEATS):
+        order = range(len(runs)) if round_ % 2 == 0 else reversed(range(len(runs)))
+        for k in order:
+            result, t = _scan(*runs[k])
             best[k] = float("nan") if result is None else min(best[k], t)
     return best
 
