@@ -41,6 +41,7 @@ from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
 from ...core.world.heightfield import TerrainGrid
 from ...raycast.geometry import SceneGeometry
+from ...raycast.sealing import local_corners, sealed_settler
 from ...raycast.settle import Settler
 from .key import entry_key
 from .store import DiskCache
@@ -117,7 +118,6 @@ def step(timings: dict[str, tuple[float, float]], name: str):
 def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
     """Plan the world, make its triangles and everything the sealed caster reads."""
     from ...raycast.from_plan import plan_geometry
-    from ...raycast.sealing import sealed_settler
 
     timings = {} if timings is None else timings
     with step(timings, "plan"):
@@ -202,7 +202,7 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         geometry,
         arrays["padded"],
         (arrays["normal"], arrays["d"]),
-        geometry.local_triangles(),
+        local_corners(geometry),
         arrays["band"],
         neighbour_index(arrays["corner_pos"], arrays["owners"], meta["positions"]),
     )
