@@ -151,7 +151,8 @@ def world_open_ground(plan: WorldPlan, geometry) -> OpenGround:
     x0, x1, y0, y1 = EXTENT
     if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):
         return no_open_ground(EXTENT)
-    return open_ground(geometry.vertices[:, :2], geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
+    xy = np.ascontiguousarray(geometry.vertices[:, :2])  # one copy: take() copies a strided view each call
+    return open_ground(xy, geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
 
 
 # ---------------------------------------------------------------------------------------
