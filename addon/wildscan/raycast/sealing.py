@@ -29,11 +29,24 @@ from .settle import BAND_MARGIN, Settler
 def sealed_settler(geometry) -> Settler:
     """Settler.sealing(geometry, geometry.local_planes(corners), corners) with its `band`
     made too, where corners = geometry.local_triangles(): the same arrays, one pass."""
-    corners = geometry.local_triangles()
+    corners = local_corners(geometry)
     normal, d, padded, band = sealing_arrays(corners)
     settler = Settler(geometry, padded, (normal, d), corners)
     settler.__dict__["band"] = band  # what cached_property keeps
     return settler
+
+
+def local_corners(geometry) -> np.ndarray:
+    """geometry.local_triangles(): (T, 3, 3) offset-local float64 corners, each the same
+    subtraction (vertex - offset), gathered a block of triangles at a time straight into the
+    result, without the (V, 3) array of shifted vertices (55 MB for seed 0's porous world)
+    that local_triangles makes first."""
+    faces, vertices, offset = geometry.faces, geometry.vertices, geometry.offset
+    corners = np.empty((len(faces), 3, 3))
+    for start in range(0, len(faces), BLOCK_ROWS):
+        rows = slice(start, start + BLOCK_ROWS)
+        np.subtract(vertices.take(faces[rows], axis=0), offset, out=corners[rows])
+    return corners
 
 
 def edge_pad(corners: np.ndarray) -> float:

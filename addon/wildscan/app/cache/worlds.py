@@ -41,6 +41,7 @@ from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
 from ...core.world.heightfield import TerrainGrid
 from ...raycast.geometry import SceneGeometry
+from ...raycast.sealing import local_corners, sealed_settler
 from ...raycast.settle import Settler
 from .key import entry_key
 from .store import DiskCache
@@ -117,7 +118,6 @@ def step(timings: dict[str, tuple[float, float]], name: str):
 def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
     """Plan the world, make its triangles and everything the sealed caster reads."""
     from ...raycast.from_plan import plan_geometry
-    from ...raycast.sealing import sealed_settler
 
     timings = {} if timings is None else timings
     with step(timings, "plan"):
@@ -151,7 +151,8 @@ def world_open_ground(plan: WorldPlan, geometry) -> OpenGround:
     x0, x1, y0, y1 = EXTENT
     if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):
         return no_open_ground(EXTENT)
-    return open_ground(geometry.vertices[:, :2], geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
+    xy = np.ascontiguousarray(geometry.vertices[:, :2])  # one copy: take() copies a strided view each call
+    return open_ground(xy, geometry.faces[geometry.class_id != TERRAIN_ID], EXTENT)
 
 
 # ---------------------------------------------------------------------------------------
@@ -202,7 +203,7 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         geometry,
         arrays["padded"],
         (arrays["normal"], arrays["d"]),
-        geometry.local_triangles(),
+        local_corners(geometry),
         arrays["band"],
         neighbour_index(arrays["corner_pos"], arrays["owners"], meta["positions"]),
     )
