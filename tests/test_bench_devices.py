@@ -30,8 +30,10 @@ def test_every_preset_has_a_row_with_its_beams_and_both_times(bench):
         assert r["beams"] == SensorConfig.for_device(device_named(r["device"])).beam_count
         assert r["points"] > 1000 and r["scan_s"] > 0 and r["backend_s"] > 0 and r["cast_s"] > 0
         assert r["ratio"] == pytest.approx(r["scan_s"] / r["cast_s"])
+        assert r["one_thread_ratio"] == pytest.approx(r["one_thread_s"] / r["cast_s"])
         line = next(ln for ln in printed.splitlines() if ln.startswith(r["device"] + " "))
-        assert f"{r['beams']:,}" in line and f"{r['ratio']:.2f}x" in line and line.rstrip().endswith("met")
+        assert f"{r['beams']:,}" in line and f"{r['ratio']:.2f}x" in line
+        assert line.rstrip().endswith(f"{r['one_thread_ratio']:.2f}x")  # the like-for-like column last
 
 
 def test_the_devices_suite_is_dispatched_with_seed_and_quick(monkeypatch):

@@ -625,3 +625,46 @@ def test_a_full_disk_while_writing_a_scan_leaves_none_of_its_files(tmp_path, mon
     with pytest.raises(UserError, match="cannot write .*hag/000000.bin: No space left on device"):
         write_scan(tmp_path, files)
     assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
+
+
+@pytest.mark.parametrize("connected", [False, True])
+def test_a_connect_that_runs_out_of_time_inside_dask_reads_as_no_answer(monkeypatch, connected):
+    """Dask's connect wraps its own timeout (a cancelled wait) in an OSError; on a loaded
+    machine that, not the overall bound, ends the probe: its line must still say the address
+    did not answer in time, not name the CancelledError."""
+    import asyncio
+
+    import distributed.comm
+
+    from wildscan.app.dataset import cluster
+    from wildscan.core.errors import UserError
+
+    class Comm:
+        async def write(self, message):
+            pass
+
+        async def read(self):
+            raise _timed_out()
+
+        def abort(self):
+            pass
+
+    def _timed_out() -> OSError:
+        try:
+            raise asyncio.CancelledError()
+        except asyncio.CancelledError as cancelled:
+            try:
+                raise OSError("Timed out trying to connect to tcp://127.0.0.1:9 after 5 s") from cancelled
+            except OSError as e:
+                return e
+
+    async def connect(address, timeout):
+        if connected:
+            return Comm()
+        raise _timed_out()
+
+    monkeypatch.setattr(distributed.comm, "connect", connect)
+    with pytest.raises(UserError) as error:
+        cluster.probe_scheduler("tcp://127.0.0.1:9", seconds=2)
+    expected = "did not answer as a Dask scheduler within 2 s" if connected else "no connection within 2 s"
+    assert expected in str(error.value) and "CancelledError" not in str(error.value)

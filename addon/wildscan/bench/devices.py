@@ -84,6 +84,8 @@ def device_row(name: str, geometry, pose, z_start, runs: int) -> dict:
         "backend_s": statistics.median(whole),
         "cast_s": cast_s,
         "ratio": scan_s / cast_s,
+        # like for like, both on one thread: what the scan adds to the caster's own work
+        "one_thread_ratio": statistics.median(one_thread) / cast_s,
     }
 
 
@@ -112,18 +114,20 @@ def bench_devices(seed: int = 0, quick: bool = False, stream=None) -> list[dict]
             f"{1000 * r['cast_s']:.1f}",
             f"{r['ratio']:.2f}x",
             "met" if r["ratio"] <= TARGET_RATIO else "NOT met",
+            f"{r['one_thread_ratio']:.2f}x",
         ]
         for r in rows
     ]
     headers = ["device", "model", "beams", "points", "scan ms", "1 thread", "backend ms", "Embree ms"]
-    headers += ["ratio", f"<= {TARGET_RATIO:g}x"]
-    right = [False, False, True, True, True, True, True, True, True, False]
+    headers += ["ratio", f"<= {TARGET_RATIO:g}x", "1 thread / Embree"]
+    right = [False, False, True, True, True, True, True, True, True, False, True]
     print(text_table(headers, table, right=right), file=out)
     print(
         f"scan: run_scan whole, its casts over {rows[0]['threads'] if rows else 1} thread(s) (the cores "
         "here); 1 thread: the same scan on one (as a dataset worker scans); backend: its backend.cast of "
         "the scan's rays on one thread (Embree, then float64 settling and refinement); Embree: embreex's "
-        "scene.run alone, one thread; ratio: scan / Embree",
+        "scene.run alone, one thread; ratio: scan / Embree (the goal's); 1 thread / Embree: both on one "
+        "thread, like for like",
         file=out,
     )
     return rows

@@ -197,18 +197,14 @@ def probe_scheduler(address: str, seconds: float = PROBE_SECONDS) -> None:
     try:
         identity = asyncio.run(asyncio.wait_for(_identity(connect, address, seconds, connected), seconds))
     except (asyncio.TimeoutError, TimeoutError):
-        if not connected:
-            raise UserError(
-                f"{where}: cannot reach a Dask scheduler there (no connection within {seconds:g} s)"
-            ) from None
-        raise UserError(
-            f"{where}: something accepts connections there but did not answer as a Dask scheduler "
-            f"within {seconds:g} s (is it the dashboard or another server?)"
-        ) from None
+        raise _no_answer(where, seconds, connected) from None
     except ValueError as e:  # a malformed address
         raise UserError(f"{where}: not a Dask scheduler address ({one_line(e)})") from None
     except (OSError, EOFError) as e:
         cause = root_cause(e)
+        if isinstance(cause, (asyncio.CancelledError, asyncio.TimeoutError, TimeoutError)):
+            # Dask's connect ran out of its own time (it wraps the cancelled wait in an OSError)
+            raise _no_answer(where, seconds, connected) from None
         raise UserError(f"{where}: cannot reach a Dask scheduler there ({one_line(cause)})") from None
     except Exception as e:  # its bytes were not Dask's protocol: HTTP read as a frame size, say
         raise UserError(
@@ -220,6 +216,17 @@ def probe_scheduler(address: str, seconds: float = PROBE_SECONDS) -> None:
         raise UserError(
             f"{where}: what answers there is not a Dask scheduler (it says it is {kind or 'something else'})"
         )
+
+
+def _no_answer(where: str, seconds: float, connected: list[bool]) -> UserError:
+    """The error for an address where no Dask scheduler answered in time: nothing accepted the
+    connection, or something did and said nothing a scheduler says."""
+    if not connected:
+        return UserError(f"{where}: cannot reach a Dask scheduler there (no connection within {seconds:g} s)")
+    return UserError(
+        f"{where}: something accepts connections there but did not answer as a Dask scheduler "
+        f"within {seconds:g} s (is it the dashboard or another server?)"
+    )
 
 
 async def _identity(connect, address: str, seconds: float, connected: list[bool]):
