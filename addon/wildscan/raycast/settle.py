@@ -107,28 +107,30 @@ class Settler:
         ray, entry, cand = self.pairs(triangle)
         # vectors as three contiguous columns, not (P, 3) rows: the same products and sums
         # (detmath's order), on contiguous arrays, and the pairs outside dropped as found
-        normal = self.normal.take(cand, axis=0)
-        normal = [np.ascontiguousarray(normal[:, k]) for k in range(3)]
-        d = [dirs[:, k].take(ray) for k in range(3)]
-        n = [column.take(entry) for column in normal]
-        cos = dot_columns(n, d)
+        normal = _columns(self.normal.take(cand, axis=0))
+        d = [np.ascontiguousarray(dirs[:, k]).take(ray) for k in range(3)]
+        cos = dot_columns([column.take(entry) for column in normal], d)
         if local.ndim == 2 and len(local) > 1 and local.strides[0] == 0:
             # one origin (a scan): each candidate plane's offset from it once, then gathered
             o = [local[0, k] for k in range(3)]
             reach = (self.d.take(cand) - dot_columns(normal, o)).take(entry)
         else:
-            o = [local[:, k].take(ray) for k in range(3)]
-            reach = self.d.take(cand).take(entry) - dot_columns(n, o)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = reach / cos
-        alive = np.flatnonzero(np.isfinite(t) & (np.abs(cos) >= _PARALLEL_COS) & (t >= start.take(ray)))
-        t, entry, ray = t.take(alive), entry.take(alive), ray.take(alive)
-        point = [at(o[k], alive) + t * d[k].take(alive) for k in range(3)]
-        corners = self.corners.take(cand, axis=0)
-        for k in range(3):
-            inside = np.flatnonzero(inside_edge(point, entry, normal, corners[:, k], corners[:, (k + 1) % 3]))
-            t, entry, ray = t.take(inside), entry.take(inside), ray.take(inside)
-            point = [column.take(inside) for column in point]
+            o = [np.ascontiguousarray(local[:, k]).take(ray) for k in range(3)]
+            reach = self.d.take(cand).take(entry) - dot_columns([c.take(entry) for c in normal], o)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            t = np.divide(reach, cos, out=reach)
+            ahead = np.abs(cos, out=cos) >= _PARALLEL_COS
+            ahead &= np.isfinite(t)
+            # a scan's first round starts every ray at 0: compared with 0 as with a row of zeros
+            ahead &= t >= (start.take(ray) if start.any() else 0.0)
+            # the point on every pair's plane (those not ahead are dropped with the first edge's
+            # test): o + t d, as for the pairs ahead alone
+            point = [np.add(o[k], np.multiply(t, d[k], out=d[k]), out=d[k]) for k in range(3)]
+            for k, edge in enumerate(_edges(normal, self.corners.take(cand, axis=0))):
+                inside = np.flatnonzero(edge.holds(point, entry, ahead if k == 0 else None))
+                t, entry, ray = t.take(inside), entry.take(inside), ray.take(inside)
+                if k < 2:
+                    point = [column.take(inside) for column in point]
         winner = np.full(len(triangle), -1, dtype=np.int64)
         ray, cand = nearest_per_ray(ray, cand.take(entry), t)
         winner[ray] = cand
@@ -164,17 +166,42 @@ class Settler:
         return keys // size, keys % size
 
 
-def inside_edge(
-    point: list, entry: np.ndarray, normal: list, start: np.ndarray, end: np.ndarray
-) -> np.ndarray:
-    """Whether each pair's `point` (three columns) is on the inner side of its candidate's edge
-    from corner `start` to `end` ((E, 3) per entry), within EDGE_TOLERANCE: the edge's inward
-    normal (normal x edge) once per entry, then gathered for the pairs."""
-    inward = cross_columns(normal, [end[:, j] - start[:, j] for j in range(3)])
-    tolerance = -EDGE_TOLERANCE * np.sqrt(dot_columns(inward, inward))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        offset = [point[j] - start[:, j].take(entry) for j in range(3)]
-        return dot_columns(offset, [column.take(entry) for column in inward]) >= tolerance.take(entry)
+class _Edge:
+    """Edge k of each entry's candidate (entries as in Settler.pairs): its start corner and
+    inward normal (normal x edge), three columns each, and how far outside it a point may lie
+    (EDGE_TOLERANCE times the inward normal's length, negated)."""
+
+    def __init__(self, start: list, inward: list, tolerance: np.ndarray):
+        self.start, self.inward, self.tolerance = start, inward, tolerance
+
+    def holds(self, point: list, entry: np.ndarray, also: np.ndarray | None = None) -> np.ndarray:
+        """Whether each pair's `point` (three columns) is on the inner side of its entry's
+        edge, within the tolerance (and `also`, where given): dot_columns(point - start,
+        inward), its products and sums in that order, in place."""
+        value = point[0] - self.start[0].take(entry)
+        value *= self.inward[0].take(entry)
+        for j in (1, 2):
+            term = point[j] - self.start[j].take(entry)
+            term *= self.inward[j].take(entry)
+            value += term
+        inside = value >= self.tolerance.take(entry)
+        if also is not None:
+            inside &= also
+        return inside
+
+
+def _edges(normal: list, corners: np.ndarray):
+    """The three edges (_Edge) of each entry's candidate, its `normal` (three columns) and
+    `corners` ((E, 3, 3)) given, one after another."""
+    for k in range(3):
+        start = [np.ascontiguousarray(corners[:, k, j]) for j in range(3)]
+        inward = cross_columns(normal, [corners[:, (k + 1) % 3, j] - start[j] for j in range(3)])
+        yield _Edge(start, inward, -EDGE_TOLERANCE * np.sqrt(dot_columns(inward, inward)))
+
+
+def _columns(vectors: np.ndarray) -> list:
+    """(N, 3) rows as three contiguous columns."""
+    return [np.ascontiguousarray(vectors[:, k]) for k in range(3)]
 
 
 def dot_columns(a: list, b: list):
@@ -185,11 +212,6 @@ def dot_columns(a: list, b: list):
 def cross_columns(a: list, b: list) -> list:
     """dm.cross of vectors given as three columns each: the same products and differences."""
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def at(values, index: np.ndarray):
-    """values.take(index), or a scalar (one origin's coordinate) as it is."""
-    return values if np.ndim(values) == 0 else values.take(index)
 
 
 def sorted_unique(keys: np.ndarray) -> np.ndarray:
