@@ -190,13 +190,17 @@ class _Edge:
         return inside
 
 
-def _edges(normal: list, corners: np.ndarray):
+def _edges(normal: list, corners: np.ndarray) -> list:
     """The three edges (_Edge) of each entry's candidate, its `normal` (three columns) and
-    `corners` ((E, 3, 3)) given, one after another."""
-    for k in range(3):
-        start = [np.ascontiguousarray(corners[:, k, j]) for j in range(3)]
-        inward = cross_columns(normal, [corners[:, (k + 1) % 3, j] - start[j] for j in range(3)])
-        yield _Edge(start, inward, -EDGE_TOLERANCE * np.sqrt(dot_columns(inward, inward)))
+    `corners` ((E, 3, 3)) given: made for the three at once, each value by the same
+    products, differences and root as one edge at a time, every column contiguous."""
+    start = np.ascontiguousarray(corners.transpose(1, 2, 0))  # (corner k, coordinate j, E)
+    edge = np.roll(start, -1, axis=0) - start  # corner k + 1 minus corner k
+    inward = np.stack(cross_columns(normal, [edge[:, j] for j in range(3)]), axis=1)  # (k, j, E)
+    tolerance = -EDGE_TOLERANCE * np.sqrt(
+        dot_columns([inward[:, j] for j in range(3)], [inward[:, j] for j in range(3)])
+    )
+    return [_Edge(list(start[k]), list(inward[k]), tolerance[k]) for k in range(3)]
 
 
 def _columns(vectors: np.ndarray) -> list:
