@@ -327,12 +327,12 @@ class FirstHits(Protocol):
 def settle(backend: FirstHits, settler: Settler, local, dirs, triangle, rough, bary, max_range):
     """The backend's first hits (triangle, rough distance) with every ambiguous one decided
     by `Settler.decide`, re-casting the rays that pass beside their triangle. In place."""
-    start = np.zeros(len(triangle))
     todo = np.flatnonzero(settler.in_band(triangle, bary, local, dirs, rough))
+    start = np.zeros(len(todo))  # each of `todo`'s distance it starts from (beyond a plane it passed)
     for _ in range(MAX_RECASTS):
         if not len(todo):
             break
-        winner = settler.decide(rows(local, todo), dirs[todo], triangle[todo], start[todo])
+        winner = settler.decide(rows(local, todo), dirs.take(todo, axis=0), triangle.take(todo), start)
         decided = winner >= 0
         triangle[todo[decided]] = winner[decided]
         passed = todo[~decided]
@@ -351,7 +351,6 @@ def settle(backend: FirstHits, settler: Settler, local, dirs, triangle, rough, b
         again[(again >= 0) & (again_rough > far)] = -1
         triangle[passed] = again
         rough[passed] = t + again_rough
-        start[passed] = t
         band = settler.in_band(again, again_bary, origin, dirs[passed], again_rough)
-        todo = passed[band]
+        todo, start = passed[band], t[band]
     return triangle, rough
