@@ -379,3 +379,22 @@ def test_the_biomes_bench_counts_the_caves_rock_in_the_cave_and_none_on_the_hill
     terrain = cave.cloud.label == class_by_name("terrain").id
     xyz = to_world(np.asarray(cave.cloud.xyz[terrain], dtype=np.float64), "leveled", cave.placement)
     assert (xyz[:, 2] - plan("mixed").ground(xyz[:, 0], xyz[:, 1]) < 0.5).all()
+
+
+def test_on_the_two_track_support_points_lie_on_the_wheel_tracks_and_grass_points_in_the_median():
+    from wildscan.core.traversability import SUPPORT_TOLERANCE, support_flags
+    from wildscan.core.world.stages import cover as stage
+
+    p = plan("mixed")
+    cloud = scan("mixed", "trail").cloud  # world frame: a pose on the trail's centre line
+    hag = cloud.xyz[:, 2] - p.standing_ground()(cloud.xyz[:, 0], cloud.xyz[:, 1])
+    support = support_flags(cloud.label, hag).astype(bool)
+    assert (cloud.label[support] == class_by_name("terrain").id).all()
+    assert (np.abs(hag[support]) <= SUPPORT_TOLERANCE).all()  # at the ground the robot stands on
+    n = p.cover.shape[0]
+    on_tread = stage._tread(p, n).reshape(-1)[p.cover.cells(cloud.xyz[:, 0], cloud.xyz[:, 1])[0]]
+    cls, _ = p.cover.at(cloud.xyz[:, 0], cloud.xyz[:, 1])
+    assert (support & on_tread & (cls == 0)).sum() > 100  # the wheel tracks' soil
+    median = on_tread & (cloud.label == LOW_GRASS)
+    assert median.sum() > 100 and not support[median].any()  # the median's grass, above the soil
+    assert (cls[median] == LOW_GRASS).all()  # in the median's cells, as their layer

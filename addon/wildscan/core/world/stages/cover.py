@@ -3,11 +3,11 @@ terrain and each zone's character; none in the paper biome.
 
 Per 0.5 m cell, in this order (the first that holds decides):
 
-  two-track     the trail's tread is a two-track: bare wheel tracks, low grass between them
-                (the median) and beside them (_two_track)
   bare          where an element may not stand (the water, the park's fence line), the cave
                 itself (its pit, ramp and roof), on slopes steeper than 38 deg, under rocks and
-                deadwood
+                deadwood; the trail's wheel tracks
+  two-track     the rest of the trail's tread: low grass between the wheel tracks (the median)
+                and beside them (_two_track)
   tall grass    where it is wet: the lake's shore (up to WET_ABOVE_LAKE above the water) and
                 basins (ground BASIN_DEPTH below its surroundings); reeds by the lake
   undergrowth   under a tree's crown (shade), the biome's share of it (ferns, bramble: bush);
