@@ -398,3 +398,19 @@ def test_on_the_two_track_support_points_lie_on_the_wheel_tracks_and_grass_point
     median = on_tread & (cloud.label == LOW_GRASS)
     assert median.sum() > 100 and not support[median].any()  # the median's grass, above the soil
     assert (cls[median] == LOW_GRASS).all()  # in the median's cells, as their layer
+
+
+@pytest.mark.parametrize("biome", ["paper", "mixed"])
+def test_the_placement_probe_stands_on_a_terrain_roof_and_passes_a_rock_one(biome):
+    from wildscan.app.poses import plan_backend, valid_poses
+    from wildscan.core.placement import Pose, place
+
+    backend = plan_backend(plan(biome))
+    inside = next(p for p in valid_poses(plan(biome), backend, 3)["cave"] if p.get("z_start"))
+    pose = Pose(inside["x"], inside["y"], inside["yaw"])
+    floor = place(backend, pose, inside["z_start"]).optical_centre[2]
+    probed = place(backend, pose).optical_centre[2]  # the probe from above, no z_start
+    if biome == "paper":
+        assert probed > inside["z_start"] + 0.5  # on the roof: what --z-start avoids
+    else:
+        assert probed == pytest.approx(floor, abs=1e-6)  # the rock roof is no ground: the floor under it
