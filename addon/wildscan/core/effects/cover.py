@@ -123,7 +123,7 @@ class GroundCover(Effect):
         dx, dy, dz = ray.cols(rows)
         e = end[rows]
         horizontal = np.sqrt(dx * dx + dy * dy)
-        t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), e)  # finite
+        t0 = np.minimum(TRAMPLED / horizontal, e)  # finite (TRAMPLED / 0 is inf: `e`)
         ox, oy, oz = ray.origin(rows)
         z = oz + dz * t0
         x, y = ox + dx * t0, oy + dy * t0
@@ -142,7 +142,16 @@ class GroundCover(Effect):
             ox, oy = (v if np.ndim(v) == 0 else v[close] for v in (ox, oy))
             t = t0[close]
             k, (above, height, rate, _) = _inside(
-                look, x[close], y[close], z[close], dx, dy, dz, np.ones(len(close), dtype=bool), True, compact=True
+                look,
+                x[close],
+                y[close],
+                z[close],
+                dx,
+                dy,
+                dz,
+                np.ones(len(close), dtype=bool),
+                True,
+                compact=True,
             )
             t = t[k]
             up = np.where(rate > 0, t + (height - above) / rate, np.inf)
@@ -156,44 +165,58 @@ class GroundCover(Effect):
         """The runs that end at the hits, from where each ray came down into the layer (not
         before the run from the sensor, or the trampled ground, ends): of the rays whose hit
         (BEFORE_HIT short of it) lies in the layer and that a run from the sensor does not
-        reach. One origin: none above the highest layer top within reach looked at."""
+        reach (most of those that start in it: tested first, over all the rays at once). One
+        origin: none above the highest layer top within reach looked at."""
         n = len(end)
         at = np.maximum(end - BEFORE_HIT, 0.0)
+        wanted = hit.copy()
+        if len(a.rows):  # a run from the sensor that reaches the hit leaves none to it
+            wanted[a.rows.take(np.flatnonzero(a.end >= end.take(a.rows)))] = False
         contained = False
         if ray.single:
             reach = float(np.max(at, where=hit, initial=0.0))
             top = self.grid.top_within(ray.ox, ray.oy, reach)
-            rows = np.flatnonzero(hit & (ray.oz + ray.dz * at <= top))
+            wanted &= ray.oz + ray.dz * at <= top
             contained = look.contains(ray.ox - reach, ray.ox + reach, ray.oy - reach, ray.oy + reach)
-        else:
-            rows = np.flatnonzero(hit)
+        rows = np.flatnonzero(wanted)
         dx, dy, dz = ray.cols(rows)
-        e, at = end[rows], at[rows]
-        t0 = _trampled(dx, dy, e)
-        # a run from the sensor that reaches the hit leaves none to it
-        reached = np.zeros(n, dtype=bool)
-        reached[a.rows[a.end >= end[a.rows]]] = True
+        at = at.take(rows)
         ox, oy, oz = ray.origin(rows)
-        wanted = (t0 < e) & ~reached[rows]
-        k, (above, height, rate, flat) = _inside(
-            look, ox + dx * at, oy + dy * at, oz + dz * at, dx, dy, dz, wanted, contained, compact=True
-        )
-        rows, e = rows[k], e[k]
+        z = oz + dz * at
+        fx, fy, fi, fj, flat, ok = _cells(look, ox + dx * at, oy + dy * at, contained)
+        near = z <= look.top.take(flat)
+        if ok is not None:
+            near &= ok
+        k = np.flatnonzero(near)
+        rows, dx, dy, dz, z, flat = (v.take(k) for v in (rows, dx, dy, dz, z, flat))
+        tx, ty = (fx - fi).take(k), (fy - fj).take(k)
+        e = end.take(rows)
+        t0 = _trampled(dx, dy, e)
+        sx, sy = 1.0 - tx, 1.0 - ty
+        ground = (look.z00.take(flat) * sx + look.z10.take(flat) * tx) * sy + (
+            look.z01.take(flat) * sx + look.z11.take(flat) * tx
+        ) * ty
+        above = z - ground
+        height = look.height.take(flat)
+        m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height) & (t0 < e))
+        rows, e, t0, above, height, flat = (v.take(m) for v in (rows, e, t0, above, height, flat))
+        gx, gy = _slopes(look, flat, tx.take(m), ty.take(m), sx.take(m), sy.take(m))
+        rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
         # where the run may begin: the run from the sensor's end, or the trampled ground's
-        start = t0[k]
-        if len(a.rows):
+        start = t0
+        if len(a.rows) and len(rows):
             leave = np.full(n, np.nan)
             leave[a.rows] = a.end
-            from_a = leave[rows]
-            start = np.where(np.isnan(from_a), start, from_a)
+            from_a = leave.take(rows)
+            start = np.where(np.isnan(from_a), t0, from_a)
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
-        return _Run(rows, np.maximum(e - back, start), e, look.ext[flat])
+        return _Run(rows, np.maximum(e - back, start), e, look.ext.take(flat))
 
 
 def _trampled(dx, dy, end):
-    """Where each ray (directions dx, dy) is TRAMPLED from its origin in x and y, or its end."""
-    horizontal = np.sqrt(dx * dx + dy * dy)
-    return np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
+    """Where each ray (directions dx, dy) is TRAMPLED from its origin in x and y, or its end
+    (TRAMPLED / 0 is inf: a vertical ray's end)."""
+    return np.minimum(TRAMPLED / np.sqrt(dx * dx + dy * dy), end)
 
 
 def _inside(look: CoverLookup, x, y, z, dx, dy, dz, wanted, contained: bool, compact: bool = False):
@@ -212,7 +235,9 @@ def _inside(look: CoverLookup, x, y, z, dx, dy, dz, wanted, contained: bool, com
         flat, fx, fy, fi, fj, z, dx, dy, dz = (v[k] for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
     tx, ty = fx - fi, fy - fj
     sx, sy = 1.0 - tx, 1.0 - ty
-    ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (look.z01[flat] * sx + look.z11[flat] * tx) * ty
+    ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (
+        look.z01[flat] * sx + look.z11[flat] * tx
+    ) * ty
     above = z - ground
     height = look.height[flat]
     in_layer = (above >= -BOTTOM_SLACK) & (above <= height)
@@ -261,7 +286,9 @@ def _surface(look: CoverLookup, x, y, slopes: bool = True):
     if ok is not None:  # (inside the grid fx - fi lies in [0, 1) already)
         tx, ty = np.clip(tx, 0.0, 1.0), np.clip(ty, 0.0, 1.0)
     sx, sy = 1.0 - tx, 1.0 - ty
-    ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (look.z01[flat] * sx + look.z11[flat] * tx) * ty
+    ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (
+        look.z01[flat] * sx + look.z11[flat] * tx
+    ) * ty
     cls, height, ext = look.cls[flat], look.height[flat], look.ext[flat]
     if ok is not None:
         cls = np.where(ok, cls, 0).astype(np.int16, copy=False)
@@ -355,7 +382,9 @@ def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     if len(close):
         flat, tx, ty = flat[close], fx[close] - fi[close], fy[close] - fj[close]
         sx, sy = 1.0 - tx, 1.0 - ty
-        ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (look.z01[flat] * sx + look.z11[flat] * tx) * ty
+        ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (
+            look.z01[flat] * sx + look.z11[flat] * tx
+        ) * ty
         inside = _in_layer(cls[close], z[close] - ground, look.height[flat])
         if ok is not None:
             inside &= ok[close]
