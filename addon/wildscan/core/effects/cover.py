@@ -193,9 +193,7 @@ class GroundCover(Effect):
         e = end.take(rows)
         t0 = _trampled(dx, dy, e)
         sx, sy = 1.0 - tx, 1.0 - ty
-        ground = (look.z00.take(flat) * sx + look.z10.take(flat) * tx) * sy + (
-            look.z01.take(flat) * sx + look.z11.take(flat) * tx
-        ) * ty
+        ground = _ground(look, flat, tx, ty, sx, sy)
         above = z - ground
         height = look.height.take(flat)
         m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height) & (t0 < e))
@@ -235,9 +233,7 @@ def _inside(look: CoverLookup, x, y, z, dx, dy, dz, wanted, contained: bool, com
         flat, fx, fy, fi, fj, z, dx, dy, dz = (v[k] for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
     tx, ty = fx - fi, fy - fj
     sx, sy = 1.0 - tx, 1.0 - ty
-    ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (
-        look.z01[flat] * sx + look.z11[flat] * tx
-    ) * ty
+    ground = _ground(look, flat, tx, ty, sx, sy)
     above = z - ground
     height = look.height[flat]
     in_layer = (above >= -BOTTOM_SLACK) & (above <= height)
@@ -267,10 +263,17 @@ def _cells(look: CoverLookup, x, y, contained: bool = False):
     return fx, fy, fi, fj, flat.astype(np.intp), None
 
 
+def _ground(look: CoverLookup, flat, tx, ty, sx, sy):
+    """The terrain's height at points of cells `flat`, (tx, ty) into them (sx = 1 - tx, sy =
+    1 - ty): bilinear between the cell's corners, CoverGrid.surface_at's operations."""
+    z00, z10, z01, z11 = (v.take(flat) for v in (look.z00, look.z10, look.z01, look.z11))
+    return (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
+
+
 def _slopes(look: CoverLookup, flat, tx, ty, sx, sy):
     """The terrain's slope d/dx, d/dy at points of cells `flat` (CoverGrid.surface_at's)."""
-    gx = look.slope_x0[flat] * sy + look.slope_x1[flat] * ty
-    gy = look.slope_y0[flat] * sx + look.slope_y1[flat] * tx
+    gx = look.slope_x0.take(flat) * sy + look.slope_x1.take(flat) * ty
+    gy = look.slope_y0.take(flat) * sx + look.slope_y1.take(flat) * tx
     if not look.slopes_scaled:
         gx /= look.cell
         gy /= look.cell
@@ -286,9 +289,7 @@ def _surface(look: CoverLookup, x, y, slopes: bool = True):
     if ok is not None:  # (inside the grid fx - fi lies in [0, 1) already)
         tx, ty = np.clip(tx, 0.0, 1.0), np.clip(ty, 0.0, 1.0)
     sx, sy = 1.0 - tx, 1.0 - ty
-    ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (
-        look.z01[flat] * sx + look.z11[flat] * tx
-    ) * ty
+    ground = _ground(look, flat, tx, ty, sx, sy)
     cls, height, ext = look.cls[flat], look.height[flat], look.ext[flat]
     if ok is not None:
         cls = np.where(ok, cls, 0).astype(np.int16, copy=False)
@@ -346,8 +347,8 @@ class _Stops:
         begin = np.concatenate([a.begin, b.begin])
         end = np.concatenate([a.end, b.end])
         ext = np.concatenate([a.ext, b.ext])
-        stop = _stop(begin, end, ext, np.concatenate(ua + ub))
-        k = np.flatnonzero(np.isfinite(stop))
+        stop = _depth(begin, ext, np.concatenate(ua + ub))
+        k = np.flatnonzero(stop < end)
         rows = np.concatenate([a.rows, b.rows])[k]
         n_a = int(np.searchsorted(k, len(a.rows)))
         return _Stops(rows, n_a, stop[k], np.zeros(len(k), dtype=np.int16), end[k], ext[k], rngs)
@@ -382,9 +383,7 @@ def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     if len(close):
         flat, tx, ty = flat[close], fx[close] - fi[close], fy[close] - fj[close]
         sx, sy = 1.0 - tx, 1.0 - ty
-        ground = (look.z00[flat] * sx + look.z10[flat] * tx) * sy + (
-            look.z01[flat] * sx + look.z11[flat] * tx
-        ) * ty
+        ground = _ground(look, flat, tx, ty, sx, sy)
         inside = _in_layer(cls[close], z[close] - ground, look.height[flat])
         if ok is not None:
             inside &= ok[close]
@@ -510,13 +509,19 @@ def _in_layer(cls, above, height) -> np.ndarray:
     return (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
 
 
+def _depth(begin, ext, u):
+    """Where each ray's optical depth -log(1 - u), Exp(1), runs out from `begin` in a medium
+    of extinction `ext` (_stop without its run's end)."""
+    return begin - dm.log(1.0 - u) / ext
+
+
 def _stop(begin, end, ext, u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
     depth -log(1 - u), Exp(1), over the extinction per metre `ext` of its medium. (Taken for
     every ray of the run, whole arrays: most of them stop, and a ray that passes, a run that
     is empty or a medium of no extinction gives a point at or past its end, or nan, never a
     stop.)"""
-    t = begin - dm.log(1.0 - u) / ext
+    t = _depth(begin, ext, u)
     return np.where(t < end, t, np.inf)
 
 
