@@ -34,6 +34,7 @@ import numpy as np
 from .. import detmath as dm
 from ..hits import RayHits
 from ..rng import stage_rng
+from ..threads import in_parts
 from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid
 from ..world.cover_lookup import CoverLookup, cover_lookup
 from .base import Effect, Rays
@@ -82,17 +83,26 @@ class GroundCover(Effect):
             return hits
         look = cover_lookup(self.grid)
         d = np.asarray(rays.directions, dtype=np.float64)
+        o = np.asarray(rays.origins, dtype=np.float64)
+        end = np.minimum(hits.distance, rays.max_range)
+        hit = np.isfinite(hits.distance)
+
+        def stops(part: slice) -> _Stops:
+            """The stops of one part of the rays, as far as the part settles them."""
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                ray = _Rays(o if o.ndim == 1 else o[part], d[part], rays.max_range)
+                e = end[part]
+                a = self._from_sensor(look, ray, e)
+                b = self._to_hit(look, ray, e, hit[part], a)
+                found = _Stops.first(a, b, self.seed, part.start)
+                _settle(look, ray, found)
+            found.rows += part.start  # the part's rays, numbered in the scan
+            return found
+
+        found = _Stops.joined(in_parts(stops, n, PART))
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            ray = _Rays(np.asarray(rays.origins, dtype=np.float64), d)
-            if ray.single:
-                ray.reaching(float(rays.max_range) + 1.0)
-            end = np.minimum(hits.distance, rays.max_range)
-            a = self._from_sensor(look, ray, end)
-            b = self._to_hit(look, ray, end, np.isfinite(hits.distance), a)
-            stops = _Stops.first(a, b, self.seed, n)
-            _settle(look, ray, stops)
-            _redraw(look, ray, stops)
-        rows, at, cls = stops.kept()
+            _redraw(look, _Rays(o, d, rays.max_range), found)
+        rows, at, cls = found.kept(n)
         if not len(rows):
             return hits
         return _with_cover_hits(hits, rows, at, cls, d)
@@ -317,12 +327,13 @@ class _Run:
 
 @dataclass
 class _Stops:
-    """The stops drawn in both runs: the runs from the sensor's first (n_a of them), then the
-    runs to the hit's, each in ray order; where each stops (inf: none) and its class (0: none
-    yet), its run's end and anchor's extinction; each part's generator (None: no draws)."""
+    """The stops drawn in both runs of the rays: of each part (PART rays), the runs from the
+    sensor's (`from_sensor`), then the runs to the hit's, each in ray order; where each stops
+    and its class (0: none yet), its run's end and anchor's extinction; each part's generator
+    (None: none drawn)."""
 
     rows: np.ndarray
-    n_a: int
+    from_sensor: np.ndarray
     stop: np.ndarray
     cls: np.ndarray
     end: np.ndarray
@@ -330,39 +341,40 @@ class _Stops:
     rngs: list
 
     @staticmethod
-    def first(a: _Run, b: _Run, seed: int, n: int) -> _Stops:
-        """Both runs' first stops. Each part of PART rays draws from its own stream, seeded
-        from (seed, "cover.part.K"), in ray order: the uniforms of its runs from the sensor,
-        then of its runs to the hit."""
-        bounds = np.minimum(np.arange(0, n + PART, PART), n)[: max(-(-n // PART), 1) + 1]
-        in_a, in_b = np.searchsorted(a.rows, bounds), np.searchsorted(b.rows, bounds)
-        ua, ub, rngs = [], [], []
-        for k in range(len(bounds) - 1):
-            na, nb = int(in_a[k + 1] - in_a[k]), int(in_b[k + 1] - in_b[k])
-            rng = stage_rng(seed, f"cover.part.{k}") if na + nb else None
-            u = rng.random(na + nb) if rng is not None else np.zeros(0)
-            ua.append(u[:na])
-            ub.append(u[na:])
-            rngs.append(rng)
-        begin = np.concatenate([a.begin, b.begin])
+    def first(a: _Run, b: _Run, seed: int, first: int) -> _Stops:
+        """The first stops of the runs of one part (rows in the part), whose first ray is
+        `first`. Each part
+        draws from its own stream, seeded from (seed, "cover.part.K"), in ray order: the
+        uniforms of its runs from the sensor, then of its runs to the hit (the same bytes
+        however many threads share the parts)."""
+        count = len(a.rows) + len(b.rows)
+        rng = stage_rng(seed, f"cover.part.{first // PART}") if count else None
+        u = rng.random(count) if count else np.zeros(0)
+        stop = _depth(np.concatenate([a.begin, b.begin]), np.concatenate([a.ext, b.ext]), u)
         end = np.concatenate([a.end, b.end])
-        ext = np.concatenate([a.ext, b.ext])
-        stop = _depth(begin, ext, np.concatenate(ua + ub))
         k = np.flatnonzero(stop < end)
-        rows = np.concatenate([a.rows, b.rows])[k]
-        n_a = int(np.searchsorted(k, len(a.rows)))
-        return _Stops(rows, n_a, stop[k], np.zeros(len(k), dtype=np.int16), end[k], ext[k], rngs)
+        rows = np.concatenate([a.rows, b.rows]).take(k)
+        from_sensor = k < len(a.rows)
+        ext = np.concatenate([a.ext, b.ext]).take(k)
+        return _Stops(
+            rows, from_sensor, stop.take(k), np.zeros(len(k), dtype=np.int16), end.take(k), ext, [rng]
+        )
 
-    def kept(self):
-        """(rays, where, class) of the stops that hold: a ray whose run from the sensor holds
-        keeps that stop, else its run to the hit's."""
+    @staticmethod
+    def joined(parts: list[_Stops]) -> _Stops:
+        """The stops of consecutive parts, in order (each part's generator at its index)."""
+        fields = ("rows", "from_sensor", "stop", "cls", "end", "ext")
+        joined = (np.concatenate([getattr(p, name) for p in parts]) for name in fields)
+        return _Stops(*joined, [r for p in parts for r in p.rngs])
+
+    def kept(self, n: int):
+        """(rays, where, class) of the stops that hold (of `n` rays): a ray whose run from
+        the sensor holds keeps that stop, else its run to the hit's."""
         held = self.cls > 0
-        a, b = held[: self.n_a], held[self.n_a :]
-        rows_a, rows_b = self.rows[: self.n_a], self.rows[self.n_a :]
-        taken = rows_a[a]
-        free_b = b & ~np.isin(rows_b, taken, assume_unique=True)
-        keep = np.concatenate([a, free_b])
-        return self.rows[keep], self.stop[keep], self.cls[keep]
+        taken = np.zeros(n, dtype=bool)
+        taken[self.rows[held & self.from_sensor]] = True
+        keep = np.flatnonzero(held & (self.from_sensor | ~taken.take(self.rows)))
+        return self.rows.take(keep), self.stop.take(keep), self.cls.take(keep)
 
 
 def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
@@ -478,18 +490,16 @@ def _cell_exit(look: CoverLookup, x, y, dx, dy, t):
 class _Rays:
     """A scan's rays: directions (n, 3) and origins, one (3,) for all (`single`) or (n, 3)."""
 
-    def __init__(self, origins: np.ndarray, dirs: np.ndarray):
+    def __init__(self, origins: np.ndarray, dirs: np.ndarray, max_range: float):
         self.d = dirs
         self.o = origins
         self.single = origins.ndim == 1
-        if self.single:
-            self.ox, self.oy, self.oz = (float(v) for v in origins)
         self.dz = np.ascontiguousarray(dirs[:, 2])  # every ray's (the tests over all rays)
         self.box = (0.0, 0.0, 0.0, 0.0)  # x and y bounds of every point within reach (one origin)
-
-    def reaching(self, reach: float) -> None:
-        """Bound the points looked at to within `reach` of the one origin (in x and y)."""
-        self.box = (self.ox - reach, self.ox + reach, self.oy - reach, self.oy + reach)
+        if self.single:
+            self.ox, self.oy, self.oz = (float(v) for v in origins)
+            reach = float(max_range) + 1.0
+            self.box = (self.ox - reach, self.ox + reach, self.oy - reach, self.oy + reach)
 
     def cols(self, rows: np.ndarray):
         """The directions of `rows` as contiguous x, y, z arrays (an index into a column
