@@ -12,7 +12,14 @@ exact. Rays that do not stop keep their surface hit.
 
 Cost: a constant number of array operations a ray in the layer, whatever its range; the rays
 that cannot be in it (above every cell's top within reach, or whose run from the sensor reaches
-their hit) are left out before any cell is looked up.
+their hit) are left out before any cell is looked up. Each cell's fields are gathered from
+contiguous per-world arrays (core/world/cover_lookup.py), and most rays are decided by their
+cell's bounds (lowest and highest corner, steepest slope) without interpolating the terrain:
+a point surely inside the layer, a ray surely coming down. Only the rest are looked at
+closely, with CoverGrid.surface_at's own operations, so every decision is the one the
+interpolated terrain gives. Numpy's cost is per element: a gather about six times an
+arithmetic operation, a boolean index about twenty times, an np.where six (instructions
+counted by callgrind); the code gathers by take, compacts by flatnonzero.
 
 Determinism: the rays are taken in fixed parts of PART rays (on the cast's threads); each part
 draws from its own PCG64 generator seeded from (the scan's noise seed, "cover.part.K"), in ray
@@ -134,7 +141,7 @@ class GroundCover(Effect):
         else:
             rows = np.arange(len(end))
         dx, dy, dz = ray.cols(rows)
-        e = end[rows]
+        e = end.take(rows)
         horizontal = np.sqrt(dx * dx + dy * dy)
         t0 = np.minimum(TRAMPLED / horizontal, e)  # finite (TRAMPLED / 0 is inf: `e`)
         ox, oy, oz = ray.origin(rows)
@@ -145,20 +152,20 @@ class GroundCover(Effect):
         if ok is not None:
             wanted &= ok
         # surely in the layer and coming down: the run ends at the hit (or LONGEST_RUN on)
-        sure = (z <= look.below_top[flat]) & (z >= look.bottom[flat])
-        sure &= dz + look.steepest[flat] * horizontal < 0
+        sure = (z <= look.below_top.take(flat)) & (z >= look.bottom.take(flat))
+        sure &= dz + look.steepest.take(flat) * horizontal < 0
         sure &= wanted
         leave = np.minimum(t0 + LONGEST_RUN, e)
         close = np.flatnonzero(wanted & ~sure)
         if len(close):
-            dx, dy, dz = dx[close], dy[close], dz[close]
-            ox, oy = (v if np.ndim(v) == 0 else v[close] for v in (ox, oy))
-            t = t0[close]
+            dx, dy, dz = dx.take(close), dy.take(close), dz.take(close)
+            ox, oy = (v if np.ndim(v) == 0 else v.take(close) for v in (ox, oy))
+            t = t0.take(close)
             k, (above, height, rate, _) = _inside(
                 look,
-                x[close],
-                y[close],
-                z[close],
+                x.take(close),
+                y.take(close),
+                z.take(close),
                 dx,
                 dy,
                 dz,
@@ -166,13 +173,13 @@ class GroundCover(Effect):
                 True,
                 compact=True,
             )
-            t = t[k]
+            t = t.take(k)
             up = np.where(rate > 0, t + (height - above) / rate, np.inf)
-            close = close[k]
-            leave[close] = np.minimum(np.minimum(up, t + LONGEST_RUN), e[close])
+            close = close.take(k)
+            leave[close] = np.minimum(np.minimum(up, t + LONGEST_RUN), e.take(close))
             sure[close] = True
         k = np.flatnonzero(sure)
-        return _Run(rows[k], t0[k], leave[k], look.ext[flat[k]])
+        return _Run(rows.take(k), t0.take(k), leave.take(k), look.ext.take(flat.take(k)))
 
     def _to_hit(self, look: CoverLookup, ray: _Rays, end, hit, a: _Run) -> _Run:
         """The runs that end at the hits, from where each ray came down into the layer (not
@@ -258,25 +265,25 @@ def _inside(look: CoverLookup, x, y, z, dx, dy, dz, wanted, contained: bool, com
     bare: CoverGrid.surface_near's test); `compact`: the rest are left out before the terrain
     is interpolated (where few are near). `contained`: every point lies in the grid."""
     fx, fy, fi, fj, flat, ok = _cells(look, x, y, contained)
-    wanted = wanted & (z <= look.top[flat])
+    wanted = wanted & (z <= look.top.take(flat))
     if ok is not None:
         wanted &= ok
     if compact:
         k = np.flatnonzero(wanted)
-        flat, fx, fy, fi, fj, z, dx, dy, dz = (v[k] for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
+        flat, fx, fy, fi, fj, z, dx, dy, dz = (v.take(k) for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
     tx, ty = fx - fi, fy - fj
     sx, sy = 1.0 - tx, 1.0 - ty
     ground = _ground(look, flat, tx, ty, sx, sy)
     above = z - ground
-    height = look.height[flat]
+    height = look.height.take(flat)
     in_layer = (above >= -BOTTOM_SLACK) & (above <= height)
     if not compact:
         in_layer &= wanted
     m = np.flatnonzero(in_layer)
-    flat, tx, ty, sx, sy = flat[m], tx[m], ty[m], sx[m], sy[m]
+    flat, tx, ty, sx, sy = flat.take(m), tx.take(m), ty.take(m), sx.take(m), sy.take(m)
     gx, gy = _slopes(look, flat, tx, ty, sx, sy)
-    rate = dz[m] - (gx * dx[m] + gy * dy[m])
-    return (k[m] if compact else m), (above[m], height[m], rate, flat)
+    rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
+    return (k.take(m) if compact else m), (above.take(m), height.take(m), rate, flat)
 
 
 def _cells(look: CoverLookup, x, y, contained: bool = False):
@@ -323,7 +330,7 @@ def _surface(look: CoverLookup, x, y, slopes: bool = True):
         tx, ty = np.clip(tx, 0.0, 1.0), np.clip(ty, 0.0, 1.0)
     sx, sy = 1.0 - tx, 1.0 - ty
     ground = _ground(look, flat, tx, ty, sx, sy)
-    cls, height, ext = look.cls[flat], look.height[flat], look.ext[flat]
+    cls, height, ext = look.cls.take(flat), look.height.take(flat), look.ext.take(flat)
     if ok is not None:
         cls = np.where(ok, cls, 0).astype(np.int16, copy=False)
     gx = gy = None
@@ -410,18 +417,18 @@ def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     t = stops.stop
     x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
     fx, fy, fi, fj, flat, ok = _cells(look, x, y, ray.single and look.contains(*ray.box))
-    cls = look.cls[flat]
-    unsure = (z > look.below_top[flat]) | (z < look.bottom[flat])
+    cls = look.cls.take(flat)
+    unsure = (z > look.below_top.take(flat)) | (z < look.bottom.take(flat))
     if ok is not None:
         unsure |= ~ok
     close = np.flatnonzero(unsure)
     if len(close):
-        flat, tx, ty = flat[close], fx[close] - fi[close], fy[close] - fj[close]
+        flat, tx, ty = flat.take(close), fx.take(close) - fi.take(close), fy.take(close) - fj.take(close)
         sx, sy = 1.0 - tx, 1.0 - ty
         ground = _ground(look, flat, tx, ty, sx, sy)
-        inside = _in_layer(cls[close], z[close] - ground, look.height[flat])
+        inside = _in_layer(cls.take(close), z.take(close) - ground, look.height.take(flat))
         if ok is not None:
-            inside &= ok[close]
+            inside &= ok.take(close)
         cls[close[~inside]] = -1
     stops.cls = cls
 
@@ -441,20 +448,20 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     stops.cls[out] = 0
     if not len(out):
         return
-    t = stops.stop[out]
+    t = stops.stop.take(out)
     stops.stop[out] = np.inf
     # part by part (a stable sort keeps each part's stops in their order)
-    part = stops.rows[out] // PART
+    part = stops.rows.take(out) // PART
     order = np.argsort(part, kind="stable")
-    slot, part, t = out[order], part[order], t[order]
+    slot, part, t = out.take(order), part.take(order), t.take(order)
     counts = np.bincount(part, minlength=len(stops.rngs))
     # the logs of every uniform a pass could take, at once (a log costs ~40 array operations)
     uniforms = [stops.rngs[k].random(int(c) * SETTLE) for k, c in enumerate(counts.tolist()) if c]
     log_1_u = dm.log(1.0 - np.concatenate(uniforms))
     base = np.concatenate([[0], np.cumsum(counts * SETTLE)[:-1]])  # each part's first uniform
     drawn = np.zeros(len(counts), dtype=np.int64)
-    end, anchor_ext = stops.end[slot], stops.ext[slot]
-    rows = stops.rows[slot]
+    end, anchor_ext = stops.end.take(slot), stops.ext.take(slot)
+    rows = stops.rows.take(slot)
     dx, dy, dz = ray.cols(rows)
     ox, oy, oz = ray.origin(rows)
     x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
@@ -481,22 +488,41 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
         going = np.flatnonzero(np.isfinite(t))
         if not len(going):
             return
-        slot, part, t, end, anchor_ext = slot[going], part[going], t[going], end[going], anchor_ext[going]
-        dx, dy, dz = dx[going], dy[going], dz[going]
-        ox, oy, oz = (v if np.ndim(v) == 0 else v[going] for v in (ox, oy, oz))
+        slot, part, t, end, anchor_ext = (
+            slot.take(going),
+            part.take(going),
+            t.take(going),
+            end.take(going),
+            anchor_ext.take(going),
+        )
+        dx, dy, dz = dx.take(going), dy.take(going), dz.take(going)
+        ox, oy, oz = (v if np.ndim(v) == 0 else v.take(going) for v in (ox, oy, oz))
         x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
         c, height, ground, ext, gx, gy = _surface(look, x, y)
         inside = _in_layer(c, z - ground, height)
         held = np.flatnonzero(inside)
-        stops.stop[slot[held]] = t[held]
-        stops.cls[slot[held]] = c[held]
+        stops.stop[slot.take(held)] = t.take(held)
+        stops.cls[slot.take(held)] = c.take(held)
         out = np.flatnonzero(~inside)
         if not len(out):
             return
-        slot, part, t, end, anchor_ext = slot[out], part[out], t[out], end[out], anchor_ext[out]
-        dx, dy, dz, x, y, z = dx[out], dy[out], dz[out], x[out], y[out], z[out]
-        ox, oy, oz = (v if np.ndim(v) == 0 else v[out] for v in (ox, oy, oz))
-        c, height, ground, ext, gx, gy = c[out], height[out], ground[out], ext[out], gx[out], gy[out]
+        slot, part, t, end, anchor_ext = (
+            slot.take(out),
+            part.take(out),
+            t.take(out),
+            end.take(out),
+            anchor_ext.take(out),
+        )
+        dx, dy, dz, x, y, z = dx.take(out), dy.take(out), dz.take(out), x.take(out), y.take(out), z.take(out)
+        ox, oy, oz = (v if np.ndim(v) == 0 else v.take(out) for v in (ox, oy, oz))
+        c, height, ground, ext, gx, gy = (
+            c.take(out),
+            height.take(out),
+            ground.take(out),
+            ext.take(out),
+            gx.take(out),
+            gy.take(out),
+        )
 
 
 def _cell_exit(look: CoverLookup, x, y, dx, dy, t):
