@@ -161,17 +161,9 @@ class GroundCover(Effect):
             dx, dy, dz = dx.take(close), dy.take(close), dz.take(close)
             ox, oy = (v if np.ndim(v) == 0 else v.take(close) for v in (ox, oy))
             t = t0.take(close)
+            # (in the grid: `wanted` holds only points in it)
             k, (above, height, rate, _) = _inside(
-                look,
-                x.take(close),
-                y.take(close),
-                z.take(close),
-                dx,
-                dy,
-                dz,
-                np.ones(len(close), dtype=bool),
-                True,
-                compact=True,
+                look, x.take(close), y.take(close), z.take(close), dx, dy, dz
             )
             t = t.take(k)
             up = np.where(rate > 0, t + (height - above) / rate, np.inf)
@@ -257,33 +249,25 @@ def _trampled(dx, dy, end):
     return np.minimum(TRAMPLED / np.sqrt(dx * dx + dy * dy), end)
 
 
-def _inside(look: CoverLookup, x, y, z, dx, dy, dz, wanted, contained: bool, compact: bool = False):
-    """Of the points (x, y, z) on rays (dx, dy, dz) that are `wanted`, those inside the layer:
+def _inside(look: CoverLookup, x, y, z, dx, dy, dz):
+    """Of the points (x, y, z) on rays (dx, dy, dz), all in the grid, those inside the layer:
     (their places, (height above the terrain, layer height, rate, cell) there: the height above
     the terrain changes along the ray at that rate, its climb less the slope of the terrain).
     Only the cells whose top the point is not above can hold it (CoverLookup.top, -inf where
-    bare: CoverGrid.surface_near's test); `compact`: the rest are left out before the terrain
-    is interpolated (where few are near). `contained`: every point lies in the grid."""
-    fx, fy, fi, fj, flat, ok = _cells(look, x, y, contained)
-    wanted = wanted & (z <= look.top.take(flat))
-    if ok is not None:
-        wanted &= ok
-    if compact:
-        k = np.flatnonzero(wanted)
-        flat, fx, fy, fi, fj, z, dx, dy, dz = (v.take(k) for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
+    bare: CoverGrid.surface_near's test); the rest are left out before the terrain is
+    interpolated."""
+    fx, fy, fi, fj, flat, _ = _cells(look, x, y, True)
+    k = np.flatnonzero(z <= look.top.take(flat))
+    flat, fx, fy, fi, fj, z, dx, dy, dz = (v.take(k) for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
     tx, ty = fx - fi, fy - fj
     sx, sy = 1.0 - tx, 1.0 - ty
-    ground = _ground(look, flat, tx, ty, sx, sy)
-    above = z - ground
+    above = z - _ground(look, flat, tx, ty, sx, sy)
     height = look.height.take(flat)
-    in_layer = (above >= -BOTTOM_SLACK) & (above <= height)
-    if not compact:
-        in_layer &= wanted
-    m = np.flatnonzero(in_layer)
+    m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height))
     flat, tx, ty, sx, sy = flat.take(m), tx.take(m), ty.take(m), sx.take(m), sy.take(m)
     gx, gy = _slopes(look, flat, tx, ty, sx, sy)
     rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
-    return (k.take(m) if compact else m), (above.take(m), height.take(m), rate, flat)
+    return k.take(m), (above.take(m), height.take(m), rate, flat)
 
 
 def _cells(look: CoverLookup, x, y, contained: bool = False):
@@ -570,23 +554,16 @@ def _in_layer(cls, above, height) -> np.ndarray:
 
 def _depth(begin, ext, u):
     """Where each ray's optical depth -log(1 - u), Exp(1), runs out from `begin` in a medium
-    of extinction `ext` (_stop without its run's end)."""
+    of extinction `ext` (_stop_at without its run's end)."""
     return begin - dm.log(1.0 - u) / ext
 
 
 def _stop_at(begin, end, ext, log_1_u):
-    """_stop, given log(1 - u)."""
-    t = begin - log_1_u / ext
-    return np.where(t < end, t, np.inf)
-
-
-def _stop(begin, end, ext, u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
-    depth -log(1 - u), Exp(1), over the extinction per metre `ext` of its medium. (Taken for
-    every ray of the run, whole arrays: most of them stop, and a ray that passes, a run that
-    is empty or a medium of no extinction gives a point at or past its end, or nan, never a
-    stop.)"""
-    t = _depth(begin, ext, u)
+    depth -log(1 - u), Exp(1), over the extinction per metre `ext` of its medium, given
+    log(1 - u). (A ray that passes, a run that is empty or a medium of no extinction gives a
+    point at or past its end, or nan, never a stop.)"""
+    t = begin - log_1_u / ext
     return np.where(t < end, t, np.inf)
 
 
