@@ -41,6 +41,7 @@ computed hits are products and sums in a fixed order: the same bytes on every ma
 from __future__ import annotations
 
 import functools
+import threading
 
 import numpy as np
 
@@ -74,7 +75,7 @@ EMPTY_REACH = (8, 8)
 # Elements whose footprint is a mix by nature, or thin enough to lie between two axes.
 POROUS = ("treetop", "bush", "low grass", "high grass")
 THIN = ("wire", "pole")
-BLOCK = 32_768  # beams a block of _on_axis_planes (fixed: the bytes do not depend on the threads)
+BLOCK = 16_384  # beams a block of footprint_hits' rings (any size gives the same bytes): 12 a scan to share
 SIDES = 4  # a beam's neighbours: before and after along the scan line, the columns before and after
 
 
@@ -240,34 +241,61 @@ def footprint_hits(
     with normals), the ring sub-rays that were cast ((S - 1, N) bool)). `cast(origins, dirs,
     max_range, normals)` is the backend's cast: the axes are cast, then the ring sub-rays
     `rings_to_cast` names; the others meet the plane of their axis's hit (module docstring).
-    `threads`: those the cast uses (None: threads.cast_threads())."""
+    The rings are done a block of BLOCK beams at a time on `threads` (None:
+    threads.cast_threads()), each block's planes, cast and scatter in its own thread (a cast
+    from a pool thread is one call, threads.in_worker): no serial join of the cast's parts.
+    Each ray's answer is its own, so the bytes are those of one cast of every ring."""
     s, n, _ = sub_world.shape
     axis = cast(origin, sub_world[0], cast_range, True)
     fine = rings_to_cast(axis, sub_world[0], grid, sides)
-    hits = _on_axis_planes(axis, sub_world, cast_range, threads)
-    # cast beam by beam (a beam's ring sub-rays one after another: Embree finds the same nodes
-    # in its cache; 13 % off the forest's ring cast), each ray's answer its own
-    beam, ring = np.divmod(np.flatnonzero(fine.T), s - 1)
-    rows = ring * n + beam  # over the rings' (S - 1)·N sub-rays, sub-ray-major
-    cast_hits = cast(origin, sub_world[1:].reshape(-1, 3).take(rows, axis=0), cast_range, True)
-    _put_rows(hits, n + rows, cast_hits)
-    return hits, fine
-
-
-def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, threads=None) -> RayHits:
-    """The hits of every sub-ray (S·N, sub-ray-major) on the plane of its beam's axis hit:
-    t_k = t_0 (n·a)/(n·s_k), with the axis's element, normal and reflectivity; none where the
-    axis met nothing or t_k is past `cast_range` (or the plane is parallel to the sub-ray).
-    Made a block of BLOCK beams at a time on `threads` (each beam's are its own)."""
-    s, n, _ = sub_world.shape
-    distance = np.empty((s, n))
-    cls = np.empty((s, n), dtype=axis.class_id.dtype)
-    instance = np.empty((s, n), dtype=axis.instance.dtype)
-    normals = np.empty((s, n, 3))
-    overrides = axis.reflectivity
-    reflectivity = None if overrides is None else np.empty((s, n), dtype=np.float32)
+    hits = _AxisPlanes(axis, s, n)
+    untagged = []
 
     def block(b: slice) -> None:
+        hits.fill(sub_world, cast_range, b)
+        # cast beam by beam (a beam's ring sub-rays one after another: Embree finds the same
+        # nodes in its cache; 13 % off the forest's ring cast), each ray's answer its own
+        beam, ring = np.nonzero(fine[:, b].T)
+        if not len(beam):
+            return
+        beam += b.start
+        ring += 1
+        cast_hits = cast(origin, sub_world[ring, beam], cast_range, True)
+        hits.put(ring * n + beam, cast_hits)
+        untagged.append(cast_hits.untagged_objects)
+
+    in_parts(block, n, BLOCK, threads)
+    out = hits.joined()
+    out.untagged_objects = out.untagged_objects.union(*untagged)
+    return out, fine
+
+
+class _AxisPlanes:
+    """The hits of every sub-ray (S·N, sub-ray-major), filled a block of beams at a time:
+    first each on the plane of its beam's axis hit (`fill`), then the cast ones (`put`)."""
+
+    def __init__(self, axis: RayHits, s: int, n: int):
+        self.axis = axis
+        self.distance = np.empty((s, n))
+        self.cls = np.empty((s, n), dtype=axis.class_id.dtype)
+        self.instance = np.empty((s, n), dtype=axis.instance.dtype)
+        self.normals = np.empty((s, n, 3))
+        overrides = axis.reflectivity
+        self.reflectivity = None if overrides is None else np.empty((s, n), dtype=np.float32)
+        self._lock = threading.Lock()
+
+    def fill(self, sub_world: np.ndarray, cast_range: float, b: slice) -> None:
+        """The sub-rays of beams `b` on the plane of their axis's hit: t_k = t_0 (n·a)/(n·s_k),
+        with the axis's element, normal and reflectivity; none where the axis met nothing or
+        t_k is past `cast_range` (or the plane is parallel to the sub-ray)."""
+        s = len(sub_world)
+        axis, distance, cls, instance, normals = (
+            self.axis,
+            self.distance,
+            self.cls,
+            self.instance,
+            self.normals,
+        )
         normal = axis.normal[b]
         t0 = axis.distance[b]
         distance[0, b] = t0
@@ -280,8 +308,9 @@ def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, thr
         cls[:, b] = axis.class_id[b]
         instance[:, b] = axis.instance[b]
         normals[:, b] = normal
+        reflectivity = None if axis.reflectivity is None else self.reflectivity
         if reflectivity is not None:
-            reflectivity[:, b] = overrides[b]
+            reflectivity[:, b] = axis.reflectivity[b]
         # none where the axis met nothing (its class, instance and normal say none already),
         # nor past cast_range, behind the origin or parallel (nan and inf fail both tests)
         missed = ~((ring > 0) & (ring <= cast_range))
@@ -292,21 +321,20 @@ def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, thr
         if reflectivity is not None:
             reflectivity[1:, b][k, j] = np.nan
 
-    in_parts(block, n, BLOCK, threads)
-    flat = (distance.ravel(), cls.ravel(), instance.ravel(), axis.untagged_objects)
-    overridden = None if reflectivity is None else reflectivity.ravel()
-    return RayHits(*flat, normal=normals.reshape(-1, 3), reflectivity=overridden)
+    def put(self, rows: np.ndarray, new: RayHits) -> None:
+        """Rows `rows` (of the S·N, sub-ray-major) set to `new`'s hits (an override array made
+        where `new` has overrides and the axes had none)."""
+        self.distance.reshape(-1)[rows] = new.distance
+        self.cls.reshape(-1)[rows] = new.class_id
+        self.instance.reshape(-1)[rows] = new.instance
+        self.normals.reshape(-1, 3)[rows] = new.normal
+        if new.reflectivity is not None or self.reflectivity is not None:
+            with self._lock:  # made once, by whichever block needs it first
+                if self.reflectivity is None:
+                    self.reflectivity = np.full(self.distance.shape, np.nan, dtype=np.float32)
+            self.reflectivity.reshape(-1)[rows] = new.overrides()
 
-
-def _put_rows(hits: RayHits, rows: np.ndarray, new: RayHits) -> None:
-    """`hits`' rows `rows` set to `new`'s (in place; an override array made where `new` has
-    overrides and `hits` none)."""
-    hits.distance[rows] = new.distance
-    hits.class_id[rows] = new.class_id
-    hits.instance[rows] = new.instance
-    hits.normal[rows] = new.normal
-    if new.reflectivity is not None or hits.reflectivity is not None:
-        if hits.reflectivity is None:
-            hits.reflectivity = hits.overrides()
-        hits.reflectivity[rows] = new.overrides()
-    hits.untagged_objects = hits.untagged_objects | new.untagged_objects
+    def joined(self) -> RayHits:
+        flat = (self.distance.ravel(), self.cls.ravel(), self.instance.ravel(), self.axis.untagged_objects)
+        overridden = None if self.reflectivity is None else self.reflectivity.ravel()
+        return RayHits(*flat, normal=self.normals.reshape(-1, 3), reflectivity=overridden)
