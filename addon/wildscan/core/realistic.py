@@ -30,7 +30,7 @@ from .errors import UserError
 from .footprint import ring_columns, subray_directions, subray_weights, turn_rings
 from .hits import RayHits
 from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
-from .threads import in_parts
+from .threads import in_parts, started
 from .world.cover import COVER_INSTANCE_BASE
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
@@ -166,12 +166,13 @@ def echo_points(
     hold more than one surface (coarse to fine); None: every sub-ray is cast."""
     s, n, _ = sub_world.shape
     rays = sub_world.reshape(-1, 3)
+    noise = started(lambda: noise_draws(sensor, n, sensor.echoes), threads)  # beside the casts
     if grid is None or s == 1:
         clear, fine = cast(origin, rays, cast_range, True), None
     else:
         clear, fine = footprint_hits(cast, origin, sub_world, cast_range, *grid, threads)
     hits = effects.medium(Rays(origin, rays, cast_range), clear)
-    draws = noise_draws(sensor, n, sensor.echoes)
+    draws = noise()
     axis = AxisHits(clear.rows(slice(0, n)), sub_world[0], origin, cast_range)
     weights = subray_weights(s)
 

@@ -134,6 +134,16 @@ def in_parts(fn: Callable[[slice], T], count: int, size: int, threads: int | Non
     return [fn(piece) for piece in pieces]
 
 
+def started(fn: Callable[[], T], threads: int | None = None) -> Callable[[], T]:
+    """`fn()` begun on the pool while the caller goes on (inline, now, with one thread or from
+    a pool thread); returns what gives its result, waiting for it if need be."""
+    threads = cast_threads() if threads is None else threads
+    if threads > 1 and not in_worker():
+        return _pool_of(threads).submit(fn).result
+    value = fn()
+    return lambda: value
+
+
 def _pool_of(threads: int) -> ThreadPoolExecutor:
     """One pool for the process, grown when more threads are asked for."""
     global _pool
