@@ -40,6 +40,7 @@ computed hits are products and sums in a fixed order: the same bytes on every ma
 
 from __future__ import annotations
 
+import copy
 import functools
 import threading
 
@@ -72,10 +73,13 @@ THIN_REACH = (2, 2)  # beams along the scan line and columns around a thin eleme
 # is met by some axis near it (measured on the realism poses: 8 and 8 lose under 1 % of the
 # high grass and wire points a cast ring finds, 2 and 2 up to 20 %).
 EMPTY_REACH = (8, 8)
+# rows (columns of the scan) around a block whose axes decide its rings: the reaches, and the
+# neighbour a plane is compared with
+HALO = max(EMPTY_REACH[1], THIN_REACH[1], 1)
 # Elements whose footprint is a mix by nature, or thin enough to lie between two axes.
 POROUS = ("treetop", "bush", "low grass", "high grass")
 THIN = ("wire", "pole")
-BLOCK = 16_384  # beams a block of footprint_hits' rings (any size gives the same bytes): 12 a scan to share
+BLOCK = 16_384  # beams (whole columns) a block of footprint_hits' rings (any size: the same bytes)
 SIDES = 4  # a beam's neighbours: before and after along the scan line, the columns before and after
 
 
@@ -110,6 +114,14 @@ class BeamGrid:
 
     def __len__(self) -> int:
         return self.shape[0] * self.shape[1]
+
+    def rows(self, first: int, stop: int) -> "BeamGrid":
+        """The grid of rows (columns of the scan) first..stop - 1 alone: its `view` takes the
+        values of those rows' beams."""
+        part = copy.copy(self)
+        part.shape = (stop - first, self.per_column)
+        part.same_sweep = self.same_sweep[first : max(stop - 1, first)]
+        return part
 
     def view(self, values: np.ndarray) -> np.ndarray:
         """(N, ...) values of the beams as (columns, beams by angle, ...)."""
@@ -167,9 +179,21 @@ def scan_grid(device: Device, rh_deg: float, divergence_mrad: float) -> tuple[Be
     return grid, sides
 
 
-def rings_to_cast(axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid, sides: np.ndarray) -> np.ndarray:
+def rings_to_cast(
+    axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid, sides: np.ndarray, rows: slice | None = None
+) -> np.ndarray:
     """(S - 1, N) bool: the ring sub-rays that must be cast (see the module docstring), from
-    the hits of every beam's axis (with normals) and the side of each ring sub-ray."""
+    the hits of every beam's axis (with normals) and the side of each ring sub-ray; with
+    `rows` (of the grid), those of these rows' beams alone (S - 1, their beams), found from
+    the rows within HALO of them: the same answer, a block at a time."""
+    if rows is not None:
+        first, stop = max(rows.start - HALO, 0), min(rows.stop + HALO, grid.shape[0])
+        beams = slice(first * grid.per_column, stop * grid.per_column)
+        whole = rings_to_cast(
+            axis.rows(beams), axis_dirs[beams], grid.rows(first, stop), sides[:, first:stop]
+        )
+        mine = slice((rows.start - first) * grid.per_column, (rows.stop - first) * grid.per_column)
+        return whole[:, mine]
     view = grid.view
     distance, cls, instance = view(axis.distance), view(axis.class_id), view(axis.instance)
     hit = np.isfinite(distance)
@@ -241,17 +265,21 @@ def footprint_hits(
     with normals), the ring sub-rays that were cast ((S - 1, N) bool)). `cast(origins, dirs,
     max_range, normals)` is the backend's cast: the axes are cast, then the ring sub-rays
     `rings_to_cast` names; the others meet the plane of their axis's hit (module docstring).
-    The rings are done a block of BLOCK beams at a time on `threads` (None:
-    threads.cast_threads()), each block's planes, cast and scatter in its own thread (a cast
-    from a pool thread is one call, threads.in_worker): no serial join of the cast's parts.
-    Each ray's answer is its own, so the bytes are those of one cast of every ring."""
+    The rings are done a block of about BLOCK beams (whole columns of the scan) at a time on
+    `threads` (None: threads.cast_threads()), each block's choice, planes, cast and scatter in
+    its own thread (a cast from a pool thread is one call, threads.in_worker): nothing serial
+    but the axes' cast. Each ray's answer is its own, and a block's choice is made from the
+    axes around it as from all: the bytes of one cast of every ring."""
     s, n, _ = sub_world.shape
     axis = cast(origin, sub_world[0], cast_range, True)
-    fine = rings_to_cast(axis, sub_world[0], grid, sides)
+    fine = np.empty((s - 1, n), dtype=bool)
     hits = _AxisPlanes(axis, s, n)
     untagged = []
+    per_column = grid.per_column
 
-    def block(b: slice) -> None:
+    def block(rows: slice) -> None:
+        b = slice(rows.start * per_column, rows.stop * per_column)
+        fine[:, b] = rings_to_cast(axis, sub_world[0], grid, sides, rows)
         hits.fill(sub_world, cast_range, b)
         # cast beam by beam (a beam's ring sub-rays one after another: Embree finds the same
         # nodes in its cache; 13 % off the forest's ring cast), each ray's answer its own
@@ -264,7 +292,7 @@ def footprint_hits(
         hits.put(ring * n + beam, cast_hits)
         untagged.append(cast_hits.untagged_objects)
 
-    in_parts(block, n, BLOCK, threads)
+    in_parts(block, grid.shape[0], max(BLOCK // per_column, 1), threads)
     out = hits.joined()
     out.untagged_objects = out.untagged_objects.union(*untagged)
     return out, fine
