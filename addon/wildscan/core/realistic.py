@@ -136,12 +136,17 @@ def realistic_points(
     its casts use (threads.backend_threads; None: threads.cast_threads())."""
     sub_sensor = subray_directions(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
     sub_world = np.empty(sub_sensor.shape)
+
     # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
     # single-echo realistic scan hits exactly where the paper's does; the ring is turned.
-    sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
+    def turn_axes() -> None:
+        sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
+
+    axes = started(turn_axes, threads)  # on a pool thread, beside the rings' turn
     columns = ring_columns(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
     ring = sub_world[1:]
     in_parts(lambda beams: turn_rings(rotation, columns, ring, beams), ring.shape[1], BEAM_BLOCK, threads)
+    axes()
     grid = scan_grid(sensor.device, float(sensor.rh_deg), float(sensor.divergence_mrad))
     return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads, grid)
 
