@@ -184,40 +184,47 @@ def rings_to_cast(
 ) -> np.ndarray:
     """(S - 1, N) bool: the ring sub-rays that must be cast (see the module docstring), from
     the hits of every beam's axis (with normals) and the side of each ring sub-ray; with
-    `rows` (of the grid), those of these rows' beams alone (S - 1, their beams), found from
-    the rows within HALO of them: the same answer, a block at a time."""
-    if rows is not None:
-        first, stop = max(rows.start - HALO, 0), min(rows.stop + HALO, grid.shape[0])
-        beams = slice(first * grid.per_column, stop * grid.per_column)
-        whole = rings_to_cast(
-            axis.rows(beams), axis_dirs[beams], grid.rows(first, stop), sides[:, first:stop]
-        )
-        mine = slice((rows.start - first) * grid.per_column, (rows.stop - first) * grid.per_column)
-        return whole[:, mine]
-    view = grid.view
-    distance, cls, instance = view(axis.distance), view(axis.class_id), view(axis.instance)
+    `rows` (of the grid), those of these rows' beams alone (S - 1, their beams): the same
+    answer, a block at a time, found from the rows within HALO of them (whether an axis met
+    something, a thin element) and within one of them (the planes)."""
+    total, per_column = grid.shape
+    low, high = (0, total) if rows is None else (rows.start, rows.stop)
+    # which axes met something, or a thin element, over the reaches around the rows
+    first, stop = max(low - HALO, 0), min(high + HALO, total)
+    around = grid.rows(first, stop)
+    beams = slice(first * per_column, stop * per_column)
+    distance, cls = around.view(axis.distance[beams]), around.view(axis.class_id[beams])
     hit = np.isfinite(distance)
     known = (cls >= 0) & (cls < len(_POROUS))
     cls_index = np.where(known, cls, 0)
     thin = hit & known & _THIN[cls_index]
-    normal = [np.ascontiguousarray(view(axis.normal[:, k])) for k in range(3)]
-    direction = [view(axis_dirs[:, k]) for k in range(3)]
+    empty = ~_grown(hit, EMPTY_REACH)[low - first : high - first]
+    near_thin = _grown(thin, THIN_REACH)[low - first : high - first]
+    computed = empty & ~near_thin
+    # the planes of the rows' axes and of their neighbours' (a row before and after)
+    before, after = max(low - 1, 0), min(high + 1, total)
+    planes = grid.rows(before, after)
+    beams = slice(before * per_column, after * per_column)
+    near = slice(before - first, after - first)
+    distance, cls, cls_index = distance[near], cls[near], cls_index[near]
+    instance = planes.view(axis.instance[beams])
+    normal = [np.ascontiguousarray(planes.view(axis.normal[beams, k])) for k in range(3)]
+    direction = [planes.view(axis_dirs[beams, k]) for k in range(3)]
     with np.errstate(invalid="ignore", over="ignore"):
         point = [distance * direction[k] for k in range(3)]  # from the optical centre
         facing = (normal[0] * direction[0] + normal[1] * direction[1]) + normal[2] * direction[2]
-        solid = hit & known & ~_POROUS[cls_index] & ~thin & (np.abs(facing) >= GRAZING_COS)
-        same = _same_plane(grid, solid, cls, instance, point, normal)
-    empty = ~_grown(hit, EMPTY_REACH)
-    near_thin = _grown(thin, THIN_REACH)
-    computed = empty & ~near_thin
-    cast = np.empty((len(sides), len(grid)), dtype=bool)
-    for k, toward in enumerate(sides):
-        on_plane = np.zeros(grid.shape, dtype=bool)
+        solid = hit[near] & known[near] & ~_POROUS[cls_index] & ~thin[near] & (np.abs(facing) >= GRAZING_COS)
+        same = _same_plane(planes, solid, cls, instance, point, normal)
+    mine = slice(low - before, high - before)
+    block = grid.rows(low, high)
+    cast = np.empty((len(sides), len(block)), dtype=bool)
+    for k, toward in enumerate(sides[:, low:high]):
+        on_plane = np.zeros(block.shape, dtype=bool)
         for side in range(SIDES):
             pointing = toward == side
             if pointing.any():  # (a ring sub-ray points to one or two sides over a scan)
-                on_plane |= pointing & same[side]
-        cast[k] = grid.unview(~(computed | (on_plane & ~near_thin)))
+                on_plane |= pointing & same[side][mine]
+        cast[k] = block.unview(~(computed | (on_plane & ~near_thin)))
     return cast
 
 
