@@ -140,3 +140,16 @@ def test_started_work_gives_its_value_on_the_pool_or_inline(monkeypatch):
     inline = threads.started(lambda: threading.current_thread().name, threads=1)
     assert pooled().startswith("wildscan-cast")
     assert inline() == threading.current_thread().name
+
+
+def test_a_process_casting_on_threads_keeps_its_freed_memory_where_glibc_runs_it():
+    """heap.keep_freed_memory: glibc's malloc asked to keep freed memory (a Linux with glibc
+    agrees; elsewhere nothing is asked), once a process, by the first pool made."""
+    import platform
+
+    from wildscan.core import heap
+
+    threads._pool_of(2)
+    assert heap.keep_freed_memory.cache_info().currsize == 1
+    glibc = platform.system() == "Linux" and platform.libc_ver()[0] == "glibc"
+    assert heap.keep_freed_memory() is glibc

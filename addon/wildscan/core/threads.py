@@ -24,6 +24,7 @@ import numpy as np
 
 from .backend import THREADS, RayBackend
 from .errors import UserError
+from .heap import keep_freed_memory
 from .hits import RayHits
 
 THREADS_ENV = "WILDSCAN_CAST_THREADS"
@@ -148,6 +149,7 @@ def _pool_of(threads: int) -> ThreadPoolExecutor:
     """One pool for the process, grown when more threads are asked for."""
     global _pool
     if _pool is None or _pool._max_workers < threads:
+        keep_freed_memory()  # the threads' arrays not faulted in afresh block after block (heap.py)
         if _pool is not None:
             _pool.shutdown(wait=False)
         _pool = ThreadPoolExecutor(
