@@ -99,18 +99,24 @@ def bev_grid(
     s, c = dm.sincos(placement.yaw_rad)
     ox, oy, oz = (float(v) for v in placement.optical_centre)
     x, y = ox + c * uu - s * vv, oy + s * uu + c * vv
-    grid = np.zeros(uu.shape, dtype=BEV_DTYPE)
     x0, x1, y0, y1 = extent
     inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+    # Only the cells on the world are evaluated (a pose near its edge has part of its grid
+    # off it): every value is a cell's own, so the grid holds the same bytes as one
+    # evaluated whole and masked.
+    x, y = x[inside], y[inside]
+    grid = np.zeros(uu.shape, dtype=BEV_DTYPE)
+    for name in ("terrain_z", "cover_height", "slope", "overhead"):
+        grid[name] = np.nan
     z = ground(x, y)
-    grid["terrain_z"] = np.where(inside, z - oz, np.nan)
+    grid["terrain_z"][inside] = z - oz
     start = z_range[1] + _ABOVE
-    origins = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, start)])
-    top = np.asarray(top_classes(origins, start - z_range[0] + _ABOVE)).reshape(uu.shape)
-    grid["top_class"] = np.where(inside, top, 0)
+    origins = np.column_stack([x, y, np.full(x.size, start)])
+    grid["top_class"][inside] = top_classes(origins, start - z_range[0] + _ABOVE)
     fields = traversability(x, y, z) if traversability is not None else {}
     for name in ("cover_height", "slope", "overhead"):
-        grid[name] = np.where(inside, fields[name], np.nan) if name in fields else np.nan
+        if name in fields:
+            grid[name][inside] = fields[name]
     return grid
 
 

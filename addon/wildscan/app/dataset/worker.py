@@ -222,6 +222,7 @@ def scan_batch(
             f"a Dask worker cannot see the output folder {out}: it must be on a file system "
             "every worker shares"
         )
+    started = time.time()  # wall clock: the client lays every task on one timeline (timeline.py)
     spec = spec_from_json(spec_json)
     cached = _world_key(spec, seed) in _last_world
     disk = open_cache(cache)
@@ -236,7 +237,8 @@ def scan_batch(
     source = "memory" if cached else "cache" if context.from_cache else "built"
     spent = CLOCK.reading() - before
     facts = _worker_facts(build) | world_facts(source, disk)
-    return {"rows": rows, "worker": facts | {"scan_seconds": spent.scans, "cast_seconds": spent.cast}}
+    facts |= {"scan_seconds": spent.scans, "cast_seconds": spent.cast, "task": [started, time.time()]}
+    return {"rows": rows, "worker": facts}
 
 
 def _tick(topic: str, label: str) -> None:
