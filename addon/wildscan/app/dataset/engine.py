@@ -91,7 +91,14 @@ class Engine:
         # Workers sample their task's stack for the dashboard's profile, which a local
         # cluster here does not serve: time taken from the scans for nothing. Their memory
         # stays theirs (heap.py).
-        settings = {"distributed.worker.profile.enabled": False}
+        # A worker is handed its next task when it finishes one (saturation 1.0), not one
+        # ahead (Dask's 1.1 rounds up to two tasks a one-thread worker): the last world goes
+        # to whichever worker is free first, not to one still busy with its own (the tail,
+        # timeline.py).
+        settings = {
+            "distributed.worker.profile.enabled": False,
+            "distributed.scheduler.worker-saturation": 1.0,
+        }
         settings[NANNY_ENVIRON] = worker_environ(dask.config.get(NANNY_ENVIRON, {}))
         with dask.config.set(settings):
             return LocalCluster(
