@@ -81,6 +81,7 @@ class WorldContext:
     ground: StandingGround
     cover: CoverGrid | None = None  # the world's ground cover (None: bare ground)
     from_cache: bool = False  # the world was read from the world cache, not built
+    sky: OpenGround | None = None  # the world's open sky, when the world cache made it
 
     @functools.cached_property
     def file_numbers(self) -> list[int]:
@@ -102,6 +103,8 @@ class WorldContext:
     @functools.cached_property
     def open_sky(self) -> OpenGround:
         """Where an upward ray from the robot's height meets nothing (core/open_sky.py)."""
+        if self.sky is not None:
+            return self.sky
         g = self.backend.geometry
         return open_sky(g.vertices, g.faces, self.ground.terrain, ROBOT_HEIGHT, EXTENT)
 
@@ -182,6 +185,7 @@ def build_world(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) ->
         ground=world.ground,
         cover=world.cover,
         from_cache=world.from_cache,
+        sky=world.open_sky,
     )
 
 
