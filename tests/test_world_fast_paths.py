@@ -39,7 +39,7 @@ def test_a_point_not_finite_takes_the_array_path(value):
     assert got.tobytes() == interpolate(xs, ys, z, np.array([value]), np.array([0.0])).tobytes()
 
 
-@pytest.mark.parametrize("axis", ["uniform", "random", "clustered"])
+@pytest.mark.parametrize("axis", ["uniform", "random", "clustered", "close"])
 def test_the_bucketed_cell_index_is_searchsorted_exactly(axis):
     """grid_height.cell_index (a bucket table and steps) against the searchsorted it replaces:
     on every node, one ulp either side, between, off both ends, NaN and infinities."""
@@ -47,7 +47,8 @@ def test_the_bucketed_cell_index_is_searchsorted_exactly(axis):
     nodes = {
         "uniform": np.linspace(-75.0, 75.0, 277),
         "random": np.unique(rng.uniform(-75.0, 75.0, 300)),
-        "clustered": np.cumsum(rng.choice([0.129, 0.5, 1.47, 1e-3], 300)) - 70.0,
+        "clustered": np.cumsum(rng.choice([0.129, 0.5, 1.47, 0.01], 300)) - 70.0,
+        "close": np.cumsum(rng.choice([0.5, 1e-4], 300)) - 70.0,  # a table too large: searched
     }[axis]
     values = np.concatenate(
         [
