@@ -73,7 +73,9 @@ def height_above_ground(world_xyz: np.ndarray, ground: Ground) -> np.ndarray:
     world_xyz = np.asarray(world_xyz, dtype=np.float64)
     if not len(world_xyz):
         return np.zeros(0, dtype=np.float32)
-    return (world_xyz[:, 2] - ground(world_xyz[:, 0], world_xyz[:, 1])).astype(np.float32)
+    # x and y as contiguous arrays once: the ground's steps would each copy a strided column
+    x, y = (np.ascontiguousarray(world_xyz[:, k]) for k in (0, 1))
+    return (world_xyz[:, 2] - ground(x, y)).astype(np.float32)
 
 
 def bev_cell_centres() -> np.ndarray:
