@@ -175,3 +175,33 @@ def test_the_fallback_reader_reads_the_presets_as_tomllib_does():
         assert simple_toml.loads(text) == toml_reader().loads(text), path.name
     with pytest.raises(simple_toml.TOMLDecodeError, match="line 2: .*install tomli"):
         simple_toml.loads("[a]\nx = true\n")
+
+
+@pytest.mark.parametrize("name", ["vlp16", "hdl64e", "utm30lx-ew"])
+def test_the_rows_of_some_beams_are_those_of_all_beams_whichever_way_they_are_made(name):
+    """rotated_beams makes few beams from their gathered angles and most from all beams' rows
+    (beams.py PLANAR_SHARE, OFFSET_SHARE): both ways the same bits as rotated_beam_directions,
+    and with ranges the same bits as its rows times the ranges."""
+    from wildscan.core.leveling import leveling_matrix
+    from wildscan.core.sensors.beams import rotated_beams
+
+    device = device_named(name)
+    rh = SensorConfig.for_device(device).rh_deg
+    rotation = leveling_matrix(0.03, -0.02)
+    every = rotated_beam_directions(rotation, rh, device)
+    rng = np.random.default_rng(0)
+    for share in (0.05, 0.5, 0.9, 1.0):
+        beams = np.flatnonzero(rng.random(len(every)) < share)
+        ranges = rng.uniform(0.5, 80.0, len(beams))
+        assert rotated_beams(rotation, rh, device, beams).tobytes() == every[beams].tobytes()
+        points = rotated_beams(rotation, rh, device, beams, ranges)
+        assert points.tobytes() == (every[beams] * ranges[:, None]).tobytes()
+
+
+def test_eq_2_kept_for_a_pose_is_a_copy_with_the_bits_made_afresh():
+    from wildscan.core.leveling import _leveling, leveling_matrix
+
+    first = leveling_matrix(0.02, 0.1)
+    first[0, 0] = 7.0  # a caller changing its copy changes nothing kept
+    for roll, pitch in ((0.02, 0.1), (-0.0, 0.1), (0.0, 0.1), (np.float64(0.3), -0.2)):
+        assert leveling_matrix(roll, pitch).tobytes() == _leveling(roll, pitch).tobytes()

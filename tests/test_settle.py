@@ -118,3 +118,14 @@ def test_nearest_per_ray_picks_what_a_lexsort_by_ray_t_and_candidate_picks():
         firsts = np.flatnonzero(np.r_[True, r[1:] != r[:-1]])
         got_ray, got_cand = nearest_per_ray(ray, cand, t)
         assert np.array_equal(got_ray, r[firsts]) and np.array_equal(got_cand, c[firsts])
+
+
+def test_unique_inverse_is_numpys_unique_with_inverse():
+    from wildscan.raycast.settle import unique_inverse
+
+    rng = np.random.default_rng(1)
+    for keys in (rng.integers(0, 50, 300), rng.integers(0, 1 << 31, 500), np.zeros(0, dtype=np.int64)):
+        got, inverse = unique_inverse(keys)
+        expected, expected_inverse = np.unique(keys, return_inverse=True)
+        assert np.array_equal(got, expected) and np.array_equal(inverse, expected_inverse)
+        assert np.array_equal(got[inverse], keys)

@@ -15,6 +15,8 @@ without noise, every leveled point equals Rz(−yaw) · (p_world − optical_cen
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from . import detmath as dm
@@ -41,12 +43,26 @@ def paper_pitch_matrix(t: float) -> np.ndarray:
 
 def leveling_matrix(roll_rad: float, pitch_rad: float) -> np.ndarray:
     """Eq. (2): sensor-frame coordinates -> leveled-frame coordinates."""
-    return dm.matmul(paper_pitch_matrix(-pitch_rad), rot_x(-roll_rad))
+    if np.ndim(roll_rad) or np.ndim(pitch_rad):
+        return _leveling(roll_rad, pitch_rad)
+    return _kept_leveling(float(roll_rad).hex(), float(pitch_rad).hex()).copy()
 
 
 def sensor_to_world_matrix(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.ndarray:
     """The sensor's axes in the world frame: heading rotation after leveling."""
     return dm.matmul(rot_z(yaw_rad), leveling_matrix(roll_rad, pitch_rad))
+
+
+def _leveling(roll_rad, pitch_rad) -> np.ndarray:
+    return dm.matmul(paper_pitch_matrix(-pitch_rad), rot_x(-roll_rad))
+
+
+@functools.lru_cache(maxsize=16)
+def _kept_leveling(roll_hex: str, pitch_hex: str) -> np.ndarray:
+    """Eq. (2) of the last few (roll, pitch), by their bits (0.0 and -0.0 apart): a scan asks
+    for its pose's several times (standing it, its rays, its points), each from detmath's
+    scalar sines and cosines. Callers get a copy: none can change the one kept."""
+    return _leveling(float.fromhex(roll_hex), float.fromhex(pitch_hex))
 
 
 def roll_pitch_from_slopes(slope_x: float, slope_y: float) -> tuple[float, float]:

@@ -16,7 +16,7 @@ from .. import __version__
 from . import detmath as dm
 from .backend import RayBackend, with_normals
 from .cast_clock import scanning
-from .classes import LABEL_BY_ID, WATER_ID, class_table_dict, reflectivity_of
+from .classes import LABEL_BY_ID, REFLECTIVITY_BY_ID, WATER_ID, class_table_dict, reflectivity_of
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
 from .frames import check_frame, to_world
@@ -95,23 +95,21 @@ class Returns:
     intensity: np.ndarray  # (N,) reflectivity (0 where no point)
     label: np.ndarray  # (N,) class id read back from the reflectivity
     instance: np.ndarray  # (N,) instance of the element hit (-1 for none)
-    beams: np.ndarray | None = None  # the beam of each row (measure_returning); None: row i is beam i
 
     def cloud(self, xyz: np.ndarray, ring: np.ndarray, sweep: np.ndarray, frame: str, **extra) -> PointCloud:
         """The labeled cloud of the kept beams, at `xyz` (one row per kept beam); ring and
         sweep are per beam, `extra` per beam too (PointCloud.extra fields)."""
         keep = np.flatnonzero(self.keep)  # gathered by index: faster than by mask, field by field
-        beams = keep if self.beams is None else self.beams.take(keep)
         return PointCloud(
             xyz=xyz,
             intensity=self.intensity.take(keep).astype(np.float32),
             label=self.label.take(keep).astype(np.uint16),
             instance=np.maximum(self.instance.take(keep), 0).astype(np.uint32),
-            ring=ring.take(beams),
-            sweep=sweep.take(beams),
+            ring=ring.take(keep),
+            sweep=sweep.take(keep),
             range=self.range.take(keep).astype(np.float32),
             frame=frame,
-            extra={name: values.take(beams, axis=0) for name, values in extra.items()},
+            extra={name: values.take(keep, axis=0) for name, values in extra.items()},
         )
 
 
@@ -133,14 +131,42 @@ def measure(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
     return Returns(keep, measured, intensity, label, hits.instance)
 
 
-def measure_returning(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returns:
-    """`measure` of the beams that hit something, the only ones that can return a point: a
-    row each (the same values as their rows of `measure`), `beams` their indices. A scan's
-    cloud needs no more, and a Hokuyo's beams are two thirds sky."""
-    beams = np.flatnonzero(hits.hit)
-    returns = measure(hits.rows(beams), noise.take(beams), sensor)
-    returns.beams = beams
-    return returns
+@dataclass
+class Returning:
+    """The points of a scan's beams that returned one (measure_returning): a row each, in beam
+    order, in the cloud's own types."""
+
+    beams: np.ndarray  # (P,) the beam of each point
+    range: np.ndarray  # float64 (P,) measured range, noise included
+    intensity: np.ndarray  # float32 (P,) reflectivity measured
+    label: np.ndarray  # uint16 (P,) class id read back from the reflectivity
+    instance: np.ndarray  # uint32 (P,) instance of the element hit (0 for none)
+    hits: int  # beams that hit something (returned a point or not)
+
+
+def measure_returning(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) -> Returning:
+    """`measure` of the beams that hit something, the only ones that can return a point, and
+    of those the ones that do: the values of their rows of `measure` and of Returns.cloud,
+    each field gathered once, straight from the cast's arrays (a Hokuyo's beams are two
+    thirds sky; a Velodyne's points are nearly all its beams)."""
+    hit = np.flatnonzero(np.isfinite(hits.distance))
+    measured = hits.distance.take(hit)
+    measured += noise.take(hit)
+    class_id = hits.class_id.take(hit).astype(np.intp)
+    label = LABEL_BY_ID.take(class_id)
+    # A beam whose first hit is water returns nothing (the paper drops them).
+    keep = (measured >= sensor.min_range) & (measured <= sensor.max_range) & (label != WATER_ID)
+    kept = np.flatnonzero(keep)
+    beams = hit
+    if len(kept) < len(hit):
+        beams, measured, class_id, label = (a.take(kept) for a in (hit, measured, class_id, label))
+    intensity = REFLECTIVITY_BY_ID.take(class_id)
+    if hits.reflectivity is not None:
+        # a `wildscan_reflectivity` override changes what is measured, not the label
+        override = hits.reflectivity.take(beams)
+        intensity = np.where(np.isnan(override), intensity, override).astype(np.float32)
+    instance = np.maximum(hits.instance.take(beams), 0).astype(np.uint32)
+    return Returning(beams, measured, intensity, label, instance, len(hit))
 
 
 def with_weather_field(cloud: PointCloud) -> None:
@@ -286,23 +312,25 @@ def _paper_cloud(
         hits = replace(hits, normal=None)  # the medium need not carry the normals
     hits = effects.medium(Rays(placement.optical_centre, dirs_world, cast_range), hits)
 
-    returns = measure_returning(hits, range_noise(sensor, len(dirs_sensor)), sensor)
-    kept = np.flatnonzero(returns.keep)  # rows, one a beam that hit
-    beams = returns.beams.take(kept)  # the beam of each point
-    cloud = returns.cloud(
-        _points(placement, frame, sensor, dirs_world, beams, returns.range.take(kept)),
-        ring,
-        sweep,
-        frame,
-        **device_fields(sensor),
+    points = measure_returning(hits, range_noise(sensor, len(dirs_sensor)), sensor)
+    beams = points.beams  # the beam of each point
+    cloud = PointCloud(
+        xyz=_points(placement, frame, sensor, dirs_world, beams, points.range),
+        intensity=points.intensity,
+        label=points.label,
+        instance=points.instance,
+        ring=ring.take(beams),
+        sweep=sweep.take(beams),
+        range=points.range.astype(np.float32),
+        frame=frame,
+        extra={name: values.take(beams, axis=0) for name, values in device_fields(sensor).items()},
     )
     if weather_of(effects) is not None:
         with_weather_field(cloud)
-    hit_count = len(returns.beams)
     facts = {
-        "returns": hit_count,
+        "returns": points.hits,
         "water_returns_dropped": int(np.count_nonzero(hits.class_id == WATER_ID)),
-        "hits": hit_count,
+        "hits": points.hits,
         "untagged": hits.untagged_objects,
     }
     if incidence:

@@ -24,7 +24,16 @@ def range_noise(sensor: SensorConfig, beam_count: int) -> np.ndarray:
     sigma = sensor.fixed_noise
     if sigma == 0:
         return np.zeros(beam_count)
-    return sigma * _standard_normals(int(sensor.noise_seed), beam_count)
+    return _scaled_normals(sigma, int(sensor.noise_seed), beam_count)
+
+
+@functools.lru_cache(maxsize=4)
+def _scaled_normals(sigma: float, seed: int, count: int) -> np.ndarray:
+    """σ times the noise seed's draws, kept read-only: every scan of one sensor draws the same
+    noise, so its product is made once, not once a scan."""
+    noise = sigma * _standard_normals(seed, count)
+    noise.flags.writeable = False
+    return noise
 
 
 @functools.lru_cache(maxsize=4)
