@@ -5,9 +5,9 @@ vegetation, biome) and the code (key.py): the triangles (`SceneGeometry`), what 
 ray caster and the float64 settling read (each triangle's plane, its padded copy, the
 settling's band and vertex-neighbour index: raycast/settle.py), the instances, the open
 ground and the open sky of the bird's-eye grid (core/open_ground.py, core/open_sky.py: the
-open sky is a pass over every triangle, ~0.4 s a porous world, that a warm load no longer
-makes), the ground the robot stands on
-(terrain grid and trail flooring: core/world/ground.py) and the ground cover. One entry
+open sky is a pass over every triangle, 0.1-0.3 s of CPU a porous world, that a warm load
+no longer makes), the ground the robot stands on (terrain grid and trail flooring:
+core/world/ground.py) and the ground cover. One entry
 (`world-<key>.npz`) holds them all; a warm load reads it and skips the plan altogether
 (the plan is what the triangles, the ground and the cover are made from, and nothing else
 of it is read by a scan). The poses are a second, small entry (`poses-<key>.npz`), keyed
