@@ -154,3 +154,26 @@ def test_the_same_bytes_with_one_or_two_cast_threads(scene, monkeypatch):
     two = run_scan(scene, Pose(0.2, 0.1, 15), sensor).cloud
     for field in ("xyz", "range", "intensity", "label", "instance"):
         assert getattr(one, field).tobytes() == getattr(two, field).tobytes(), field
+
+
+@pytest.mark.parametrize("rows_per_block", [1, 3, 7, 40])
+def test_rings_chosen_a_block_of_columns_at_a_time_are_those_chosen_at_once(rows_per_block):
+    """footprint_hits chooses each block's rings from the axes within HALO columns of it: the
+    same choice as from every axis (steps, other elements, porous and thin ones, the sky, the
+    head's sweeps meeting, near every block's edges)."""
+    rng = np.random.default_rng(5)
+    grid = C.BeamGrid(rng.permutation(30).astype(float), columns=20, sweeps=2)
+    hits, dirs = flat_axis_hits(grid)
+    hits.distance += np.round(rng.random(len(grid)), 1) * 0.03  # steps of 0 to 3 cm
+    hits.instance[:] = rng.integers(1, 3, len(grid))
+    hits.class_id[:] = rng.choice([TERRAIN, TREETOP, ROCK, WIRE], len(grid), p=[0.85, 0.05, 0.07, 0.03])
+    sky = grid.view(hits.distance)
+    sky[:, 18:] = np.inf  # no axis met anything there: near the others or not
+    sides = np.ascontiguousarray(sides_of(grid)[:, :, ::-1])
+    every = C.rings_to_cast(hits, dirs, grid, sides)
+    blocks = [
+        C.rings_to_cast(hits, dirs, grid, sides, slice(a, min(a + rows_per_block, grid.shape[0])))
+        for a in range(0, grid.shape[0], rows_per_block)
+    ]
+    assert every.any() and not every.all()
+    assert np.array_equal(np.concatenate(blocks, axis=1), every)

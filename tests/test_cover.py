@@ -49,15 +49,76 @@ def test_the_paper_biome_is_the_world_from_before_biomes_byte_for_byte():
     assert not plan("paper").elements_of(wildscan_class="log")
 
 
-def test_the_default_biome_covers_the_ground_and_leaves_the_trail_and_water_bare():
-    cover = plan("mixed").cover
-    shares = cover.shares()
+def test_the_default_biome_covers_the_ground():
+    shares = plan("mixed").cover.shares()
     assert shares["low grass"] > 0.2 and shares["bush"] > 0.05 and shares["high grass"] > 0.05
     assert shares["bare"] < 0.25
-    trail = plan("mixed").layout.trail
-    x, y = trail.path[:, 0], trail.path[:, 1]
-    cls, height = cover.at(x, y)
-    assert (cls == 0).all() and (height == 0).all()  # on the trail's centre line: bare soil
+
+
+def test_the_trail_is_a_two_track_bare_wheel_tracks_and_a_grass_median():
+    from wildscan.core.world.stages import cover as stage
+    from wildscan.core.world.stages.cover import WHEEL_GAUGE
+
+    p = plan("mixed")
+    cover, trail = p.cover, p.layout.trail
+    path = trail.path[5:-5]  # (clear of the ends, where the strip stops)
+    tangent = np.gradient(path, axis=0)
+    tangent /= np.hypot(tangent[:, 0], tangent[:, 1])[:, None]
+    normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+
+    cls, height = cover.at(path[:, 0], path[:, 1])
+    assert (cls == LOW_GRASS).mean() > 0.9 and (height[cls == LOW_GRASS] > 0.05).all()  # the median
+    for side in (-1, 1):  # each wheel line runs through bare cells all along (a digital line)
+        wheel = path + side * WHEEL_GAUGE / 2 * normal
+        bare = np.zeros(len(path), dtype=bool)
+        for dx in (-0.25, 0.0, 0.25):
+            for dy in (-0.25, 0.0, 0.25):
+                bare |= cover.at(wheel[:, 0] + dx, wheel[:, 1] + dy)[0] == 0
+        assert bare.all()
+    # the tread's cells: its bare share is the two tracks' (0.35-0.5 m each) of its 2.0-2.6 m
+    n = cover.shape[0]
+    tread = stage._tread(p, n)
+    share = (cover.class_id[tread] == 0).mean()
+    assert 0.25 < share < 0.55, share
+
+
+def test_the_cave_roof_and_walls_are_rock_and_its_floor_and_ramp_terrain():
+    from wildscan.core.world.stages.cave import ROCK_FACE_TAN
+
+    p = plan("mixed")
+    cave = p.layout.cave
+    roof = next(e for e in p.elements if e.proto == "cave_roof")
+    faces = next(e for e in p.elements if e.proto == "cave_rock_faces")
+    assert roof.wildscan_class == faces.wildscan_class == "rock"
+    assert roof.instance == next(e for e in plan("paper").elements if e.proto == "cave_roof").instance
+
+    def slopes(el):
+        t = p.element_vertices(el)[p.prototypes[el.proto].faces]
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        return np.hypot(n[:, 0], n[:, 1]) / np.abs(n[:, 2]), t.mean(axis=1)
+
+    steep, centre = slopes(faces)
+    assert len(steep) > 500 and (steep > ROCK_FACE_TAN).all()
+    assert cave.bare(centre[:, 0], centre[:, 1]).all()  # in the cave, nowhere else
+    terrain = p.elements_of("terrain", stage="terrain")[0]
+    slope, centre = slopes(terrain)
+    in_cave = cave.bare(centre[:, 0], centre[:, 1])
+    assert in_cave.sum() > 1000 and (slope[in_cave] <= ROCK_FACE_TAN).all()
+    # the floor and the ramp's flat part stay terrain
+    c = cave.pit
+    for u, v in ((0.0, 0.0), (0.3 * c.a, 0.0), (c.a + 0.5 * cave.ramp_length, 0.0)):
+        x, y = c.to_world(u, v)
+        near = np.hypot(centre[:, 0] - x, centre[:, 1] - y) < 0.5
+        assert near.any(), (u, v)
+    # together the same triangles as the paper world's one terrain mesh
+    whole = plan("paper").prototypes["terrain"].faces
+    assert len(whole) == len(p.prototypes["terrain"].faces) + len(p.prototypes["cave_rock_faces"].faces)
+
+
+def test_the_paper_cave_is_terrain_as_before():
+    p = plan("paper")
+    assert next(e for e in p.elements if e.proto == "cave_roof").wildscan_class == "terrain"
+    assert "cave_rock_faces" not in p.prototypes and not p.elements_of("rock", zone="cave", stage="terrain")
 
 
 def test_the_cave_is_bare_and_the_plateau_around_it_grows_a_sward():
@@ -94,7 +155,8 @@ def test_leaf_litter_lies_on_the_forests_floor_only():
     ground = 0.25 * sum(
         a for a in (p.cover.node_ground()[i : i + n, j : j + n] for i in (0, 1) for j in (0, 1))
     )
-    shade = stage._shade(p, x, y) & ~stage._bare(p, x, y, ground) & ~stage._wet(p, x, y, ground)
+    bare = stage._bare(p, x, y, ground) | stage._tread(p, n)
+    shade = stage._shade(p, x, y) & ~bare & ~stage._wet(p, x, y, ground)
     forest = stage._in_cell(p, "forest", x, y)
     litter = shade & (p.cover.class_id == 0)
     assert litter[forest].any() and not litter[~forest].any()
@@ -203,8 +265,10 @@ def test_a_dataset_scan_carries_support_and_the_birds_eye_traversability_fields(
     assert support.any() and (~support).any()
     assert (vertex["label"][support] == TERRAIN_ID).all()
     assert (np.abs(vertex["hag"][support]) <= SUPPORT_TOLERANCE).all()
-    roof = (vertex["label"] == TERRAIN_ID) & (vertex["hag"] > 1.0)  # the cave's roof: terrain, no support
-    assert roof.any() and not support[roof].any()
+    # the cave's roof and walls are rock: no terrain over the ground, no support up there
+    rock_up = (vertex["label"] == class_by_name("rock").id) & (vertex["hag"] > 1.0)
+    assert rock_up.any() and not support[rock_up].any()
+    assert not ((vertex["label"] == TERRAIN_ID) & (vertex["hag"] > 0.5)).any()
     bev = np.load(tmp_path / next(p for p in sorted(files) if "/bev/" in p))
     assert bev.dtype.names == ("terrain_z", "top_class", "cover_height", "slope", "overhead")
     inside = np.isfinite(bev["terrain_z"])
@@ -303,10 +367,50 @@ def test_the_sward_medium_gives_the_same_bytes_on_one_thread_or_two(monkeypatch)
     assert grass.any() and plan("mixed").cover.inside_layer(one.xyz[grass]).all()
 
 
-def test_the_biomes_bench_finds_the_caves_roof_above_the_terrain_and_none_on_the_hills():
-    from wildscan.bench.biomes import _terrain_overhead
+def test_the_biomes_bench_counts_the_caves_rock_in_the_cave_and_none_on_the_hills():
+    from wildscan.bench.biomes import _cave_rock
+    from wildscan.core.frames import to_world
 
     cave = scan("mixed", "cave", frame="leveled")
-    hills = scan("mixed", "hills", frame="leveled")
-    assert _terrain_overhead(plan("mixed"), cave) > 100
-    assert _terrain_overhead(plan("mixed"), hills) == 0
+    rock = _cave_rock(plan("mixed"), cave)
+    assert rock > 100 and (cave.cloud.label == class_by_name("rock").id).sum() >= rock
+    assert _cave_rock(plan("mixed"), scan("mixed", "hills", frame="leveled")) == 0
+    # the roof is rock: no terrain point lies over the ground
+    terrain = cave.cloud.label == class_by_name("terrain").id
+    xyz = to_world(np.asarray(cave.cloud.xyz[terrain], dtype=np.float64), "leveled", cave.placement)
+    assert (xyz[:, 2] - plan("mixed").ground(xyz[:, 0], xyz[:, 1]) < 0.5).all()
+
+
+def test_on_the_two_track_support_points_lie_on_the_wheel_tracks_and_grass_points_in_the_median():
+    from wildscan.core.traversability import SUPPORT_TOLERANCE, support_flags
+    from wildscan.core.world.stages import cover as stage
+
+    p = plan("mixed")
+    cloud = scan("mixed", "trail").cloud  # world frame: a pose on the trail's centre line
+    hag = cloud.xyz[:, 2] - p.standing_ground()(cloud.xyz[:, 0], cloud.xyz[:, 1])
+    support = support_flags(cloud.label, hag).astype(bool)
+    assert (cloud.label[support] == class_by_name("terrain").id).all()
+    assert (np.abs(hag[support]) <= SUPPORT_TOLERANCE).all()  # at the ground the robot stands on
+    n = p.cover.shape[0]
+    on_tread = stage._tread(p, n).reshape(-1)[p.cover.cells(cloud.xyz[:, 0], cloud.xyz[:, 1])[0]]
+    cls, _ = p.cover.at(cloud.xyz[:, 0], cloud.xyz[:, 1])
+    assert (support & on_tread & (cls == 0)).sum() > 100  # the wheel tracks' soil
+    median = on_tread & (cloud.label == LOW_GRASS)
+    assert median.sum() > 100 and not support[median].any()  # the median's grass, above the soil
+    assert (cls[median] == LOW_GRASS).all()  # in the median's cells, as their layer
+
+
+@pytest.mark.parametrize("biome", ["paper", "mixed"])
+def test_the_placement_probe_stands_on_a_terrain_roof_and_passes_a_rock_one(biome):
+    from wildscan.app.poses import plan_backend, valid_poses
+    from wildscan.core.placement import Pose, place
+
+    backend = plan_backend(plan(biome))
+    inside = next(p for p in valid_poses(plan(biome), backend, 3)["cave"] if p.get("z_start"))
+    pose = Pose(inside["x"], inside["y"], inside["yaw"])
+    floor = place(backend, pose, inside["z_start"]).optical_centre[2]
+    probed = place(backend, pose).optical_centre[2]  # the probe from above, no z_start
+    if biome == "paper":
+        assert probed > inside["z_start"] + 0.5  # on the roof: what --z-start avoids
+    else:
+        assert probed == pytest.approx(floor, abs=1e-6)  # the rock roof is no ground: the floor under it

@@ -560,5 +560,8 @@ def test_bench_dataset_times_each_worker_count_side_by_side_cold_and_warm():
     assert "speed-up >= 1.85x" in result.stdout and "warm cache, at most 30 s" in result.stdout
     # each run's line says how much of its scans' time the caster took (core/cast_clock.py)
     assert sum("s in scans (" in line and "scan/cast" in line for line in result.stdout.splitlines()) == 3
+    # and where its workers waited (app/dataset/timeline.py): two workers, two tasks
+    idle = [line for line in lines if "workers idle" in line]
+    assert len(idle) == 3 and "(summed over 1: " in idle[0] and "(summed over 2: " in idle[1]
     wrong = wildscan("bench-dataset", "--vegetation", "leafy")
     assert wrong.returncode == 2 and "--vegetation must be one of porous, solid" in wrong.stderr

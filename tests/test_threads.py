@@ -103,3 +103,53 @@ def test_work_in_parts_runs_on_the_threads_it_is_given(monkeypatch):
     pooled = threads.in_parts(where, 10, 3, threads=2)
     assert [(a, b) for a, b, _ in pooled] == [(0, 3), (3, 6), (6, 9), (9, 10)]
     assert all(name.startswith("wildscan-cast") for _, _, name in pooled)
+
+
+def test_a_part_on_a_pool_thread_splits_nothing_further(monkeypatch):
+    """A part run on the pool (a realistic scan's block of beams) casts and computes inline:
+    its own casts and parts stay on its thread (every pool thread waiting on parts queued
+    behind it would wait for ever), with the bytes of a split cast."""
+    monkeypatch.setenv(threads.THREADS_ENV, "2")
+    backend = EmbreeBackend(from_triangles(sphere_of_facets()))
+    dirs = rays(40_000)
+
+    def block(part):
+        seen = []
+
+        def cast(origin, d, max_range):
+            seen.append(threading.current_thread().name)
+            return backend.cast(origin, d, max_range)
+
+        hits = threads.cast_parts(backend, cast, np.zeros(3), dirs[part], 10.0)
+        inner = threads.in_parts(lambda p: threading.current_thread().name, 10, 3)
+        return hits, set(seen), set(inner), threading.current_thread().name
+
+    split = threads.cast_parts(backend, backend.cast, np.zeros(3), dirs, 10.0)
+    assert not threads.in_worker()
+    half = len(dirs) // 2
+    parts = threads.in_parts(block, len(dirs), half, threads=2)
+    for k, (hits, cast_on, inner_on, mine) in enumerate(parts):
+        assert mine.startswith("wildscan-cast") and cast_on == inner_on == {mine}
+        assert hits.distance.tobytes() == split.distance[k * half : (k + 1) * half].tobytes()
+        assert hits.class_id.tobytes() == split.class_id[k * half : (k + 1) * half].tobytes()
+
+
+def test_started_work_gives_its_value_on_the_pool_or_inline(monkeypatch):
+    monkeypatch.setenv(threads.THREADS_ENV, "2")
+    pooled = threads.started(lambda: threading.current_thread().name, threads=2)
+    inline = threads.started(lambda: threading.current_thread().name, threads=1)
+    assert pooled().startswith("wildscan-cast")
+    assert inline() == threading.current_thread().name
+
+
+def test_a_process_casting_on_threads_keeps_its_freed_memory_where_glibc_runs_it():
+    """heap.keep_freed_memory: glibc's malloc asked to keep freed memory (a Linux with glibc
+    agrees; elsewhere nothing is asked), once a process, by the first pool made."""
+    import platform
+
+    from wildscan.core import heap
+
+    threads._pool_of(2)
+    assert heap.keep_freed_memory.cache_info().currsize == 1
+    glibc = platform.system() == "Linux" and platform.libc_ver()[0] == "glibc"
+    assert heap.keep_freed_memory() is glibc

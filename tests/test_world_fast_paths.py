@@ -1,5 +1,6 @@
 """The world build's shortcuts give what the general code gives, bit for bit: the terrain
-height at one point (heightfield.interpolate's Python-float path) and the trail's keep-out
+height at one point (heightfield.interpolate's Python-float path), the cell of many points
+(grid_height.cell_index's bucket table) and the trail's keep-out
 (geometry2d.polyline_near, the distance only for points near the path)."""
 
 from __future__ import annotations
@@ -8,6 +9,7 @@ import numpy as np
 import pytest
 
 from wildscan.core.world.geometry2d import polyline_distance, polyline_near
+from wildscan.core.world.grid_height import cell_index
 from wildscan.core.world.heightfield import interpolate
 
 
@@ -35,6 +37,33 @@ def test_a_point_not_finite_takes_the_array_path(value):
     xs, ys, z = grid(np.random.default_rng(1))
     got = interpolate(xs, ys, z, value, 0.0)
     assert got.tobytes() == interpolate(xs, ys, z, np.array([value]), np.array([0.0])).tobytes()
+
+
+@pytest.mark.parametrize("axis", ["uniform", "random", "clustered", "close"])
+def test_the_bucketed_cell_index_is_searchsorted_exactly(axis):
+    """grid_height.cell_index (a bucket table and steps) against the searchsorted it replaces:
+    on every node, one ulp either side, between, off both ends, NaN and infinities."""
+    rng = np.random.default_rng(3)
+    nodes = {
+        "uniform": np.linspace(-75.0, 75.0, 277),
+        "random": np.unique(rng.uniform(-75.0, 75.0, 300)),
+        "clustered": np.cumsum(rng.choice([0.129, 0.5, 1.47, 0.01], 300)) - 70.0,
+        "close": np.cumsum(rng.choice([0.5, 1e-4], 300)) - 70.0,  # a table too large: searched
+    }[axis]
+    values = np.concatenate(
+        [
+            nodes,
+            np.nextafter(nodes, -np.inf),
+            np.nextafter(nodes, np.inf),
+            (nodes[:-1] + nodes[1:]) / 2,
+            rng.uniform(nodes[0] - 5.0, nodes[-1] + 5.0, 20_000),
+            [np.nan, np.inf, -np.inf, 1e300, -1e300, -0.0],
+        ]
+    )
+    want = np.clip(np.searchsorted(nodes, values, side="right") - 1, 0, len(nodes) - 2)
+    with np.errstate(all="raise"):
+        got = cell_index(nodes, values)
+    assert np.array_equal(got, want)
 
 
 def test_near_a_polyline_is_the_distance_below_the_limit():

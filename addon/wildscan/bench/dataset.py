@@ -18,6 +18,7 @@ import sys
 import tempfile
 from dataclasses import dataclass, field
 
+from ..app.dataset.timeline import Idle, idle_time
 from ..core.cast_clock import Reading, cast_share_line
 from ..core.world import DEFAULT_VEGETATION
 
@@ -38,6 +39,7 @@ class BenchRow:
     worlds: dict[str, int] = field(default_factory=dict)  # "cache" / "built" -> worlds
     scan_seconds: float = 0.0  # summed over workers (core/cast_clock.py)
     cast_seconds: float = 0.0
+    idle: Idle | None = None  # worker time without a task (app/dataset/timeline.py)
 
     @property
     def rate(self) -> float:
@@ -87,6 +89,7 @@ def run_once(spec, workers: int, cache_dir=None, cache: str = "cold") -> BenchRo
         dict(report.worlds),
         report.scan_seconds,
         report.cast_seconds,
+        idle_time(report.started, report.tasks),
     )
 
 
@@ -119,7 +122,7 @@ def bench_dataset(
                 rows.append(run_once(spec, n, cache_dir, cache))
                 r = rows[-1]
                 share = cast_share_line(Reading(r.cast_seconds, r.scan_seconds, r.cast_seconds))
-                stream.write(f"  {n} worker(s), {cache} cache: {r.seconds:.1f} s; {share}\n")
+                stream.write(f"  {n} worker(s), {cache} cache: {r.seconds:.1f} s; {share}; {r.idle.line()}\n")
                 stream.flush()
     _table(rows, stream)
     return rows

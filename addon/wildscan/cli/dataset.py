@@ -24,8 +24,9 @@ BENCH_HELP, BENCH_DESCRIPTION = (
     "Make the same SemanticKITTI dataset (default: 1,000 scans at r_h = 1 deg from 20 worlds, world builds "
     "included) once per worker count, in fresh temporary folders with an empty world cache (cold), then with "
     "the last count again on the cache that run filled (warm), and print scans per second, the speed-up, the "
-    "worlds read and built and the peak memory of each worker side by side, with the targets met or not. "
-    "First, one world's steps built and read back from the cache.",
+    "worlds read and built and the peak memory of each worker side by side, with the targets met or not; "
+    "each run's line also gives the caster's share of the scans' time and how long the workers waited "
+    "(starting, between tasks, in the tail). First, one world's steps built and read back from the cache.",
 )
 
 

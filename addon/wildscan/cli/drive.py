@@ -85,7 +85,8 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "of the drive, as `wildscan scan --z-start` at its pose: give one under an overhang to drive "
         "inside the cave (`wildscan poses --zone cave` lists one per pose); it must stay above the "
         "ground and under the roof along the path. Default: found at every instant by a probe from "
-        "above (the first terrain surface, which over the cave is its roof)",
+        "above (the first terrain surface: over a paper world's cave its roof; where the biome covers "
+        "the ground the roof is rock and the probe finds the cave's floor)",
     )
     p.add_argument(
         "--head",

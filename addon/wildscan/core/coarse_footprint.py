@@ -40,7 +40,9 @@ computed hits are products and sums in a fixed order: the same bytes on every ma
 
 from __future__ import annotations
 
+import copy
 import functools
+import threading
 
 import numpy as np
 
@@ -71,10 +73,13 @@ THIN_REACH = (2, 2)  # beams along the scan line and columns around a thin eleme
 # is met by some axis near it (measured on the realism poses: 8 and 8 lose under 1 % of the
 # high grass and wire points a cast ring finds, 2 and 2 up to 20 %).
 EMPTY_REACH = (8, 8)
+# rows (columns of the scan) around a block whose axes decide its rings: the reaches, and the
+# neighbour a plane is compared with
+HALO = max(EMPTY_REACH[1], THIN_REACH[1], 1)
 # Elements whose footprint is a mix by nature, or thin enough to lie between two axes.
 POROUS = ("treetop", "bush", "low grass", "high grass")
 THIN = ("wire", "pole")
-BLOCK = 32_768  # beams a block of _on_axis_planes (fixed: the bytes do not depend on the threads)
+BLOCK = 16_384  # beams (whole columns) a block of footprint_hits' rings (any size: the same bytes)
 SIDES = 4  # a beam's neighbours: before and after along the scan line, the columns before and after
 
 
@@ -109,6 +114,14 @@ class BeamGrid:
 
     def __len__(self) -> int:
         return self.shape[0] * self.shape[1]
+
+    def rows(self, first: int, stop: int) -> "BeamGrid":
+        """The grid of rows (columns of the scan) first..stop - 1 alone: its `view` takes the
+        values of those rows' beams."""
+        part = copy.copy(self)
+        part.shape = (stop - first, self.per_column)
+        part.same_sweep = self.same_sweep[first : max(stop - 1, first)]
+        return part
 
     def view(self, values: np.ndarray) -> np.ndarray:
         """(N, ...) values of the beams as (columns, beams by angle, ...)."""
@@ -166,33 +179,52 @@ def scan_grid(device: Device, rh_deg: float, divergence_mrad: float) -> tuple[Be
     return grid, sides
 
 
-def rings_to_cast(axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid, sides: np.ndarray) -> np.ndarray:
+def rings_to_cast(
+    axis: RayHits, axis_dirs: np.ndarray, grid: BeamGrid, sides: np.ndarray, rows: slice | None = None
+) -> np.ndarray:
     """(S - 1, N) bool: the ring sub-rays that must be cast (see the module docstring), from
-    the hits of every beam's axis (with normals) and the side of each ring sub-ray."""
-    view = grid.view
-    distance, cls, instance = view(axis.distance), view(axis.class_id), view(axis.instance)
+    the hits of every beam's axis (with normals) and the side of each ring sub-ray; with
+    `rows` (of the grid), those of these rows' beams alone (S - 1, their beams): the same
+    answer, a block at a time, found from the rows within HALO of them (whether an axis met
+    something, a thin element) and within one of them (the planes)."""
+    total, per_column = grid.shape
+    low, high = (0, total) if rows is None else (rows.start, rows.stop)
+    # which axes met something, or a thin element, over the reaches around the rows
+    first, stop = max(low - HALO, 0), min(high + HALO, total)
+    around = grid.rows(first, stop)
+    beams = slice(first * per_column, stop * per_column)
+    distance, cls = around.view(axis.distance[beams]), around.view(axis.class_id[beams])
     hit = np.isfinite(distance)
     known = (cls >= 0) & (cls < len(_POROUS))
     cls_index = np.where(known, cls, 0)
     thin = hit & known & _THIN[cls_index]
-    normal = [np.ascontiguousarray(view(axis.normal[:, k])) for k in range(3)]
-    direction = [view(axis_dirs[:, k]) for k in range(3)]
+    empty = ~_grown(hit, EMPTY_REACH)[low - first : high - first]
+    near_thin = _grown(thin, THIN_REACH)[low - first : high - first]
+    computed = empty & ~near_thin
+    # the planes of the rows' axes and of their neighbours' (a row before and after)
+    before, after = max(low - 1, 0), min(high + 1, total)
+    planes = grid.rows(before, after)
+    beams = slice(before * per_column, after * per_column)
+    near = slice(before - first, after - first)
+    distance, cls, cls_index = distance[near], cls[near], cls_index[near]
+    instance = planes.view(axis.instance[beams])
+    normal = [np.ascontiguousarray(planes.view(axis.normal[beams, k])) for k in range(3)]
+    direction = [planes.view(axis_dirs[beams, k]) for k in range(3)]
     with np.errstate(invalid="ignore", over="ignore"):
         point = [distance * direction[k] for k in range(3)]  # from the optical centre
         facing = (normal[0] * direction[0] + normal[1] * direction[1]) + normal[2] * direction[2]
-        solid = hit & known & ~_POROUS[cls_index] & ~thin & (np.abs(facing) >= GRAZING_COS)
-        same = _same_plane(grid, solid, cls, instance, point, normal)
-    empty = ~_grown(hit, EMPTY_REACH)
-    near_thin = _grown(thin, THIN_REACH)
-    computed = empty & ~near_thin
-    cast = np.empty((len(sides), len(grid)), dtype=bool)
-    for k, toward in enumerate(sides):
-        on_plane = np.zeros(grid.shape, dtype=bool)
+        solid = hit[near] & known[near] & ~_POROUS[cls_index] & ~thin[near] & (np.abs(facing) >= GRAZING_COS)
+        same = _same_plane(planes, solid, cls, instance, point, normal)
+    mine = slice(low - before, high - before)
+    block = grid.rows(low, high)
+    cast = np.empty((len(sides), len(block)), dtype=bool)
+    for k, toward in enumerate(sides[:, low:high]):
+        on_plane = np.zeros(block.shape, dtype=bool)
         for side in range(SIDES):
             pointing = toward == side
             if pointing.any():  # (a ring sub-ray points to one or two sides over a scan)
-                on_plane |= pointing & same[side]
-        cast[k] = grid.unview(~(computed | (on_plane & ~near_thin)))
+                on_plane |= pointing & same[side][mine]
+        cast[k] = block.unview(~(computed | (on_plane & ~near_thin)))
     return cast
 
 
@@ -240,34 +272,65 @@ def footprint_hits(
     with normals), the ring sub-rays that were cast ((S - 1, N) bool)). `cast(origins, dirs,
     max_range, normals)` is the backend's cast: the axes are cast, then the ring sub-rays
     `rings_to_cast` names; the others meet the plane of their axis's hit (module docstring).
-    `threads`: those the cast uses (None: threads.cast_threads())."""
+    The rings are done a block of about BLOCK beams (whole columns of the scan) at a time on
+    `threads` (None: threads.cast_threads()), each block's choice, planes, cast and scatter in
+    its own thread (a cast from a pool thread is one call, threads.in_worker): nothing serial
+    but the axes' cast. Each ray's answer is its own, and a block's choice is made from the
+    axes around it as from all: the bytes of one cast of every ring."""
     s, n, _ = sub_world.shape
     axis = cast(origin, sub_world[0], cast_range, True)
-    fine = rings_to_cast(axis, sub_world[0], grid, sides)
-    hits = _on_axis_planes(axis, sub_world, cast_range, threads)
-    # cast beam by beam (a beam's ring sub-rays one after another: Embree finds the same nodes
-    # in its cache; 13 % off the forest's ring cast), each ray's answer its own
-    beam, ring = np.divmod(np.flatnonzero(fine.T), s - 1)
-    rows = ring * n + beam  # over the rings' (S - 1)·N sub-rays, sub-ray-major
-    cast_hits = cast(origin, sub_world[1:].reshape(-1, 3).take(rows, axis=0), cast_range, True)
-    _put_rows(hits, n + rows, cast_hits)
-    return hits, fine
+    fine = np.empty((s - 1, n), dtype=bool)
+    hits = _AxisPlanes(axis, s, n)
+    untagged = []
+    per_column = grid.per_column
+
+    def block(rows: slice) -> None:
+        b = slice(rows.start * per_column, rows.stop * per_column)
+        fine[:, b] = rings_to_cast(axis, sub_world[0], grid, sides, rows)
+        hits.fill(sub_world, cast_range, b)
+        # cast beam by beam (a beam's ring sub-rays one after another: Embree finds the same
+        # nodes in its cache; 13 % off the forest's ring cast), each ray's answer its own
+        beam, ring = np.nonzero(fine[:, b].T)
+        if not len(beam):
+            return
+        beam += b.start
+        ring += 1
+        cast_hits = cast(origin, sub_world[ring, beam], cast_range, True)
+        hits.put(ring * n + beam, cast_hits)
+        untagged.append(cast_hits.untagged_objects)
+
+    in_parts(block, grid.shape[0], max(BLOCK // per_column, 1), threads)
+    out = hits.joined()
+    out.untagged_objects = out.untagged_objects.union(*untagged)
+    return out, fine
 
 
-def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, threads=None) -> RayHits:
-    """The hits of every sub-ray (S·N, sub-ray-major) on the plane of its beam's axis hit:
-    t_k = t_0 (n·a)/(n·s_k), with the axis's element, normal and reflectivity; none where the
-    axis met nothing or t_k is past `cast_range` (or the plane is parallel to the sub-ray).
-    Made a block of BLOCK beams at a time on `threads` (each beam's are its own)."""
-    s, n, _ = sub_world.shape
-    distance = np.empty((s, n))
-    cls = np.empty((s, n), dtype=axis.class_id.dtype)
-    instance = np.empty((s, n), dtype=axis.instance.dtype)
-    normals = np.empty((s, n, 3))
-    overrides = axis.reflectivity
-    reflectivity = None if overrides is None else np.empty((s, n), dtype=np.float32)
+class _AxisPlanes:
+    """The hits of every sub-ray (S·N, sub-ray-major), filled a block of beams at a time:
+    first each on the plane of its beam's axis hit (`fill`), then the cast ones (`put`)."""
 
-    def block(b: slice) -> None:
+    def __init__(self, axis: RayHits, s: int, n: int):
+        self.axis = axis
+        self.distance = np.empty((s, n))
+        self.cls = np.empty((s, n), dtype=axis.class_id.dtype)
+        self.instance = np.empty((s, n), dtype=axis.instance.dtype)
+        self.normals = np.empty((s, n, 3))
+        overrides = axis.reflectivity
+        self.reflectivity = None if overrides is None else np.empty((s, n), dtype=np.float32)
+        self._lock = threading.Lock()
+
+    def fill(self, sub_world: np.ndarray, cast_range: float, b: slice) -> None:
+        """The sub-rays of beams `b` on the plane of their axis's hit: t_k = t_0 (n·a)/(n·s_k),
+        with the axis's element, normal and reflectivity; none where the axis met nothing or
+        t_k is past `cast_range` (or the plane is parallel to the sub-ray)."""
+        s = len(sub_world)
+        axis, distance, cls, instance, normals = (
+            self.axis,
+            self.distance,
+            self.cls,
+            self.instance,
+            self.normals,
+        )
         normal = axis.normal[b]
         t0 = axis.distance[b]
         distance[0, b] = t0
@@ -280,8 +343,9 @@ def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, thr
         cls[:, b] = axis.class_id[b]
         instance[:, b] = axis.instance[b]
         normals[:, b] = normal
+        reflectivity = None if axis.reflectivity is None else self.reflectivity
         if reflectivity is not None:
-            reflectivity[:, b] = overrides[b]
+            reflectivity[:, b] = axis.reflectivity[b]
         # none where the axis met nothing (its class, instance and normal say none already),
         # nor past cast_range, behind the origin or parallel (nan and inf fail both tests)
         missed = ~((ring > 0) & (ring <= cast_range))
@@ -292,21 +356,20 @@ def _on_axis_planes(axis: RayHits, sub_world: np.ndarray, cast_range: float, thr
         if reflectivity is not None:
             reflectivity[1:, b][k, j] = np.nan
 
-    in_parts(block, n, BLOCK, threads)
-    flat = (distance.ravel(), cls.ravel(), instance.ravel(), axis.untagged_objects)
-    overridden = None if reflectivity is None else reflectivity.ravel()
-    return RayHits(*flat, normal=normals.reshape(-1, 3), reflectivity=overridden)
+    def put(self, rows: np.ndarray, new: RayHits) -> None:
+        """Rows `rows` (of the S·N, sub-ray-major) set to `new`'s hits (an override array made
+        where `new` has overrides and the axes had none)."""
+        self.distance.reshape(-1)[rows] = new.distance
+        self.cls.reshape(-1)[rows] = new.class_id
+        self.instance.reshape(-1)[rows] = new.instance
+        self.normals.reshape(-1, 3)[rows] = new.normal
+        if new.reflectivity is not None or self.reflectivity is not None:
+            with self._lock:  # made once, by whichever block needs it first
+                if self.reflectivity is None:
+                    self.reflectivity = np.full(self.distance.shape, np.nan, dtype=np.float32)
+            self.reflectivity.reshape(-1)[rows] = new.overrides()
 
-
-def _put_rows(hits: RayHits, rows: np.ndarray, new: RayHits) -> None:
-    """`hits`' rows `rows` set to `new`'s (in place; an override array made where `new` has
-    overrides and `hits` none)."""
-    hits.distance[rows] = new.distance
-    hits.class_id[rows] = new.class_id
-    hits.instance[rows] = new.instance
-    hits.normal[rows] = new.normal
-    if new.reflectivity is not None or hits.reflectivity is not None:
-        if hits.reflectivity is None:
-            hits.reflectivity = hits.overrides()
-        hits.reflectivity[rows] = new.overrides()
-    hits.untagged_objects = hits.untagged_objects | new.untagged_objects
+    def joined(self) -> RayHits:
+        flat = (self.distance.ravel(), self.cls.ravel(), self.instance.ravel(), self.axis.untagged_objects)
+        overridden = None if self.reflectivity is None else self.reflectivity.ravel()
+        return RayHits(*flat, normal=self.normals.reshape(-1, 3), reflectivity=overridden)

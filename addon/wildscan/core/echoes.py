@@ -61,7 +61,7 @@ ECHO_REFLECTIVITY = _echo_reflectivity()
 def return_energy(weight, class_id, cos_incidence, distance, override=None) -> np.ndarray:
     """e = w · ρ · cos θ · (R_REF / R)² for each return (Table I units; see module docstring);
     ρ is the object's `wildscan_reflectivity` where `override` is not nan."""
-    refl = ECHO_REFLECTIVITY[np.asarray(class_id, dtype=np.intp)]
+    refl = ECHO_REFLECTIVITY.take(class_id)  # (a miss's -1 takes the last, as indexing would)
     if override is not None:
         refl = np.where(np.isnan(override), refl, override)
     cos = np.maximum(np.abs(cos_incidence), COS_FLOOR)
@@ -110,7 +110,7 @@ def axis_ranges(returns: SubrayReturns) -> np.ndarray:
     """Each return's range where the beam axis meets the plane it hit (its own range for a
     miss or a plane grazing the axis, see MIN_AXIS_COS)."""
     ok = (returns.axis_cos >= MIN_AXIS_COS) & np.isfinite(returns.axis_ratio)
-    return np.where(ok, returns.distance * np.where(ok, returns.axis_ratio, 1.0), returns.distance)
+    return returns.distance * np.where(ok, returns.axis_ratio, 1.0)  # x * 1.0 is x, bit for bit
 
 
 def form_echoes(returns: SubrayReturns, weights: np.ndarray, separation: float, max_echoes: int) -> Echoes:
@@ -139,7 +139,11 @@ def form_echoes(returns: SubrayReturns, weights: np.ndarray, separation: float, 
     simple = _whole_beam_echoes(np.flatnonzero(whole), columns)
     rest = np.flatnonzero(~whole & np.logical_or.reduce(valid, axis=0))
     grouped = _grouped_echoes(rest, {k: v[:, rest] for k, v in columns.items()}, separation)
-    return _strongest(_merged(simple, grouped), max_echoes)
+    echoes = _merged(simple, grouped)
+    # only a grouped beam has several echoes; with none past max_echoes, nothing to drop
+    k = max_echoes
+    crowded = len(grouped) > k and bool((grouped.beam[k:] == grouped.beam[:-k]).any())
+    return _strongest(echoes, max_echoes) if crowded else echoes
 
 
 def _whole_beam_echoes(beams: np.ndarray, columns: dict) -> Echoes:
@@ -192,8 +196,21 @@ def _merged(a: Echoes, b: Echoes) -> Echoes:
     order; `b` in beam order, its echoes by range almost always already) and merging the
     two runs of beams (a stable sort of two sorted runs is a linear merge)."""
     b = b.subset(_by_beam_then_range(b))
-    both = Echoes(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in Echoes.__dataclass_fields__))
-    return both.subset(np.argsort(both.beam, kind="stable"))
+    # where each lands among the other's (the place a stable sort by beam gives it): after
+    # the other's echoes of the beams before its own
+    beams = int(max(a.beam[-1] if len(a) else -1, b.beam[-1] if len(b) else -1)) + 1
+    before_a = np.cumsum(np.bincount(a.beam, minlength=beams))
+    before_b = np.cumsum(np.bincount(b.beam, minlength=beams))
+    at_a = np.arange(len(a)) + (before_b - np.bincount(b.beam, minlength=beams)).take(a.beam)
+    at_b = np.arange(len(b)) + (before_a - np.bincount(a.beam, minlength=beams)).take(b.beam)
+    fields = {}
+    for name in Echoes.__dataclass_fields__:
+        x, y = getattr(a, name), getattr(b, name)
+        out = np.empty(len(a) + len(b), dtype=np.result_type(x, y))
+        out[at_a] = x
+        out[at_b] = y
+        fields[name] = out
+    return Echoes(**fields)
 
 
 def _by_beam_then_range(e: Echoes) -> np.ndarray:
@@ -228,13 +245,7 @@ def _summarise(f: dict, echo: np.ndarray, starts: np.ndarray, beam: np.ndarray) 
     deviation = np.bincount(echo, f["energy"] * (f["t_axis"] - first[echo]), count)
     rng = first + deviation / energy
     label, purity = _labels(f, echo, starts, energy)
-    # the instance of the labeled class's strongest return (the first of equals)
-    score = np.where(f["cls"] == label[echo], f["energy"], -1.0)
-    best = np.maximum.reduceat(score, starts)
-    candidates = np.flatnonzero(score == best[echo])
-    first_candidate = np.ones(len(candidates), dtype=bool)
-    first_candidate[1:] = echo[candidates[1:]] != echo[candidates[:-1]]
-    instance = f["inst"][candidates[first_candidate]]
+    instance = _instances(f, echo, starts, label)
     return Echoes(
         beam=beam.astype(np.int64),
         range=rng,
@@ -243,6 +254,29 @@ def _summarise(f: dict, echo: np.ndarray, starts: np.ndarray, beam: np.ndarray) 
         purity=np.minimum(purity, 1.0),
         instance=instance.astype(np.int32),
     )
+
+
+def _instances(f: dict, echo: np.ndarray, starts: np.ndarray, label: np.ndarray) -> np.ndarray:
+    """The instance of each group's labeled class's strongest return (the first of equals): a
+    group of one instance has it; only groups of several are scored."""
+    inst = f["inst"]
+    instance = inst[starts]
+    several = np.zeros(len(starts), dtype=bool)
+    several[echo[inst != instance[echo]]] = True
+    if several.any():
+        mine = np.flatnonzero(several[echo])  # their returns, group by group
+        group = echo[mine]
+        score = np.where(f["cls"][mine] == label[group], f["energy"][mine], -1.0)
+        first = np.ones(len(mine), dtype=bool)
+        first[1:] = group[1:] != group[:-1]
+        best = np.maximum.reduceat(score, np.flatnonzero(first))
+        candidates = np.flatnonzero(
+            score == np.repeat(best, np.diff(np.append(np.flatnonzero(first), len(mine))))
+        )
+        first_candidate = np.ones(len(candidates), dtype=bool)
+        first_candidate[1:] = group[candidates[1:]] != group[candidates[:-1]]
+        instance[np.flatnonzero(several)] = inst[mine[candidates[first_candidate]]]
+    return instance
 
 
 def _labels(f: dict, echo: np.ndarray, starts: np.ndarray, energy: np.ndarray):

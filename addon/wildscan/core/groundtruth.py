@@ -73,7 +73,9 @@ def height_above_ground(world_xyz: np.ndarray, ground: Ground) -> np.ndarray:
     world_xyz = np.asarray(world_xyz, dtype=np.float64)
     if not len(world_xyz):
         return np.zeros(0, dtype=np.float32)
-    return (world_xyz[:, 2] - ground(world_xyz[:, 0], world_xyz[:, 1])).astype(np.float32)
+    # x and y as contiguous arrays once: the ground's steps would each copy a strided column
+    x, y = (np.ascontiguousarray(world_xyz[:, k]) for k in (0, 1))
+    return (world_xyz[:, 2] - ground(x, y)).astype(np.float32)
 
 
 def bev_cell_centres() -> np.ndarray:
@@ -99,18 +101,24 @@ def bev_grid(
     s, c = dm.sincos(placement.yaw_rad)
     ox, oy, oz = (float(v) for v in placement.optical_centre)
     x, y = ox + c * uu - s * vv, oy + s * uu + c * vv
-    grid = np.zeros(uu.shape, dtype=BEV_DTYPE)
     x0, x1, y0, y1 = extent
     inside = (x >= x0) & (x <= x1) & (y >= y0) & (y <= y1)
+    # Only the cells on the world are evaluated (a pose near its edge has part of its grid
+    # off it): every value is a cell's own, so the grid holds the same bytes as one
+    # evaluated whole and masked.
+    x, y = x[inside], y[inside]
+    grid = np.zeros(uu.shape, dtype=BEV_DTYPE)
+    for name in ("terrain_z", "cover_height", "slope", "overhead"):
+        grid[name] = np.nan
     z = ground(x, y)
-    grid["terrain_z"] = np.where(inside, z - oz, np.nan)
+    grid["terrain_z"][inside] = z - oz
     start = z_range[1] + _ABOVE
-    origins = np.column_stack([x.ravel(), y.ravel(), np.full(x.size, start)])
-    top = np.asarray(top_classes(origins, start - z_range[0] + _ABOVE)).reshape(uu.shape)
-    grid["top_class"] = np.where(inside, top, 0)
+    origins = np.column_stack([x, y, np.full(x.size, start)])
+    grid["top_class"][inside] = top_classes(origins, start - z_range[0] + _ABOVE)
     fields = traversability(x, y, z) if traversability is not None else {}
     for name in ("cover_height", "slope", "overhead"):
-        grid[name] = np.where(inside, fields[name], np.nan) if name in fields else np.nan
+        if name in fields:
+            grid[name][inside] = fields[name]
     return grid
 
 

@@ -17,8 +17,11 @@ rocks — the robot may stand under them or be rejected by its lasers, not by th
 probe) and stops at the first terrain or water surface. The four lasers then
 start LASER_CLEARANCE above that surface, so an overhead crown is never
 mistaken for the ground while a rock, bench or table under the footprint still
-is. The first terrain surface from above a cave is its roof; to stand inside
-the cave, give a z_start under the roof.
+is. In the paper biome the first terrain surface from above a cave is its roof;
+to stand inside the cave there, give a z_start under the roof. Where the biome
+covers the ground the roof and the pit's walls are rock: the probe passes them
+and a pose under the roof stands on the cave's floor (over a wall it finds
+nothing under the rock face and is rejected).
 
 The lasers cannot see a trunk standing between them (a pose right at a tree): then
 the column would put the optical centre inside the trunk. So four horizontal rays leave
@@ -52,6 +55,8 @@ ENCLOSED_REACH = 1.0  # m: an element met this close in all four arm directions 
 MAX_COORDINATE = 1e6  # m; float64 keeps 0.1 um steps out there, and no world is bigger
 
 TERRAIN_ID = 1
+# why a pose whose probe finds no terrain or water below it is rejected
+NO_GROUND = "is off the world: there is no terrain below it (nor under any rock face it passes)"
 
 # (name, offset along heading, offset to the left)
 LASERS: tuple[tuple[str, float, float], ...] = (
@@ -262,7 +267,7 @@ def place(backend: RayBackend, pose: Pose, z_start: float | None = None) -> Plac
     if z_start is None:
         ground = probe_ground_z(backend, pose.x, pose.y)
         if ground is None:
-            raise PoseRejected(f"{describe_pose(pose)} is off the world: there is no terrain below it")
+            raise PoseRejected(f"{describe_pose(pose)} {NO_GROUND}")
         z_start = ground + LASER_CLEARANCE
     else:
         check_z_start(z_start)

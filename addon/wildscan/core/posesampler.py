@@ -122,15 +122,27 @@ def _class_candidates(plan: WorldPlan, wildscan_class: str) -> Iterator[ScanPose
     elements = plan.elements_of(wildscan_class)
     if not elements:
         return
+    anchors = [_anchor(plan, el) for el in elements]
     area = inset(EXTENT, 1.0)
     while True:
-        el = elements[int(rng.integers(len(elements)))]
+        ax, ay = anchors[int(rng.integers(len(elements)))]
         r = float(rng.uniform(NEAR_MIN, NEAR_MAX))
         s, c = dm.sincos(float(rng.uniform(0.0, 2.0 * math.pi)))
-        x = round(min(max(el.location[0] + r * c, area[0]), area[1]), 3)
-        y = round(min(max(el.location[1] + r * s, area[2]), area[3]), 3)
+        x = round(min(max(ax + r * c, area[0]), area[1]), 3)
+        y = round(min(max(ay + r * s, area[2]), area[3]), 3)
         yaw = round(float(rng.uniform(0.0, 360.0)), 1) % 360.0
         yield ScanPose(zone_at(plan, x, y), x, y, yaw, f"{NEAR}{wildscan_class}")
+
+
+def _anchor(plan: WorldPlan, el) -> tuple[float, float]:
+    """Where an element stands: its location, but for a mesh laid out in world coordinates
+    (located at the origin: the terrain, the trail, the cave's rock faces, each wire span) the
+    centre of its triangles' bounding box, not the world's origin."""
+    if any(el.location):
+        return float(el.location[0]), float(el.location[1])
+    xy = plan.element_vertices(el)[:, :2]
+    centre = (xy.min(axis=0) + xy.max(axis=0)) / 2.0
+    return float(centre[0]), float(centre[1])
 
 
 def class_scan_indices(targets: dict[str, float], count: int) -> dict[int, str]:

@@ -30,7 +30,7 @@ from .errors import UserError
 from .footprint import ring_columns, subray_directions, subray_weights, turn_rings
 from .hits import RayHits
 from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
-from .threads import in_parts
+from .threads import in_parts, started
 from .world.cover import COVER_INSTANCE_BASE
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
@@ -53,6 +53,16 @@ class RealisticPoints:
     purity: np.ndarray  # float64
     mixed: np.ndarray  # bool
     stats: dict
+
+    @staticmethod
+    def joined(parts: list["RealisticPoints"]) -> "RealisticPoints":
+        """The points of consecutive blocks of beams, in order (their stats left empty)."""
+        if len(parts) == 1:
+            return parts[0]
+        fields = [f for f in RealisticPoints.__dataclass_fields__ if f != "stats"]
+        return RealisticPoints(
+            **{f: np.concatenate([getattr(p, f) for p in parts]) for f in fields}, stats={}
+        )
 
     @property
     def beams_returning(self) -> int:
@@ -126,12 +136,17 @@ def realistic_points(
     its casts use (threads.backend_threads; None: threads.cast_threads())."""
     sub_sensor = subray_directions(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
     sub_world = np.empty(sub_sensor.shape)
+
     # The axis sub-ray is cast along the paper model's own beam, bit for bit, so a thin
     # single-echo realistic scan hits exactly where the paper's does; the ring is turned.
-    sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
+    def turn_axes() -> None:
+        sub_world[0] = rotated_beam_directions(rotation, sensor.rh_deg, sensor.device)
+
+    axes = started(turn_axes, threads)  # on a pool thread, beside the rings' turn
     columns = ring_columns(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
     ring = sub_world[1:]
     in_parts(lambda beams: turn_rings(rotation, columns, ring, beams), ring.shape[1], BEAM_BLOCK, threads)
+    axes()
     grid = scan_grid(sensor.device, float(sensor.rh_deg), float(sensor.divergence_mrad))
     return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads, grid)
 
@@ -156,36 +171,56 @@ def echo_points(
     hold more than one surface (coarse to fine); None: every sub-ray is cast."""
     s, n, _ = sub_world.shape
     rays = sub_world.reshape(-1, 3)
+    noise = started(lambda: noise_draws(sensor, n, sensor.echoes), threads)  # beside the casts
     if grid is None or s == 1:
         clear, fine = cast(origin, rays, cast_range, True), None
     else:
         clear, fine = footprint_hits(cast, origin, sub_world, cast_range, *grid, threads)
     hits = effects.medium(Rays(origin, rays, cast_range), clear)
-    echoes = beam_echoes(hits, sub_world, sensor, threads)
-    measured = _measured_ranges(echoes, sensor, n)
-    keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
-    echoes, measured = echoes.subset(keep), measured[keep]
-    number, count = _numbers(echoes.beam, n)
+    draws = noise()
     axis = AxisHits(clear.rows(slice(0, n)), sub_world[0], origin, cast_range)
-    on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False))
-    # a pure echo from a medium lies where the medium returned it: a particle (its instance the
-    # effect's code) or the ground cover's sward (core/effects/cover.py; its instance the cover's)
-    particle = echoes.label == PARTICLE_ID
-    from_medium = particle | (echoes.instance >= COVER_INSTANCE_BASE)
-    if from_medium.any():
-        on_surface[from_medium] = echoes.purity[from_medium] >= 1.0
-        instance[from_medium] = echoes.instance[from_medium]
-    per_beam = np.bincount(echoes.beam, minlength=n)
-    stats = {
+    weights = subray_weights(s)
+
+    def block(beams: slice) -> RealisticPoints:
+        return _block_points(hits, sub_world, sensor, weights, draws, axis, cast, beams)
+
+    # a block of beams at a time, each from its sub-rays' hits to its points in its own thread:
+    # a beam's echoes, noise and axis are its own, so the blocks joined are one pass's bytes
+    pts = RealisticPoints.joined(in_parts(block, n, BEAM_BLOCK, threads))
+    per_beam = np.bincount(pts.beam, minlength=n)
+    pts.stats = {
         "subrays_per_beam": s,
         "beams_by_echoes": {str(k): int((per_beam == k).sum()) for k in range(1, sensor.echoes + 1)},
-        "mixed_points": int((~on_surface).sum()),
+        "mixed_points": int(np.count_nonzero(pts.mixed)),
         "water_subrays": int(np.count_nonzero(hits.class_id == WATER_ID)),
     }
     if fine is not None:
-        stats["ring_subrays_cast"] = int(np.count_nonzero(fine))
+        pts.stats["ring_subrays_cast"] = int(np.count_nonzero(fine))
     if hits is not clear:
-        stats["particle_points"] = int(particle.sum())
+        pts.stats["particle_points"] = int(np.count_nonzero(pts.label == PARTICLE_ID))
+    return pts
+
+
+def _block_points(hits, sub_world, sensor, weights, draws, axis: "AxisHits", cast, beams: slice):
+    """The points of the beams `beams` (a block): their echoes (echoes.form_echoes), measured
+    with noise, kept within the range limits, numbered, their labels settled along the axis."""
+    echoes = form_echoes(
+        subray_returns(hits, sub_world, beams), weights, sensor.echo_separation, sensor.echoes
+    )
+    local = echoes.beam  # the block's own beam indices, from 0
+    echoes.beam = local + beams.start
+    measured = _measured_ranges(echoes, sensor, draws)
+    keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
+    echoes, measured, local = echoes.subset(keep), measured[keep], local[keep]
+    number = _rank_in_beam(local) + 1
+    count = np.bincount(local, minlength=beams.stop - beams.start)[local]
+    on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False), beams)
+    # a pure echo from a medium lies where the medium returned it: a particle (its instance the
+    # effect's code) or the ground cover's sward (core/effects/cover.py; its instance the cover's)
+    from_medium = (echoes.label == PARTICLE_ID) | (echoes.instance >= COVER_INSTANCE_BASE)
+    if from_medium.any():
+        on_surface[from_medium] = echoes.purity[from_medium] >= 1.0
+        instance[from_medium] = echoes.instance[from_medium]
     return RealisticPoints(
         beam=echoes.beam,
         range=measured,
@@ -196,7 +231,7 @@ def echo_points(
         echoes=count.astype(np.uint8),
         purity=echoes.purity,
         mixed=~on_surface,
-        stats=stats,
+        stats={},
     )
 
 
@@ -210,19 +245,14 @@ def _rank_in_beam(beam: np.ndarray) -> np.ndarray:
     return index - np.maximum.accumulate(np.where(first, index, 0))
 
 
-def _measured_ranges(echoes: Echoes, sensor: SensorConfig, beam_count: int) -> np.ndarray:
-    """Each echo's range with noise: draw j of its beam for the beam's j-th echo (one row of
-    draws per beam whatever it hit, as the paper model), σ by the noise model."""
-    draws = noise_draws(sensor, beam_count, sensor.echoes)
+def _measured_ranges(echoes: Echoes, sensor: SensorConfig, draws: np.ndarray | None) -> np.ndarray:
+    """Each echo's range with noise: draw j of its beam for the beam's j-th echo (`draws`:
+    noise_draws' rows, one per beam whatever it hit, as the paper model; None: no noise), σ
+    by the noise model."""
     if draws is None:
         return echoes.range.copy()
     rank = _rank_in_beam(echoes.beam)
     return echoes.range + range_sigma(sensor, echoes.range) * draws[echoes.beam, rank]
-
-
-def _numbers(beam: np.ndarray, beam_count: int) -> tuple[np.ndarray, np.ndarray]:
-    """(echo number 1.. within its beam, echoes its beam returned) per kept echo."""
-    return _rank_in_beam(beam) + 1, np.bincount(beam, minlength=beam_count)[beam]
 
 
 class AxisHits:
@@ -236,46 +266,57 @@ class AxisHits:
         self.last = axis_hits.distance.copy()  # the farthest axis hit found so far
         self.first = (self.last.copy(), axis_hits.class_id, axis_hits.instance)
 
-    def settle(self, echoes: Echoes, cast) -> tuple[np.ndarray, np.ndarray]:
-        """(on its labeled surface, that surface's instance) for each echo."""
+    def settle(self, echoes: Echoes, cast, beams: slice | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(on its labeled surface, that surface's instance) for each echo; `beams`: the block
+        of beams the echoes are of (None: all), whose axes alone are followed (blocks on
+        different threads touch different beams)."""
+        lo = 0 if beams is None else beams.start
+        hi = len(self.last) if beams is None else beams.stop
+        local = echoes.beam - lo
+        last = self.last[lo:hi]  # a view: followed in place
         on = np.zeros(len(echoes), dtype=bool)
         instance = np.zeros(len(echoes), dtype=np.int32)
-        self._match(echoes, self.first, np.arange(len(echoes)), on, instance)
+        first = tuple(a[lo:hi] for a in self.first)
+        self._match(echoes, local, first, np.arange(len(echoes)), on, instance)
         for _ in range(MAX_AXIS_STEPS):
-            pending = np.flatnonzero(~on & (echoes.range > self.last[echoes.beam] + MIXED_TOLERANCE))
+            pending = np.flatnonzero(~on & (echoes.range > last[local] + MIXED_TOLERANCE))
             if not len(pending):
                 break
-            beams = np.unique(echoes.beam[pending])
-            hit = self._follow(beams, cast)
-            followed = np.zeros(len(self.last), dtype=bool)  # np.isin(echoes.beam, beams), no sort
-            followed[beams] = True
-            mine = followed[echoes.beam]
-            self._match(echoes, hit, np.flatnonzero(mine & ~on), on, instance)
+            ids = np.unique(local[pending])
+            hit = self._follow(ids, lo, last, cast)
+            followed = np.zeros(len(last), dtype=bool)  # np.isin(local, ids), no sort
+            followed[ids] = True
+            self._match(echoes, local, hit, np.flatnonzero(followed[local] & ~on), on, instance)
         return on, instance
 
-    def _follow(self, beams: np.ndarray, cast):
-        """The next surface along the axis of each beam in `beams`, past the last one."""
-        start = self.last[beams] + AXIS_STEP
-        distance = np.full(len(self.last), np.inf)
-        cls = np.full(len(self.last), -1, dtype=np.int16)
-        inst = np.zeros(len(self.last), dtype=np.int32)
+    def _follow(self, ids: np.ndarray, lo: int, last: np.ndarray, cast):
+        """The next surface along the axis of each beam lo + `ids`, past the last one (`last`:
+        the block's farthest axis hits, from beam lo)."""
+        start = last[ids] + AXIS_STEP
+        distance = np.full(len(last), np.inf)
+        cls = np.full(len(last), -1, dtype=np.int16)
+        inst = np.zeros(len(last), dtype=np.int32)
         room = start < self.cast_range
-        go = beams[room]
+        go = ids[room]
         if len(go):
-            origins = self.origin + self.axis[go] * start[room][:, None]
-            hits = cast(origins, self.axis[go], self.cast_range - float(start[room].min()))
+            axis = self.axis[go + lo]
+            origins = self.origin + axis * start[room][:, None]
+            hits = cast(origins, axis, self.cast_range - float(start[room].min()))
             reach = hits.distance + start[room]
             ok = np.isfinite(reach) & (reach <= self.cast_range)
             distance[go[ok]] = reach[ok]
             cls[go[ok]] = hits.class_id[ok]
             inst[go[ok]] = hits.instance[ok]
-        self.last[beams] = distance[beams]
+        last[ids] = distance[ids]
         return distance, cls, inst
 
     @staticmethod
-    def _match(echoes: Echoes, hit, which: np.ndarray, on: np.ndarray, instance: np.ndarray) -> None:
+    def _match(
+        echoes: Echoes, local: np.ndarray, hit, which: np.ndarray, on: np.ndarray, instance: np.ndarray
+    ):
+        """Mark the echoes `which` lying on `hit` (per beam of the block: `local` each echo's)."""
         distance, cls, inst = hit
-        b = echoes.beam[which]
+        b = local[which]
         close = (np.abs(echoes.range[which] - distance[b]) <= MIXED_TOLERANCE) & (
             cls[b] == echoes.label[which]
         )

@@ -362,7 +362,13 @@ def _realistic_cloud(
     from .realistic import realistic_points
 
     _, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)
-    dirs_world = rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device)
+    # the beams' world directions are the points' in the world frame only (the others turn
+    # the sensor's beams themselves: _points)
+    dirs_world = (
+        rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device)
+        if frame == "world"
+        else None
+    )
     untagged: set[str] = set()
 
     def cast(origins, dirs, max_range, normals):

@@ -16,6 +16,7 @@ script that asks for one CPU), else the CPUs this process may run on.
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, TypeVar
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from .backend import THREADS, RayBackend
 from .errors import UserError
+from .heap import keep_freed_memory
 from .hits import RayHits
 
 THREADS_ENV = "WILDSCAN_CAST_THREADS"
@@ -37,7 +39,19 @@ BALANCE_PART = 50_000
 PARTS_PER_THREAD = 4
 
 _pool: ThreadPoolExecutor | None = None
+_worker = threading.local()  # `busy` set in the pool's own threads
 T = TypeVar("T")
+
+
+def in_worker() -> bool:
+    """Whether this thread is one of the pool's: a part run there (a realistic scan's block
+    of beams, core/realistic.py) splits nothing further, it casts and computes inline (a
+    worker waiting on parts queued behind it could wait for ever)."""
+    return getattr(_worker, "busy", False)
+
+
+def _mark_worker() -> None:
+    _worker.busy = True
 
 
 def cast_threads() -> int:
@@ -91,6 +105,8 @@ def cast_parts(
     order; `done(rays cast so far, all rays)` after each part, in order. `origin` is one
     point or one per ray."""
     total = len(dirs)
+    if in_worker():  # a part of a larger job: one call, its progress the job's own to report
+        return cast(origin, dirs, max_range)
     threads = backend_threads(backend)
     pieces = parts(total, threads, chunk)
     if len(pieces) == 1 and done is None:
@@ -114,16 +130,29 @@ def in_parts(fn: Callable[[slice], T], count: int, size: int, threads: int | Non
     threads (None: cast_threads(); numpy releases the GIL inside its array operations)."""
     pieces = [slice(start, min(start + size, count)) for start in range(0, count, size)] or [slice(0, 0)]
     threads = cast_threads() if threads is None else threads
-    if threads > 1 and len(pieces) > 1:
+    if threads > 1 and len(pieces) > 1 and not in_worker():
         return list(_pool_of(threads).map(fn, pieces))
     return [fn(piece) for piece in pieces]
+
+
+def started(fn: Callable[[], T], threads: int | None = None) -> Callable[[], T]:
+    """`fn()` begun on the pool while the caller goes on (inline, now, with one thread or from
+    a pool thread); returns what gives its result, waiting for it if need be."""
+    threads = cast_threads() if threads is None else threads
+    if threads > 1 and not in_worker():
+        return _pool_of(threads).submit(fn).result
+    value = fn()
+    return lambda: value
 
 
 def _pool_of(threads: int) -> ThreadPoolExecutor:
     """One pool for the process, grown when more threads are asked for."""
     global _pool
     if _pool is None or _pool._max_workers < threads:
+        keep_freed_memory()  # the threads' arrays not faulted in afresh block after block (heap.py)
         if _pool is not None:
             _pool.shutdown(wait=False)
-        _pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="wildscan-cast")
+        _pool = ThreadPoolExecutor(
+            max_workers=threads, thread_name_prefix="wildscan-cast", initializer=_mark_worker
+        )
     return _pool

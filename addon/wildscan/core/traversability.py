@@ -13,8 +13,9 @@ Per bird's-eye cell (core/groundtruth.py's grid gains three fields):
                 above it: the clearance a robot needs.
 
 Per point, `support`: 1 where the point lies on the surface the robot would rest on (a terrain
-point within SUPPORT_TOLERANCE of the standing ground), 0 elsewhere (grass over it, bushes,
-the cave's roof and walls: all "terrain" the robot cannot stand on).
+point within SUPPORT_TOLERANCE of the standing ground), 0 elsewhere (grass over it, bushes, the
+cave's roof; where the biome covers the ground the roof and the pit's walls are rock, in the
+paper biome terrain, and a wall's points lie on the standing ground).
 """
 
 from __future__ import annotations

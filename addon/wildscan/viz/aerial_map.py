@@ -76,6 +76,16 @@ def _footprint_polygon(plan, el) -> np.ndarray:
     return np.column_stack([x * c - y * s, x * s + y * c]) + np.asarray(el.location[:2])
 
 
+def _laid_meshes(plan) -> list:
+    """The elements drawn as their triangles: the trail's flooring, the cave's roof and its
+    rock faces (not the terrain itself, which the shaded image is)."""
+    return [
+        el
+        for el in plan.elements
+        if el.stage in ("trail", "cave") or (el.stage == "terrain" and el.wildscan_class != "terrain")
+    ]
+
+
 def _wire_line(plan, el) -> np.ndarray:
     v = plan.element_vertices(el)
     sides = plan.detail.wire_sides
@@ -101,14 +111,13 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
     img, ext = terrain_image(plan)
     ax.imshow(img, origin="lower", extent=ext, interpolation="bilinear", zorder=0)
 
-    # flooring (trail, cave roof): the terrain colour, outlined so it reads as flooring
-    for el in plan.elements_of("terrain"):
-        if el.stage == "terrain":
-            continue
+    # flooring and slabs (the trail, the cave's roof and rock faces): their triangles in their
+    # class's colour, the roof outlined so it reads as a roof
+    for el in _laid_meshes(plan):
         v = plan.element_vertices(el)
         f = plan.prototypes[el.proto].faces
         ax.add_collection(
-            PolyCollection(v[f][:, :, :2], facecolors=[_rgb("terrain")], edgecolors="none", zorder=2)
+            PolyCollection(v[f][:, :, :2], facecolors=[_rgb(el.wildscan_class)], edgecolors="none", zorder=2)
         )
         if el.stage == "cave":
             poly = _footprint_polygon(plan, el)
@@ -120,8 +129,9 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
     if plan.layout is not None:
         ax.plot(*plan.layout.trail.path.T, color=(0.3, 0.18, 0.06), lw=0.6, ls=":", zorder=2)
 
+    laid = {id(el) for el in _laid_meshes(plan)}
     for z, cls in enumerate(DRAW_ORDER, start=3):
-        els = plan.elements_of(cls)
+        els = [el for el in plan.elements_of(cls) if id(el) not in laid]
         if not els:
             continue
         colour = _rgb(cls)

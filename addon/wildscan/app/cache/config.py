@@ -56,14 +56,20 @@ def world_facts(source: str, cache: DiskCache | None) -> dict:
     return {"world_source": source, "cache_warnings": warnings}
 
 
-def count_worlds(counts: dict[str, int], facts: dict, warn) -> None:
-    """On the client: add a batch's world to `counts` ("built" or "cache"; a worker's last
-    world reused counts for nothing) and pass its cache warnings to `warn`."""
+def count_worlds(sources: dict[int, str], seed: int, facts: dict, warn) -> dict[str, int]:
+    """On the client: note how a batch's world `seed` was loaded in `sources` (seed ->
+    "built" or "cache": built when any worker built it, else from the cache; a worker's last
+    world reused adds nothing, and a world several workers loaded counts once), pass its
+    cache warnings to `warn`; return the worlds so far by source."""
     source = facts.get("world_source")
-    if source in ("built", "cache"):
-        counts[source] = counts.get(source, 0) + 1
+    if source == "built" or (source == "cache" and seed not in sources):
+        sources[seed] = source
     for line in facts.get("cache_warnings", ()):
         warn(line)
+    counts: dict[str, int] = {}
+    for how in sources.values():
+        counts[how] = counts.get(how, 0) + 1
+    return counts
 
 
 def worlds_text(counts: dict[str, int]) -> str:

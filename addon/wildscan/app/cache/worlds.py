@@ -4,8 +4,10 @@ What a worker needs of a world before its first scan is a pure function of (seed
 vegetation, biome) and the code (key.py): the triangles (`SceneGeometry`), what the sealed
 ray caster and the float64 settling read (each triangle's plane, its padded copy, the
 settling's band and vertex-neighbour index: raycast/settle.py), the instances, the open
-ground of the bird's-eye grid (core/open_ground.py), the ground the robot stands on
-(terrain grid and trail flooring: core/world/ground.py) and the ground cover. One entry
+ground and the open sky of the bird's-eye grid (core/open_ground.py, core/open_sky.py: the
+open sky is a pass over every triangle, 0.1-0.3 s of CPU a porous world, that a warm load
+no longer makes), the ground the robot stands on (terrain grid and trail flooring:
+core/world/ground.py) and the ground cover. One entry
 (`world-<key>.npz`) holds them all; a warm load reads it and skips the plan altogether
 (the plan is what the triangles, the ground and the cover are made from, and nothing else
 of it is read by a scan). The poses are a second, small entry (`poses-<key>.npz`), keyed
@@ -34,8 +36,10 @@ import numpy as np
 from ...core.classes import class_by_name
 from ...core.errors import PoseRejected
 from ...core.open_ground import OpenGround, no_open_ground, open_ground
+from ...core.open_sky import open_sky
 from ...core.placement import place
 from ...core.posesampler import NoPose, ScanPose, sample_poses
+from ...core.traversability import ROBOT_HEIGHT
 from ...core.world import EXTENT, WorldPlan, plan_world
 from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
@@ -63,6 +67,7 @@ class PreparedWorld:
     open_ground: OpenGround
     ground: StandingGround
     cover: CoverGrid | None
+    open_sky: OpenGround | None = None  # where an upward ray from a robot's height meets nothing
     plan: WorldPlan | None = None  # when just built; None when loaded (world_plan plans it again)
     from_cache: bool = False
     seconds: float = 0.0
@@ -141,7 +146,15 @@ def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
             cover=plan.cover,
             plan=plan,
         )
+    with step(timings, "open sky"):
+        world.open_sky = world_open_sky(geometry, world.ground)
     return world
+
+
+def world_open_sky(geometry, ground: StandingGround) -> OpenGround:
+    """Where an upward ray from ROBOT_HEIGHT above the standing ground meets nothing (the
+    bird's-eye grid's `overhead`: core/open_sky.py)."""
+    return open_sky(geometry.vertices, geometry.faces, ground.terrain, ROBOT_HEIGHT, EXTENT)
 
 
 def world_open_ground(plan: WorldPlan, geometry) -> OpenGround:
@@ -174,6 +187,7 @@ def to_entry(world: PreparedWorld) -> tuple[dict, dict[str, np.ndarray]]:
         owners=owners.astype(np.int32),
         instances=world.instances,
         open_ground=og.is_open,
+        open_sky=world.open_sky.is_open,
         **ground_arrays(ground),
     )
     if world.cover is not None:
@@ -184,6 +198,7 @@ def to_entry(world: PreparedWorld) -> tuple[dict, dict[str, np.ndarray]]:
         "object_names": list(g.object_names),
         "z_range": list(world.z_range),
         "open_ground": [og.x0, og.y0, og.cell],
+        "open_sky": [world.open_sky.x0, world.open_sky.y0, world.open_sky.cell],
         "floors": len(ground.floors),
         "positions": len(starts) - 1,
         "cover": world.cover is not None,
@@ -208,6 +223,7 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         neighbour_index(arrays["corner_pos"], arrays["owners"], meta["positions"]),
     )
     x0, y0, cell = meta["open_ground"]
+    sky_x0, sky_y0, sky_cell = meta["open_sky"]
     return PreparedWorld(
         inputs=inputs,
         geometry=geometry,
@@ -217,6 +233,7 @@ def from_entry(inputs: dict, meta: dict, arrays: dict[str, np.ndarray]) -> Prepa
         open_ground=OpenGround(x0, y0, cell, arrays["open_ground"]),
         ground=ground_from_arrays(arrays, meta["floors"]),
         cover=cover,
+        open_sky=OpenGround(sky_x0, sky_y0, sky_cell, arrays["open_sky"]),
     )
 
 

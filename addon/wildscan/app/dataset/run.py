@@ -53,6 +53,9 @@ class RunReport:
     cast_seconds: float = 0.0
     bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
     worlds: dict[str, int] = field(default_factory=dict)  # "built" / "cache" -> worlds a worker loaded so
+    world_sources: dict[int, str] = field(default_factory=dict)  # seed -> "built" / "cache"
+    started: float = 0.0  # wall clock when the engine began (timeline.py)
+    tasks: list[tuple[int, float, float]] = field(default_factory=list)  # (pid, start, end) per task
 
 
 # ---------------------------------------------------------------------------------------
@@ -235,6 +238,7 @@ def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport
     progress = ScanProgress(report.planned, recorded, quiet)
     in_flight: dict[str, int] = {}
     t0 = time.perf_counter()
+    report.started = time.time()
 
     def on_batch(batch: Batch, result: dict) -> None:
         for row in result["rows"]:
@@ -249,7 +253,9 @@ def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport
         report.scan_seconds += facts.get("scan_seconds", 0.0)
         report.cast_seconds += facts.get("cast_seconds", 0.0)
         report.bpy_imported |= facts["bpy_imported"]
-        count_worlds(report.worlds, facts, warn)
+        report.worlds = count_worlds(report.world_sources, batch.seed, facts, warn)
+        if "task" in facts:
+            report.tasks.append((facts["pid"], *facts["task"]))
         if state.world_rows(batch.seed) is not None:
             state.write_sequence_files(batch.seed)
             state.save()

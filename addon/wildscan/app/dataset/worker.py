@@ -81,6 +81,7 @@ class WorldContext:
     ground: StandingGround
     cover: CoverGrid | None = None  # the world's ground cover (None: bare ground)
     from_cache: bool = False  # the world was read from the world cache, not built
+    sky: OpenGround | None = None  # the world's open sky, when the world cache made it
 
     @functools.cached_property
     def file_numbers(self) -> list[int]:
@@ -102,6 +103,8 @@ class WorldContext:
     @functools.cached_property
     def open_sky(self) -> OpenGround:
         """Where an upward ray from the robot's height meets nothing (core/open_sky.py)."""
+        if self.sky is not None:
+            return self.sky
         g = self.backend.geometry
         return open_sky(g.vertices, g.faces, self.ground.terrain, ROBOT_HEIGHT, EXTENT)
 
@@ -182,6 +185,7 @@ def build_world(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) ->
         ground=world.ground,
         cover=world.cover,
         from_cache=world.from_cache,
+        sky=world.open_sky,
     )
 
 
@@ -222,6 +226,7 @@ def scan_batch(
             f"a Dask worker cannot see the output folder {out}: it must be on a file system "
             "every worker shares"
         )
+    started = time.time()  # wall clock: the client lays every task on one timeline (timeline.py)
     spec = spec_from_json(spec_json)
     cached = _world_key(spec, seed) in _last_world
     disk = open_cache(cache)
@@ -236,7 +241,8 @@ def scan_batch(
     source = "memory" if cached else "cache" if context.from_cache else "built"
     spent = CLOCK.reading() - before
     facts = _worker_facts(build) | world_facts(source, disk)
-    return {"rows": rows, "worker": facts | {"scan_seconds": spent.scans, "cast_seconds": spent.cast}}
+    facts |= {"scan_seconds": spent.scans, "cast_seconds": spent.cast, "task": [started, time.time()]}
+    return {"rows": rows, "worker": facts}
 
 
 def _tick(topic: str, label: str) -> None:

@@ -12,7 +12,14 @@ exact. Rays that do not stop keep their surface hit.
 
 Cost: a constant number of array operations a ray in the layer, whatever its range; the rays
 that cannot be in it (above every cell's top within reach, or whose run from the sensor reaches
-their hit) are left out before any cell is looked up.
+their hit) are left out before any cell is looked up. Each cell's fields are gathered from
+contiguous per-world arrays (core/world/cover_lookup.py), and most rays are decided by their
+cell's bounds (lowest and highest corner, steepest slope) without interpolating the terrain:
+a point surely inside the layer, a ray surely coming down. Only the rest are looked at
+closely, with CoverGrid.surface_at's own operations, so every decision is the one the
+interpolated terrain gives. Numpy's cost is per element: a gather about six times an
+arithmetic operation, a boolean index about twenty times, an np.where six (instructions
+counted by callgrind); the code gathers by take, compacts by flatnonzero.
 
 Determinism: the rays are taken in fixed parts of PART rays (on the cast's threads); each part
 draws from its own PCG64 generator seeded from (the scan's noise seed, "cover.part.K"), in ray
@@ -26,6 +33,7 @@ many threads.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,7 +42,8 @@ from .. import detmath as dm
 from ..hits import RayHits
 from ..rng import stage_rng
 from ..threads import in_parts
-from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid, extinction
+from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid
+from ..world.cover_lookup import CoverLookup, cover_lookup
 from .base import Effect, Rays
 
 # The robot flattens what it stands on: within this horizontal distance of the sensor no cover
@@ -47,6 +56,9 @@ SETTLE = 4  # times a stop outside its own cell's sward goes on along its run (_
 # bytes do not depend on the threads
 PART = 49_152
 CELL_EXIT = 1e-6  # m past a cell's edge, where a ray going on from it starts (in the next cell)
+# share of a part's rays above which the hits' cells are found for all its rays at once
+# (_hits_near; ~45 % is where both ways cost the same array operations, counted by callgrind)
+WHOLE = 0.45
 
 
 class GroundCover(Effect):
@@ -77,289 +89,461 @@ class GroundCover(Effect):
 
     def medium(self, rays: Rays, hits: RayHits) -> RayHits:
         n = len(hits.distance)
-        o = np.asarray(rays.origins, dtype=np.float64)
+        if not n:
+            return hits
+        look = cover_lookup(self.grid)
         d = np.asarray(rays.directions, dtype=np.float64)
-        # each ray's origin and direction as x, y, z arrays (an origin: 3 numbers, or n each),
-        # made contiguous a part at a time, on the part's thread
-        ray = _Rays(*(o[k] if o.ndim == 1 else o[:, k] for k in range(3)), *(d[:, k] for k in range(3)))
+        o = np.asarray(rays.origins, dtype=np.float64)
         end = np.minimum(hits.distance, rays.max_range)
         hit = np.isfinite(hits.distance)
 
-        def stops(part: slice):
-            return self._stops(ray.part(part), end[part], hit[part], part.start)
+        def stops(part: slice) -> _Stops:
+            """The stops of one part of the rays, as far as the part settles them."""
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                ray = _Rays(o if o.ndim == 1 else o[part], d[part], rays.max_range)
+                e = end[part]
+                a = self._from_sensor(look, ray, e)
+                b = self._to_hit(look, ray, e, hit[part], a)
+                found = _Stops.first(a, b, self.seed, part.start)
+                _settle(look, ray, found)
+            found.rows += part.start  # the part's rays, numbered in the scan
+            return found
 
-        found = [_PartStops(part.start, *f) for part, f in zip(_slices(n), in_parts(stops, n, PART))]
+        found = _Stops.joined(in_parts(stops, n, PART))
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            self._redraw_all(o, d, found)
-        rows, at, cls = _kept(found, n)
+            _redraw(look, _Rays(o, d, rays.max_range), found)
+        rows, at, cls = found.kept(n)
         if not len(rows):
             return hits
         return _with_cover_hits(hits, rows, at, cls, d)
 
-    def _stops(self, ray: _Rays, end, hit, first: int):
-        """The stops in the layer of one part of the rays (from ray `first` on; `end` each
-        one's hit or max range, `hit` whether it hit), as far as one part settles them:
-        (rows in the part, how many of them are runs from the sensor (first), where each
-        stops, its class (0: none yet), the redraws it leaves (_Redraws: _redraw_all settles
-        those of every part at once)).
-
-        Both runs of a ray are found first and their stops settled together (one _settle, so
-        its passes are paid once a part); a ray whose run from the sensor holds keeps that
-        stop, else its run to the hit's (_kept)."""
-        # a stream a part, drawn only for the rays in the layer: the same bytes however many
-        # threads share the parts
-        rng = stage_rng(self.seed, f"cover.part.{first // PART}")
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            horizontal = np.sqrt(ray.dx * ray.dx + ray.dy * ray.dy)
-            t0 = np.minimum(np.where(horizontal > 0, TRAMPLED / horizontal, np.inf), end)
-            a, t_a, leave, cls_a, height_a = self._run_from_sensor(ray, t0, end)
-            # a run to the hit begins past the run from the sensor: none where that reaches
-            # the hit (a beam coming down through the sward near the robot, most of them)
-            start = t0
-            start[a] = leave
-            to_hit = np.flatnonzero(hit & (start < end))
-            b, begin_b, end_b, cls_b, height_b = self._run_to_hit(ray, end, start, to_hit)
-            # both runs' stops at once: the uniforms of the runs from the sensor, then of the
-            # runs to the hit, as two draws would give them
-            rows, begin, run_end = (
-                np.concatenate([a, b]),
-                np.concatenate([t_a, begin_b]),
-                np.concatenate([leave, end_b]),
+    def _from_sensor(self, look: CoverLookup, ray: _Rays, end: np.ndarray) -> _Run:
+        """The runs from the sensor, past the trampled ground, until each ray rises out of the
+        layer (or reaches its hit): of the rays whose point TRAMPLED from the sensor (in x and
+        y) lies in the layer. One origin: only rays that can come that low are looked at (the
+        highest layer top of the cells within TRAMPLED of it, CoverGrid.top_within; a bound on
+        the direction's z first, then the exact test), and the cells there are in the grid.
+        Most rays are decided by their cell's bounds (CoverLookup: surely inside the layer,
+        surely coming down, so the run reaches the hit or LONGEST_RUN); the rest are looked at
+        closely (_inside)."""
+        top, contained = np.inf, False
+        if ray.single:
+            # a micrometre more than TRAMPLED: a point's own rounding never takes it past the square
+            reach = TRAMPLED + 1e-6
+            top = self.grid.top_within(ray.ox, ray.oy, reach)
+            if top == -np.inf:
+                return _Run.empty()
+            # oz + dz t0 <= top with t0 = TRAMPLED / horizontal: dz / horizontal <= s, so (unit
+            # directions) dz <= s / sqrt(1 + s^2); with margins far above any rounding
+            s = (top - ray.oz + 1e-9) / TRAMPLED
+            rows = np.flatnonzero(ray.dz <= s / math.sqrt(1.0 + s * s) + 1e-6)
+            contained = look.contains(ray.ox - reach, ray.ox + reach, ray.oy - reach, ray.oy + reach)
+        else:
+            rows = np.arange(len(end))
+        dx, dy, dz = ray.cols(rows)
+        e = end.take(rows)
+        horizontal = np.sqrt(dx * dx + dy * dy)
+        t0 = np.minimum(TRAMPLED / horizontal, e)  # finite (TRAMPLED / 0 is inf: `e`)
+        ox, oy, oz = ray.origin(rows)
+        z = oz + dz * t0
+        x, y = ox + dx * t0, oy + dy * t0
+        wanted = (t0 < e) & (z <= top)
+        _, _, _, _, flat, ok = _cells(look, x, y, contained)
+        if ok is not None:
+            wanted &= ok
+        # surely in the layer and coming down: the run ends at the hit (or LONGEST_RUN on)
+        sure = (z <= look.below_top.take(flat)) & (z >= look.bottom.take(flat))
+        sure &= dz + look.steepest.take(flat) * horizontal < 0
+        sure &= wanted
+        leave = np.minimum(t0 + LONGEST_RUN, e)
+        close = np.flatnonzero(wanted & ~sure)
+        if len(close):
+            dx, dy, dz = dx.take(close), dy.take(close), dz.take(close)
+            ox, oy = (v if np.ndim(v) == 0 else v.take(close) for v in (ox, oy))
+            t = t0.take(close)
+            # (in the grid: `wanted` holds only points in it)
+            k, (above, height, rate, _) = _inside(
+                look, x.take(close), y.take(close), z.take(close), dx, dy, dz
             )
-            anchor_cls, anchor_height = np.concatenate([cls_a, cls_b]), np.concatenate([height_a, height_b])
-            stop = _stop(begin, run_end, anchor_cls, anchor_height, rng.random(len(rows)))
-            k = np.flatnonzero(np.isfinite(stop))
-            rows, stop, run_end = rows.take(k), stop.take(k), run_end.take(k)
-            anchor_cls, anchor_height = anchor_cls.take(k), anchor_height.take(k)
-            cls, redraws = self._settle(ray.rows(rows), stop, run_end, anchor_cls, anchor_height, rng)
-        return rows, int(np.searchsorted(k, len(a))), stop, cls, redraws
+            t = t.take(k)
+            up = np.where(rate > 0, t + (height - above) / rate, np.inf)
+            close = close.take(k)
+            leave[close] = np.minimum(np.minimum(up, t + LONGEST_RUN), e.take(close))
+            sure[close] = True
+        k = np.flatnonzero(sure)
+        return _Run(rows.take(k), t0.take(k), leave.take(k), look.ext.take(flat.take(k)))
 
-    def _run_from_sensor(self, ray: _Rays, t0, end):
-        """The run from the sensor, past the trampled ground, until the ray rises out of the
-        layer (or reaches its hit): (the rays that start it inside the layer, where each starts
-        and leaves the layer, the class and layer height where it starts)."""
-        rows = np.flatnonzero((t0 < end) & self._may_start_inside(ray, t0))
-        rows, t, (cls, above, height, rate) = self._inside(ray, rows, t0.take(rows))
-        leave = np.where(rate > 0, t + (height - above) / rate, np.inf)
-        leave = np.minimum(np.minimum(leave, t + LONGEST_RUN), end.take(rows))
-        return rows, t, leave, cls, height
-
-    def _run_to_hit(self, ray: _Rays, end, start, rows):
-        """The run that ends at the hit of each of `rows`, from where the ray came down into
-        the layer (not before `start`): (the rays whose hit lies in the layer, where each one's
-        run begins and ends, the class and layer height at the hit)."""
-        at = np.maximum(end.take(rows) - BEFORE_HIT, 0.0)
-        if np.ndim(ray.oz) == 0 and len(rows):  # one origin: none above the layer's top within reach
-            reach = float(at.max())
-            low = ray.oz + ray.dz.take(rows) * at <= self.grid.top_within(ray.ox, ray.oy, reach)
-            rows, at = rows[low], at[low]
-        rows, _, (cls, above, height, rate) = self._inside(ray, rows, at)
+    def _to_hit(self, look: CoverLookup, ray: _Rays, end, hit, a: _Run) -> _Run:
+        """The runs that end at the hits, from where each ray came down into the layer (not
+        before the run from the sensor, or the trampled ground, ends): of the rays whose hit
+        (BEFORE_HIT short of it) lies in the layer and that a run from the sensor does not
+        reach (most of those that start in it: tested first, over all the rays at once). One
+        origin: none above the highest layer top within reach looked at."""
+        n = len(end)
+        at = np.maximum(end - BEFORE_HIT, 0.0)
+        wanted = hit.copy()
+        if len(a.rows):  # a run from the sensor that reaches the hit leaves none to it
+            wanted[a.rows.take(np.flatnonzero(a.end >= end.take(a.rows)))] = False
+        contained = False
+        if ray.single:
+            reach = float(np.max(at, where=hit, initial=0.0))
+            top = self.grid.top_within(ray.ox, ray.oy, reach)
+            wanted &= ray.oz + ray.dz * at <= top
+            contained = look.contains(ray.ox - reach, ray.ox + reach, ray.oy - reach, ray.oy + reach)
+        rows, (z, flat, tx, ty) = _hits_near(look, ray, at, wanted, contained)
+        dx, dy, dz = ray.cols(rows)
+        e = end.take(rows)
+        t0 = _trampled(dx, dy, e)
+        sx, sy = 1.0 - tx, 1.0 - ty
+        ground = _ground(look, flat, tx, ty, sx, sy)
+        above = z - ground
+        height = look.height.take(flat)
+        m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height) & (t0 < e))
+        rows, e, t0, above, height, flat = (v.take(m) for v in (rows, e, t0, above, height, flat))
+        gx, gy = _slopes(look, flat, tx.take(m), ty.take(m), sx.take(m), sy.take(m))
+        rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
+        # where the run may begin: the run from the sensor's end, or the trampled ground's
+        start = t0
+        if len(a.rows) and len(rows):
+            leave = np.full(n, np.nan)
+            leave[a.rows] = a.end
+            from_a = leave.take(rows)
+            start = np.where(np.isnan(from_a), t0, from_a)
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
-        stop_end = end.take(rows)
-        begin = np.maximum(stop_end - back, start.take(rows))
-        return rows, begin, stop_end, cls, height
+        return _Run(rows, np.maximum(e - back, start), e, look.ext.take(flat))
 
-    def _inside(self, ray: _Rays, rows, t):
-        """Of `rows`, those whose point t along lies inside the layer: (those rows, their t,
-        class, height above the terrain, layer height and rate there: the height above the
-        terrain changes along the ray at that rate, its climb less the slope of the terrain)."""
-        r = ray.rows(rows)
-        x, y, z = r.ox + r.dx * t, r.oy + r.dy * t, r.oz + r.dz * t
-        near, (cls, height, ground, gx, gy) = self.grid.surface_near(x, y, z)
-        r, above = r.rows(near), z.take(near) - ground
-        rate = r.dz - (gx * r.dx + gy * r.dy)
-        inside = (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
-        rows, t = rows.take(near), t.take(near)
-        return rows[inside], t[inside], (cls[inside], above[inside], height[inside], rate[inside])
 
-    def _settle(self, ray: _Rays, stop, end, anchor_cls, anchor_height, rng):
-        """The class at each stop (of `ray`'s rays) inside the layer as the grid has it (0:
-        none), and the redraws left (_Redraws); `stop` is updated in place (inf where the stop
-        came out of the layer). A run's length and medium are its anchor cell's (where
-        it ends, or starts); along a long run (a grazing beam over several cells) a stop can come
-        out where this cell's sward is lower, or bare ground (a trail, a rock), or another class.
-        Such a ray goes on from there (from where it comes down into this cell's sward, when it
-        is above it): its depth is drawn again (from `rng`), in this cell's sward or, where this
-        cell has none, in the anchor's, until its run's `end`; at most SETTLE times, then it
-        passes (_redraw_all). (Dropping such stops instead would let grazing beams through a
-        meadow far more often than Beer-Lambert says.) The uniforms of the redraws are drawn
-        here, as many as they could take: the stream is the part's own and nothing draws from
-        it after, so they are the numbers a pass at a time would draw."""
-        x, y, z = ray.at(stop)
-        c, height, ground, _, _ = self.grid.surface_at(x, y, slopes=False)
-        inside = _in_layer(c, z - ground, height)
-        cls = np.where(inside, c, 0).astype(np.int16, copy=False)
-        out = np.flatnonzero(~inside)
-        t = stop.take(out)
-        stop[out] = np.inf
-        medium = (end.take(out), anchor_cls.take(out), anchor_height.take(out))
-        return cls, _Redraws(out, t, *medium, rng.random(len(out) * SETTLE))
+def _hits_near(look: CoverLookup, ray: _Rays, at, wanted, contained: bool):
+    """Of the `wanted` rays, those whose point `at` along lies in a cell whose layer top it is
+    not above (CoverLookup.top; -inf where bare): (their rows, (the point's z, its cell, tx,
+    ty into it)). `contained`: every wanted point lies in the grid. Where most rays are wanted
+    (a cave's or a trail's hits, none under a sward) the points of all the rays are found at
+    once from the directions' columns, not gathered ray by ray (about half the operations)."""
+    ox, oy, oz = ray.origin(slice(None))
+    if np.count_nonzero(wanted) > WHOLE * len(wanted):
+        d = ray.d
+        x, y, z = ox + d[:, 0] * at, oy + d[:, 1] * at, oz + ray.dz * at
+        contained = ray.single and look.contains(*ray.box)  # every ray's point, hit or not
+        fx, fy, fi, fj, flat, ok = _cells(look, x, y, contained)
+        near = wanted & (z <= look.top.take(flat))
+        if ok is not None:
+            near &= ok
+        rows = np.flatnonzero(near)
+        return rows, (z.take(rows), flat.take(rows), (fx - fi).take(rows), (fy - fj).take(rows))
+    rows = np.flatnonzero(wanted)
+    dx, dy, dz = ray.cols(rows)
+    at = at.take(rows)
+    ox, oy, oz = ray.origin(rows)
+    z = oz + dz * at
+    fx, fy, fi, fj, flat, ok = _cells(look, ox + dx * at, oy + dy * at, contained)
+    near = z <= look.top.take(flat)
+    if ok is not None:
+        near &= ok
+    k = np.flatnonzero(near)
+    return rows.take(k), (z.take(k), flat.take(k), (fx - fi).take(k), (fy - fj).take(k))
 
-    def _redraw_all(self, origins: np.ndarray, dirs: np.ndarray, found: list[_PartStops]) -> None:
-        """The redraws of every part's stops that came out of the layer (_settle), at once: a
-        few rays (grazing beams), so a pass costs its array operations once, not once a part.
-        Their arrays are kept compact, one cell lookup (with the terrain's slopes) a pass; each
-        pass takes the next uniforms of each ray's part in the rays' order. A redrawn stop that
-        holds is set in its part's `stop` and `cls`."""
-        parts = [f for f in found if len(f.redraws.slot)]
-        if not parts:
-            return
-        # each pending stop: its part (k), its place in its part's arrays (slot), its ray
-        part = np.concatenate([np.full(len(f.redraws.slot), k) for k, f in enumerate(parts)])
-        slot = np.concatenate([f.redraws.slot for f in parts])
-        rays = np.concatenate([f.first + f.rows.take(f.redraws.slot) for f in parts])
-        t, end, anchor_cls, anchor_height = (
-            np.concatenate([getattr(f.redraws, name) for f in parts])
-            for name in ("t", "end", "cls", "height")
-        )
-        # whole rows of the (n, 3) arrays (a column's take would copy the whole column first)
-        ray = _Rays(
-            *(origins if origins.ndim == 1 else origins.take(rays, axis=0).T), *dirs.take(rays, axis=0).T
-        ).rows(np.arange(len(rays)))
-        drawn = [0] * len(parts)
-        x, y, z = ray.at(t)
-        c, height, ground, gx, gy = self.grid.surface_at(x, y)
-        for _ in range(SETTLE):
-            above = z - ground
-            # above a lower sward the ray comes down into: on from where it enters it; over
-            # bare ground or rising above this cell's sward: on from where it leaves the cell
-            # (none of its stops would hold before, and the depths are memoryless: the law of
-            # the next stop is that of the stops drawn again and again until one is past it)
-            here = c > 0
-            high = here & (above > height)
-            rate = ray.dz - (gx * ray.dx + gy * ray.dy)
-            down = high & (rate < 0)
-            on = ~here | (high & (rate >= 0))
-            t = np.where(down, t + (above - height) / -rate, t)
-            t = np.where(on, self._cell_exit(x, y, ray, t), t)
-            medium_cls, medium_height = np.where(here, c, anchor_cls), np.where(here, height, anchor_height)
-            t = _stop(t, end, medium_cls, medium_height, _next_uniforms(parts, part, drawn))
-            going = np.flatnonzero(np.isfinite(t))
-            if not len(going):
-                return
-            ray, part, slot, t = ray.rows(going), part.take(going), slot.take(going), t.take(going)
-            end, anchor_cls, anchor_height = (
-                end.take(going),
-                anchor_cls.take(going),
-                anchor_height.take(going),
-            )
-            x, y, z = ray.at(t)
-            c, height, ground, gx, gy = self.grid.surface_at(x, y)
-            inside = _in_layer(c, z - ground, height)
-            for k in np.unique(part[inside]).tolist():
-                held = inside & (part == k)
-                parts[k].stop[slot[held]] = t[held]
-                parts[k].cls[slot[held]] = c[held]
-            out = np.flatnonzero(~inside)
-            if not len(out):
-                return
-            ray, part, slot, t = ray.rows(out), part.take(out), slot.take(out), t.take(out)
-            x, y, z = x.take(out), y.take(out), z.take(out)
-            end, anchor_cls, anchor_height = end.take(out), anchor_cls.take(out), anchor_height.take(out)
-            c, height, ground, gx, gy = (v.take(out) for v in (c, height, ground, gx, gy))
 
-    def _cell_exit(self, x, y, ray: _Rays, t):
-        """Where the rays `ray`, at t along them at (x, y), leave their cell (in x and y; a
-        micrometre past its edge): inf for a ray with no way out (straight up or down)."""
-        g = self.grid
-        ix = np.floor((x - g.x0) / g.cell)
-        iy = np.floor((y - g.y0) / g.cell)
-        to_x = ((ix + (ray.dx > 0)) * g.cell + g.x0 - x) / ray.dx
-        to_y = ((iy + (ray.dy > 0)) * g.cell + g.y0 - y) / ray.dy
-        out = t + np.minimum(np.where(ray.dx != 0, to_x, np.inf), np.where(ray.dy != 0, to_y, np.inf))
-        return out + CELL_EXIT
+def _trampled(dx, dy, end):
+    """Where each ray (directions dx, dy) is TRAMPLED from its origin in x and y, or its end
+    (TRAMPLED / 0 is inf: a vertical ray's end)."""
+    return np.minimum(TRAMPLED / np.sqrt(dx * dx + dy * dy), end)
 
-    def _may_start_inside(self, ray: _Rays, t0) -> np.ndarray:
-        """Rays whose point t0 along (at most TRAMPLED from a single origin, in x and y) can lie
-        in the layer: not above the highest layer top of the cells that square around the
-        origin touches (CoverGrid.top_within; a cheap bound that spares the upward rays and
-        those over a low sward). Origins per ray (a drive): every ray."""
-        if np.ndim(ray.ox) != 0:
-            return np.ones(len(t0), dtype=bool)
-        # a micrometre more than TRAMPLED: a point's own rounding never takes it past the square
-        top = self.grid.top_within(ray.ox, ray.oy, TRAMPLED + 1e-6)
-        return ray.oz + ray.dz * t0 <= top
+
+def _inside(look: CoverLookup, x, y, z, dx, dy, dz):
+    """Of the points (x, y, z) on rays (dx, dy, dz), all in the grid, those inside the layer:
+    (their places, (height above the terrain, layer height, rate, cell) there: the height above
+    the terrain changes along the ray at that rate, its climb less the slope of the terrain).
+    Only the cells whose top the point is not above can hold it (CoverLookup.top, -inf where
+    bare: CoverGrid.surface_near's test); the rest are left out before the terrain is
+    interpolated."""
+    fx, fy, fi, fj, flat, _ = _cells(look, x, y, True)
+    k = np.flatnonzero(z <= look.top.take(flat))
+    flat, fx, fy, fi, fj, z, dx, dy, dz = (v.take(k) for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
+    tx, ty = fx - fi, fy - fj
+    sx, sy = 1.0 - tx, 1.0 - ty
+    above = z - _ground(look, flat, tx, ty, sx, sy)
+    height = look.height.take(flat)
+    m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height))
+    flat, tx, ty, sx, sy = flat.take(m), tx.take(m), ty.take(m), sx.take(m), sy.take(m)
+    gx, gy = _slopes(look, flat, tx, ty, sx, sy)
+    rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
+    return k.take(m), (above.take(m), height.take(m), rate, flat)
+
+
+def _cells(look: CoverLookup, x, y, contained: bool = False):
+    """(fx, fy, floor(fx), floor(fy), flat cell index, inside the grid (None: all)) of points,
+    fx and fy in cells from the grid's origin; outside the grid the index is clipped to it.
+    `contained`: the points are known to lie in the grid."""
+    fx = (x - look.x0) / look.cell
+    fy = (y - look.y0) / look.cell
+    fi, fj = np.floor(fx), np.floor(fy)
+    if not contained:
+        ok = (fi >= 0) & (fi < look.nx) & (fj >= 0) & (fj < look.ny)
+        if not ok.all():
+            ci, cj = np.clip(fi, 0, look.nx - 1), np.clip(fj, 0, look.ny - 1)
+            return fx, fy, fi, fj, (cj * look.nx + ci).astype(np.intp), ok
+    flat = fj * look.nx
+    flat += fi
+    return fx, fy, fi, fj, flat.astype(np.intp), None
+
+
+def _ground(look: CoverLookup, flat, tx, ty, sx, sy):
+    """The terrain's height at points of cells `flat`, (tx, ty) into them (sx = 1 - tx, sy =
+    1 - ty): bilinear between the cell's corners, CoverGrid.surface_at's operations."""
+    z00, z10, z01, z11 = (v.take(flat) for v in (look.z00, look.z10, look.z01, look.z11))
+    return (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
+
+
+def _slopes(look: CoverLookup, flat, tx, ty, sx, sy):
+    """The terrain's slope d/dx, d/dy at points of cells `flat` (CoverGrid.surface_at's)."""
+    gx = look.slope_x0.take(flat) * sy + look.slope_x1.take(flat) * ty
+    gy = look.slope_y0.take(flat) * sx + look.slope_y1.take(flat) * tx
+    if not look.slopes_scaled:
+        gx /= look.cell
+        gy /= look.cell
+    return gx, gy
+
+
+def _surface(look: CoverLookup, x, y, slopes: bool = True):
+    """At points (x, y): (class, layer height, terrain height, extinction, slope d/dx, d/dy;
+    the slopes None unless `slopes`): CoverGrid.surface_at's values; outside the grid the
+    class is 0."""
+    fx, fy, fi, fj, flat, ok = _cells(look, x, y)
+    tx, ty = fx - fi, fy - fj
+    if ok is not None:  # (inside the grid fx - fi lies in [0, 1) already)
+        tx, ty = np.clip(tx, 0.0, 1.0), np.clip(ty, 0.0, 1.0)
+    sx, sy = 1.0 - tx, 1.0 - ty
+    ground = _ground(look, flat, tx, ty, sx, sy)
+    cls, height, ext = look.cls.take(flat), look.height.take(flat), look.ext.take(flat)
+    if ok is not None:
+        cls = np.where(ok, cls, 0).astype(np.int16, copy=False)
+    gx = gy = None
+    if slopes:
+        gx, gy = _slopes(look, flat, tx, ty, sx, sy)
+    return cls, height, ground, ext, gx, gy
 
 
 @dataclass(frozen=True)
-class _Redraws:
-    """The stops of a part that came out of the layer at their first try (_settle): their
-    places in the part's stops (slot), where they came out (t), their runs' ends, their anchors'
-    classes and layer heights, and the part's uniforms for their redraws."""
+class _Run:
+    """Runs of rays through the layer: the rays (ascending), where each run begins and ends,
+    the extinction of its anchor cell (where it was found: its start, or its hit)."""
 
-    slot: np.ndarray
-    t: np.ndarray
-    end: np.ndarray
-    cls: np.ndarray
-    height: np.ndarray
-    uniforms: np.ndarray
-
-
-@dataclass(frozen=True)
-class _PartStops:
-    """One part's stops (_stops): rows in the part (the runs from the sensor first, n_a of
-    them), where each stops and its class (0: none), the redraws left; `first` is the part's
-    first ray."""
-
-    first: int
     rows: np.ndarray
-    n_a: int
+    begin: np.ndarray
+    end: np.ndarray
+    ext: np.ndarray
+
+    @staticmethod
+    def empty() -> _Run:
+        none = np.zeros(0)
+        return _Run(np.zeros(0, dtype=np.intp), none, none, none)
+
+
+@dataclass
+class _Stops:
+    """The stops drawn in both runs of the rays: of each part (PART rays), the runs from the
+    sensor's (`from_sensor`), then the runs to the hit's, each in ray order; where each stops
+    and its class (0: none yet), its run's end and anchor's extinction; each part's generator
+    (None: none drawn)."""
+
+    rows: np.ndarray
+    from_sensor: np.ndarray
     stop: np.ndarray
     cls: np.ndarray
-    redraws: _Redraws
+    end: np.ndarray
+    ext: np.ndarray
+    rngs: list
+
+    @staticmethod
+    def first(a: _Run, b: _Run, seed: int, first: int) -> _Stops:
+        """The first stops of the runs of one part (rows in the part), whose first ray is
+        `first`. Each part
+        draws from its own stream, seeded from (seed, "cover.part.K"), in ray order: the
+        uniforms of its runs from the sensor, then of its runs to the hit (the same bytes
+        however many threads share the parts)."""
+        count = len(a.rows) + len(b.rows)
+        rng = stage_rng(seed, f"cover.part.{first // PART}") if count else None
+        u = rng.random(count) if count else np.zeros(0)
+        stop = _depth(np.concatenate([a.begin, b.begin]), np.concatenate([a.ext, b.ext]), u)
+        end = np.concatenate([a.end, b.end])
+        k = np.flatnonzero(stop < end)
+        rows = np.concatenate([a.rows, b.rows]).take(k)
+        from_sensor = k < len(a.rows)
+        ext = np.concatenate([a.ext, b.ext]).take(k)
+        return _Stops(
+            rows, from_sensor, stop.take(k), np.zeros(len(k), dtype=np.int16), end.take(k), ext, [rng]
+        )
+
+    @staticmethod
+    def joined(parts: list[_Stops]) -> _Stops:
+        """The stops of consecutive parts, in order (each part's generator at its index)."""
+        fields = ("rows", "from_sensor", "stop", "cls", "end", "ext")
+        joined = (np.concatenate([getattr(p, name) for p in parts]) for name in fields)
+        return _Stops(*joined, [r for p in parts for r in p.rngs])
+
+    def kept(self, n: int):
+        """(rays, where, class) of the stops that hold (of `n` rays): a ray whose run from
+        the sensor holds keeps that stop, else its run to the hit's."""
+        held = self.cls > 0
+        taken = np.zeros(n, dtype=bool)
+        taken[self.rows[held & self.from_sensor]] = True
+        keep = np.flatnonzero(held & (self.from_sensor | ~taken.take(self.rows)))
+        return self.rows.take(keep), self.stop.take(keep), self.cls.take(keep)
 
 
-def _next_uniforms(parts: list[_PartStops], part: np.ndarray, drawn: list[int]) -> np.ndarray:
-    """The next uniform of each ray's part (`part`: index into `parts`, the rays in part
-    order), in the rays' order; `drawn` counts each part's uniforms taken, updated."""
-    counts = np.bincount(part, minlength=len(parts)).tolist()
-    out = []
-    for k, count in enumerate(counts):
-        out.append(parts[k].redraws.uniforms[drawn[k] : drawn[k] + count])
-        drawn[k] += count
-    return np.concatenate(out)
+def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
+    """The class at each stop inside the layer as the grid has it (CoverGrid.class_inside's
+    test); a stop that came out of it is left to _redraw (marked by cls -1). Most stops are
+    decided by their cell's bounds (CoverLookup.below_top, bottom); the rest by the terrain
+    interpolated there."""
+    dx, dy, dz = ray.cols(stops.rows)
+    ox, oy, oz = ray.origin(stops.rows)
+    t = stops.stop
+    x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
+    fx, fy, fi, fj, flat, ok = _cells(look, x, y, ray.single and look.contains(*ray.box))
+    cls = look.cls.take(flat)
+    unsure = (z > look.below_top.take(flat)) | (z < look.bottom.take(flat))
+    if ok is not None:
+        unsure |= ~ok
+    close = np.flatnonzero(unsure)
+    if len(close):
+        flat, tx, ty = flat.take(close), fx.take(close) - fi.take(close), fy.take(close) - fj.take(close)
+        sx, sy = 1.0 - tx, 1.0 - ty
+        ground = _ground(look, flat, tx, ty, sx, sy)
+        inside = _in_layer(cls.take(close), z.take(close) - ground, look.height.take(flat))
+        if ok is not None:
+            inside &= ok.take(close)
+        cls[close[~inside]] = -1
+    stops.cls = cls
 
 
-def _kept(found: list[_PartStops], n: int):
-    """(rays, where, class) of the stops that hold, of every part: a ray whose run from the
-    sensor holds keeps that stop, else its run to the hit's."""
-    rows = np.concatenate([f.first + f.rows for f in found])
-    stop = np.concatenate([f.stop for f in found])
-    cls = np.concatenate([f.cls for f in found])
-    from_sensor = np.concatenate([np.arange(len(f.rows)) < f.n_a for f in found])
-    held = cls > 0
-    taken = np.zeros(n, dtype=bool)
-    taken[rows[held & from_sensor]] = True
-    keep = held & (from_sensor | ~taken[rows])  # the run from the sensor's stop first
-    return rows[keep], stop[keep], cls[keep]
+def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
+    """The stops that came out of the layer at their first try (_settle: cls -1). A run's
+    length and medium are its anchor cell's (where it ends, or starts); along a long run (a
+    grazing beam over several cells) a stop can come out where this cell's sward is lower, or
+    bare ground (a trail, a rock), or another class. Such a ray goes on from there (from where
+    it comes down into this cell's sward, when it is above it): its depth is drawn again, in
+    this cell's sward or, where this cell has none, in the anchor's, until its run's end; at
+    most SETTLE times, then it passes. (Dropping such stops instead would let grazing beams
+    through a meadow far more often than Beer-Lambert says.) Each part's stream draws, after
+    its first stops, SETTLE uniforms for each of its stops that came out (in the order of
+    _Stops), and each pass takes the next uniforms of each ray's part in that order."""
+    out = np.flatnonzero(stops.cls < 0)
+    stops.cls[out] = 0
+    if not len(out):
+        return
+    t = stops.stop.take(out)
+    stops.stop[out] = np.inf
+    # part by part (a stable sort keeps each part's stops in their order)
+    part = stops.rows.take(out) // PART
+    order = np.argsort(part, kind="stable")
+    slot, part, t = out.take(order), part.take(order), t.take(order)
+    counts = np.bincount(part, minlength=len(stops.rngs))
+    # the logs of every uniform a pass could take, at once (a log costs ~40 array operations)
+    uniforms = [stops.rngs[k].random(int(c) * SETTLE) for k, c in enumerate(counts.tolist()) if c]
+    log_1_u = dm.log(1.0 - np.concatenate(uniforms))
+    base = np.concatenate([[0], np.cumsum(counts * SETTLE)[:-1]])  # each part's first uniform
+    drawn = np.zeros(len(counts), dtype=np.int64)
+    end, anchor_ext = stops.end.take(slot), stops.ext.take(slot)
+    rows = stops.rows.take(slot)
+    dx, dy, dz = ray.cols(rows)
+    ox, oy, oz = ray.origin(rows)
+    x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
+    c, height, ground, ext, gx, gy = _surface(look, x, y)
+    for _ in range(SETTLE):
+        above = z - ground
+        # above a lower sward the ray comes down into: on from where it enters it; over
+        # bare ground or rising above this cell's sward: on from where it leaves the cell
+        # (none of its stops would hold before, and the depths are memoryless: the law of
+        # the next stop is that of the stops drawn again and again until one is past it)
+        here = c > 0
+        high = here & (above > height)
+        rate = dz - (gx * dx + gy * dy)
+        down = high & (rate < 0)
+        on = ~here | (high & (rate >= 0))
+        t = np.where(down, t + (above - height) / -rate, t)
+        t = np.where(on, _cell_exit(look, x, y, dx, dy, t), t)
+        # the next uniform of each ray's part, in the order of the rays
+        count = np.bincount(part, minlength=len(counts))
+        first = np.concatenate([[0], np.cumsum(count)[:-1]])
+        depth = log_1_u.take((base + drawn - first).take(part) + np.arange(len(part)))
+        drawn += count
+        t = _stop_at(t, end, np.where(here, ext, anchor_ext), depth)
+        going = np.flatnonzero(np.isfinite(t))
+        if not len(going):
+            return
+        slot, part, t, end, anchor_ext = (
+            slot.take(going),
+            part.take(going),
+            t.take(going),
+            end.take(going),
+            anchor_ext.take(going),
+        )
+        dx, dy, dz = dx.take(going), dy.take(going), dz.take(going)
+        ox, oy, oz = (v if np.ndim(v) == 0 else v.take(going) for v in (ox, oy, oz))
+        x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
+        c, height, ground, ext, gx, gy = _surface(look, x, y)
+        inside = _in_layer(c, z - ground, height)
+        held = np.flatnonzero(inside)
+        stops.stop[slot.take(held)] = t.take(held)
+        stops.cls[slot.take(held)] = c.take(held)
+        out = np.flatnonzero(~inside)
+        if not len(out):
+            return
+        slot, part, t, end, anchor_ext = (
+            slot.take(out),
+            part.take(out),
+            t.take(out),
+            end.take(out),
+            anchor_ext.take(out),
+        )
+        dx, dy, dz, x, y, z = dx.take(out), dy.take(out), dz.take(out), x.take(out), y.take(out), z.take(out)
+        ox, oy, oz = (v if np.ndim(v) == 0 else v.take(out) for v in (ox, oy, oz))
+        c, height, ground, ext, gx, gy = (
+            c.take(out),
+            height.take(out),
+            ground.take(out),
+            ext.take(out),
+            gx.take(out),
+            gy.take(out),
+        )
 
 
-@dataclass(frozen=True)
+def _cell_exit(look: CoverLookup, x, y, dx, dy, t):
+    """Where rays (dx, dy), at t along them at (x, y), leave their cell (in x and y; a
+    micrometre past its edge): inf for a ray with no way out (straight up or down)."""
+    ix = np.floor((x - look.x0) / look.cell)
+    iy = np.floor((y - look.y0) / look.cell)
+    to_x = ((ix + (dx > 0)) * look.cell + look.x0 - x) / dx
+    to_y = ((iy + (dy > 0)) * look.cell + look.y0 - y) / dy
+    out = t + np.minimum(np.where(dx != 0, to_x, np.inf), np.where(dy != 0, to_y, np.inf))
+    return out + CELL_EXIT
+
+
 class _Rays:
-    """Rays as x, y, z arrays: origins (numbers: one origin for all, or arrays) and directions."""
+    """A scan's rays: directions (n, 3) and origins, one (3,) for all (`single`) or (n, 3)."""
 
-    ox: np.ndarray | float
-    oy: np.ndarray | float
-    oz: np.ndarray | float
-    dx: np.ndarray
-    dy: np.ndarray
-    dz: np.ndarray
+    def __init__(self, origins: np.ndarray, dirs: np.ndarray, max_range: float):
+        self.d = dirs
+        self.o = origins
+        self.single = origins.ndim == 1
+        self.dz = np.ascontiguousarray(dirs[:, 2])  # every ray's (the tests over all rays)
+        self.box = (0.0, 0.0, 0.0, 0.0)  # x and y bounds of every point within reach (one origin)
+        if self.single:
+            self.ox, self.oy, self.oz = (float(v) for v in origins)
+            reach = float(max_range) + 1.0
+            self.box = (self.ox - reach, self.ox + reach, self.oy - reach, self.oy + reach)
 
-    def part(self, part: slice) -> _Rays:
-        def cut(v):
-            return v if np.ndim(v) == 0 else np.ascontiguousarray(v[part])
+    def cols(self, rows: np.ndarray):
+        """The directions of `rows` as contiguous x, y, z arrays (an index into a column
+        gathers; a column's take would copy it whole first)."""
+        return self.d[:, 0][rows], self.d[:, 1][rows], self.d[:, 2][rows]
 
-        return _Rays(*(cut(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
-
-    def rows(self, rows: np.ndarray) -> _Rays:
-        def pick(v):
-            return v if np.ndim(v) == 0 else v.take(rows)
-
-        return _Rays(*(pick(v) for v in (self.ox, self.oy, self.oz, self.dx, self.dy, self.dz)))
-
-    def at(self, t: np.ndarray):
-        """(x, y, z) of the points t along the rays."""
-        return self.ox + self.dx * t, self.oy + self.dy * t, self.oz + self.dz * t
+    def origin(self, rows: np.ndarray):
+        """The origins of `rows`: numbers (one origin) or x, y, z arrays."""
+        if self.single:
+            return self.ox, self.oy, self.oz
+        return self.o[:, 0][rows], self.o[:, 1][rows], self.o[:, 2][rows]
 
 
 def _in_layer(cls, above, height) -> np.ndarray:
@@ -368,23 +552,18 @@ def _in_layer(cls, above, height) -> np.ndarray:
     return (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
 
 
-def _slices(count: int) -> list[slice]:
-    """The parts in_parts cuts `count` rays into (PART rays each)."""
-    return [slice(start, min(start + PART, count)) for start in range(0, count, PART)] or [slice(0, 0)]
+def _depth(begin, ext, u):
+    """Where each ray's optical depth -log(1 - u), Exp(1), runs out from `begin` in a medium
+    of extinction `ext` (_stop_at without its run's end)."""
+    return begin - dm.log(1.0 - u) / ext
 
 
-def _stop(begin, end, cls, height, u):
+def _stop_at(begin, end, ext, log_1_u):
     """Where each ray's optical depth runs out in its run [begin, end) (inf: it passes): the
-    depth -log(1 - u), Exp(1), over the extinction per metre of its class and layer height.
-    (Taken for every ray of the run, whole arrays: most of them stop, and a ray that passes,
-    a run that is empty or a medium of no extinction gives a point at or past its end, or
-    nan, never a stop.)"""
-    return _stop_at(begin, end, cls, height, dm.log(1.0 - u))
-
-
-def _stop_at(begin, end, cls, height, log_1_u):
-    """_stop, given log(1 - u)."""
-    t = begin - log_1_u / extinction(cls, height)
+    depth -log(1 - u), Exp(1), over the extinction per metre `ext` of its medium, given
+    log(1 - u). (A ray that passes, a run that is empty or a medium of no extinction gives a
+    point at or past its end, or nan, never a stop.)"""
+    t = begin - log_1_u / ext
     return np.where(t < end, t, np.inf)
 
 

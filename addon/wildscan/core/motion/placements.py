@@ -24,6 +24,7 @@ from ..placement import (
     LASERS,
     MAX_TILT_DEG,
     MAX_UNEVENNESS,
+    NO_GROUND,
     TERRAIN_ID,
     Placement,
     Pose,
@@ -74,9 +75,7 @@ def place_all(
     off = np.flatnonzero(~np.isfinite(ground))
     if len(off):
         i = int(off[0])
-        _reject(
-            i, times, distance, f"{describe_pose(poses[i])} is off the world: there is no terrain below it"
-        )
+        _reject(i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
     return _place_from(backend, poses, ground + LASER_CLEARANCE, times, distance)
 
 

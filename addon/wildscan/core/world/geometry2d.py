@@ -36,6 +36,22 @@ def polyline_distance(path: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return best
 
 
+def polyline_frame(path: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per point (N,2), the polyline's (K,2) nearest segment's frame: the point's signed
+    offset from that segment's line (positive to its left) and the segment's unit tangent
+    (N,2). A point's nearest segment is the first of the least distance."""
+    a, ab = path[:-1], np.diff(path, axis=0)
+    length = dm.hypot(ab[:, 0], ab[:, 1])
+    L2 = np.maximum(ab[:, 0] * ab[:, 0] + ab[:, 1] * ab[:, 1], 1e-12)
+    rel = pts[:, None, :] - a[None]
+    t = np.clip((rel[..., 0] * ab[None, :, 0] + rel[..., 1] * ab[None, :, 1]) / L2[None], 0, 1)
+    gap = rel - t[..., None] * ab[None]
+    nearest = np.argmin(gap[..., 0] * gap[..., 0] + gap[..., 1] * gap[..., 1], axis=1)
+    tangent = ab[nearest] / np.maximum(length[nearest], 1e-12)[:, None]
+    r = pts - a[nearest]
+    return tangent[:, 0] * r[:, 1] - tangent[:, 1] * r[:, 0], tangent
+
+
 def polyline_near(path: np.ndarray, pts: np.ndarray, limit: float) -> np.ndarray:
     """polyline_distance(path, pts) < limit, the distance computed only for the points in the
     path's bounding box grown by limit + 1 m: one farther out is farther than limit + 1 m

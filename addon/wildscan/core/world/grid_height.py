@@ -17,8 +17,7 @@ def interpolate(xs, ys, z, x, y):
         return np.asarray(_interpolate_point(xs, ys, z, float(x), float(y)))
     x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
     shape, x, y, nx = x.shape, x.ravel(), y.ravel(), len(xs)
-    i = np.clip(np.searchsorted(xs, x, side="right") - 1, 0, nx - 2)
-    j = np.clip(np.searchsorted(ys, y, side="right") - 1, 0, len(ys) - 2)
+    i, j = cell_index(xs, x), cell_index(ys, y)
     tx = np.clip((x - xs.take(i)) / np.diff(xs).take(i), 0.0, 1.0)
     ty = np.clip((y - ys.take(j)) / np.diff(ys).take(j), 0.0, 1.0)
     flat, corner, lower = np.ravel(z), j * nx + i, tx >= ty  # lower: triangle (00, 10, 11)
@@ -27,6 +26,34 @@ def interpolate(xs, ys, z, x, y):
     return (
         z00 + np.where(lower, tx, ty) * (middle - z00) + np.where(lower, ty, tx) * (z11 - middle)
     ).reshape(shape)
+
+
+def cell_index(nodes: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """clip(searchsorted(nodes, v, "right") - 1, 0, len(nodes) - 2), the cell of each v along
+    a sorted grid axis, exactly; for many points, from a table of buckets a third of the
+    closest nodes' spacing wide (a searchsorted of 100k values is a binary search each).
+    A value's bucket, computed in floats, is its own or a neighbour (a rounding at an edge);
+    the last node at or before that bucket's start is then at most one node off, above
+    (a bucket one too high) or below (one too low: fewer than two buckets lie between that
+    start and v, less than the closest spacing, so no two nodes), and one step each way
+    reaches the searchsorted answer. NaN: the last cell, as searchsorted gives."""
+    n = len(nodes)
+    spacing = float(np.min(np.diff(nodes))) if n > 1 else 0.0
+    if n < 2 or len(v) < _TABLE_MIN or not spacing > 0:
+        return np.clip(np.searchsorted(nodes, v, side="right") - 1, 0, max(n - 2, 0))
+    width, start = spacing / 3, float(nodes[0])
+    count = int(np.ceil((float(nodes[-1]) - start) / width)) + 1
+    if count > len(v):  # nodes far closer somewhere than elsewhere: a table larger than the search
+        return np.clip(np.searchsorted(nodes, v, side="right") - 1, 0, n - 2)
+    before = np.searchsorted(nodes, start + width * np.arange(count), side="right") - 1
+    bucket = np.fmax(np.fmin((v - start) * (1.0 / width), count - 1), 0.0).astype(np.intp)
+    i = before.take(bucket)  # >= 0: the first bucket starts at the first node
+    i -= nodes.take(i) > v  # a node above v: one down (to -1 below the first node)
+    i += nodes.take(np.minimum(i + 1, n - 1)) <= v  # the next node at or below v: one up
+    return np.clip(i, 0, n - 2, out=i)
+
+
+_TABLE_MIN = 256  # values: fewer are searched directly
 
 
 def _one_finite_point(x, y) -> bool:

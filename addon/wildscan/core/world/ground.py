@@ -12,6 +12,8 @@ above meets. Vertical triangles (the flooring's skirts) cover no area and are le
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .heightfield import TerrainGrid
@@ -65,32 +67,41 @@ class FloorTops:
         out = np.full(px.shape, np.nan)
         if not len(self.table):
             return out.reshape(x.shape)
-        # the points within a bin of the lattice (a superset of those in it), tested first on
-        # their coordinates alone: most of a bird's-eye grid lies far from any trail
-        low, high = self.origin - _BIN, self.origin + (self.shape + 1) * _BIN
-        maybe = np.flatnonzero((px >= low[0]) & (px <= high[0]) & (py >= low[1]) & (py <= high[1]))
-        b = np.floor((np.column_stack([px[maybe], py[maybe]]) - self.origin) / _BIN).astype(np.intp)
-        inside = np.all((b >= 0) & (b < self.shape), axis=1)
-        near, b = maybe[inside], b[inside]
-        rows = b[:, 0] * self.shape[1] + b[:, 1]
-        occupied = self.table[rows, 0] >= 0
+        # each point's bin of the lattice, kept where the bin holds a triangle: most of a
+        # bird's-eye grid lies far from any trail. On the floats, before any integer cast
+        # (NaN and values far off the lattice fail the bounds as they are).
+        bx = np.floor((px - self.origin[0]) / _BIN)
+        by = np.floor((py - self.origin[1]) / _BIN)
+        near = np.flatnonzero((bx >= 0) & (bx < self.shape[0]) & (by >= 0) & (by < self.shape[1]))
+        rows = bx[near].astype(np.intp) * self.shape[1] + by[near].astype(np.intp)
+        occupied = self._occupied.take(rows)
         near, rows = near[occupied], rows[occupied]
         for start in range(0, len(near), _CHUNK):
             part = slice(start, start + _CHUNK)
             out[near[part]] = self._tops(px[near[part]], py[near[part]], self.table[rows[part]])
         return out.reshape(x.shape)
 
+    @functools.cached_property
+    def _occupied(self) -> np.ndarray:
+        """Per bin of the lattice, whether any triangle meets it."""
+        return self.table[:, 0] >= 0
+
     def _tops(self, px: np.ndarray, py: np.ndarray, cand: np.ndarray) -> np.ndarray:
-        """The highest of the candidate triangles (n, M) each point is inside, NaN for none."""
-        t = self.tri[np.maximum(cand, 0)]  # (n, M, 3, 3)
-        det = self.det[np.maximum(cand, 0)]
-        dx, dy = px[:, None] - t[..., 0, 0], py[:, None] - t[..., 0, 1]
-        e1, e2 = t[..., 1, :] - t[..., 0, :], t[..., 2, :] - t[..., 0, :]
-        u = (dx * e2[..., 1] - dy * e2[..., 0]) / det
-        v = (e1[..., 0] * dy - e1[..., 1] * dx) / det
-        z = t[..., 0, 2] + u * e1[..., 2] + v * e2[..., 2]
-        inside = (cand >= 0) & (u >= _INSIDE) & (v >= _INSIDE) & (u + v <= 1 - _INSIDE)
-        top = np.where(inside, z, -np.inf).max(axis=1)
+        """The highest of the candidate triangles (n, M) each point is inside, NaN for none.
+        Each point has one at least (its bin's first slot); the -1 padding of a bin with fewer
+        than M is left out, not computed and masked (half the slots on a trail's lattice)."""
+        point, slot = np.nonzero(cand >= 0)  # row by row: each point's candidates together
+        tri_index = cand[point, slot]
+        t = self.tri[tri_index]  # (pairs, 3, 3)
+        det = self.det[tri_index]
+        dx, dy = px[point] - t[:, 0, 0], py[point] - t[:, 0, 1]
+        e1, e2 = t[:, 1, :] - t[:, 0, :], t[:, 2, :] - t[:, 0, :]
+        u = (dx * e2[:, 1] - dy * e2[:, 0]) / det
+        v = (e1[:, 0] * dy - e1[:, 1] * dx) / det
+        z = t[:, 0, 2] + u * e1[:, 2] + v * e2[:, 2]
+        inside = (u >= _INSIDE) & (v >= _INSIDE) & (u + v <= 1 - _INSIDE)
+        first = np.flatnonzero(np.concatenate([[True], point[1:] != point[:-1]]))
+        top = np.maximum.reduceat(np.where(inside, z, -np.inf), first)
         return np.where(np.isfinite(top), top, np.nan)
 
 

@@ -269,17 +269,18 @@ class WorldPlan(ElementSet):
     # -- elements -----------------------------------------------------------------------
 
     def add_element(
-        self, stage: str, zone: str, wildscan_class: str, proto: str, counter: dict, **kw
+        self, stage: str, zone: str, wildscan_class: str, proto: str, counter: dict, name: str = "", **kw
     ) -> Element:
-        """A new element named `<zone>.<class>.<n>`, its instance id from its stage's block;
-        `counter` is the stage's own tally."""
+        """A new element named `<zone>.<class>.<n>` (or `<zone>.<class>.<name>`: one of its
+        kind, which another stage's tally of the class in the zone cannot name too), its
+        instance id from its stage's block; `counter` is the stage's own tally."""
         k = counter.get("n", 0) + 1
         counter["n"] = k
         if k >= STAGE_INSTANCE_BLOCK:
             raise RuntimeError(f"stage {stage} placed more than {STAGE_INSTANCE_BLOCK - 1} elements")
         per = counter.setdefault((zone, wildscan_class), 0) + 1
         counter[(zone, wildscan_class)] = per
-        name = f"{zone}.{wildscan_class.replace(' ', '_')}.{per:04d}"
+        name = f"{zone}.{wildscan_class.replace(' ', '_')}.{name or f'{per:04d}'}"
         el = Element(name, wildscan_class, STAGE_INSTANCE_BASE[stage] + k, zone, stage, proto, **kw)
         self.elements.append(el)
         return el

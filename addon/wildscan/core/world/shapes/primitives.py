@@ -307,7 +307,13 @@ def lumpy(mesh: Mesh, rng: np.random.Generator, amount: float, waves: int = 5) -
 def drop_buried(mesh: Mesh, z_ground: float = 0.0) -> Mesh:
     """Remove faces whose three corners are below the ground (nobody can see them)."""
     v, f = mesh
-    keep = ~(v[f][:, :, 2] < z_ground).all(axis=1)
+    return faces_subset(mesh, ~(v[f][:, :, 2] < z_ground).all(axis=1))
+
+
+def faces_subset(mesh: Mesh, keep: np.ndarray) -> Mesh:
+    """The faces of `mesh` where `keep` holds, with only the vertices they use (in their
+    order in `mesh`)."""
+    v, f = mesh
     f = f[keep]
     used = np.unique(f)
     remap = np.full(len(v), -1, dtype=np.int64)

@@ -1,10 +1,16 @@
 """Stage "cave": a flat-floored pit with a ramp climbing out of it, the back of the pit
-covered by a roof of flooring resting on the plateau around it.
+covered by a roof slab resting on the plateau around it.
 
 Everything about the cave is here: its shape (drawn during the layout stage), the
-plateau and pit it carves into the terrain, where elements and poses keep out of
-it, the scan sites inside, at the entrance and on the rim, the roof element, and
-its description in world.json.
+plateau and pit it carves into the terrain and which of the terrain's triangles are its
+rock faces, where elements and poses keep out of it, the scan sites inside, at the
+entrance and on the rim, the roof element, and its description in world.json.
+
+What is rock and what is ground: in a biome with ground cover the roof and the pit's steep
+walls are `rock`, not `terrain`: a robot drives on neither, and a network trained on
+"terrain" for traversable ground must not learn a roof over its head or a wall as ground
+(the floor and the ramp stay terrain). The paper biome keeps them terrain, as the world of
+before biomes was, byte for byte.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import detmath as dm
+from ..biomes import biome_of
 from ..geometry2d import Rect, yaw_towards
 from ..heightfield import Ellipse, EllipseWindow, Flatten, Heightfield, Pit
 from ..plan import Clearance, SiteOffer, WorldPlan, ZoneShape, rounded
@@ -23,6 +30,14 @@ from ..shapes.primitives import box
 STAGE = "cave"
 RAMP_HALF_WIDTH = 1.5  # m, the flat part of the ramp out of the pit
 RAMP_BLEND = 1.5  # m, its side slopes
+# Cave ground steeper than 40 deg is a rock face: no loose soil stands on it. The angle of
+# repose, the steepest slope unconsolidated material holds, is 32-36 deg for coarse scree
+# (encyclopedia.com, "angle of repose", https://www.encyclopedia.com/science/dictionaries-
+# thesauruses-pictures-and-press-releases/angle-repose) and 25-40 deg for regolith (Hunter
+# College CUNY, physical geography ch. 8 "Mass wasting", http://www.geo.hunter.cuny.edu/bight/
+# chap8.html), so steeper ground is the rock the pit is cut in. The ramp's flat part, the
+# pit's way out, is at most 33-35 deg (seeds 0-3), below it; the walls mostly over 50 deg.
+ROCK_FACE_TAN = 0.8390996311772800  # tan 40 deg
 
 
 @dataclass
@@ -66,6 +81,19 @@ class Cave(ZoneShape):
         bare |= (u > 0) & (u < self.pit.a + self.ramp_length) & (np.abs(v) < RAMP_HALF_WIDTH + RAMP_BLEND)
         bare |= self.under_roof(u, v)
         return bare
+
+    def rock_faces(self, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+        """bool per triangle of a terrain mesh: the cave's rock faces, its triangles within the
+        cave (bare(): the pit, the ramp with its side slopes, under the roof) steeper than
+        ROCK_FACE_TAN. Products and sums only, so the same triangles on every CPU."""
+        t = np.asarray(vertices, dtype=np.float64)[np.asarray(faces, dtype=np.intp)]
+        normal = dm.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        horizontal = normal[:, 0] * normal[:, 0] + normal[:, 1] * normal[:, 1]
+        steep = horizontal > ROCK_FACE_TAN * ROCK_FACE_TAN * (normal[:, 2] * normal[:, 2])
+        centre = (t[:, 0] + t[:, 1] + t[:, 2]) / 3.0
+        rock = np.zeros(len(t), dtype=bool)
+        rock[steep] = self.bare(centre[steep, 0], centre[steep, 1])
+        return rock
 
     def pose_keep_out(self, plan: WorldPlan, x, y, allow_pit: bool) -> np.ndarray:
         """The pit's walls and the roof, unless the pose is one of the sites in the pit."""
@@ -143,18 +171,21 @@ def pose_offers(plan: WorldPlan, rng: np.random.Generator):
 
 
 def run(plan: WorldPlan, rng: np.random.Generator) -> None:
-    """The cave roof: a slab of flooring over the back of the pit, resting on the plateau."""
+    """The cave roof: a slab over the back of the pit, resting on the plateau; rock where the
+    biome covers the ground (module docstring), terrain in the paper biome."""
     cave = plan.layout.cave
     (u0, u1), (v0, v1) = cave.roof_u, cave.roof_v
     m = box(((u0 + u1) / 2, (v0 + v1) / 2, 0.05), (u1 - u0, v1 - v0, 0.4))
     c = cave.pit
+    rock = biome_of(plan.biome).cover
     plan.add_prototype("cave_roof", m)
     plan.add_element(
         STAGE,
         "cave",
-        "terrain",
+        "rock" if rock else "terrain",
         "cave_roof",
         {},
+        name="roof" if rock else "",  # not the rocks stage's cave.rock.0001
         location=(c.cx, c.cy, plan.cave_level),
         yaw=c.angle,
         radius=max(u1 - u0, v1 - v0) / 2,

@@ -3,9 +3,11 @@ terrain and each zone's character; none in the paper biome.
 
 Per 0.5 m cell, in this order (the first that holds decides):
 
-  bare          where an element may not stand (the trail's tread, the water, the park's fence
-                line), the cave itself (its pit, ramp and roof), on slopes steeper than 38 deg,
-                under rocks and deadwood
+  bare          where an element may not stand (the water, the park's fence line), the cave
+                itself (its pit, ramp and roof), on slopes steeper than 38 deg, under rocks and
+                deadwood; the trail's wheel tracks
+  two-track     the rest of the trail's tread: low grass between the wheel tracks (the median)
+                and beside them (_two_track)
   tall grass    where it is wet: the lake's shore (up to WET_ABOVE_LAKE above the water) and
                 basins (ground BASIN_DEPTH below its surroundings); reeds by the lake
   undergrowth   under a tree's crown (shade), the biome's share of it (ferns, bramble: bush);
@@ -25,6 +27,7 @@ import numpy as np
 
 from .. import cover as C
 from ..biomes import biome_of
+from ..geometry2d import polyline_frame
 from ..plan import EXTENT, HALF, Clearance, WorldPlan
 
 STAGE = "cover"
@@ -37,6 +40,12 @@ LAWN_HEIGHT = 0.12  # m: a park lawn between mowings
 SHADE_GRASS = 0.35  # share of the shaded floor that is not undergrowth under shade grass (rest: litter)
 ZONE_MARGIN = 2.0  # m around a zone's cell where its shape's keep-out is asked
 PATCH = 6.0  # m: the size of a patch of the random fields
+# A two-track's wheel tracks lie a vehicle's track width apart, centre to centre: wheel strips
+# "about 4 feet 8 inches on centres" (1.42 m), 18 in (0.46 m) wide (chestofbooks.com,
+# Construction-House, "Concrete Driveway": a double runway for the wheels), ribbons "spaced
+# approximately five feet on center to align with the standard wheel track width" (1.52 m),
+# at least 24 in wide (engineerfix.com, "How to build a classic brick ribbon driveway").
+WHEEL_GAUGE = 1.5  # m between the two wheel tracks' centre lines
 
 
 def run(plan: WorldPlan, rng: np.random.Generator) -> None:
@@ -51,7 +60,9 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     ground = 0.25 * (nodes[:-1, :-1] + nodes[1:, :-1] + nodes[:-1, 1:] + nodes[1:, 1:])
     patch, tall, height_noise = (_smooth_field(rng, n) for _ in range(3))
 
-    bare = _bare(plan, x, y, ground)
+    tread = _tread(plan, n)
+    bare_ground = _bare(plan, x, y, ground)
+    bare = bare_ground | tread
     wet = _wet(plan, x, y, ground) & ~bare
     shade = _shade(plan, x, y) & ~bare & ~wet
     open_ = ~bare & ~wet & ~shade
@@ -67,6 +78,7 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     tall_open = open_ & ~shrub & (tall > 1.0 - biome.tall_grass)
     cls[tall_open] = C.HIGH_GRASS
     cls[open_ & ~shrub & ~tall_open] = C.LOW_GRASS
+    cls[tread & ~bare_ground & ~_two_track(plan, x, y, tread)] = C.LOW_GRASS  # median and edges
 
     typical = np.zeros(max(C.COVER_CLASSES) + 1)
     for c in C.COVER_CLASSES:
@@ -79,12 +91,38 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
     plan.cover.use_node_ground(nodes)
 
 
+def _tread(plan: WorldPlan, n: int) -> np.ndarray:
+    """The cells of the trail's tread (its keep-out's distance is costly)."""
+    tread = np.zeros((n, n), dtype=bool)
+    trail = plan.layout.trail
+    for px, py in trail.path:
+        _stamp(tread, px, py, trail.width / 2)
+    return tread
+
+
+def _two_track(plan: WorldPlan, x, y, tread) -> np.ndarray:
+    """The wheel tracks among the tread's cells (bool, the grid's shape). A track is the line
+    WHEEL_GAUGE / 2 beside the trail's centre line, drawn as a digital line: a cell is on it
+    when its centre lies within half a cell of it measured along the grid axis that crosses
+    the trail's main direction, so each row (or column) along the trail has one track cell
+    a side. Its width is then 0.5 m along an axis, 0.35 m on a diagonal, 0.45 m on average
+    over directions: a wheel strip's (WHEEL_GAUGE's sources: 0.46-0.61 m). (A test of the
+    0.5 m cells' centres against a 0.45 m band would lose the track wherever the band falls
+    between two rows of centres.) The rest of the tread, the median between the tracks and
+    the edges beside them, grows grass."""
+    flat = np.flatnonzero(tread)
+    pts = np.column_stack([x.reshape(-1)[flat], y.reshape(-1)[flat]])
+    offset, tangent = polyline_frame(plan.layout.trail.path, pts)
+    half = 0.5 * C.CELL * np.maximum(np.abs(tangent[:, 0]), np.abs(tangent[:, 1]))
+    tracks = np.zeros(tread.shape, dtype=bool)
+    tracks.reshape(-1)[flat] = np.abs(np.abs(offset) - WHEEL_GAUGE / 2) <= half
+    return tracks
+
+
 def _bare(plan: WorldPlan, x, y, ground) -> np.ndarray:
     need = Clearance(0.0, water_margin=0.05, park_interior=True)
     bare = np.zeros(x.shape, dtype=bool)
     trail = plan.layout.trail
-    for px, py in trail.path:  # the trail's tread itself (its keep-out's distance is costly)
-        _stamp(bare, px, py, trail.width / 2)
     for zone, shape in plan.layout.zone_shapes().items():  # each shape lies in its zone's cell
         if shape is trail:
             continue
@@ -98,8 +136,8 @@ def _bare(plan: WorldPlan, x, y, ground) -> np.ndarray:
         )
     gy, gx = np.gradient(ground, C.CELL)
     bare |= gx * gx + gy * gy > BARE_SLOPE_TAN * BARE_SLOPE_TAN  # products only: the same bits everywhere
-    for el in plan.elements:
-        if el.wildscan_class in ("rock", "log"):
+    for el in plan.elements:  # (the cave's rock faces and roof lie in the cave, bare already)
+        if el.stage in ("rocks", "deadwood"):
             _stamp(bare, el.location[0], el.location[1], el.radius * 0.8)
     return bare
 

@@ -3,7 +3,9 @@
 Fractal noise, the hills' bumps, then each zone's shape on the terrain (the
 park's plateau, the lake's basin, the cave's plateau and pit), scaled to at most
 MAX_RELIEF; the terrain mesh is the adaptive grid that stays within the detail
-level's tolerance of it (heightfield.fit_grid, its own stream "world.terrain.error").
+level's tolerance of it (heightfield.fit_grid, its own stream "world.terrain.error"). Where
+the biome covers the ground, the grid's triangles that are the cave's rock faces (its steep
+walls: cave.Cave.rock_faces) are an element of their own, class rock; the rest is terrain.
 """
 
 from __future__ import annotations
@@ -13,9 +15,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...rng import stage_rng
+from ..biomes import biome_of
 from ..geometry2d import Rect, inset
 from ..heightfield import Bumps, FractalNoise, Heightfield, RectWindow, fit_grid
 from ..plan import EXTENT, HALF, MAX_RELIEF, WORLD_ZONE, WorldPlan
+from ..shapes.primitives import faces_subset
 from . import cave, lake, park
 
 STAGE = "terrain"
@@ -67,8 +71,13 @@ def run(plan: WorldPlan, rng: np.random.Generator) -> None:
         hf, EXTENT, plan.detail.terrain_tolerance, stage_rng(plan.seed, "world.terrain.error")
     )
     plan.water_z = lake.water_level(plan, lay.lake)
-    plan.add_prototype("terrain", plan.grid.mesh())
-    plan.add_element(STAGE, WORLD_ZONE, "terrain", "terrain", {}, radius=HALF)
+    mesh, counter = plan.grid.mesh(), {}
+    rock = lay.cave.rock_faces(*mesh) if biome_of(plan.biome).cover else None
+    plan.add_prototype("terrain", mesh if rock is None else faces_subset(mesh, ~rock))
+    plan.add_element(STAGE, WORLD_ZONE, "terrain", "terrain", counter, radius=HALF)
+    if rock is not None:  # the cave's rock faces: one element of the same mesh's triangles
+        plan.add_prototype("cave_rock_faces", faces_subset(mesh, rock))
+        plan.add_element(STAGE, "cave", "rock", "cave_rock_faces", counter, name="faces", radius=0.0)
 
 
 def _lower_hills_to_relief(hf: Heightfield) -> None:
