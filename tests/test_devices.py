@@ -178,10 +178,9 @@ def test_the_fallback_reader_reads_the_presets_as_tomllib_does():
 
 
 @pytest.mark.parametrize("name", ["vlp16", "hdl64e", "utm30lx-ew"])
-def test_the_rows_of_some_beams_are_those_of_all_beams_whichever_way_they_are_made(name):
-    """rotated_beams makes few beams from their gathered angles and most from all beams' rows
-    (beams.py PLANAR_SHARE, OFFSET_SHARE): both ways the same bits as rotated_beam_directions,
-    and with ranges the same bits as its rows times the ranges."""
+def test_the_directions_of_some_beams_are_the_rows_of_all_beams(name):
+    """rotated_beams makes the beams asked for from their gathered angles: the same bits as
+    rotated_beam_directions' rows, and with ranges the same bits as its rows times the ranges."""
     from wildscan.core.leveling import leveling_matrix
     from wildscan.core.sensors.beams import rotated_beams
 

@@ -41,6 +41,7 @@ from .threads import backend_threads, cast_parts
 # still come back inside after noise; the limit applies to the measured range.
 NOISE_MARGIN_SIGMAS = 6.0
 PROGRESS_CHUNK = 64_800  # rays per progress report (60 2D scans)
+_WATER_LABELED = np.flatnonzero(LABEL_BY_ID == WATER_ID)  # the class ids read back as water
 
 Progress = Callable[[int, int], None]
 
@@ -153,13 +154,15 @@ def measure_returning(hits: RayHits, noise: np.ndarray, sensor: SensorConfig) ->
     measured = hits.distance.take(hit)
     measured += noise.take(hit)
     class_id = hits.class_id.take(hit).astype(np.intp)
-    label = LABEL_BY_ID.take(class_id)
-    # A beam whose first hit is water returns nothing (the paper drops them).
-    keep = (measured >= sensor.min_range) & (measured <= sensor.max_range) & (label != WATER_ID)
+    # A beam whose first hit is water returns nothing (the paper drops them): the classes
+    # whose label is water's, told apart by class before any label is looked up
+    keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
+    keep &= ~np.isin(class_id, _WATER_LABELED) if len(_WATER_LABELED) > 1 else class_id != _WATER_LABELED[0]
     kept = np.flatnonzero(keep)
     beams = hit
     if len(kept) < len(hit):
-        beams, measured, class_id, label = (a.take(kept) for a in (hit, measured, class_id, label))
+        beams, measured, class_id = (a.take(kept) for a in (hit, measured, class_id))
+    label = LABEL_BY_ID.take(class_id)
     intensity = REFLECTIVITY_BY_ID.take(class_id)
     if hits.reflectivity is not None:
         # a `wildscan_reflectivity` override changes what is measured, not the label

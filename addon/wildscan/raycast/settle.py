@@ -127,7 +127,7 @@ class Settler:
             # test): o + t d, as for the pairs ahead alone
             point = [np.add(o[k], np.multiply(t, d[k], out=d[k]), out=d[k]) for k in range(3)]
             for k, edge in enumerate(_edges(normal, self.corners.take(cand, axis=0))):
-                inside = np.flatnonzero(edge.holds(point, slot, ahead if k == 0 else None))
+                inside = edge.holds(point, slot, ahead if k == 0 else None).nonzero()[0]
                 t, slot, ray = t.take(inside), slot.take(inside), ray.take(inside)
                 if k < 2:
                     point = [column.take(inside) for column in point]
@@ -145,11 +145,12 @@ class Settler:
         candidate's planes and edges are made once (Settler.decide)."""
         hit_triangles, group_of_ray = unique_inverse(triangle)
         group, cand = self.candidates(hit_triangles)
-        group_starts = np.r_[0, np.cumsum(np.bincount(group, minlength=len(hit_triangles)))]
+        group_starts = np.zeros(len(hit_triangles) + 1, dtype=np.intp)
+        np.cumsum(np.bincount(group, minlength=len(hit_triangles)), out=group_starts[1:])
         counts = (group_starts[1:] - group_starts[:-1]).take(group_of_ray)
-        ray = np.repeat(np.arange(len(triangle)), counts)
+        ray = np.arange(len(triangle)).repeat(counts)
         # each ray's run of entries is its triangle's, in candidate order
-        entry = np.repeat(group_starts.take(group_of_ray) - np.cumsum(counts) + counts, counts)
+        entry = (group_starts.take(group_of_ray) - counts.cumsum() + counts).repeat(counts)
         entry += np.arange(len(entry))
         candidates, slot_of_entry = unique_inverse(cand)
         return ray, slot_of_entry.take(entry), candidates
@@ -161,8 +162,8 @@ class Settler:
         corner_pos, starts, owners = self.neighbours
         pos = corner_pos.take(triangles, axis=0).ravel()
         counts = starts.take(pos + 1) - starts.take(pos)
-        group = np.repeat(np.repeat(np.arange(len(triangles)), 3), counts)
-        first = np.repeat(starts.take(pos) - np.cumsum(counts) + counts, counts)
+        group = np.arange(len(triangles)).repeat(3).repeat(counts)
+        first = (starts.take(pos) - counts.cumsum() + counts).repeat(counts)
         cand = owners.take(first + np.arange(len(first)))
         size = len(self.normal)
         keys = sorted_unique(group * size + cand)  # each (group, candidate) once, in that order
@@ -198,7 +199,7 @@ def _edges(normal: list, corners: np.ndarray) -> list:
     `corners` ((C, 3, 3)) given: made for the three at once, each value by the same
     products, differences and root as one edge at a time, every column contiguous."""
     start = np.ascontiguousarray(corners.transpose(1, 2, 0))  # (corner k, coordinate j, E)
-    edge = np.roll(start, -1, axis=0) - start  # corner k + 1 minus corner k
+    edge = start[[1, 2, 0]] - start  # corner k + 1 minus corner k
     inward = np.stack(cross_columns(normal, [edge[:, j] for j in range(3)]), axis=1)  # (k, j, E)
     tolerance = -EDGE_TOLERANCE * np.sqrt(
         dot_columns([inward[:, j] for j in range(3)], [inward[:, j] for j in range(3)])
@@ -226,19 +227,26 @@ def unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     (about 3x faster here than np.unique's quicksort)."""
     order = stable_order(keys)
     ordered = keys.take(order)
-    new = np.empty(len(ordered), dtype=bool)
-    new[:1] = True
-    np.not_equal(ordered[1:], ordered[:-1], out=new[1:])
+    new = run_starts(ordered)
     inverse = np.empty(len(keys), dtype=np.intp)
     inverse[order] = np.cumsum(new) - 1
     return ordered[new], inverse
+
+
+def run_starts(values: np.ndarray) -> np.ndarray:
+    """(N,) bool, True where a run of equal values begins: np.r_[True, v[1:] != v[:-1]]
+    without np.r_'s cost (a few microseconds a call, a sizeable part of deciding a few rays)."""
+    starts = np.empty(len(values), dtype=bool)
+    starts[:1] = True
+    np.not_equal(values[1:], values[:-1], out=starts[1:])
+    return starts
 
 
 def sorted_unique(keys: np.ndarray) -> np.ndarray:
     """np.unique(keys) for keys that come in runs (a ray's candidates, rays in order): the
     stable sort finds the runs, about 7x faster here than np.unique's quicksort."""
     keys = np.sort(keys, kind="stable")
-    return keys[np.r_[True, keys[1:] != keys[:-1]]] if len(keys) else keys
+    return keys[run_starts(keys)]
 
 
 def nearest_per_ray(ray: np.ndarray, cand: np.ndarray, t: np.ndarray):
@@ -247,10 +255,10 @@ def nearest_per_ray(ray: np.ndarray, cand: np.ndarray, t: np.ndarray):
     the sort."""
     if not len(ray):
         return ray, cand
-    starts = np.flatnonzero(np.r_[True, ray[1:] != ray[:-1]])
+    starts = run_starts(ray).nonzero()[0]
     nearest = np.minimum.reduceat(t, starts)
-    at_min = np.flatnonzero(t == np.repeat(nearest, np.diff(np.r_[starts, len(ray)])))
-    firsts = at_min[np.r_[True, ray[at_min[1:]] != ray[at_min[:-1]]]]
+    at_min = (t == nearest.repeat(np.diff(starts, append=len(ray)))).nonzero()[0]
+    firsts = at_min[run_starts(ray.take(at_min))]
     return ray[firsts], cand[firsts]
 
 
