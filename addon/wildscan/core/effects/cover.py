@@ -156,7 +156,8 @@ class GroundCover(Effect):
         sure &= dz + look.steepest.take(flat) * horizontal < 0
         sure &= wanted
         leave = np.minimum(t0 + LONGEST_RUN, e)
-        close = np.flatnonzero(wanted & ~sure)
+        # the rest, not above their cell's top (CoverGrid.surface_near's test), looked at closely
+        close = np.flatnonzero(wanted & ~sure & (z <= look.top.take(flat)))
         if len(close):
             dx, dy, dz = dx.take(close), dy.take(close), dz.take(close)
             ox, oy = (v if np.ndim(v) == 0 else v.take(close) for v in (ox, oy))
@@ -250,24 +251,19 @@ def _trampled(dx, dy, end):
 
 
 def _inside(look: CoverLookup, x, y, z, dx, dy, dz):
-    """Of the points (x, y, z) on rays (dx, dy, dz), all in the grid, those inside the layer:
-    (their places, (height above the terrain, layer height, rate, cell) there: the height above
-    the terrain changes along the ray at that rate, its climb less the slope of the terrain).
-    Only the cells whose top the point is not above can hold it (CoverLookup.top, -inf where
-    bare: CoverGrid.surface_near's test); the rest are left out before the terrain is
-    interpolated."""
+    """Of the points (x, y, z) on rays (dx, dy, dz), all in the grid and none above their
+    cell's top (CoverLookup.top), those inside the layer: (their places, (height above the
+    terrain, layer height, rate, cell) there: the height above the terrain changes along the
+    ray at that rate, its climb less the slope of the terrain)."""
     fx, fy, fi, fj, flat, _ = _cells(look, x, y, True)
-    k = np.flatnonzero(z <= look.top.take(flat))
-    flat, fx, fy, fi, fj, z, dx, dy, dz = (v.take(k) for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
     tx, ty = fx - fi, fy - fj
     sx, sy = 1.0 - tx, 1.0 - ty
     above = z - _ground(look, flat, tx, ty, sx, sy)
     height = look.height.take(flat)
-    m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height))
-    flat, tx, ty, sx, sy = flat.take(m), tx.take(m), ty.take(m), sx.take(m), sy.take(m)
     gx, gy = _slopes(look, flat, tx, ty, sx, sy)
-    rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
-    return k.take(m), (above.take(m), height.take(m), rate, flat)
+    rate = dz - (gx * dx + gy * dy)
+    m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height))
+    return m, (above.take(m), height.take(m), rate.take(m), flat.take(m))
 
 
 def _cells(look: CoverLookup, x, y, contained: bool = False):
