@@ -300,11 +300,11 @@ def _slopes(look: CoverLookup, flat, tx, ty, sx, sy):
     return gx, gy
 
 
-def _surface(look: CoverLookup, x, y, slopes: bool = True):
+def _surface(look: CoverLookup, x, y, slopes: bool = True, contained: bool = False):
     """At points (x, y): (class, layer height, terrain height, extinction, slope d/dx, d/dy;
     the slopes None unless `slopes`): CoverGrid.surface_at's values; outside the grid the
-    class is 0."""
-    fx, fy, fi, fj, flat, ok = _cells(look, x, y)
+    class is 0. `contained`: every point lies in the grid."""
+    fx, fy, fi, fj, flat, ok = _cells(look, x, y, contained)
     tx, ty = fx - fi, fy - fj
     if ok is not None:  # (inside the grid fx - fi lies in [0, 1) already)
         tx, ty = np.clip(tx, 0.0, 1.0), np.clip(ty, 0.0, 1.0)
@@ -445,7 +445,9 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     dx, dy, dz = ray.cols(rows)
     ox, oy, oz = ray.origin(rows)
     x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
-    c, height, ground, ext, gx, gy = _surface(look, x, y)
+    # every point of a redraw lies before its run's end, within the rays' reach
+    contained = ray.single and look.contains(*ray.box)
+    c, height, ground, ext, gx, gy = _surface(look, x, y, contained=contained)
     for _ in range(SETTLE):
         above = z - ground
         # above a lower sward the ray comes down into: on from where it enters it; over
@@ -478,7 +480,7 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
         dx, dy, dz = dx.take(going), dy.take(going), dz.take(going)
         ox, oy, oz = (v if np.ndim(v) == 0 else v.take(going) for v in (ox, oy, oz))
         x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
-        c, height, ground, ext, gx, gy = _surface(look, x, y)
+        c, height, ground, ext, gx, gy = _surface(look, x, y, contained=contained)
         inside = _in_layer(c, z - ground, height)
         held = np.flatnonzero(inside)
         stops.stop[slot.take(held)] = t.take(held)
