@@ -196,12 +196,13 @@ class GroundCover(Effect):
         e = end.take(rows)
         t0 = _trampled(dx, dy, e)
         sx, sy = 1.0 - tx, 1.0 - ty
-        ground = _ground(look, flat, tx, ty, sx, sy)
+        ground, corners = _ground(look, flat, tx, ty, sx, sy)
         above = z - ground
         height = look.height.take(flat)
         m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height) & (t0 < e))
         rows, e, t0, above, height, flat = (v.take(m) for v in (rows, e, t0, above, height, flat))
-        gx, gy = _slopes(look, flat, tx.take(m), ty.take(m), sx.take(m), sy.take(m))
+        corners = [v.take(m) for v in corners]
+        gx, gy = _slopes(look, corners, tx.take(m), ty.take(m), sx.take(m), sy.take(m))
         rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
         # where the run may begin: the run from the sensor's end, or the trampled ground's
         start = t0
@@ -258,9 +259,10 @@ def _inside(look: CoverLookup, x, y, z, dx, dy, dz):
     fx, fy, fi, fj, flat, _ = _cells(look, x, y, True)
     tx, ty = fx - fi, fy - fj
     sx, sy = 1.0 - tx, 1.0 - ty
-    above = z - _ground(look, flat, tx, ty, sx, sy)
+    ground, corners = _ground(look, flat, tx, ty, sx, sy)
+    above = z - ground
     height = look.height.take(flat)
-    gx, gy = _slopes(look, flat, tx, ty, sx, sy)
+    gx, gy = _slopes(look, corners, tx, ty, sx, sy)
     rate = dz - (gx * dx + gy * dy)
     m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height))
     return m, (above.take(m), height.take(m), rate.take(m), flat.take(m))
@@ -277,26 +279,26 @@ def _cells(look: CoverLookup, x, y, contained: bool = False):
         ok = (fi >= 0) & (fi < look.nx) & (fj >= 0) & (fj < look.ny)
         if not ok.all():
             ci, cj = np.clip(fi, 0, look.nx - 1), np.clip(fj, 0, look.ny - 1)
-            return fx, fy, fi, fj, (cj * look.nx + ci).astype(np.intp), ok
-    flat = fj * look.nx
+            return fx, fy, fi, fj, (cj * look.row + ci).astype(np.intp), ok
+    flat = fj * look.row
     flat += fi
     return fx, fy, fi, fj, flat.astype(np.intp), None
 
 
 def _ground(look: CoverLookup, flat, tx, ty, sx, sy):
-    """The terrain's height at points of cells `flat`, (tx, ty) into them (sx = 1 - tx, sy =
-    1 - ty): bilinear between the cell's corners, CoverGrid.surface_at's operations."""
-    z00, z10, z01, z11 = (v.take(flat) for v in (look.z00, look.z10, look.z01, look.z11))
-    return (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
+    """(the terrain's height at points of cells `flat`, (tx, ty) into them (sx = 1 - tx, sy =
+    1 - ty), the cells' corners): bilinear between the corners, CoverGrid.surface_at's
+    operations."""
+    z00, z10, z01, z11 = corners = look.corners(flat)
+    return (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty, corners
 
 
-def _slopes(look: CoverLookup, flat, tx, ty, sx, sy):
-    """The terrain's slope d/dx, d/dy at points of cells `flat` (CoverGrid.surface_at's)."""
-    gx = look.slope_x0.take(flat) * sy + look.slope_x1.take(flat) * ty
-    gy = look.slope_y0.take(flat) * sx + look.slope_y1.take(flat) * tx
-    if not look.slopes_scaled:
-        gx /= look.cell
-        gy /= look.cell
+def _slopes(look: CoverLookup, corners, tx, ty, sx, sy):
+    """The terrain's slope d/dx, d/dy at points of cells with `corners` (CoverGrid.surface_at's
+    operations)."""
+    z00, z10, z01, z11 = corners
+    gx = ((z10 - z00) * sy + (z11 - z01) * ty) / look.cell
+    gy = ((z01 - z00) * sx + (z11 - z10) * tx) / look.cell
     return gx, gy
 
 
@@ -309,13 +311,13 @@ def _surface(look: CoverLookup, x, y, slopes: bool = True, contained: bool = Fal
     if ok is not None:  # (inside the grid fx - fi lies in [0, 1) already)
         tx, ty = np.clip(tx, 0.0, 1.0), np.clip(ty, 0.0, 1.0)
     sx, sy = 1.0 - tx, 1.0 - ty
-    ground = _ground(look, flat, tx, ty, sx, sy)
+    ground, corners = _ground(look, flat, tx, ty, sx, sy)
     cls, height, ext = look.cls.take(flat), look.height.take(flat), look.ext.take(flat)
     if ok is not None:
         cls = np.where(ok, cls, 0).astype(np.int16, copy=False)
     gx = gy = None
     if slopes:
-        gx, gy = _slopes(look, flat, tx, ty, sx, sy)
+        gx, gy = _slopes(look, corners, tx, ty, sx, sy)
     return cls, height, ground, ext, gx, gy
 
 
@@ -405,7 +407,7 @@ def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     if len(close):
         flat, tx, ty = flat.take(close), fx.take(close) - fi.take(close), fy.take(close) - fj.take(close)
         sx, sy = 1.0 - tx, 1.0 - ty
-        ground = _ground(look, flat, tx, ty, sx, sy)
+        ground, _ = _ground(look, flat, tx, ty, sx, sy)
         inside = _in_layer(cls.take(close), z.take(close) - ground, look.height.take(flat))
         if ok is not None:
             inside &= ok.take(close)
