@@ -17,9 +17,7 @@ contiguous per-world arrays (core/world/cover_lookup.py), and most rays are deci
 cell's bounds (lowest and highest corner, steepest slope) without interpolating the terrain:
 a point surely inside the layer, a ray surely coming down. Only the rest are looked at
 closely, with CoverGrid.surface_at's own operations, so every decision is the one the
-interpolated terrain gives. Numpy's cost is per element: a gather about six times an
-arithmetic operation, a boolean index about twenty times, an np.where six (instructions
-counted by callgrind); the code gathers by take, compacts by flatnonzero.
+interpolated terrain gives (core/effects/cover_cells.py: the cells along the rays).
 
 Determinism: the rays are taken in fixed parts of PART rays (on the cast's threads); each part
 draws from its own PCG64 generator seeded from (the scan's noise seed, "cover.part.K"), in ray
@@ -45,20 +43,26 @@ from ..threads import in_parts
 from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid
 from ..world.cover_lookup import CoverLookup, cover_lookup
 from .base import Effect, Rays
+from .cover_cells import (
+    TRAMPLED,
+    CoverRays,
+    cell_exit,
+    cells,
+    ground_at,
+    hits_near,
+    in_layer,
+    inside,
+    slope_at,
+    surface,
+    trampled,
+)
 
-# The robot flattens what it stands on: within this horizontal distance of the sensor no cover
-# stops a beam (about the half-diagonal of the paper's robot, Andabata: 0.67 m x 0.54 m).
-TRAMPLED = 0.45  # m
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
 SETTLE = 4  # times a stop outside its own cell's sward goes on along its run (_settle)
 # rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
 # bytes do not depend on the threads
 PART = 49_152
-CELL_EXIT = 1e-6  # m past a cell's edge, where a ray going on from it starts (in the next cell)
-# share of a part's rays above which the hits' cells are found for all its rays at once
-# (_hits_near; ~45 % is where both ways cost the same array operations, counted by callgrind)
-WHOLE = 0.45
 
 
 class GroundCover(Effect):
@@ -100,7 +104,7 @@ class GroundCover(Effect):
         def stops(part: slice) -> _Stops:
             """The stops of one part of the rays, as far as the part settles them."""
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                ray = _Rays(o if o.ndim == 1 else o[part], d[part], rays.max_range)
+                ray = CoverRays(o if o.ndim == 1 else o[part], d[part], rays.max_range)
                 e = end[part]
                 a = self._from_sensor(look, ray, e)
                 b = self._to_hit(look, ray, e, hit[part], a)
@@ -111,13 +115,13 @@ class GroundCover(Effect):
 
         found = _Stops.joined(in_parts(stops, n, PART))
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            _redraw(look, _Rays(o, d, rays.max_range), found)
+            _redraw(look, CoverRays(o, d, rays.max_range), found)
         rows, at, cls = found.kept(n)
         if not len(rows):
             return hits
         return _with_cover_hits(hits, rows, at, cls, d)
 
-    def _from_sensor(self, look: CoverLookup, ray: _Rays, end: np.ndarray) -> _Run:
+    def _from_sensor(self, look: CoverLookup, ray: CoverRays, end: np.ndarray) -> _Run:
         """The runs from the sensor, past the trampled ground, until each ray rises out of the
         layer (or reaches its hit): of the rays whose point TRAMPLED from the sensor (in x and
         y) lies in the layer. One origin: only rays that can come that low are looked at (the
@@ -125,7 +129,7 @@ class GroundCover(Effect):
         the direction's z first, then the exact test), and the cells there are in the grid.
         Most rays are decided by their cell's bounds (CoverLookup: surely inside the layer,
         surely coming down, so the run reaches the hit or LONGEST_RUN); the rest are looked at
-        closely (_inside)."""
+        closely (inside)."""
         top, contained = np.inf, False
         if ray.single:
             # a micrometre more than TRAMPLED: a point's own rounding never takes it past the square
@@ -148,7 +152,7 @@ class GroundCover(Effect):
         z = oz + dz * t0
         x, y = ox + dx * t0, oy + dy * t0
         wanted = (t0 < e) & (z <= top)
-        _, _, _, _, flat, ok = _cells(look, x, y, contained)
+        _, _, _, _, flat, ok = cells(look, x, y, contained)
         if ok is not None:
             wanted &= ok
         # surely in the layer and coming down: the run ends at the hit (or LONGEST_RUN on)
@@ -156,13 +160,14 @@ class GroundCover(Effect):
         sure &= dz + look.steepest.take(flat) * horizontal < 0
         sure &= wanted
         leave = np.minimum(t0 + LONGEST_RUN, e)
-        close = np.flatnonzero(wanted & ~sure)
+        # the rest, not above their cell's top (CoverGrid.surface_near's test), looked at closely
+        close = np.flatnonzero(wanted & ~sure & (z <= look.top.take(flat)))
         if len(close):
             dx, dy, dz = dx.take(close), dy.take(close), dz.take(close)
             ox, oy = (v if np.ndim(v) == 0 else v.take(close) for v in (ox, oy))
             t = t0.take(close)
             # (in the grid: `wanted` holds only points in it)
-            k, (above, height, rate, _) = _inside(
+            k, (above, height, rate, _) = inside(
                 look, x.take(close), y.take(close), z.take(close), dx, dy, dz
             )
             t = t.take(k)
@@ -173,7 +178,7 @@ class GroundCover(Effect):
         k = np.flatnonzero(sure)
         return _Run(rows.take(k), t0.take(k), leave.take(k), look.ext.take(flat.take(k)))
 
-    def _to_hit(self, look: CoverLookup, ray: _Rays, end, hit, a: _Run) -> _Run:
+    def _to_hit(self, look: CoverLookup, ray: CoverRays, end, hit, a: _Run) -> _Run:
         """The runs that end at the hits, from where each ray came down into the layer (not
         before the run from the sensor, or the trampled ground, ends): of the rays whose hit
         (BEFORE_HIT short of it) lies in the layer and that a run from the sensor does not
@@ -190,17 +195,18 @@ class GroundCover(Effect):
             top = self.grid.top_within(ray.ox, ray.oy, reach)
             wanted &= ray.oz + ray.dz * at <= top
             contained = look.contains(ray.ox - reach, ray.ox + reach, ray.oy - reach, ray.oy + reach)
-        rows, (z, flat, tx, ty) = _hits_near(look, ray, at, wanted, contained)
+        rows, (z, flat, tx, ty) = hits_near(look, ray, at, wanted, contained)
         dx, dy, dz = ray.cols(rows)
         e = end.take(rows)
-        t0 = _trampled(dx, dy, e)
+        t0 = trampled(dx, dy, e)
         sx, sy = 1.0 - tx, 1.0 - ty
-        ground = _ground(look, flat, tx, ty, sx, sy)
+        ground, corners = ground_at(look, flat, tx, ty, sx, sy)
         above = z - ground
         height = look.height.take(flat)
         m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height) & (t0 < e))
         rows, e, t0, above, height, flat = (v.take(m) for v in (rows, e, t0, above, height, flat))
-        gx, gy = _slopes(look, flat, tx.take(m), ty.take(m), sx.take(m), sy.take(m))
+        corners = [v.take(m) for v in corners]
+        gx, gy = slope_at(look, corners, tx.take(m), ty.take(m), sx.take(m), sy.take(m))
         rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
         # where the run may begin: the run from the sensor's end, or the trampled ground's
         start = t0
@@ -211,116 +217,6 @@ class GroundCover(Effect):
             start = np.where(np.isnan(from_a), t0, from_a)
         back = np.minimum(np.where(rate < 0, (height - above) / -rate, LONGEST_RUN), LONGEST_RUN)
         return _Run(rows, np.maximum(e - back, start), e, look.ext.take(flat))
-
-
-def _hits_near(look: CoverLookup, ray: _Rays, at, wanted, contained: bool):
-    """Of the `wanted` rays, those whose point `at` along lies in a cell whose layer top it is
-    not above (CoverLookup.top; -inf where bare): (their rows, (the point's z, its cell, tx,
-    ty into it)). `contained`: every wanted point lies in the grid. Where most rays are wanted
-    (a cave's or a trail's hits, none under a sward) the points of all the rays are found at
-    once from the directions' columns, not gathered ray by ray (about half the operations)."""
-    ox, oy, oz = ray.origin(slice(None))
-    if np.count_nonzero(wanted) > WHOLE * len(wanted):
-        d = ray.d
-        x, y, z = ox + d[:, 0] * at, oy + d[:, 1] * at, oz + ray.dz * at
-        contained = ray.single and look.contains(*ray.box)  # every ray's point, hit or not
-        fx, fy, fi, fj, flat, ok = _cells(look, x, y, contained)
-        near = wanted & (z <= look.top.take(flat))
-        if ok is not None:
-            near &= ok
-        rows = np.flatnonzero(near)
-        return rows, (z.take(rows), flat.take(rows), (fx - fi).take(rows), (fy - fj).take(rows))
-    rows = np.flatnonzero(wanted)
-    dx, dy, dz = ray.cols(rows)
-    at = at.take(rows)
-    ox, oy, oz = ray.origin(rows)
-    z = oz + dz * at
-    fx, fy, fi, fj, flat, ok = _cells(look, ox + dx * at, oy + dy * at, contained)
-    near = z <= look.top.take(flat)
-    if ok is not None:
-        near &= ok
-    k = np.flatnonzero(near)
-    return rows.take(k), (z.take(k), flat.take(k), (fx - fi).take(k), (fy - fj).take(k))
-
-
-def _trampled(dx, dy, end):
-    """Where each ray (directions dx, dy) is TRAMPLED from its origin in x and y, or its end
-    (TRAMPLED / 0 is inf: a vertical ray's end)."""
-    return np.minimum(TRAMPLED / np.sqrt(dx * dx + dy * dy), end)
-
-
-def _inside(look: CoverLookup, x, y, z, dx, dy, dz):
-    """Of the points (x, y, z) on rays (dx, dy, dz), all in the grid, those inside the layer:
-    (their places, (height above the terrain, layer height, rate, cell) there: the height above
-    the terrain changes along the ray at that rate, its climb less the slope of the terrain).
-    Only the cells whose top the point is not above can hold it (CoverLookup.top, -inf where
-    bare: CoverGrid.surface_near's test); the rest are left out before the terrain is
-    interpolated."""
-    fx, fy, fi, fj, flat, _ = _cells(look, x, y, True)
-    k = np.flatnonzero(z <= look.top.take(flat))
-    flat, fx, fy, fi, fj, z, dx, dy, dz = (v.take(k) for v in (flat, fx, fy, fi, fj, z, dx, dy, dz))
-    tx, ty = fx - fi, fy - fj
-    sx, sy = 1.0 - tx, 1.0 - ty
-    above = z - _ground(look, flat, tx, ty, sx, sy)
-    height = look.height.take(flat)
-    m = np.flatnonzero((above >= -BOTTOM_SLACK) & (above <= height))
-    flat, tx, ty, sx, sy = flat.take(m), tx.take(m), ty.take(m), sx.take(m), sy.take(m)
-    gx, gy = _slopes(look, flat, tx, ty, sx, sy)
-    rate = dz.take(m) - (gx * dx.take(m) + gy * dy.take(m))
-    return k.take(m), (above.take(m), height.take(m), rate, flat)
-
-
-def _cells(look: CoverLookup, x, y, contained: bool = False):
-    """(fx, fy, floor(fx), floor(fy), flat cell index, inside the grid (None: all)) of points,
-    fx and fy in cells from the grid's origin; outside the grid the index is clipped to it.
-    `contained`: the points are known to lie in the grid."""
-    fx = (x - look.x0) / look.cell
-    fy = (y - look.y0) / look.cell
-    fi, fj = np.floor(fx), np.floor(fy)
-    if not contained:
-        ok = (fi >= 0) & (fi < look.nx) & (fj >= 0) & (fj < look.ny)
-        if not ok.all():
-            ci, cj = np.clip(fi, 0, look.nx - 1), np.clip(fj, 0, look.ny - 1)
-            return fx, fy, fi, fj, (cj * look.nx + ci).astype(np.intp), ok
-    flat = fj * look.nx
-    flat += fi
-    return fx, fy, fi, fj, flat.astype(np.intp), None
-
-
-def _ground(look: CoverLookup, flat, tx, ty, sx, sy):
-    """The terrain's height at points of cells `flat`, (tx, ty) into them (sx = 1 - tx, sy =
-    1 - ty): bilinear between the cell's corners, CoverGrid.surface_at's operations."""
-    z00, z10, z01, z11 = (v.take(flat) for v in (look.z00, look.z10, look.z01, look.z11))
-    return (z00 * sx + z10 * tx) * sy + (z01 * sx + z11 * tx) * ty
-
-
-def _slopes(look: CoverLookup, flat, tx, ty, sx, sy):
-    """The terrain's slope d/dx, d/dy at points of cells `flat` (CoverGrid.surface_at's)."""
-    gx = look.slope_x0.take(flat) * sy + look.slope_x1.take(flat) * ty
-    gy = look.slope_y0.take(flat) * sx + look.slope_y1.take(flat) * tx
-    if not look.slopes_scaled:
-        gx /= look.cell
-        gy /= look.cell
-    return gx, gy
-
-
-def _surface(look: CoverLookup, x, y, slopes: bool = True):
-    """At points (x, y): (class, layer height, terrain height, extinction, slope d/dx, d/dy;
-    the slopes None unless `slopes`): CoverGrid.surface_at's values; outside the grid the
-    class is 0."""
-    fx, fy, fi, fj, flat, ok = _cells(look, x, y)
-    tx, ty = fx - fi, fy - fj
-    if ok is not None:  # (inside the grid fx - fi lies in [0, 1) already)
-        tx, ty = np.clip(tx, 0.0, 1.0), np.clip(ty, 0.0, 1.0)
-    sx, sy = 1.0 - tx, 1.0 - ty
-    ground = _ground(look, flat, tx, ty, sx, sy)
-    cls, height, ext = look.cls.take(flat), look.height.take(flat), look.ext.take(flat)
-    if ok is not None:
-        cls = np.where(ok, cls, 0).astype(np.int16, copy=False)
-    gx = gy = None
-    if slopes:
-        gx, gy = _slopes(look, flat, tx, ty, sx, sy)
-    return cls, height, ground, ext, gx, gy
 
 
 @dataclass(frozen=True)
@@ -391,7 +287,7 @@ class _Stops:
         return self.rows.take(keep), self.stop.take(keep), self.cls.take(keep)
 
 
-def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
+def _settle(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
     """The class at each stop inside the layer as the grid has it (CoverGrid.class_inside's
     test); a stop that came out of it is left to _redraw (marked by cls -1). Most stops are
     decided by their cell's bounds (CoverLookup.below_top, bottom); the rest by the terrain
@@ -400,7 +296,7 @@ def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     ox, oy, oz = ray.origin(stops.rows)
     t = stops.stop
     x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
-    fx, fy, fi, fj, flat, ok = _cells(look, x, y, ray.single and look.contains(*ray.box))
+    fx, fy, fi, fj, flat, ok = cells(look, x, y, ray.single and look.contains(*ray.box))
     cls = look.cls.take(flat)
     unsure = (z > look.below_top.take(flat)) | (z < look.bottom.take(flat))
     if ok is not None:
@@ -409,15 +305,15 @@ def _settle(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     if len(close):
         flat, tx, ty = flat.take(close), fx.take(close) - fi.take(close), fy.take(close) - fj.take(close)
         sx, sy = 1.0 - tx, 1.0 - ty
-        ground = _ground(look, flat, tx, ty, sx, sy)
-        inside = _in_layer(cls.take(close), z.take(close) - ground, look.height.take(flat))
+        ground, _ = ground_at(look, flat, tx, ty, sx, sy)
+        inside = in_layer(cls.take(close), z.take(close) - ground, look.height.take(flat))
         if ok is not None:
             inside &= ok.take(close)
         cls[close[~inside]] = -1
     stops.cls = cls
 
 
-def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
+def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
     """The stops that came out of the layer at their first try (_settle: cls -1). A run's
     length and medium are its anchor cell's (where it ends, or starts); along a long run (a
     grazing beam over several cells) a stop can come out where this cell's sward is lower, or
@@ -449,7 +345,9 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
     dx, dy, dz = ray.cols(rows)
     ox, oy, oz = ray.origin(rows)
     x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
-    c, height, ground, ext, gx, gy = _surface(look, x, y)
+    # every point of a redraw lies before its run's end, within the rays' reach
+    contained = ray.single and look.contains(*ray.box)
+    c, height, ground, ext, gx, gy = surface(look, x, y, contained=contained)
     for _ in range(SETTLE):
         above = z - ground
         # above a lower sward the ray comes down into: on from where it enters it; over
@@ -462,7 +360,7 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
         down = high & (rate < 0)
         on = ~here | (high & (rate >= 0))
         t = np.where(down, t + (above - height) / -rate, t)
-        t = np.where(on, _cell_exit(look, x, y, dx, dy, t), t)
+        t = np.where(on, cell_exit(look, x, y, dx, dy, t), t)
         # the next uniform of each ray's part, in the order of the rays
         count = np.bincount(part, minlength=len(counts))
         first = np.concatenate([[0], np.cumsum(count)[:-1]])
@@ -482,8 +380,8 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
         dx, dy, dz = dx.take(going), dy.take(going), dz.take(going)
         ox, oy, oz = (v if np.ndim(v) == 0 else v.take(going) for v in (ox, oy, oz))
         x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
-        c, height, ground, ext, gx, gy = _surface(look, x, y)
-        inside = _in_layer(c, z - ground, height)
+        c, height, ground, ext, gx, gy = surface(look, x, y, contained=contained)
+        inside = in_layer(c, z - ground, height)
         held = np.flatnonzero(inside)
         stops.stop[slot.take(held)] = t.take(held)
         stops.cls[slot.take(held)] = c.take(held)
@@ -507,49 +405,6 @@ def _redraw(look: CoverLookup, ray: _Rays, stops: _Stops) -> None:
             gx.take(out),
             gy.take(out),
         )
-
-
-def _cell_exit(look: CoverLookup, x, y, dx, dy, t):
-    """Where rays (dx, dy), at t along them at (x, y), leave their cell (in x and y; a
-    micrometre past its edge): inf for a ray with no way out (straight up or down)."""
-    ix = np.floor((x - look.x0) / look.cell)
-    iy = np.floor((y - look.y0) / look.cell)
-    to_x = ((ix + (dx > 0)) * look.cell + look.x0 - x) / dx
-    to_y = ((iy + (dy > 0)) * look.cell + look.y0 - y) / dy
-    out = t + np.minimum(np.where(dx != 0, to_x, np.inf), np.where(dy != 0, to_y, np.inf))
-    return out + CELL_EXIT
-
-
-class _Rays:
-    """A scan's rays: directions (n, 3) and origins, one (3,) for all (`single`) or (n, 3)."""
-
-    def __init__(self, origins: np.ndarray, dirs: np.ndarray, max_range: float):
-        self.d = dirs
-        self.o = origins
-        self.single = origins.ndim == 1
-        self.dz = np.ascontiguousarray(dirs[:, 2])  # every ray's (the tests over all rays)
-        self.box = (0.0, 0.0, 0.0, 0.0)  # x and y bounds of every point within reach (one origin)
-        if self.single:
-            self.ox, self.oy, self.oz = (float(v) for v in origins)
-            reach = float(max_range) + 1.0
-            self.box = (self.ox - reach, self.ox + reach, self.oy - reach, self.oy + reach)
-
-    def cols(self, rows: np.ndarray):
-        """The directions of `rows` as contiguous x, y, z arrays (an index into a column
-        gathers; a column's take would copy it whole first)."""
-        return self.d[:, 0][rows], self.d[:, 1][rows], self.d[:, 2][rows]
-
-    def origin(self, rows: np.ndarray):
-        """The origins of `rows`: numbers (one origin) or x, y, z arrays."""
-        if self.single:
-            return self.ox, self.oy, self.oz
-        return self.o[:, 0][rows], self.o[:, 1][rows], self.o[:, 2][rows]
-
-
-def _in_layer(cls, above, height) -> np.ndarray:
-    """Whether points `above` the terrain lie in the layer of their cell (class `cls`, layer
-    height `height`): CoverGrid.class_inside's test."""
-    return (cls > 0) & (above >= -BOTTOM_SLACK) & (above <= height)
 
 
 def _depth(begin, ext, u):
