@@ -261,9 +261,9 @@ def test_a_backend_without_normals_is_refused_for_the_realistic_model():
 
 
 def test_echoes_formed_block_by_block_on_threads_are_those_of_one_pass(monkeypatch):
-    """beam_echoes forms echoes a block of beams at a time on the cast's threads: every beam's
-    echoes are its own, so the blocks joined are one pass's bytes (two- and three-echo beams,
-    mixed pixels and beams that hit nothing included)."""
+    """echo_points forms a scan's points a block of beams at a time on the cast's threads:
+    every beam's echoes, noise and axis are its own, so the blocks joined are one pass's bytes
+    (two- and three-echo beams, mixed pixels and beams that hit nothing included)."""
     from wildscan.core import realistic, threads
     from wildscan.core.echoes import form_echoes
     from wildscan.core.footprint import subray_weights
@@ -285,11 +285,17 @@ def test_echoes_formed_block_by_block_on_threads_are_those_of_one_pass(monkeypat
     one_pass = form_echoes(
         realistic.subray_returns(hits, sub), subray_weights(len(sub)), sensor.echo_separation, sensor.echoes
     )
-    monkeypatch.setattr(realistic, "BEAM_BLOCK", 77)
-    monkeypatch.setenv(threads.THREADS_ENV, "2")
-    blocks = realistic.beam_echoes(hits, sub, sensor)
     per_beam = np.bincount(one_pass.beam, minlength=len(d))
     assert (per_beam == 0).any() and (per_beam == 1).any() and (per_beam >= 2).any()
     assert (one_pass.purity < 1).any()
-    for field in ("beam", "range", "intensity", "label", "purity", "instance"):
-        assert getattr(blocks, field).tobytes() == getattr(one_pass, field).tobytes(), field
+
+    def cast(origins, directions, max_range, normals):
+        return backend.cast(origins, directions, max_range, normals=normals)
+
+    whole = realistic.echo_points(cast, np.zeros(3), sub, sensor, 10.0, threads=1)
+    monkeypatch.setattr(realistic, "BEAM_BLOCK", 77)
+    monkeypatch.setenv(threads.THREADS_ENV, "2")
+    blocks = realistic.echo_points(cast, np.zeros(3), sub, sensor, 10.0, threads=2)
+    assert len(whole.beam) >= len(one_pass.beam) // 2  # most echoes kept within the range limits
+    for field in ("beam", "range", "intensity", "label", "purity", "instance", "echo", "echoes", "mixed"):
+        assert getattr(blocks, field).tobytes() == getattr(whole, field).tobytes(), field

@@ -36,7 +36,7 @@ from .world.cover import COVER_INSTANCE_BASE
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
 AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)
 MAX_AXIS_STEPS = 16  # surfaces followed along one axis (leaves, twigs, a trunk's two sides...)
-BEAM_BLOCK = 32_768  # beams a block of echo formation (beam_echoes): 5 sub-rays' arrays in cache
+BEAM_BLOCK = 32_768  # beams a block of echo_points' work: 5 sub-rays' arrays in cache
 
 
 @dataclass
@@ -98,27 +98,6 @@ def subray_returns(hits: RayHits, sub_world: np.ndarray, beams: slice = slice(No
         axis_ratio=ratio,
         reflectivity=None if hits.reflectivity is None else hits.reflectivity.reshape(s, n)[:, beams],
     )
-
-
-def beam_echoes(
-    hits: RayHits, sub_world: np.ndarray, sensor: SensorConfig, threads: int | None = None
-) -> Echoes:
-    """The echoes of every beam (echoes.form_echoes), formed a block of BEAM_BLOCK beams at a
-    time, on the cast's threads (core/threads.py). A beam's echoes are its own, so the blocks
-    joined are the bytes of one pass over all beams; a block's arrays stay in the CPU's cache,
-    which alone takes a third off the time of one pass (measured on seed 0's hills and
-    forest). `threads`: as the cast's (None: threads.cast_threads())."""
-    s, n, _ = sub_world.shape
-    weights = subray_weights(s)
-
-    def block(beams: slice) -> Echoes:
-        echoes = form_echoes(
-            subray_returns(hits, sub_world, beams), weights, sensor.echo_separation, sensor.echoes
-        )
-        echoes.beam += beams.start
-        return echoes
-
-    return Echoes.joined(in_parts(block, n, BEAM_BLOCK, threads))
 
 
 def realistic_points(

@@ -164,7 +164,7 @@ class GroundCover(Effect):
         close = np.flatnonzero(wanted & ~sure & (z <= look.top.take(flat)))
         if len(close):
             dx, dy, dz = dx.take(close), dy.take(close), dz.take(close)
-            ox, oy = (v if np.ndim(v) == 0 else v.take(close) for v in (ox, oy))
+            ox, oy = _taken(close, ox, oy)
             t = t0.take(close)
             # (in the grid: `wanted` holds only points in it)
             k, (above, height, rate, _) = inside(
@@ -370,15 +370,9 @@ def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
         going = np.flatnonzero(np.isfinite(t))
         if not len(going):
             return
-        slot, part, t, end, anchor_ext = (
-            slot.take(going),
-            part.take(going),
-            t.take(going),
-            end.take(going),
-            anchor_ext.take(going),
+        slot, part, t, end, anchor_ext, dx, dy, dz, ox, oy, oz = _taken(
+            going, slot, part, t, end, anchor_ext, dx, dy, dz, ox, oy, oz
         )
-        dx, dy, dz = dx.take(going), dy.take(going), dz.take(going)
-        ox, oy, oz = (v if np.ndim(v) == 0 else v.take(going) for v in (ox, oy, oz))
         x, y, z = ox + dx * t, oy + dy * t, oz + dz * t
         c, height, ground, ext, gx, gy = surface(look, x, y, contained=contained)
         inside = in_layer(c, z - ground, height)
@@ -388,23 +382,16 @@ def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
         out = np.flatnonzero(~inside)
         if not len(out):
             return
-        slot, part, t, end, anchor_ext = (
-            slot.take(out),
-            part.take(out),
-            t.take(out),
-            end.take(out),
-            anchor_ext.take(out),
+        slot, part, t, end, anchor_ext, dx, dy, dz, x, y, z, ox, oy, oz = _taken(
+            out, slot, part, t, end, anchor_ext, dx, dy, dz, x, y, z, ox, oy, oz
         )
-        dx, dy, dz, x, y, z = dx.take(out), dy.take(out), dz.take(out), x.take(out), y.take(out), z.take(out)
-        ox, oy, oz = (v if np.ndim(v) == 0 else v.take(out) for v in (ox, oy, oz))
-        c, height, ground, ext, gx, gy = (
-            c.take(out),
-            height.take(out),
-            ground.take(out),
-            ext.take(out),
-            gx.take(out),
-            gy.take(out),
-        )
+        c, height, ground, ext, gx, gy = _taken(out, c, height, ground, ext, gx, gy)
+
+
+def _taken(index: np.ndarray, *arrays):
+    """Each array's entries at `index`, in order; a 0-d value (an origin every ray shares)
+    as it is."""
+    return tuple(a if np.ndim(a) == 0 else a.take(index) for a in arrays)
 
 
 def _depth(begin, ext, u):
