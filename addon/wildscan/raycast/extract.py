@@ -142,6 +142,7 @@ def check_scene_tags(depsgraph) -> None:
         obj = inst.object
         if obj is not None and obj.type in MESH_TYPES and scanned(inst, depsgraph.view_layer):
             _tags(inst)
+            _reflectance(inst)
 
 
 def _box_within(obj, matrix: np.ndarray, center_xy: np.ndarray, radius: float) -> bool:
