@@ -8,6 +8,7 @@ import sys
 from ..app.drive.request import MAX_SCANS_3D
 from ..core.checks import whole_number
 from ..core.errors import UserError
+from ..core.motion.imu_models import DEFAULT_IMU, DEFAULT_RATE, IMU_CHOICES, MAX_RATE, MIN_RATE, MODELS
 from ..core.motion.timing import HEAD_MODES
 from ..core.motion.trajectory import DEFAULT_SPEED, MAX_SPEED
 from . import options
@@ -42,6 +43,38 @@ def scans_count(text: str) -> int:
         return whole_number(text, "", 1, MAX_SCANS_3D)
     except UserError as e:
         raise argparse.ArgumentTypeError(e.message) from None
+
+
+def imu_rate(text: str) -> int:
+    """--imu-rate: the one range the request checks too (core/motion/imu_models.py)."""
+    try:
+        return whole_number(text, "", MIN_RATE, MAX_RATE)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(e.message) from None
+
+
+def add_imu(p: ArgumentParser) -> None:
+    models = ", ".join(f"{name} ({model.title})" for name, model in MODELS.items())
+    p.add_argument(
+        "--imu",
+        choices=IMU_CHOICES,
+        default=DEFAULT_IMU,
+        help=f"the IMU on the robot, its noise and biases from its datasheet: {models}, or none "
+        f"(default {DEFAULT_IMU}): sensor_msgs/Imu on /imu in the bags and DIR/imu.csv",
+    )
+    p.add_argument(
+        "--imu-rate",
+        type=imu_rate,
+        default=DEFAULT_RATE,
+        metavar="HZ",
+        help=f"IMU samples a second, {MIN_RATE} to {MAX_RATE} (default {DEFAULT_RATE})",
+    )
+    p.add_argument(
+        "--imu-noise",
+        choices=("on", "off"),
+        default="on",
+        help="on: the datasheet's white noise and biases (default); off: the exact readings",
+    )
 
 
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
@@ -134,6 +167,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         default="mcap",
         help="storage of the ROS 2 bag (default mcap)",
     )
+    add_imu(p)
     p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
 
 
@@ -143,6 +177,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
 
     same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
     same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "weather", "z_start", "quiet")
+    same += ("imu", "imu_rate", "imu_noise")
     request = DriveRequest(
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,
@@ -160,6 +195,8 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         f"{report.scans_3d} 3D scans ({points:,} points); wrote {len(report.files)} files into {report.out} "
         f"in {report.total_seconds:.1f} s"
     )
+    if args.imu != "none":
+        print(f"  imu: {args.imu} at {args.imu_rate} Hz, noise {args.imu_noise} (imu.csv)")
     for flavour, counts in report.bag_counts.items():
         topics = ", ".join(f"{topic} {n:,}" for topic, n in counts.items())
         print(f"  {flavour} bag: {topics}")
