@@ -13,8 +13,8 @@ from wildscan.app.drive import DriveRequest, run_drive
 from wildscan.core.io.imu_csv import read_imu_csv
 from wildscan.core.io.tum import read_tum
 from wildscan.core.motion.imu import GRAVITY
-from wildscan.core.motion.rotations import matrix
 from wildscan.core.sensor import SensorConfig
+from wildscan.core.spatial.rotations import matrix
 
 from tests.helpers.dataset_helpers import read_kitti_calib
 

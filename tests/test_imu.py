@@ -16,8 +16,8 @@ from wildscan.core.io.imu_csv import HEADER, imu_csv_text, read_imu_csv
 from wildscan.core.motion.imu import GRAVITY, ImuMount, imu_truth, sample_stamps
 from wildscan.core.motion.imu_models import ADIS16495, BMI088, check_rate, with_errors
 from wildscan.core.motion.placements import motion_of, sensor_to_world_matrices
-from wildscan.core.motion.rotations import log_map
 from wildscan.core.placement import Placement, Pose
+from wildscan.core.spatial.rotations import log_map
 
 PERIOD_NS = 25_000_000  # the UTM-30LX-EW's 2D scan
 K = 200  # knots - 1: 5 s

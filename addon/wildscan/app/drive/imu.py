@@ -11,8 +11,8 @@ from ...core.io.imu_csv import imu_csv_text
 from ...core.motion.imu import ImuMount, imu_truth, sample_stamps
 from ...core.motion.imu_models import DEFAULT_MOUNT, MODELS, ImuModel, with_errors
 from ...core.motion.placements import Motion
-from ...core.motion.rotations import quaternions
 from ...core.placement import COLUMN_HEIGHT
+from ...core.spatial.rotations import quaternions
 
 IMU_CSV = "imu.csv"
 
