@@ -79,21 +79,25 @@ def test_the_integrated_gyro_follows_the_trails_yaw_within_2_degrees_over_60_s(t
     assert np.allclose(calib["Tr_imu_to_velo"][:3, 3], [-0.15, 0.0, 0.35 - 0.723])  # sensor frame
 
 
-def test_standing_still_the_accelerometer_reads_g_up_and_the_gyro_zero(tmp_path):
-    """--speed 0 on seed 1's trail start: every sample is +g along the world's up, in the IMU's
-    (tilted) axes, with the BMI088's noise off."""
-    out = tmp_path / "still"
+def low_trail_drive(out, **settings):
+    """Seed 1's low-detail trail at r_h = 6 deg (30 2D scans a 3D scan), no bags."""
     request = DriveRequest(
         out=str(out),
         seed=1,
         detail="low",
         trail=True,
-        speed=0.0,
         sensor=SensorConfig(rh_deg=6.0),
-        imu_noise="off",
         bag="none",
+        **settings,
     )
-    run_drive(request, say=lambda text: None)
+    return run_drive(request, say=lambda text: None)
+
+
+def test_standing_still_the_accelerometer_reads_g_up_and_the_gyro_zero(tmp_path):
+    """--speed 0 on seed 1's trail start: every sample is +g along the world's up, in the IMU's
+    (tilted) axes, with the BMI088's noise off."""
+    out = tmp_path / "still"
+    low_trail_drive(out, speed=0.0, imu_noise="off")
     stamps, gyro, accel = read_imu_csv((out / "imu.csv").read_text())
     tum = read_tum((out / "trajectory.tum").read_text())
     imu_to_world = quaternion_matrices(tum[:1, 4:])[0] @ mount_rotation(out)
@@ -110,17 +114,7 @@ def test_revisits_of_a_drive_are_every_pair_within_3_m_recomputed_from_poses_and
     lists exactly the pairs poses.txt puts within 3 m, with the TUM file's time between them,
     and for each scan the count of scans beyond 25 m."""
     out = tmp_path / "slow"
-    request = DriveRequest(
-        out=str(out),
-        seed=1,
-        detail="low",
-        trail=True,
-        speed=2.0,
-        sensor=SensorConfig(rh_deg=6.0),
-        imu="none",
-        bag="none",
-    )
-    report = run_drive(request, say=lambda text: None)
+    report = low_trail_drive(out, speed=2.0, imu="none")
     assert not (out / "imu.csv").exists()
     poses = np.loadtxt(out / "sequences" / "00" / "poses.txt").reshape(-1, 3, 4)
     xy = poses[:, :2, 3]

@@ -222,6 +222,11 @@ def test_same_drive_same_bytes(tmp_path):
             "--model must be paper: a drive emulates the paper sensor model",
         ),
         (["--trail", "--vegetation", "leafy"], "--vegetation must be one of"),
+        (["--trail", "--imu-rate", "5000"], "--imu-rate: must be a whole number from 1 to 2000"),
+        (
+            ["--trail", "--imu", "xsens"],
+            "--imu: invalid choice: 'xsens' (choose from 'bmi088', 'adis16495', 'none')",
+        ),
     ],
 )
 def test_user_mistakes_exit_2_with_one_line(tmp_path, args, says):

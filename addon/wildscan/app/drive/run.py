@@ -29,7 +29,7 @@ from ...core.rng import seeded
 from ...core.scan import points_in_frame
 from ...core.spatial.reach import check_reach
 from ...core.truth.groundtruth import pose_matrix
-from ...core.truth.revisits import revisits, revisits_document
+from ...core.truth.revisits import revisits, revisits_document, revisits_json
 from ...raycast.wind import drive_effects, moving_scene
 from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
@@ -271,7 +271,7 @@ class _Context:
         files.kitti_sequence(stage, self.pose_matrices, self.start_times, imu_to_velo)
         if self.imu is not None:
             stage.write(IMU_CSV, self.imu.csv_text().encode())
-        stage.write(files.REVISITS_JSON, files.json_bytes(self.revisits()))
+        stage.write(files.REVISITS_JSON, revisits_json(self.revisits()).encode())
         total = self.class_points.sum()
         content = {k: float(self.class_points[k] / total) if total else 0.0 for k in self.labels.labels}
         splits = {"train": [0], "valid": [], "test": []}

@@ -18,14 +18,14 @@ HEADER = (
     "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
     "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]"
 )
+_ROW = "%d,%.12f,%.12f,%.12f,%.9f,%.9f,%.9f"
 
 
 def imu_csv_text(stamps_ns: np.ndarray, gyro: np.ndarray, accel: np.ndarray) -> str:
     """The samples as EuRoC CSV text; values to 1e-12 (rad/s) and 1e-9 (m/s^2)."""
-    lines = [HEADER]
-    for t, w, a in zip(np.asarray(stamps_ns, dtype=np.int64).tolist(), gyro.tolist(), accel.tolist()):
-        lines.append(f"{t},{w[0]:.12f},{w[1]:.12f},{w[2]:.12f},{a[0]:.9f},{a[1]:.9f},{a[2]:.9f}")
-    return "\n".join(lines) + "\n"
+    columns = (np.asarray(stamps_ns, dtype=np.int64).tolist(), *np.asarray(gyro).T.tolist())
+    columns += tuple(np.asarray(accel).T.tolist())
+    return "\n".join([HEADER] + [_ROW % row for row in zip(*columns)]) + "\n"
 
 
 def read_imu_csv(text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

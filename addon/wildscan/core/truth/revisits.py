@@ -17,6 +17,8 @@ robot stood, whatever the height of its sensor over the ground there.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 POSITIVE_RADIUS = 3.0  # m, Wild-Places' positive radius (Knights et al., ICRA 2023)
@@ -87,3 +89,9 @@ def revisits_document(sequences: dict[str, dict], scan_ids: str) -> dict:
         "scan_ids": scan_ids,
         "sequences": sequences,
     }
+
+
+def revisits_json(document: dict) -> str:
+    """The document as JSON text, keys sorted, on one line (tens of thousands of pairs and
+    counts stay one compact file; every JSON reader takes it)."""
+    return json.dumps(document, sort_keys=True) + "\n"
