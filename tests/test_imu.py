@@ -150,3 +150,15 @@ def test_the_mount_turns_readings_into_the_imus_axes():
     assert np.allclose(turned.gyro, aligned.gyro @ MOUNT.rotation, atol=1e-12)
     assert np.allclose(turned.accel, aligned.accel @ MOUNT.rotation, atol=1e-12)
     assert np.allclose(sensor_to_world_matrices(np.zeros(1), np.zeros(1), np.zeros(1))[0], np.eye(3))
+
+
+def test_readings_are_the_same_bits_whatever_the_chunks(monkeypatch):
+    """A drive of kilometres is evaluated CHUNK samples at a time: each sample's own numbers."""
+    from wildscan.core.motion import imu
+
+    motion, stamps = synthetic_motion(), sample_stamps(K * PERIOD_NS, 1000)
+    whole = imu_truth(motion, stamps, PERIOD_NS, MOUNT)
+    monkeypatch.setattr(imu, "CHUNK", 333)
+    chunked = imu_truth(motion, stamps, PERIOD_NS, MOUNT)
+    for name in ("stamps_ns", "position", "rotation", "gyro", "accel"):
+        assert np.array_equal(getattr(whole, name), getattr(chunked, name)), name

@@ -45,6 +45,7 @@ from .trajectory import unwrap
 # world has no geoid: gravity is this, straight down -Z, everywhere.
 GRAVITY = 9.80665
 E_X, E_Y, E_Z = np.eye(3)
+CHUNK = 1 << 16  # samples evaluated at once: bounds the memory of a drive of kilometres
 
 
 @dataclass(frozen=True)
@@ -171,9 +172,21 @@ def body_rates(angles, rates, accelerations) -> tuple[np.ndarray, np.ndarray]:
 
 
 def imu_truth(motion: Motion, stamps_ns: np.ndarray, period_ns: int, mount: ImuMount) -> ImuTruth:
-    """The exact IMU readings of a drive at `stamps_ns` (in [0, K * period))."""
+    """The exact IMU readings of a drive at `stamps_ns` (in [0, K * period)), CHUNK samples at
+    a time (each sample's numbers are its own: the same bits whatever the chunks)."""
     coefficients = quintic_coefficients(knot_values(motion), period_ns / 1e9)
-    value, first, second = evaluate(coefficients, stamps_ns, period_ns)
+    stamps = np.asarray(stamps_ns, dtype=np.int64)
+    parts = [
+        _readings(coefficients, stamps[i : i + CHUNK], period_ns, mount) for i in range(0, len(stamps), CHUNK)
+    ]
+    if not parts:
+        parts = [_readings(coefficients, stamps, period_ns, mount)]
+    return ImuTruth(stamps, *(np.concatenate(field) for field in zip(*parts)))
+
+
+def _readings(coefficients: np.ndarray, stamps: np.ndarray, period_ns: int, mount: ImuMount):
+    """(position, rotation, gyro, accel) of ImuTruth at `stamps`."""
+    value, first, second = evaluate(coefficients, stamps, period_ns)
     angles = value[:, 3:]
     rotation = sensor_to_world_matrices(angles[:, 2], angles[:, 1], angles[:, 0])  # base_link -> world
     to_base = np.swapaxes(rotation, 1, 2)
@@ -182,10 +195,9 @@ def imu_truth(motion: Motion, stamps_ns: np.ndarray, period_ns: int, mount: ImuM
     lever = dm.cross(dw, m) + dm.cross(w, dm.cross(w, m))
     force = dm.apply(to_base, second[:, :3]) + lever + dm.apply(to_base, np.array([0.0, 0.0, GRAVITY]))
     mount_t = np.asarray(mount.rotation, dtype=np.float64).T  # base_link -> IMU
-    return ImuTruth(
-        stamps_ns=np.asarray(stamps_ns, dtype=np.int64),
-        position=value[:, :3] + dm.apply(rotation, m),
-        rotation=dm.matmul(rotation, np.broadcast_to(mount.rotation, rotation.shape)),
-        gyro=dm.apply(mount_t, w),
-        accel=dm.apply(mount_t, force),
+    return (
+        value[:, :3] + dm.apply(rotation, m),
+        dm.matmul(rotation, np.broadcast_to(mount.rotation, rotation.shape)),
+        dm.apply(mount_t, w),
+        dm.apply(mount_t, force),
     )
