@@ -15,7 +15,8 @@ from . import options
 from .options import ArgumentParser, finite_float, non_negative_int
 
 HELP = (
-    "drive the robot along a path while the head turns: timed raw and deskewed clouds, trajectory, ROS bags"
+    "drive the robot along a path while the head turns: timed raw and deskewed clouds, trajectory, IMU, "
+    "ROS bags"
 )
 DESCRIPTION = (
     "Drive the robot at constant speed along the world's trail, through waypoints or straight ahead, "
@@ -23,7 +24,8 @@ DESCRIPTION = (
     "every 25 ms and the head turns r_h per 2D scan. Every beam has its own time and pose. Writes into DIR, "
     "per 3D scan, the raw cloud (as a driver gives it) and the deskewed cloud (every point where it is) as "
     "PLY with a per-point time, a SemanticKITTI sequence of the deskewed scans, the ground-truth trajectory "
-    "(TUM) and ROS 1 / ROS 2 bags (docs/motion.md)."
+    "(TUM), an IMU's samples (imu.csv, /imu), the scans within 3 m of each other (revisits.json) and ROS 1 / "
+    "ROS 2 bags (docs/motion.md)."
 )
 
 
