@@ -14,7 +14,8 @@ difference), so position, velocity and acceleration, attitude, angular velocity 
 acceleration are continuous. The robot starts and stops as the drive does (at its speed, no
 ramp): at the ends the first derivative is the one-sided difference and the second 0.
 At a knot the curve is the knot's pose exactly; between knots it departs from the sweep's
-straight line by well under a millimetre at walking speed (tests/test_imu.py measures it).
+straight line by under 0.5 mm on smooth ground, up to about a centimetre next to a jump of
+the placement (tests/test_imu.py, tests/test_drive_imu.py measure it).
 
 From that curve, with the attitude R(t) of base_link and the IMU's mount (translation m in
 base_link, rotation M: IMU axes -> base_link axes), exactly (no finite differences):
