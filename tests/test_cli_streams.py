@@ -155,3 +155,25 @@ def test_shortened_keeps_short_values_whole_and_says_the_size_of_long_ones():
     long = "x" * 1000
     assert shortened(long).endswith("(1,000 characters)") and len(shortened(long)) < 110
     assert "(500 values)" in shortened(list(range(500)))
+
+
+# --------------------------------------------------------------------------- output paths
+
+
+@pytest.mark.parametrize("typed", ["x.npz/", "x.npz/.", "sub/x.npz//"])
+def test_an_output_path_ending_in_a_slash_is_refused_not_written_as_a_file(tmp_path, monkeypatch, typed):
+    from wildscan.core.io.files import check_output_path
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    with pytest.raises(UserError, match="ends in a slash, which names a directory"):
+        check_output_path(typed, ".npz", "range_image")
+    assert check_output_path("x.npz", ".npz", "range_image") == tmp_path / "x.npz"
+
+
+def test_range_image_with_a_trailing_slash_writes_nothing(tmp_path):
+    pose = ["--seed", "0", "--pose", "0", "0", "0"]
+    image, out = f"{tmp_path}/x.npz/", str(tmp_path / "s.ply")
+    done = run_into(subprocess.PIPE, "scan", *pose, "--range-image", image, "--out", out)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert not any(tmp_path.iterdir())

@@ -219,3 +219,59 @@ def test_verify_never_calls_a_dataset_with_problems_complete(tmp_path):
     assert (
         "is complete" not in bad.stdout and "incomplete (6 of 6 scans) until they are repaired" in bad.stdout
     )
+
+
+# --------------------------------------------------------------------------- a full disk
+
+
+def test_a_full_disk_names_the_scan_group_in_a_few_words(tmp_path, monkeypatch):
+    import errno
+
+    from wildscan.core.errors import UserError
+    from wildscan.core.io import files
+
+    kinds = ["velodyne/000003.bin", "labels/000003.label", "bev/000003.npy", "rangeimage/000003.npz"]
+    finals = [tmp_path / "sequences/00" / k for k in kinds]
+    for p in finals:
+        p.parent.mkdir(parents=True, exist_ok=True)
+
+    def full(self, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))  # a write names no file
+
+    monkeypatch.setattr(Path, "write_bytes", full)
+    with pytest.raises(UserError) as e:
+        with files.atomic_outputs(*finals) as temps:
+            for t in temps:
+                t.write_bytes(b"x")
+    said = str(e.value)
+    assert " or " not in said, said
+    assert said == (
+        f"cannot write one of the 4 files of 000003 in {tmp_path / 'sequences/00'} (velodyne/000003.bin, "
+        "labels/000003.label, ...): No space left on device"
+    )
+
+
+@pytest.mark.slow
+def test_a_batch_the_disk_fills_mid_way_returns_its_whole_scans(tmp_path, monkeypatch):
+    """The scans a worker wrote before the disk filled are whole: they are recorded (were
+    left on disk, listed nowhere), and the failure comes back with them."""
+    from wildscan import __version__
+    from wildscan.app.dataset import worker
+    from wildscan.core.errors import UserError
+
+    spec = spec_from_dict({"seeds": [1], "detail": "low", "vegetation": "solid", "scans_per_world": 3,
+                           "formats": ["semantickitti"], "sensor": {"rh": 10.0}})  # fmt: skip
+    real, calls = worker.write_scan, []
+
+    def fills_on_the_second(root, files):
+        calls.append(len(files))
+        if len(calls) == 2:
+            raise UserError("cannot write one of the files: No space left on device")
+        return real(root, files)
+
+    monkeypatch.setattr(worker, "write_scan", fills_on_the_second)
+    result = worker.scan_batch(spec.to_dict(), str(tmp_path), 1, [0, 1, 2], __version__)
+    assert [r["scan"] for r in result["rows"]] == [0]
+    assert result["failure"].endswith("No space left on device")
+    for record in result["rows"][0]["files"]:
+        assert (tmp_path / record["path"]).stat().st_size == record["bytes"]
