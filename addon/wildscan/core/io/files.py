@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..pause import pause_here
+from ..signals import check_host_break
 
 DEFAULT_NAME_MAX = 255  # bytes in one file name, where the file system does not say
 # Room kept in a temporary name for what a writer adds to it (Blender saves NAME@, then renames).
@@ -234,6 +235,7 @@ def atomic_outputs(*finals: Path, durable: bool = True):
     try:
         yield temps
         pause_here("writing")
+        check_host_break()  # a Ctrl-C Blender's own handler took: the files are not placed
         with _renaming_in(finals):
             for tmp, final in zip(temps, finals, strict=True):
                 os.replace(tmp, final)
