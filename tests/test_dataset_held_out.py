@@ -18,7 +18,7 @@ import yaml
 
 from wildscan.app.dataset.projection import dataset_projection
 from wildscan.app.dataset.spec import spec_from_dict
-from wildscan.core.projection import kept_share
+from wildscan.core.io.projection import kept_share
 from wildscan.core.sensors import beam_directions, device_named
 
 from tests.helpers.dataset_helpers import manifest_rows, start_wildscan, wildscan

@@ -10,7 +10,7 @@ second, our user-mistake code, leaving a partial file).
 Some moments must not be cut: while the bpy module loads (an exception inside its
 start-up is swallowed or crashes the interpreter) and while Blender reads or writes a
 file (it swallows exceptions raised in its Python handlers). There `deferred()`
-(core/signals.py) notes the signal and raises it as soon as the moment is over.
+(core/runtime/signals.py) notes the signal and raises it as soon as the moment is over.
 
 A process that runs one command (the `wildscan` script, blender_scripts/*.py) calls
 `defer_until_dispatch()` before its slow imports, so a Ctrl-C in its first second is
@@ -23,8 +23,8 @@ import signal
 import sys
 from contextlib import contextmanager
 
-from ..core.pause import pause_here
-from ..core.signals import (
+from ..core.runtime.pause import pause_here
+from ..core.runtime.signals import (
     Terminated,
     check_host_break,
     deferred,
@@ -75,7 +75,7 @@ def _restore(signum: int, previous) -> None:
 
 
 # ---------------------------------------------------------------------------------------
-# every command: both signals raise, except inside deferred() (core/signals.py)
+# every command: both signals raise, except inside deferred() (core/runtime/signals.py)
 
 # The handlers from before defer_until_dispatch(), while it holds; None otherwise.
 _early: dict | None = None

@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ...core.projection import Projection, combined, kept_share, projection_for
+from ...core.io.projection import Projection, combined, kept_share, projection_for
 from ...core.sensors import DEFAULT_DEVICE, Device, beam_directions, device_choice
 from .spec import DatasetSpec, rh_choices
 

@@ -23,8 +23,8 @@ from ...core.errors import UserError, shortened
 from ...core.io import semantickitti as sk
 from ...core.io.files import atomic_outputs, output_directory, write_durably
 from ...core.label_schemes import scheme
-from ...core.pause import pause_here
-from ...core.signals import deferred, on_signal, signal_pending
+from ...core.runtime.pause import pause_here
+from ...core.runtime.signals import deferred, on_signal, signal_pending
 from ..cache.config import count_worlds
 from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card

@@ -13,8 +13,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import UserError
-from ..pause import pause_here
-from ..signals import check_host_break
+from ..runtime.pause import pause_here
+from ..runtime.signals import check_host_break
 
 DEFAULT_NAME_MAX = 255  # bytes in one file name, where the file system does not say
 # Room kept in a temporary name for what a writer adds to it (Blender saves NAME@, then renames).

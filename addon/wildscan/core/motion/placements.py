@@ -20,7 +20,6 @@ import numpy as np
 from .. import detmath as dm
 from ..backend import RayBackend
 from ..errors import PoseRejected
-from ..leveling import roll_pitch_from_slopes
 from ..placement import (
     ARM_X,
     ARM_Y,
@@ -39,7 +38,8 @@ from ..placement import (
     probe_ground_z_many,
     stand,
 )
-from .rotations import log_map
+from ..spatial.leveling import roll_pitch_from_slopes
+from ..spatial.rotations import log_map
 
 # Instants placed per batch of casts: bounds the transient arrays of the probe and the lasers
 # (about 2 KB an instant while placed: 32 MB) whatever the drive's length.
