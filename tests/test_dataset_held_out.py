@@ -24,17 +24,26 @@ from wildscan.core.sensors import beam_directions, device_named
 from tests.helpers.dataset_helpers import manifest_rows, start_wildscan, wildscan
 from tests.helpers.semantic_kitti_laserscan import LaserScan
 
-MIXED = """\
+# one low, solid world, two scans: these runs test the sensor's setting, not the world
+ONE_WORLD = """\
 seeds = [0]
 detail = "low"
 vegetation = "solid"
 scans_per_world = 2
 formats = ["semantickitti"]
-
-[sensor]
-device = ["vlp16", "utm30lx-ew"]
 """
+MIXED = ONE_WORLD + '\n[sensor]\ndevice = ["vlp16", "utm30lx-ew"]\n'
 PAUSE_TIMEOUT_S = 120
+
+
+def run_spec(folder: Path, spec_text: str, *args: str):
+    """`wildscan dataset` of `spec_text` (written to folder/spec.toml) into folder/out, one
+    worker: the folder, and the run."""
+    (folder / "spec.toml").write_text(spec_text)
+    out = folder / "out"
+    return out, wildscan(
+        "dataset", str(folder / "spec.toml"), "--out", str(out), "--workers", "1", "--quiet", *args
+    )
 
 
 def test_a_list_of_the_hokuyo_and_a_spinning_preset_has_one_truthful_projection():
@@ -53,9 +62,7 @@ def test_a_list_of_the_hokuyo_and_a_spinning_preset_has_one_truthful_projection(
 
 @pytest.mark.slow
 def test_a_dataset_mixing_the_hokuyo_and_a_spinning_preset_finishes(tmp_path):
-    (tmp_path / "spec.toml").write_text(MIXED)
-    out = tmp_path / "out"
-    done = wildscan("dataset", str(tmp_path / "spec.toml"), "--out", str(out), "--workers", "1", "--quiet")
+    out, done = run_spec(tmp_path, MIXED)
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr
     for name in ("labels.yaml", "weights.json", "CARD.md"):
@@ -73,16 +80,7 @@ def test_a_dataset_mixing_the_hokuyo_and_a_spinning_preset_finishes(tmp_path):
         assert kept > 0.95, (row["sensor"], kept)
 
 
-DEVICE_FILE_SPEC = """\
-seeds = [0]
-detail = "low"
-vegetation = "solid"
-scans_per_world = 2
-formats = ["semantickitti"]
-
-[sensor]
-device = "{device}"
-"""
+DEVICE_FILE_SPEC = ONE_WORLD + '\n[sensor]\ndevice = "{device}"\n'
 
 
 @pytest.mark.slow
@@ -143,9 +141,7 @@ def stop_job(job) -> None:
 
 @pytest.mark.slow
 def test_two_ctrl_cs_count_and_name_the_scans_completed(tmp_path):
-    (tmp_path / "spec.toml").write_text(SIX)
-    out = tmp_path / "out"
-    first = wildscan("dataset", str(tmp_path / "spec.toml"), "--out", str(out), "--limit", "4", "--quiet")
+    out, first = run_spec(tmp_path, SIX, "--limit", "4")
     assert first.returncode == 0, first.stderr
     # The run pauses as it closes its cluster (its scans done); a user pressing Ctrl-C twice
     # then: both land in the closing, which used to let them escape as a list of rewritten
@@ -179,9 +175,7 @@ def test_a_run_names_the_scans_it_wrote():
 
 @pytest.mark.slow
 def test_learn_and_verify_recognise_a_dataset_being_written_or_unfinished(tmp_path):
-    (tmp_path / "spec.toml").write_text(SIX)
-    out = tmp_path / "out"
-    part = wildscan("dataset", str(tmp_path / "spec.toml"), "--out", str(out), "--limit", "4", "--quiet")
+    out, part = run_spec(tmp_path, SIX, "--limit", "4")
     assert part.returncode == 0, part.stderr
     learn = wildscan("bench", "--suite", "learn", str(out))
     assert learn.returncode == 2 and learn.stderr.count("\n") == 1, learn.stderr
@@ -207,9 +201,8 @@ def test_learn_and_verify_recognise_a_dataset_being_written_or_unfinished(tmp_pa
 
 @pytest.mark.slow
 def test_verify_never_calls_a_dataset_with_problems_complete(tmp_path):
-    (tmp_path / "spec.toml").write_text(SIX)
-    out = tmp_path / "out"
-    assert wildscan("dataset", str(tmp_path / "spec.toml"), "--out", str(out), "--quiet").returncode == 0
+    out, done = run_spec(tmp_path, SIX)
+    assert done.returncode == 0, done.stderr
     copy = tmp_path / "copy"
     shutil.copytree(out, copy)
     label = next(Path(copy).glob("sequences/*/labels/*.label"))

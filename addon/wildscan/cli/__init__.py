@@ -47,7 +47,8 @@ __all__ = ["EXIT_INTERRUPTED", "blender_main", "build_parser", "main"]
 EPILOG = (
     "Paths: ~ expands in every path option (also in --opt=~/x), names longer than the file system "
     "allows are refused before any work. Exit codes: 0 done, 2 a mistake (one line, nothing written), "
-    "130 Ctrl-C, 143 SIGTERM (one line saying which files were completed; no temporary or partial file)."
+    "130 Ctrl-C, 143 SIGTERM (one line saying which files were completed; no temporary or partial file), "
+    "141 the reader of the output closed the pipe, 1 the output could not be written (e.g. a full disk)."
 )
 
 
