@@ -4,7 +4,8 @@ Backends (all give the same labels; see tests/test_backends.py):
   embree   Embree via the `embreex` wheel, batched from numpy: the default.
   open3d   Open3D's RaycastingScene over the same sealed triangles: the same PLY bytes as embree.
   bvh      mathutils.bvhtree over the same extracted triangles, one ray per Python call.
-  blender  Blender's own scene.ray_cast: the reference, slowest, cost grows with objects.
+  blender  Blender's own scene.ray_cast, slowest, cost grows with objects; its float32 answers
+           settled in float64 against a fast caster's (settled_blender.py): the same bytes.
   auto     the default: the first of embree, open3d, bvh, blender that imports and passes its
            proof (inside Blender, bvh before a caster of a version the tests do not cover).
 
@@ -223,16 +224,29 @@ def make_backend(
     geometry=None,
     notify: Callable[[str], None] | None = print,
 ) -> RayBackend:
-    """A ready backend. For embree/open3d/bvh the scene is extracted (cropped to `radius` around
-    `center` when both are given) unless `geometry` is passed; a passed geometry is
-    cropped the same way, so many poses can share one extraction. Call once per command:
-    a fallback is announced on every call."""
+    """A ready backend. The scene is extracted (cropped to `radius` around `center` when both
+    are given) unless `geometry` is passed; a passed geometry is cropped the same way, so many
+    poses can share one extraction. embree, open3d and bvh cast over it; blender casts with
+    scene.ray_cast and settles its answers against a fast caster over it (settled_blender.py).
+    Call once per command: a fallback is announced on every call."""
     chosen = resolve_backend(name, notify)
+    geometry = _geometry_for(depsgraph, center, radius, geometry)
     if chosen == "blender":
-        from .blender_backend import BlenderRayCastBackend
+        return _settled_blender(depsgraph, geometry)
+    return _over_geometry(chosen, geometry)
 
-        return BlenderRayCastBackend(depsgraph=depsgraph)
-    return _over_geometry(chosen, _geometry_for(depsgraph, center, radius, geometry))
+
+def _settled_blender(depsgraph, geometry) -> RayBackend:
+    """scene.ray_cast with its answers settled in float64 against the first proven fast
+    caster over the same triangles (settled_blender.py: then it gives their bytes)."""
+    from .blender_backend import BlenderRayCastBackend
+    from .settled_blender import SettledSceneRayCast
+
+    raw = BlenderRayCastBackend(depsgraph=depsgraph)
+    for name in candidates("auto"):
+        if name != "blender" and refusal(name) is None:
+            return SettledSceneRayCast(raw, _over_geometry(name, geometry))
+    return raw
 
 
 def _geometry_for(depsgraph, center, radius, geometry):
