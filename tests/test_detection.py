@@ -11,8 +11,8 @@ import pytest
 
 from wildscan.bench.detection import QUICK_TARGET_BEAMS, returned_share
 from wildscan.core.errors import UserError
-from wildscan.core.lost_returns import Detecting, received_power, speckle, tally, tally_stats
 from wildscan.core.placement import Pose
+from wildscan.core.realism.lost_returns import Detecting, received_power, speckle, tally, tally_stats
 from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig, device_named, load_device, preset_names
 from wildscan.core.sensors.detection import REFERENCE_REFLECTANCES

@@ -209,8 +209,8 @@ def test_wildscan_reflectance_decides_what_the_realistic_model_loses():
     at 50 m), both keep their class; the paper model returns both."""
     from dataclasses import replace
 
-    from wildscan.core.lost_returns import object_reflectances
     from wildscan.core.placement import Pose
+    from wildscan.core.realism.lost_returns import object_reflectances
     from wildscan.core.scan import run_scan
     from wildscan.core.sensors import SensorConfig, device_named
 

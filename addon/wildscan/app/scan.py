@@ -53,7 +53,7 @@ def scan_current_scene(
     world_seed: int = 0,
 ) -> ScanResult:
     """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air.
-    `world_seed`: the world's seed (its surfaces' reflectances: core/lost_returns.py)."""
+    `world_seed`: the world's seed (its surfaces' reflectances: core/realism/lost_returns.py)."""
     sensor.validate()
     pose.validate()
     effects = scan_effects(weather, sensor, scene_cover(geometry))

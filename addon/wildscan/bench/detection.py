@@ -1,10 +1,10 @@
 """Suite "detection" (`wildscan bench --suite detection`): the realistic model's detection by
-received power (core/lost_returns.py) against each device's datasheet (its [detection] table,
+received power (core/realism/lost_returns.py) against each device's datasheet (its [detection] table,
 core/sensors/detection.py).
 
 1. Flat targets. For every preset, a flat wall at normal incidence of reflectance 10 % and
    80 % (an object's own `wildscan_reflectance`) is scanned by TARGET_BEAMS beams of the
-   device's own footprint through the realistic model (core/realistic.py echo_points, the
+   device's own footprint through the realistic model (core/realism/realistic.py echo_points, the
    detection step in), at ranges from 0.8 to 1.2 times the limit's, RANGE_STEP apart. The
    farthest detected range is the farthest at which at least half the beams return a point
    (the limit is where speckle makes detection a coin toss); the last range any beam returns
@@ -78,9 +78,9 @@ def target_sensor(device):
 def returned_share(device, reflectance: float, distance: float, beams: int) -> float:
     """The share of `beams` beams at normal incidence on a wall of `reflectance` at `distance`
     that return a point through the realistic model with its detection step."""
-    from ..core.footprint import subrays_around
-    from ..core.lost_returns import Detecting
-    from ..core.realistic import echo_points
+    from ..core.realism.footprint import subrays_around
+    from ..core.realism.lost_returns import Detecting
+    from ..core.realism.realistic import echo_points
 
     sensor = target_sensor(device)
     backend = wall_backend(distance)

@@ -125,7 +125,7 @@ MAX_INSTANCE = 2**31 - 1
 # Per-object reflectivity override (intensity only; the label still comes from the class).
 REFLECTIVITY_PROP = "wildscan_reflectivity"
 # An object's diffuse reflectance (0-1) at the laser's wavelength: what the realistic model's
-# detection step weighs in place of its class's material draw (core/lost_returns.py)
+# detection step weighs in place of its class's material draw (core/realism/lost_returns.py)
 REFLECTANCE_PROP = "wildscan_reflectance"
 MAX_REFLECTIVITY = 1000.0
 

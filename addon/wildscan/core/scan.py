@@ -15,17 +15,15 @@ import numpy as np
 from .. import __version__
 from . import detmath as dm
 from .backend import RayBackend, with_normals
-from .cast_clock import scanning
 from .classes import LABEL_BY_ID, REFLECTIVITY_BY_ID, WATER_ID, class_table_dict, reflectivity_of
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
-from .frames import check_frame, to_world
 from .hits import RayHits
-from .leveling import leveling_matrix
-from .pause import pause_here
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
-from .reach import check_reach
+from .runtime.cast_clock import scanning
+from .runtime.pause import pause_here
+from .runtime.threads import backend_threads, cast_parts
 from .sensors import (
     DEFAULT_DEVICE,
     SensorConfig,
@@ -35,7 +33,9 @@ from .sensors import (
     rotated_beams,
 )
 from .sensors.beams import beam_columns, beam_times
-from .threads import backend_threads, cast_parts
+from .spatial.frames import check_frame, to_world
+from .spatial.leveling import leveling_matrix
+from .spatial.reach import check_reach
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -59,7 +59,7 @@ class ScanResult:
     incidence: np.ndarray | None = None
     # (row, column) range-image cells (core/rangeimage.py) of the beams whose every echo the
     # realistic model's detection step dropped: no point, though a surface was there
-    # (core/lost_returns.py); None: no detection step
+    # (core/realism/lost_returns.py); None: no detection step
     lost_cells: tuple[np.ndarray, np.ndarray] | None = None
 
 
@@ -188,7 +188,7 @@ def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str)
     if frame == "sensor":
         return points_sensor
     if frame == "leveled":
-        from .leveling import level_points
+        from .spatial.leveling import level_points
 
         return level_points(points_sensor, placement.roll_rad, placement.pitch_rad)
     return to_world(points_sensor, "sensor", placement)
@@ -237,11 +237,11 @@ def run_scan(
     `incidence`: a paper scan also gives each point's |cos θ| (ScanResult.incidence), from the
     normals of the sweep's own hits (a dataset's physical intensity: no second cast).
     `world_seed`: the seed of the world's surface reflectances (core/intensity.py), which the
-    realistic model's detection step weighs (core/lost_returns.py; 0 for a scene of no seed)."""
+    realistic model's detection step weighs (core/realism/lost_returns.py; 0 for a scene of no seed)."""
     sensor.validate()
     check_frame(frame)
     if sensor.realistic:
-        from .realistic import check_backend
+        from .realism.realistic import check_backend
 
         check_backend(backend)
     placement = place(backend, pose, z_start)
@@ -371,7 +371,7 @@ def _realistic_cloud(
     world_seed: int = 0,
 ):
     """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
-    from .realistic import realistic_points
+    from .realism.realistic import realistic_points
 
     _, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)
     # the beams' world directions are the points' in the world frame only (the others turn
@@ -436,10 +436,10 @@ def _beams_without_points(lost: np.ndarray, kept: np.ndarray, beams: int) -> np.
 
 
 def detecting_of(sensor: SensorConfig, effects: Effects, world_seed: int, backend=None):
-    """The detection step of a realistic scan (core/lost_returns.py), or None: a device without
+    """The detection step of a realistic scan (core/realism/lost_returns.py), or None: a device without
     a [detection] table, or the step turned off (SensorConfig.detection). The objects of the
     backend's geometry that carry `wildscan_reflectance` keep their own (raycast/geometry.py)."""
-    from .lost_returns import Detecting, object_reflectances
+    from .realism.lost_returns import Detecting, object_reflectances
 
     table = sensor.device.detection
     if table is None or not sensor.detection:

@@ -63,7 +63,7 @@ class SceneGeometry:
     offset:       float64 (3,) local origin for float32 copies (see module docstring).
     reflectivity: float32 (T,) the object's `wildscan_reflectivity` override, nan where the
                   class's reflectivity applies (None given: no override anywhere).
-    reflectance:  float32 (T,) `wildscan_reflectance` (0-1, core/lost_returns.py), nan: none.
+    reflectance:  float32 (T,) `wildscan_reflectance` (0-1, core/realism/lost_returns.py), nan: none.
     cover:        the world's ground cover (core/world/cover.py CoverGrid), not triangles: a
                   layer the scan's medium walks (core/effects/cover.py); None: bare ground.
     """

@@ -15,8 +15,8 @@ from ...core.classes import BY_ID, CLASSES, LOG, PARTICLE
 from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
-from ...core.lost_returns import add_stats
-from ...core.pause import pause_here
+from ...core.realism.lost_returns import add_stats
+from ...core.runtime.pause import pause_here
 from .intensity import intensity_lines, remission_totals
 from .layout import CARD, CARD_FIGURES, DATASET_JSON
 from .manifest import Manifest
@@ -101,7 +101,7 @@ def _particle_totals(spec: DatasetSpec, ok: list[dict], class_points: dict) -> d
 
 def _echo_totals(ok: list[dict]) -> dict:
     """Points by echo and mixed pixels over the realistic scans (none: no such keys), and the
-    returns their detection step lost (core/lost_returns.py)."""
+    returns their detection step lost (core/realism/lost_returns.py)."""
     realistic = [r for r in ok if "echo_counts" in r]
     if not realistic:
         return {}
@@ -236,7 +236,7 @@ def _height_lines(t: dict) -> list[str]:
     """Points of each class against height above the ground the robot stands on (hag)."""
     if "class_heights" not in t:
         return []
-    from ...core.traversability import HEIGHT_BINS
+    from ...core.truth.traversability import HEIGHT_BINS
 
     lines = ["", "## Points of each class against height above the ground", ""]
     lines += [

@@ -29,10 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from ... import __version__
-from ...core.cast_clock import CLOCK
 from ...core.classes import class_by_name
 from ...core.errors import PoseRejected, UserError
-from ...core.groundtruth import (
+from ...core.io.files import atomic_outputs
+from ...core.label_schemes import scheme
+from ...core.posesampler import NoPose
+from ...core.runtime.cast_clock import CLOCK
+from ...core.scan import run_scan
+from ...core.truth.groundtruth import (
     bev_grid,
     height_above_ground,
     map_top_class,
@@ -40,13 +44,9 @@ from ...core.groundtruth import (
     pose_matrix,
     world_points,
 )
-from ...core.io.files import atomic_outputs
-from ...core.label_schemes import scheme
-from ...core.open_ground import OpenGround
-from ...core.open_sky import open_sky
-from ...core.posesampler import NoPose
-from ...core.scan import run_scan
-from ...core.traversability import (
+from ...core.truth.open_ground import OpenGround
+from ...core.truth.open_sky import open_sky
+from ...core.truth.traversability import (
     ROBOT_HEIGHT,
     class_height_histogram,
     support_flags,
@@ -232,17 +232,23 @@ def scan_batch(
     disk = open_cache(cache)
     context = world_context(spec, seed, disk)
     build = 0.0 if cached else context.build_seconds
-    rows = []
+    rows, failure = [], None
     before = CLOCK.reading()
     for index in indices:
-        with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
-            rows.append(scan_one(spec, context, root, index))
+        try:
+            with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
+                rows.append(scan_one(spec, context, root, index))
+        except UserError as e:  # a full disk: the scans written before it are whole, so recorded
+            if not rows:
+                raise
+            failure = str(e)
+            break
         _tick(topic, label)
     source = "memory" if cached else "cache" if context.from_cache else "built"
     spent = CLOCK.reading() - before
     facts = _worker_facts(build) | world_facts(source, disk)
     facts |= {"scan_seconds": spent.scans, "cast_seconds": spent.cast, "task": [started, time.time()]}
-    return {"rows": rows, "worker": facts}
+    return {"rows": rows, "worker": facts} | ({"failure": failure} if failure else {})
 
 
 def _tick(topic: str, label: str) -> None:
@@ -380,7 +386,7 @@ def _echo_counts(cloud) -> dict:
 
 
 def _lost_returns(metadata: dict) -> dict:
-    """A realistic scan's returns lost to the detection step (core/lost_returns.py): the card's."""
+    """A realistic scan's returns lost to the detection step (core/realism/lost_returns.py): the card's."""
     lost = metadata.get("echoes", {}).get("lost_returns")
     return {} if lost is None else {"lost_returns": lost}
 

@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from ..label_schemes import LabelScheme
-from ..projection import Projection
-from ..rangeimage import npz_bytes, scan_range_image
+from .projection import Projection
+from .rangeimage import npz_bytes, scan_range_image
 from .writer import ScanFile, ScanOutput, Writer
 
 REMISSION_SCALE = 0.01  # reflectivity (Table I) -> remission
@@ -112,7 +112,7 @@ ECHO_DTYPE = np.dtype([("echo", "u1"), ("echoes", "u1"), ("label_purity", "<f4")
 
 def echo_bytes(extra: dict) -> bytes:
     """echo/NNNNNN.npy: the echo fields a SemanticKITTI user needs to drop mixed pixels."""
-    from ..groundtruth import npy_bytes
+    from ..truth.groundtruth import npy_bytes
 
     out = np.zeros(len(extra["echo"]), dtype=ECHO_DTYPE)
     for name in ECHO_DTYPE.names:
@@ -145,11 +145,16 @@ def poses_text(matrices: list[np.ndarray]) -> str:
     return "".join(_matrix_line(m) + "\n" for m in matrices)
 
 
-def calib_text() -> str:
+def calib_text(imu_to_velo: np.ndarray | None = None) -> str:
     """calib.txt: there are no cameras, so every projection is the identity and Tr (velodyne
-    to camera frame) is the identity: poses.txt applies to the points directly."""
+    to camera frame) is the identity: poses.txt applies to the points directly. With an IMU,
+    `Tr_imu_to_velo` (KITTI's name for it) takes IMU-frame coordinates to the scans' frame,
+    in the same `KEY: 12 numbers` form semantic-kitti-api's parse_calibration reads."""
     eye = np.eye(4)
-    return "".join(f"{key}: {_matrix_line(eye)}\n" for key in ("P0", "P1", "P2", "P3", "Tr"))
+    lines = [f"{key}: {_matrix_line(eye)}\n" for key in ("P0", "P1", "P2", "P3", "Tr")]
+    if imu_to_velo is not None:
+        lines.append(f"Tr_imu_to_velo: {_matrix_line(imu_to_velo)}\n")
+    return "".join(lines)
 
 
 def _yaml_map(name: str, mapping: dict, value=lambda v: str(v)) -> list[str]:

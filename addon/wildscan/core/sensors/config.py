@@ -55,7 +55,7 @@ class SensorConfig:
     echoes: int = _D.optics.echoes
     echo_separation: float = _D.optics.echo_separation_m
     device: Device = _D
-    # the realistic model drops returns below the device's detection limit (core/lost_returns.py);
+    # the realistic model drops returns below the device's detection limit (core/realism/lost_returns.py);
     # False only to measure what the step costs (`wildscan bench --suite detection`)
     detection: bool = True
     # the return mode (returns.py: strongest, last, dual, multi); None: the device's default

@@ -69,7 +69,7 @@ class Detection:
     def farthest_range(self, reflectance: float, alpha: float = 0.0) -> float:
         """The range where a flat target of `reflectance` at normal incidence through extinction
         `alpha` meets the limit (its detection probability is one half there: module
-        core/lost_returns.py). Bisection in ln R: the margin falls monotonically."""
+        core/realism/lost_returns.py). Bisection in ln R: the margin falls monotonically."""
 
         def margin(r: float) -> float:
             power = reflectance * math.exp(-2.0 * alpha * r) / (r * r)

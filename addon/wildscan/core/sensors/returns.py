@@ -14,7 +14,7 @@
                                profile RNG19_RFL8_SIG16_NIR16_DUAL): the strongest and the
                                second-strongest return.
 
-Returns are chosen among the echoes the receiver detected (after core/lost_returns.py): a
+Returns are chosen among the echoes the receiver detected (after core/realism/lost_returns.py): a
 return too weak to detect is neither strongest nor last. Each point of a dual scan carries
 `return_type` (RETURN_TYPES) saying which return it is.
 """

@@ -21,7 +21,7 @@ The .npz holds, H x W (rows x columns):
 and, one entry a point in the order of the scan's files:
     row        uint16   the point's row
     column     uint32   the point's column (a head turning a multi-beam lidar fires past 65,535)
-and, for a scan of the realistic model (its detection step: core/lost_returns.py):
+and, for a scan of the realistic model (its detection step: core/realism/lost_returns.py):
     lost       bool     H x W: the beam met a surface but its return was too weak for the
                         receiver (no point): the ray-drop mask
 """
@@ -33,7 +33,7 @@ import zipfile
 
 import numpy as np
 
-from .pointcloud import PointCloud
+from ..pointcloud import PointCloud
 
 NO_DATA = -1  # range, intensity and index of a cell without a point (semantic-kitti-api's)
 # 1980-01-01, the earliest time a zip entry can state: the file's bytes never depend on the clock

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .classes import NUM_IDS, REFLECTIVITY_BY_ID, UNLABELED, WATER_ID
+from ..classes import NUM_IDS, REFLECTIVITY_BY_ID, UNLABELED, WATER_ID
 
 R_REF = 10.0  # m: a surface filling the beam head-on at this range reads its Table I reflectivity
 ECHO_REFLECTIVITY_UNLABELED = 50.0  # an untagged mesh: a mid grey
@@ -92,7 +92,7 @@ class Echoes:
     purity: np.ndarray  # float64 its share of the energy
     instance: np.ndarray  # int32 the strongest sub-ray's of that class
     # float64 sum of w cos(theta) over its returns: the footprint's share on the surfaces times
-    # their incidence (what the detection step weighs: core/lost_returns.py)
+    # their incidence (what the detection step weighs: core/realism/lost_returns.py)
     cover: np.ndarray | None = None
 
     def __len__(self) -> int:

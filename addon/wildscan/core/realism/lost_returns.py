@@ -7,16 +7,16 @@ Each echo's received power, in the units of that limit (rho cos theta / R^2), is
     P = rho_s * C * exp(-2 alpha R) / R^2 * speckle
 
 - rho_s, the reflectance (0-1) of the surface at the laser's wavelength: the physical
-  intensity's per-class material model (core/intensity.py MATERIALS, read off the ECOSTRESS
+  intensity's per-class material model (core/realism/intensity.py MATERIALS, read off the ECOSTRESS
   spectral library at 0.9 um: Meerdink et al., Remote Sens. Environ. 230, 2019), drawn per
   instance (per spot of ground for the terrain and the sward) from the world's seed, so a
   dataset's physical intensity and its lost returns see the same surface; an object's own
   `wildscan_reflectance` (0-1) where it carries one.
-- C = sum of w_k cos theta_k over the echo's sub-rays (core/echoes.py Echoes.cover): the
+- C = sum of w_k cos theta_k over the echo's sub-rays (core/realism/echoes.py Echoes.cover): the
   footprint's share on the surface times its incidence.
 - alpha the weather's extinction (core/effects/weather.py; clear air 0), R the echo's range.
 - speckle, the physical intensity's pulse-to-pulse factor in [1 - SPECKLE, 1 + SPECKLE]
-  (core/intensity.py), drawn per (noise seed, beam, echo): near the limit the loss is a
+  (core/realism/intensity.py), drawn per (noise seed, beam, echo): near the limit the loss is a
   matter of chance, seeded and deterministic. At the datasheet's range a flat target of its
   reflectance is detected one time in two; every time where P is SPECKLE above the limit.
 
@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..classes import NUM_IDS, PARTICLE_ID
+from ..sensors.detection import Detection
 from . import intensity as I
-from .classes import NUM_IDS, PARTICLE_ID
-from .sensors.detection import Detection
 
 SPECKLE_KEY = 0xDE7EC7  # the detection's own stream of speckle draws
 RANGE_EDGES = (10.0, 20.0, 40.0, 60.0, 80.0, 100.0)  # m: the card's range bins
@@ -98,7 +98,7 @@ def speckle(noise_seed: int, beam: np.ndarray, rank: np.ndarray) -> np.ndarray:
 def lost_echoes(
     d: Detecting, echoes, rank: np.ndarray, world_xy: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(lost, C) for each echo of `echoes` (core/echoes.py Echoes): lost when its received
+    """(lost, C) for each echo of `echoes` (core/realism/echoes.py Echoes): lost when its received
     power with speckle falls below the limit; `rank` its place in its beam, `world_xy` where it
     lies."""
     label = np.asarray(echoes.label, dtype=np.intp)
