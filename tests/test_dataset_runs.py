@@ -23,6 +23,7 @@ import pytest
 from wildscan.app.dataset.layout import TEMP_NAME
 
 from tests.helpers.dataset_helpers import assert_same_dataset, manifest_rows, start_wildscan, wildscan
+from tests.helpers.processes import started
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
@@ -175,6 +176,7 @@ def test_limit_runs_part_of_the_job_and_the_next_run_finishes_it(spec, clean, tm
     assert second.returncode == 0 and "wrote 7 scans" in second.stdout
     assert "5 were there from before, re-checked" in second.stdout  # the final line says it all
     assert_same_dataset(clean, out)
+    assert (out / "revisits.json").read_bytes() == (clean / "revisits.json").read_bytes()  # from the rows
     third = wildscan("dataset", str(spec), "--out", str(out), "--quiet")
     assert "wrote 0 scans" in third.stdout  # nothing left: every scan verified and skipped
 
@@ -243,9 +245,7 @@ def test_another_spec_into_the_same_folder_is_refused(clean, tmp_path):
 
 def dask_process(*args: str, stderr=subprocess.DEVNULL, env=None) -> subprocess.Popen:
     exe = str(Path(sys.executable).with_name("dask"))
-    return subprocess.Popen(
-        [exe, *args], stdout=subprocess.DEVNULL, stderr=stderr, env=env, start_new_session=True
-    )
+    return started([exe, *args], stdout=subprocess.DEVNULL, stderr=stderr, env=env, start_new_session=True)
 
 
 def stop_processes(*processes) -> None:
