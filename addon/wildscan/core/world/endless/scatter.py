@@ -1,0 +1,200 @@
+"""The elements a tile scatters over its land covers (numpy only): trees, bushes, rocks,
+deadwood, grass tufts and reeds, and each clearing's park furniture.
+
+Each family draws from its own generator `stage_rng(seed, "endless.<family>.<i>.<j>")`:
+candidates uniform over the tile at the family's highest density, each kept with the
+probability its land cover's density gives (thinning a Poisson process), and where nothing
+keeps it out (water, a trail's tread, a clearing's lawn, a cave, a power-line pole).
+Densities are per 1000 m^2, the stages' own (stages/trees.py ... deadwood.py) by land cover.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ... import detmath as dm
+from ...rng import stage_rng
+from ..biomes import biome_of
+from . import anchors as A
+from . import fields as F
+from .tile import ground_under
+from .tiles import ROCK_DROP_LEVEL, SMALL_DROP_LEVEL, TILE_M
+
+# per 1000 m^2, by LAND_COVERS (forest, meadow, scrub, wetland, rock, trail, clearing); trees
+# as stages/trees.py's porous (closed-canopy forest ~500 stems/ha) and solid stands
+TREES_POROUS = (50.0, 0.8, 4.0, 1.0, 1.5, 0.0, 0.0)
+TREES_SOLID = (18.0, 0.8, 3.0, 1.0, 1.2, 0.0, 0.0)
+BUSHES = (6.0, 2.0, 25.0, 4.0, 4.0, 0.0, 0.0)
+ROCKS = (2.0, 0.5, 3.0, 1.0, 30.0, 0.0, 0.0)
+LOGS = (8.0, 0.3, 1.0, 1.0, 0.5, 0.0, 0.0)  # stages/deadwood.py (Forest Europe 2020)
+STUMPS = (6.0, 0.2, 1.0, 0.5, 0.0, 0.0, 0.0)
+LOW_TUFTS = (6.0, 25.0, 10.0, 5.0, 6.0, 0.0, 10.0)
+HIGH_TUFTS = (2.0, 6.0, 4.0, 0.0, 2.0, 0.0, 0.0)
+REEDS = (0.0, 0.0, 0.0, 30.0, 0.0, 0.0, 0.0)
+TREE_MIX = {  # kinds per land cover (stages/trees.py TREE_MIX's shares)
+    F.FOREST: (("conifer", 0.4), ("broadleaf", 0.35), ("birch", 0.25)),
+    None: (("broadleaf", 0.5), ("birch", 0.3), ("conifer", 0.2)),
+}
+SMALL_ROCK = 0.5  # m: a stone smaller than this is left out of coarse tiles
+
+
+def _candidates(land: F.Landscape, tile, family: str, densities):
+    """(rng, x, y, cover) of the family's kept candidates."""
+    rng = stage_rng(land.seed, f"endless.{family}.{tile.i}.{tile.j}")
+    top = max(densities)
+    if top <= 0:
+        return rng, np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.uint8)
+    count = int(rng.poisson(top * TILE_M * TILE_M / 1000.0))
+    x0, x1, y0, y1 = tile.rect
+    x, y, u = rng.uniform(x0, x1, count), rng.uniform(y0, y1, count), rng.random(count)
+    ground = tile.grid.height_at(x, y)
+    cover = land.land_cover(x, y, ground)
+    keep = u < np.asarray(densities)[cover] / top
+    keep &= ~_kept_out(land, x, y, ground, family)
+    return rng, x[keep], y[keep], cover[keep]
+
+
+def _kept_out(land: F.Landscape, x, y, ground, family: str) -> np.ndarray:
+    a = land.anchors
+    wet_ok = family in ("reeds",)
+    bad = a.under_water(x, y, ground + (0.0 if wet_ok else 0.15))
+    bad |= a.trail_distance(x, y) < a.trail_half_width(x, y) + (0.3 if family in ("low", "high") else 1.0)
+    if family not in ("low",):
+        bad |= a.in_clearing(x, y)
+    for c in a.cells_over(
+        float(np.min(x, initial=0)),
+        float(np.max(x, initial=0)),
+        float(np.min(y, initial=0)),
+        float(np.max(y, initial=0)),
+        0.5 * A.ANCHOR_M,
+    ):
+        if c.cave is not None:
+            p = c.cave.pit
+            u, v = p.local(x, y)
+            bad |= p.radius(x, y) < 1.4
+            bad |= (u > -p.a - 2.0) & (u < p.a + c.cave.ramp + 1.0) & (np.abs(v) < p.b + 2.0)
+    if family == "trees":
+        bad |= a.corridor(x, y)
+    for line in a.lines_over(float(np.min(y, initial=0)) - 2.0, float(np.max(y, initial=0)) + 2.0):
+        bad |= np.abs(y - line) < 1.5
+    return bad
+
+
+def _yaw(rng) -> float:
+    return rng.uniform(0, 2 * math.pi)
+
+
+def _place(tile, name: str, cls: str, proto: str, x, y, z, rng, scale, radius) -> None:
+    tile.add(
+        name, cls, proto, location=(float(x), float(y), float(z)), yaw=_yaw(rng), scale=scale, radius=radius
+    )
+
+
+def scatter_elements(tile, land: F.Landscape, lib, level: int, vegetation: str) -> None:
+    drop_small = level >= SMALL_DROP_LEVEL
+    names = F.LAND_COVERS
+    biome = biome_of(land.biome)
+    dead = biome.deadwood if biome.cover else 0.0
+    rng, xs, ys, covers = _candidates(
+        land, tile, "trees", TREES_POROUS if vegetation == "porous" else TREES_SOLID
+    )
+    picks = []
+    for cover in covers:
+        kinds, weights = zip(*TREE_MIX.get(int(cover), TREE_MIX[None]))
+        kind = kinds[rng.choice(len(kinds), p=np.array(weights) / sum(weights))]
+        key, trunk_r, crown_r = lib.trees[kind][int(rng.integers(len(lib.trees[kind])))]
+        picks.append((key, trunk_r, crown_r, rng.uniform(0.8, 1.2), _yaw(rng)))
+    reach = np.array([p[1] * p[3] for p in picks])
+    zs = ground_under(tile.grid, xs, ys, reach) if picks else []
+    for x, y, z, cover, (key, trunk_r, crown_r, s, yaw) in zip(xs, ys, zs, covers, picks):
+        placed = dict(location=(float(x), float(y), float(z)), yaw=yaw, scale=(s, s, s))
+        tile.add(names[cover], "trunk", f"{key}_trunk", radius=trunk_r * s, **placed)
+        tile.add(names[cover], "treetop", f"{key}_crown", radius=crown_r * s, **placed)
+    bushes = lib.family("bush")
+    rng, xs, ys, covers = _candidates(land, tile, "bushes", BUSHES)
+    for x, y, cover in zip(xs, ys, covers):
+        key = bushes[int(rng.integers(len(bushes)))]
+        s = rng.uniform(0.7, 1.4)
+        z = float(tile.grid.height_at(x, y)) - 0.05
+        _place(
+            tile,
+            names[cover],
+            "bush",
+            key,
+            x,
+            y,
+            z,
+            rng,
+            (s, s, s * rng.uniform(0.8, 1.1)),
+            lib.radius[key] * s,
+        )
+    rocks = lib.family("rock")
+    rng, xs, ys, covers = _candidates(land, tile, "rocks", ROCKS)
+    lo, hi = dm.log(0.25), dm.log(2.0)
+    picks = []
+    for _ in covers:
+        key = rocks[int(rng.integers(len(rocks)))]
+        size = dm.exp(rng.uniform(lo, hi))
+        sc = (size * rng.uniform(0.8, 1.2), size * rng.uniform(0.8, 1.2), size * rng.uniform(0.7, 1.1))
+        picks.append((key, size, sc, _yaw(rng)))
+    zs = ground_under(tile.grid, xs, ys, np.array([0.3 * p[1] for p in picks])) if picks else []
+    for x, y, z, cover, (key, size, sc, yaw) in zip(xs, ys, zs, covers, picks):
+        if level >= ROCK_DROP_LEVEL and size < SMALL_ROCK:
+            continue
+        tile.add(
+            names[cover],
+            "rock",
+            key,
+            location=(float(x), float(y), float(z)),
+            yaw=yaw,
+            scale=sc,
+            radius=lib.radius[key] * max(sc[:2]),
+        )
+    _deadwood(tile, land, lib, dead, drop_small)
+    if not drop_small:
+        _tufts(tile, land, lib)
+
+
+def _deadwood(tile, land: F.Landscape, lib, factor: float, drop_small: bool) -> None:
+    if factor <= 0:
+        return
+    names = F.LAND_COVERS
+    for family, densities, prefix in (("logs", LOGS, "log"), ("stumps", STUMPS, "stump")):
+        protos = lib.family(prefix)
+        rng, xs, ys, covers = _candidates(land, tile, family, tuple(factor * d for d in densities))
+        if drop_small and family == "stumps":
+            continue
+        picks = []
+        for _ in covers:
+            key = protos[int(rng.integers(len(protos)))]
+            s = rng.uniform(0.8, 1.2)
+            picks.append((key, s, lib.radius[key] * s, _yaw(rng)))
+        zs = ground_under(tile.grid, xs, ys, np.array([p[2] for p in picks])) - 0.02 if picks else []
+        for x, y, z, cover, (key, s, half, yaw) in zip(xs, ys, zs, covers, picks):
+            tile.add(
+                names[cover],
+                "log",
+                key,
+                location=(float(x), float(y), float(z)),
+                yaw=yaw,
+                scale=(s, s, s),
+                radius=half,
+            )
+
+
+def _tufts(tile, land: F.Landscape, lib) -> None:
+    names = F.LAND_COVERS
+    for family, densities, prefix, cls in (
+        ("low", LOW_TUFTS, "low_grass", "low grass"),
+        ("high", HIGH_TUFTS, "high_grass", "high grass"),
+        ("reeds", REEDS, "reed", "high grass"),
+    ):
+        protos = lib.family(prefix)
+        rng, xs, ys, covers = _candidates(land, tile, family, densities)
+        zs = tile.grid.height_at(xs, ys)
+        for x, y, z, cover in zip(xs, ys, zs, covers):
+            key = protos[int(rng.integers(len(protos)))]
+            s = rng.uniform(0.7, 1.4)
+            _place(tile, names[cover], cls, key, x, y, z, rng, (s, s, s), lib.radius[key] * s)
