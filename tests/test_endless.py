@@ -197,9 +197,9 @@ def test_features_come_from_their_anchor_cell_alone():
 
 
 def test_every_ground_material_is_mapped_in_every_scheme_and_has_a_reflectance():
-    from wildscan.core.intensity import MATERIALS
     from wildscan.core.io.las import ASPRS_CODES
     from wildscan.core.label_schemes import SCHEMES
+    from wildscan.core.realism.intensity import MATERIALS
 
     for gid in GROUND_IDS:
         for s in SCHEMES.values():

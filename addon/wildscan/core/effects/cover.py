@@ -21,7 +21,7 @@ interpolated terrain gives (core/effects/cover_cells.py: the cells along the ray
 
 Determinism: every uniform a ray draws is a hash of (the scan's noise seed, the ray's index in
 the scan, which of its two runs: from the sensor or to its hit, and the draw's number: 0 the
-first stop, 1..SETTLE its redraws) (intensity.hash_unit, splitmix64), not the next number of a
+first stop, 1..SETTLE its redraws) (rng.hash_unit, splitmix64), not the next number of a
 stream. So a ray's stops depend on that ray alone: another ray's hit changing (an element left
 out of a far tile, core/world/endless) moves no other ray's stop, and a scan's bytes do not
 depend on the threads or on the parts (PART rays) the rays are taken in. Each optical depth is
@@ -37,8 +37,8 @@ import numpy as np
 
 from .. import detmath as dm
 from ..hits import RayHits
-from ..intensity import hash_unit
-from ..threads import in_parts
+from ..rng import hash_unit
+from ..runtime.threads import in_parts
 from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid
 from ..world.cover_lookup import CoverLookup, cover_lookup
 from .base import Effect, Rays
