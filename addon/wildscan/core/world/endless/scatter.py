@@ -17,7 +17,6 @@ import numpy as np
 from ... import detmath as dm
 from ...rng import stage_rng
 from ..biomes import biome_of
-from . import anchors as A
 from . import fields as F
 from .tile import ground_under
 from .tiles import ROCK_DROP_LEVEL, SMALL_DROP_LEVEL, TILE_M
@@ -41,7 +40,7 @@ SMALL_ROCK = 0.5  # m: a stone smaller than this is left out of coarse tiles
 
 
 def _candidates(land: F.Landscape, tile, family: str, densities):
-    """(rng, x, y, cover) of the family's kept candidates."""
+    """(rng, x, y, cover) of the family's kept candidates (the tile's raster answers where)."""
     rng = stage_rng(land.seed, f"endless.{family}.{tile.i}.{tile.j}")
     top = max(densities)
     if top <= 0:
@@ -49,36 +48,25 @@ def _candidates(land: F.Landscape, tile, family: str, densities):
     count = int(rng.poisson(top * TILE_M * TILE_M / 1000.0))
     x0, x1, y0, y1 = tile.rect
     x, y, u = rng.uniform(x0, x1, count), rng.uniform(y0, y1, count), rng.random(count)
-    ground = tile.grid.height_at(x, y)
-    cover = land.land_cover(x, y, ground)
+    flat = tile.raster.cells(x, y)
+    cover = tile.raster.at("cover", flat)
     keep = u < np.asarray(densities)[cover] / top
-    keep &= ~_kept_out(land, x, y, ground, family)
+    keep &= ~_kept_out(tile.raster, flat, family)
     return rng, x[keep], y[keep], cover[keep]
 
 
-def _kept_out(land: F.Landscape, x, y, ground, family: str) -> np.ndarray:
-    a = land.anchors
-    wet_ok = family in ("reeds",)
-    bad = a.under_water(x, y, ground + (0.0 if wet_ok else 0.15))
-    bad |= a.trail_distance(x, y) < a.trail_half_width(x, y) + (0.3 if family in ("low", "high") else 1.0)
-    if family not in ("low",):
-        bad |= a.in_clearing(x, y)
-    for c in a.cells_over(
-        float(np.min(x, initial=0)),
-        float(np.max(x, initial=0)),
-        float(np.min(y, initial=0)),
-        float(np.max(y, initial=0)),
-        0.5 * A.ANCHOR_M,
-    ):
-        if c.cave is not None:
-            p = c.cave.pit
-            u, v = p.local(x, y)
-            bad |= p.radius(x, y) < 1.4
-            bad |= (u > -p.a - 2.0) & (u < p.a + c.cave.ramp + 1.0) & (np.abs(v) < p.b + 2.0)
+def _kept_out(r, flat, family: str) -> np.ndarray:
+    """Where the family may not stand: water (reeds: only under it), a trail's tread and
+    margin, a clearing's lawn (but for grass), a cave, a power line's poles (and, for trees,
+    its corridor)."""
+    bad = r.at("water" if family == "reeds" else "damp", flat)
+    margin = 0.3 if family in ("low", "high") else 1.0
+    bad |= r.at("trail", flat) < r.half_width.reshape(-1).take(flat) + margin
+    if family != "low":
+        bad |= r.at("clearing", flat)
+    bad |= r.at("cave_keep", flat) | r.at("line", flat)
     if family == "trees":
-        bad |= a.corridor(x, y)
-    for line in a.lines_over(float(np.min(y, initial=0)) - 2.0, float(np.max(y, initial=0)) + 2.0):
-        bad |= np.abs(y - line) < 1.5
+        bad |= r.at("corridor", flat)
     return bad
 
 
