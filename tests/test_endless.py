@@ -35,7 +35,7 @@ SEED = 1
 def _forget_everything():
     """Drop every per-process cache, as a fresh process would start."""
     F.landscape.cache_clear()
-    L.library.cache_clear()
+    L.forget_libraries()
     from wildscan.core.world.endless import clearing
 
     clearing.furniture.cache_clear()
@@ -253,3 +253,14 @@ def test_coarse_tiles_leave_small_elements_out():
 def test_a_tile_beyond_reach_is_refused():
     with pytest.raises(ValueError, match="beyond"):
         build_tile(SEED, "mixed", "default", "porous", 500, 0)
+
+
+def test_a_library_from_a_cache_builds_the_same_tile(tmp_path):
+    """A front stores the shared meshes once (np.savez) and a later process builds with them."""
+    path = tmp_path / "library.npz"
+    np.savez(path, **L.library_arrays(L.library(SEED, "default", "porous")))
+    want = tile_digest(build_tile(SEED, "mixed", "default", "porous", -1, 2))
+    L.forget_libraries()
+    with np.load(path) as arrays:
+        L.provide_library(SEED, "default", "porous", arrays)
+    assert tile_digest(build_tile(SEED, "mixed", "default", "porous", -1, 2)) == want
