@@ -74,81 +74,63 @@ def _yaw(rng) -> float:
     return rng.uniform(0, 2 * math.pi)
 
 
-def _place(tile, name: str, cls: str, proto: str, x, y, z, rng, scale, radius) -> None:
-    tile.add(
-        name, cls, proto, location=(float(x), float(y), float(z)), yaw=_yaw(rng), scale=scale, radius=radius
-    )
+def _add_all(tile, cls: str, xs, ys, zs, covers, picks) -> None:
+    """One element of class `cls` a candidate: picks[k] = (prototype, scale, radius, yaw)."""
+    for x, y, z, cover, (key, scale, radius, yaw) in zip(xs, ys, zs, covers, picks):
+        location = (float(x), float(y), float(z))
+        tile.add(F.LAND_COVERS[cover], cls, key, location=location, yaw=yaw, scale=scale, radius=radius)
 
 
 def scatter_elements(tile, land: F.Landscape, lib, level: int, vegetation: str) -> None:
-    drop_small = level >= SMALL_DROP_LEVEL
-    names = F.LAND_COVERS
     biome = biome_of(land.biome)
-    dead = biome.deadwood if biome.cover else 0.0
-    rng, xs, ys, covers = _candidates(
-        land, tile, "trees", TREES_POROUS if vegetation == "porous" else TREES_SOLID
-    )
-    picks = []
-    for cover in covers:
-        kinds, weights = zip(*TREE_MIX.get(int(cover), TREE_MIX[None]))
-        kind = kinds[rng.choice(len(kinds), p=np.array(weights) / sum(weights))]
-        key, trunk_r, crown_r = lib.trees[kind][int(rng.integers(len(lib.trees[kind])))]
-        picks.append((key, trunk_r, crown_r, rng.uniform(0.8, 1.2), _yaw(rng)))
-    reach = np.array([p[1] * p[3] for p in picks])
-    zs = ground_under(tile.grid, xs, ys, reach) if picks else []
-    for x, y, z, cover, (key, trunk_r, crown_r, s, yaw) in zip(xs, ys, zs, covers, picks):
-        placed = dict(location=(float(x), float(y), float(z)), yaw=yaw, scale=(s, s, s))
-        tile.add(names[cover], "trunk", f"{key}_trunk", radius=trunk_r * s, **placed)
-        tile.add(names[cover], "treetop", f"{key}_crown", radius=crown_r * s, **placed)
+    _trees(tile, land, lib, TREES_POROUS if vegetation == "porous" else TREES_SOLID)
     bushes = lib.family("bush")
     rng, xs, ys, covers = _candidates(land, tile, "bushes", BUSHES)
-    for x, y, cover in zip(xs, ys, covers):
+    picks = []
+    for _ in covers:
         key = bushes[int(rng.integers(len(bushes)))]
         s = rng.uniform(0.7, 1.4)
-        z = float(tile.grid.height_at(x, y)) - 0.05
-        _place(
-            tile,
-            names[cover],
-            "bush",
-            key,
-            x,
-            y,
-            z,
-            rng,
-            (s, s, s * rng.uniform(0.8, 1.1)),
-            lib.radius[key] * s,
-        )
+        picks.append((key, (s, s, s * rng.uniform(0.8, 1.1)), lib.radius[key] * s, _yaw(rng)))
+    _add_all(tile, "bush", xs, ys, tile.grid.height_at(xs, ys) - 0.05, covers, picks)
     rocks = lib.family("rock")
     rng, xs, ys, covers = _candidates(land, tile, "rocks", ROCKS)
     lo, hi = dm.log(0.25), dm.log(2.0)
-    picks = []
+    picks, sizes = [], []
     for _ in covers:
         key = rocks[int(rng.integers(len(rocks)))]
         size = dm.exp(rng.uniform(lo, hi))
         sc = (size * rng.uniform(0.8, 1.2), size * rng.uniform(0.8, 1.2), size * rng.uniform(0.7, 1.1))
-        picks.append((key, size, sc, _yaw(rng)))
-    zs = ground_under(tile.grid, xs, ys, np.array([0.3 * p[1] for p in picks])) if picks else []
-    for x, y, z, cover, (key, size, sc, yaw) in zip(xs, ys, zs, covers, picks):
-        if level >= ROCK_DROP_LEVEL and size < SMALL_ROCK:
-            continue
-        tile.add(
-            names[cover],
-            "rock",
-            key,
-            location=(float(x), float(y), float(z)),
-            yaw=yaw,
-            scale=sc,
-            radius=lib.radius[key] * max(sc[:2]),
-        )
-    _deadwood(tile, land, lib, dead, drop_small)
-    if not drop_small:
+        picks.append((key, sc, lib.radius[key] * max(sc[:2]), _yaw(rng)))
+        sizes.append(size)
+    sizes = np.array(sizes)
+    keep = sizes >= (SMALL_ROCK if level >= ROCK_DROP_LEVEL else 0.0)  # coarse tiles: no small stones
+    zs = ground_under(tile.grid, xs, ys, 0.3 * sizes)
+    _add_all(tile, "rock", xs[keep], ys[keep], zs[keep], covers[keep], [p for p, k in zip(picks, keep) if k])
+    if biome.cover:
+        _deadwood(tile, land, lib, biome.deadwood, level >= SMALL_DROP_LEVEL)
+    if level < SMALL_DROP_LEVEL:
         _tufts(tile, land, lib)
 
 
+def _trees(tile, land: F.Landscape, lib, densities) -> None:
+    """A trunk and a crown a tree, of the kinds its land cover grows."""
+    rng, xs, ys, covers = _candidates(land, tile, "trees", densities)
+    picks = []
+    for cover in covers:
+        kinds, weights = zip(*TREE_MIX.get(int(cover), TREE_MIX[None]))
+        kind = kinds[rng.choice(len(kinds), p=np.array(weights) / sum(weights))]
+        picks.append(
+            (*lib.trees[kind][int(rng.integers(len(lib.trees[kind])))], rng.uniform(0.8, 1.2), _yaw(rng))
+        )
+    zs = ground_under(tile.grid, xs, ys, np.array([p[1] * p[3] for p in picks]))
+    for part, k in (("trunk", 1), ("crown", 2)):
+        parts = [
+            (f"{key}_{part}", (s, s, s), p[k] * s, yaw) for p in picks for key, s, yaw in [(p[0], p[3], p[4])]
+        ]
+        _add_all(tile, "trunk" if part == "trunk" else "treetop", xs, ys, zs, covers, parts)
+
+
 def _deadwood(tile, land: F.Landscape, lib, factor: float, drop_small: bool) -> None:
-    if factor <= 0:
-        return
-    names = F.LAND_COVERS
     for family, densities, prefix in (("logs", LOGS, "log"), ("stumps", STUMPS, "stump")):
         protos = lib.family(prefix)
         rng, xs, ys, covers = _candidates(land, tile, family, tuple(factor * d for d in densities))
@@ -158,22 +140,12 @@ def _deadwood(tile, land: F.Landscape, lib, factor: float, drop_small: bool) -> 
         for _ in covers:
             key = protos[int(rng.integers(len(protos)))]
             s = rng.uniform(0.8, 1.2)
-            picks.append((key, s, lib.radius[key] * s, _yaw(rng)))
-        zs = ground_under(tile.grid, xs, ys, np.array([p[2] for p in picks])) - 0.02 if picks else []
-        for x, y, z, cover, (key, s, half, yaw) in zip(xs, ys, zs, covers, picks):
-            tile.add(
-                names[cover],
-                "log",
-                key,
-                location=(float(x), float(y), float(z)),
-                yaw=yaw,
-                scale=(s, s, s),
-                radius=half,
-            )
+            picks.append((key, (s, s, s), lib.radius[key] * s, _yaw(rng)))
+        zs = ground_under(tile.grid, xs, ys, np.array([p[2] for p in picks])) - 0.02
+        _add_all(tile, "log", xs, ys, zs, covers, picks)
 
 
 def _tufts(tile, land: F.Landscape, lib) -> None:
-    names = F.LAND_COVERS
     for family, densities, prefix, cls in (
         ("low", LOW_TUFTS, "low_grass", "low grass"),
         ("high", HIGH_TUFTS, "high_grass", "high grass"),
@@ -181,8 +153,9 @@ def _tufts(tile, land: F.Landscape, lib) -> None:
     ):
         protos = lib.family(prefix)
         rng, xs, ys, covers = _candidates(land, tile, family, densities)
-        zs = tile.grid.height_at(xs, ys)
-        for x, y, z, cover in zip(xs, ys, zs, covers):
+        picks = []
+        for _ in covers:
             key = protos[int(rng.integers(len(protos)))]
             s = rng.uniform(0.7, 1.4)
-            _place(tile, names[cover], cls, key, x, y, z, rng, (s, s, s), lib.radius[key] * s)
+            picks.append((key, (s, s, s), lib.radius[key] * s, _yaw(rng)))
+        _add_all(tile, cls, xs, ys, tile.grid.height_at(xs, ys), covers, picks)
