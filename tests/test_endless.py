@@ -264,3 +264,15 @@ def test_a_library_from_a_cache_builds_the_same_tile(tmp_path):
     with np.load(path) as arrays:
         L.provide_library(SEED, "default", "porous", arrays)
     assert tile_digest(build_tile(SEED, "mixed", "default", "porous", -1, 2)) == want
+
+
+def test_trails_form_a_network_of_nodes():
+    """Trails run node to node: every trail's ends are anchor nodes, and most nodes join two
+    trails or more (a network a drive can follow)."""
+    from wildscan.core.world.endless import trail_network
+
+    trails = trail_network(SEED, "mixed", -1000.0, -1000.0, 1000.0, 1000.0)
+    assert len(trails) > 20 and {kind for _, kind in trails} == {k[0] for k in A.TRAIL_KINDS}
+    ends = [tuple(np.round(p[k], 6)) for p, _ in trails for k in (0, -1)]
+    degree = {e: ends.count(e) for e in ends}
+    assert sum(d >= 2 for d in degree.values()) > len(degree) / 2
