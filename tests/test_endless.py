@@ -173,8 +173,11 @@ def test_land_cover_shares_follow_the_biome():
     assert want.wetland - 0.02 < share["wetland"] < want.wetland + 0.05
     assert 0.0 < share["trail"] < 0.05 and 0.0 < share["clearing"] < 0.03
     assert share["meadow"] > 0.15
-    forest = land_cover_at(SEED, "forest", x, y)
-    assert float((forest == F.FOREST).mean()) > share["forest"] + 0.1
+    for biome in ("meadow", "forest", "scrub"):
+        cover = land_cover_at(SEED, biome, x, y)
+        want = F.BIOME_SHARES[biome]
+        for code, target in ((F.FOREST, want.forest), (F.SCRUB, want.scrub), (F.ROCK, want.rock)):
+            assert abs(float((cover == code).mean()) - target) < 0.06, (biome, LAND_COVERS[code])
 
 
 def test_land_cover_is_a_pure_function_of_position():
