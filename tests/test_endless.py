@@ -254,7 +254,9 @@ def test_coarse_tiles_leave_small_elements_out():
 
 
 def test_a_tile_beyond_reach_is_refused():
-    with pytest.raises(ValueError, match="beyond"):
+    from wildscan.core.errors import UserError
+
+    with pytest.raises(UserError, match="beyond"):
         build_tile(SEED, "mixed", "default", "porous", 500, 0)
 
 
