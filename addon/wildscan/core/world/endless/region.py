@@ -113,6 +113,29 @@ class _Caves(ZoneShape):
         return {}
 
 
+# The tallest sward a pose may stand in (m): well below the optical centre (placement.py
+# COLUMN_HEIGHT, 0.723 m), so the beams leave the layer near the robot. A robot does not drive
+# into a reed bed, a thicket or undergrowth; standing in one, its beams would stop within a
+# spinning lidar's minimum range (0.8 m for the OS1-64) and return nothing.
+STAND_COVER_MAX = 0.5
+
+
+class _Thickets(ZoneShape):
+    """Where the sward is too tall to stand in (STAND_COVER_MAX): no pose there."""
+
+    def keep_out(self, plan, x, y, need: Clearance) -> np.ndarray:
+        return np.zeros(np.broadcast(x, y).shape, dtype=bool)
+
+    def pose_keep_out(self, plan, x, y, allow_pit: bool) -> np.ndarray:
+        if plan.cover is None:
+            return np.zeros(np.broadcast(x, y).shape, dtype=bool)
+        _, height = plan.cover.at(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+        return height > STAND_COVER_MAX
+
+    def features(self, plan) -> dict:
+        return {}
+
+
 class EndlessLayout:
     """The layout of a region of the endless landscape: the fields and anchors, answering what
     stages/layout.py's Layout answers for the paper's island."""
@@ -125,9 +148,10 @@ class EndlessLayout:
         self.lake = _Water(land)
         self.trail = _Trails(land, self.extent)
         self.cave = _Caves(land)
+        self.thickets = _Thickets()
 
     def zone_shapes(self) -> dict[str, ZoneShape]:
-        return {"lake": self.lake, "trail": self.trail, "cave": self.cave}
+        return {"lake": self.lake, "trail": self.trail, "cave": self.cave, "thickets": self.thickets}
 
     def land_cover(self, x, y) -> np.ndarray:
         return self.land.land_cover(x, y)
