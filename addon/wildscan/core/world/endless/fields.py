@@ -28,7 +28,6 @@ from . import anchors as A
 
 LAND_COVERS = ("forest", "meadow", "scrub", "wetland", "rock", "trail", "clearing")  # add, never rename
 FOREST, MEADOW, SCRUB, WETLAND, ROCK, TRAIL, CLEARING = range(len(LAND_COVERS))
-WATER_DEPTH_MIN = 0.0  # m: a point whose ground lies below its lake's level is under water
 
 
 @dataclass(frozen=True)

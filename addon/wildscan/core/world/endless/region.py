@@ -21,7 +21,7 @@ from ..biomes import biome_of
 from ..cover import CELL, CoverGrid
 from ..detail import detail_level
 from ..heightfield import GridError, GridFit, TerrainGrid
-from ..plan import Clearance, WorldPlan, ZoneShape, check_seed, check_vegetation, rounded
+from ..plan import Clearance, WorldPlan, ZoneShape, check_seed, check_vegetation, plan_hash
 from . import anchors as A
 from . import fields as F
 from .build import build_tile
@@ -157,8 +157,6 @@ class EndlessLayout:
         return self.land.land_cover(x, y)
 
     def describe(self, plan: WorldPlan, poses=None) -> dict:
-        from ..plan import plan_hash
-
         x0, x1, y0, y1 = self.extent
         t = (np.arange(int((x1 - x0) / 10)) + 0.5) * 10 + x0, (np.arange(int((y1 - y0) / 10)) + 0.5) * 10 + y0
         cover = self.land.land_cover(*np.meshgrid(*t))
@@ -288,7 +286,3 @@ def tile_cover(tile: Tile, fine: TerrainGrid) -> CoverGrid:
     """A tile's own cover grid, over its full-detail terrain."""
     x0, _, y0, _ = tile.rect
     return CoverGrid(x0, y0, CELL, tile.cover_class, tile.cover_height, fine.xs, fine.ys, fine.z)
-
-
-def rounded_extent(extent) -> list[float]:
-    return [rounded(v) for v in extent]
