@@ -17,6 +17,7 @@ from typing import Callable
 
 import numpy as np
 
+from ... import detmath as dm
 from ..biomes import biome_of
 from ..cover import CELL, CoverGrid
 from ..detail import detail_level
@@ -118,10 +119,16 @@ class _Caves(ZoneShape):
 # into a reed bed, a thicket or undergrowth; standing in one, its beams would stop within a
 # spinning lidar's minimum range (0.8 m for the OS1-64) and return nothing.
 STAND_COVER_MAX = 0.5
+# ... nor any within this reach (m) of a laser tip: a beam stopped that near the sensor falls
+# inside the minimum range too (the robot itself flattens only cover_cells.TRAMPLED, 0.45 m)
+STAND_COVER_REACH = 1.0
+# eight directions at half and at the whole reach
+_AROUND = [(f * c, f * s) for f in (0.5, 1.0) for s, c in zip(*dm.sincos(np.arange(8) * np.pi / 4))]
 
 
 class _Thickets(ZoneShape):
-    """Where the sward is too tall to stand in (STAND_COVER_MAX): no pose there."""
+    """Where the sward is too tall to stand in (STAND_COVER_MAX, within STAND_COVER_REACH):
+    no pose there."""
 
     def keep_out(self, plan, x, y, need: Clearance) -> np.ndarray:
         return np.zeros(np.broadcast(x, y).shape, dtype=bool)
@@ -129,8 +136,11 @@ class _Thickets(ZoneShape):
     def pose_keep_out(self, plan, x, y, allow_pit: bool) -> np.ndarray:
         if plan.cover is None:
             return np.zeros(np.broadcast(x, y).shape, dtype=bool)
-        _, height = plan.cover.at(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
-        return height > STAND_COVER_MAX
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+        tall = plan.cover.at(x, y)[1] > STAND_COVER_MAX
+        for dx, dy in _AROUND:
+            tall |= plan.cover.at(x + STAND_COVER_REACH * dx, y + STAND_COVER_REACH * dy)[1] > STAND_COVER_MAX
+        return tall
 
     def features(self, plan) -> dict:
         return {}
