@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 
 from ..core import sensor as S
 from ..core.errors import UserError
+from ..core.sensors.returns import RETURN_MODES
 
 
 class Limits(NamedTuple):
@@ -160,7 +161,7 @@ SETTINGS: dict[str, Setting] = {
         "--returns",
         "Returns",  # the panel scans in the device's default mode
         str,
-        choices=S.RETURN_MODES,
+        choices=RETURN_MODES,
         default=None,
         help="realistic model: which returns a beam reports, as the device's manual defines them: "
         "strongest, last, dual (both, each point's return_type says which; Velodyne: the strongest and "
