@@ -19,7 +19,7 @@ SENSOR_HELP = (
     "default to the device's own"
 )
 # settings whose default is the device's own (SensorConfig.for_device)
-DEVICE_DEFAULTS = ("rh", "min_range", "max_range")
+DEVICE_DEFAULTS = ("rh", "min_range", "max_range", "mount_height")
 
 
 def _device(text: str):

@@ -46,6 +46,7 @@ from ...core.open_ground import OpenGround
 from ...core.open_sky import open_sky
 from ...core.posesampler import NoPose
 from ...core.scan import run_scan
+from ...core.sensor import DEFAULT_MOUNT_HEIGHT
 from ...core.traversability import (
     ROBOT_HEIGHT,
     class_height_histogram,
@@ -357,6 +358,8 @@ def sensor_row(sensor, frame: str) -> dict:
         "noise_seed": sensor.noise_seed,
         "frame": frame,
     }
+    if sensor.mount_height != DEFAULT_MOUNT_HEIGHT:  # a row at the paper's column says what it said
+        row["mount_height"] = sensor.mount_height
     if sensor.realistic:
         row.update(
             model=sensor.model,

@@ -15,7 +15,6 @@ from ...core.leveling import rot_z
 from ...core.motion.placements import Motion
 from ...core.motion.rotations import quaternions
 from ...core.motion.sweep import Sweep
-from ...core.placement import COLUMN_HEIGHT
 from ...core.sensors import SensorConfig
 from ...core.sensors.device import Device
 
@@ -87,7 +86,7 @@ class BagFeed:
 
     def static(self) -> None:
         for bag in self.bags:
-            bag.tf(0, [(BASE_LINK, SENSOR, (0.0, 0.0, COLUMN_HEIGHT), IDENTITY_Q)], static=True)
+            bag.tf(0, [(BASE_LINK, SENSOR, (0.0, 0.0, self.sensor.mount_height), IDENTITY_Q)], static=True)
 
     def scans(self, result: Sweep) -> None:
         """tf, odometry and LaserScan of each 2D scan of a sweep, in time order."""
@@ -100,7 +99,7 @@ class BagFeed:
         translations, rotations = [self.motion.ground[ks]], [self.q_base[ks]]
         if self.geometry is not None:
             frames.append((BASE_LINK, LASER))
-            translations.append(np.broadcast_to((0.0, 0.0, COLUMN_HEIGHT), (len(ks), 3)))
+            translations.append(np.broadcast_to((0.0, 0.0, self.sensor.mount_height), (len(ks), 3)))
             rotations.append(self.q_laser[ks])
         poses = (np.stack(translations, axis=1), np.stack(rotations, axis=1))
         odometry = (self.motion.ground[ks], self.q_base[ks], self.linear[ks], self.angular[ks])

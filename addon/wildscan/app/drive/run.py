@@ -88,7 +88,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
         effects = Effects(effects.items + scan_effects(request.weather, sensor, world.cover).items)
     backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
     clock.lap("crop")
-    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
+    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start, sensor.mount_height)
     check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
     clock.lap("placement")
 

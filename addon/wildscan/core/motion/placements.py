@@ -64,32 +64,34 @@ def place_all(
     yaw_deg: np.ndarray,
     distance: np.ndarray,
     z_start: float | None = None,
+    height: float = COLUMN_HEIGHT,
 ) -> Motion:
-    """Stand the robot at every instant; PoseRejected naming where and when it cannot.
-    `z_start`: the lasers start at this height at every instant, as `place` does for one
-    pose (a drive under a roof: the probe from above would stand it on the roof)."""
+    """Stand the robot at every instant, its optical centre `height` up the column;
+    PoseRejected naming where and when it cannot. `z_start`: the lasers start at this height
+    at every instant, as `place` does for one pose (a drive under a roof: the probe from above
+    would stand it on the roof)."""
     poses = [Pose(float(x), float(y), float(yaw)).validate() for (x, y), yaw in zip(xy, yaw_deg)]
     if z_start is not None:
-        return _place_from(backend, poses, np.full(len(poses), float(z_start)), times, distance)
+        return _place_from(backend, poses, np.full(len(poses), float(z_start)), times, distance, height)
     ground = probe_ground_z_many(backend, xy)
     off = np.flatnonzero(~np.isfinite(ground))
     if len(off):
         i = int(off[0])
         _reject(i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
-    return _place_from(backend, poses, ground + LASER_CLEARANCE, times, distance)
+    return _place_from(backend, poses, ground + LASER_CLEARANCE, times, distance, height)
 
 
-def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance) -> Motion:
+def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance, height: float) -> Motion:
     """The placements with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
-    stood = stand_all(poses, rows)
+    stood = stand_all(poses, rows, height)
     placements = []
     for i, (pose, row) in enumerate(zip(poses, rows)):
         if stood.fits[i]:
             placements.append(stood.placement(i, pose, lasers_of(pose, row)))
             continue
         try:  # `stand` says why, in the words a static scan's placement uses
-            placements.append(stand(pose, float(z_start[i]), lasers_of(pose, row)))
+            placements.append(stand(pose, float(z_start[i]), lasers_of(pose, row), height))
         except PoseRejected as e:
             _reject(i, times, distance, e.message)
     return motion_of(placements, times, distance, np.where(stood.fits[:, None, None], stood.rotation, np.nan))
@@ -106,6 +108,7 @@ class Stood:
     ground: np.ndarray  # (K, 3) where the column meets the ground
     optical: np.ndarray  # (K, 3) the optical centre
     rotation: np.ndarray  # (K, 3, 3) sensor -> world
+    height: float = COLUMN_HEIGHT  # m, the optical centre up the column
 
     def placement(self, i: int, pose: Pose, lasers) -> Placement:
         return Placement(
@@ -115,10 +118,11 @@ class Stood:
             roll_rad=float(self.roll[i]),
             pitch_rad=float(self.pitch[i]),
             lasers=lasers,
+            column_height=self.height,
         )
 
 
-def stand_all(poses: list[Pose], rows) -> Stood:
+def stand_all(poses: list[Pose], rows, height: float = COLUMN_HEIGHT) -> Stood:
     """`stand` for every pose (rows of `cast_lasers_many`), as arrays; a pose that does not
     fit is left to `stand` to reject."""
     origins = np.stack([row[0] for row in rows]) if rows else np.zeros((0, len(LASERS), 3))
@@ -139,8 +143,8 @@ def stand_all(poses: list[Pose], rows) -> Stood:
     yaw = dm.radians(np.array([pose.yaw_deg for pose in poses], dtype=np.float64))
     rotation = sensor_to_world_matrices(roll, pitch, yaw)
     ground = np.column_stack([xy, (z_front + z_rear + z_left + z_right) / 4])
-    optical = ground + dm.apply(rotation, [0.0, 0.0, COLUMN_HEIGHT])
-    return Stood(fits, roll, pitch, ground, optical, rotation)
+    optical = ground + dm.apply(rotation, [0.0, 0.0, height])
+    return Stood(fits, roll, pitch, ground, optical, rotation, height)
 
 
 def sensor_to_world_matrices(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
