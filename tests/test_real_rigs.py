@@ -1,5 +1,6 @@
 """The real datasets' rigs and label sets (issue 35): a dataset written in WildScenes' label
-ids with the WildScenes rig, read back as WildScenes' own tools read label files."""
+ids with the WildScenes rig, read back as WildScenes' own tools read label files, in
+SemanticKITTI's layout and in WildScenes' own (Clouds/ + Labels/)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from tests.helpers.dataset_helpers import written_dataset
 WILDSCENES_SPEC = """\
 seeds = [1]
 scans_per_world = 2
-formats = ["semantickitti"]
+formats = ["semantickitti", "wildscenes"]
 label_scheme = "wildscenes"
 detail = "low"
 split = { train = 1.0 }
@@ -54,3 +55,26 @@ def test_a_wildscenes_dataset_writes_wildscenes_ids_and_a_config_mapping_every_c
         xyz = np.fromfile(path, dtype="<f4").reshape(-1, 4)[:, :3]
         elevation = np.degrees(np.arctan2(xyz[:, 2], np.hypot(xyz[:, 0], xyz[:, 1])))
         assert elevation.max() - elevation.min() >= 110.0
+
+
+@pytest.mark.slow
+def test_the_wildscenes_layout_is_read_as_wildscenes_view_cloud_reads_it(wildscenes_dataset):
+    """scripts/visualisation/view_cloud.py: np.fromfile(cloud, float32).reshape(-1, 3) and
+    np.fromfile(labels, int32), the same points as the SemanticKITTI files in the same order."""
+    from wildscan.bench.learn_real import find_real_scans
+
+    seq = wildscenes_dataset / "sequences" / "00"
+    for cloud in sorted((seq / "Clouds").glob("*.bin")):
+        points = np.fromfile(cloud, dtype=np.float32).reshape(-1, 3)
+        labels = np.fromfile(seq / "Labels" / f"{cloud.stem}.label", dtype=np.int32)
+        kitti = np.fromfile(seq / "velodyne" / cloud.name, dtype="<f4").reshape(-1, 4)
+        kitti_labels = np.fromfile(seq / "labels" / f"{cloud.stem}.label", dtype="<u4") & 0xFFFF
+        assert np.array_equal(points, kitti[:, :3]) and np.array_equal(labels, kitti_labels.astype(np.int32))
+    layout, pairs = find_real_scans(wildscenes_dataset)
+    assert layout.name == "semantickitti" and len(pairs) == 2  # the SemanticKITTI layout is looked for first
+
+
+def test_like_wildscenes_writes_wildscenes_files():
+    from wildscan.app.dataset import spec_from_dict
+
+    assert spec_from_dict({"like": "wildscenes"}).formats == ("wildscenes",)

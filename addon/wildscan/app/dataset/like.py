@@ -19,9 +19,9 @@ Each dataset's primary lidar is the one its point labels are on:
   Dataset", IJRR 2013, Fig. 3: the laser scanner 1.73 m above the ground). The `hdl64e` preset is
   the S3 (KITTI's is its S2 sibling).
 
-Files: SemanticKITTI's .bin + .label for all four (the layout RELLIS-3D and GOOSE ship their
-SemanticKITTI-format scans in; WildScenes' Clouds/ and Labels/ are read by
-`wildscan bench --suite learn --test`).
+Files: SemanticKITTI's .bin + .label for rellis3d, goose and semantickitti (RELLIS-3D and GOOSE
+ship their scans in that format), WildScenes' own Clouds/ + Labels/ for wildscenes
+(core/io/wildscenes.py).
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ class Like:
 LIKES: dict[str, Like] = {
     "rellis3d": Like("os1-64", 1.14, "rellis3d", ("semantickitti",)),
     "goose": Like("vls128", 2.0, "goose", ("semantickitti",)),
-    "wildscenes": Like("wildscenes", 1.2, "wildscenes", ("semantickitti",)),
+    "wildscenes": Like("wildscenes", 1.2, "wildscenes", ("wildscenes",)),
     "semantickitti": Like("hdl64e", 1.73, "semantickitti", ("semantickitti",)),
 }
 
