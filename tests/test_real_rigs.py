@@ -4,6 +4,8 @@ SemanticKITTI's layout and in WildScenes' own (Clouds/ + Labels/)."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import yaml
@@ -23,6 +25,7 @@ split = { train = 1.0 }
 
 [sensor]
 device = "wildscenes"
+mount_height = 1.2
 """
 
 
@@ -49,6 +52,10 @@ def test_a_wildscenes_dataset_writes_wildscenes_ids_and_a_config_mapping_every_c
     assert {s.from_wildscan[c.id] for c in ALL_ELEMENTS} <= set(config["labels"])
     assert config["learning_map"][10] == config["learning_map"][14] == 255
     assert config["learning_ignore"][255] is True
+    # at its mount height: the card says it, every manifest row and placement has it
+    assert "device wildscenes at 1.2 m" in (wildscenes_dataset / "CARD.md").read_text()
+    rows = [json.loads(x) for x in (wildscenes_dataset / "manifest.jsonl").read_text().splitlines()]
+    assert all(r["sensor"]["mount_height"] == 1.2 for r in rows if r["status"] == "ok")
     # the tilted VLP-16 on its turning mount: more than 110 deg of elevation in the scans
     bins = sorted((wildscenes_dataset / "sequences" / "00" / "velodyne").glob("*.bin"))
     for path in bins:
