@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from wildscan.core.errors import UserError
-from wildscan.core.frames import FRAMES
 from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
 from wildscan.core.sensors import DEFAULT_DEVICE, SensorConfig, device_named, load_device, preset_names
 from wildscan.core.sensors.load import PRESETS_DIR, device_from_text
+from wildscan.core.spatial.frames import FRAMES
 
 from tests.helpers.analytic import AnalyticBackend, Patch
 from tests.helpers.scene_helpers import WILDSCAN, user_error_line

@@ -2,7 +2,7 @@
 bpy wheel and in a real Blender, ends with exit 130 / 143, one true line saying what it
 completed, and no temporary or partial file.
 
-The moments are hit exactly with the test hook of core/pause.py (WILDSCAN_TEST_PAUSE_AT):
+The moments are hit exactly with the test hook of core/runtime/pause.py (WILDSCAN_TEST_PAUSE_AT):
 the process prints a marker and waits there, and the signal is sent when the marker is read.
 """
 

@@ -20,8 +20,8 @@ from ..app.settings import SETTINGS, command_line_help, flag
 from ..core import sensor as S
 from ..core.checks import whole_number
 from ..core.errors import UserError
-from ..core.frames import FRAMES
 from ..core.io.files import check_input_file, check_output_path
+from ..core.spatial.frames import FRAMES
 from ..core.world import (
     BIOMES,
     DEFAULT_BIOME,

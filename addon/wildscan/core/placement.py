@@ -40,9 +40,9 @@ from . import detmath as dm
 from .backend import RayBackend
 from .classes import BY_ID, WATER_ID
 from .errors import PoseRejected, UserError
-from .leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
+from .sensors.load import COLUMN_HEIGHT  # m, the optical centre above the ground (paper section II)
+from .spatial.leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
 
-COLUMN_HEIGHT = 0.723  # m, optical centre above the ground (paper section II)
 ARM_X = 0.335  # m, half-length of the X arm (half of Andabata's ~0.67 m length)
 ARM_Y = 0.27  # m, half-length of the Y arm (half of Andabata's ~0.54 m width)
 MAX_TILT_DEG = 25.0  # steeper than this, a skid-steer robot like Andabata slips or tips over

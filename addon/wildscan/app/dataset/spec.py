@@ -18,13 +18,13 @@ from ... import __version__
 from ...core import sensor as S
 from ...core.classes import TAG_NAMES
 from ...core.errors import UserError
-from ...core.frames import FRAMES
-from ...core.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
+from ...core.realism.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.rng import stage_seed
+from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ..settings import SETTINGS
 from .like import with_like

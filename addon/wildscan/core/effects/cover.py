@@ -39,7 +39,7 @@ import numpy as np
 from .. import detmath as dm
 from ..hits import RayHits
 from ..rng import stage_rng
-from ..threads import in_parts
+from ..runtime.threads import in_parts
 from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid
 from ..world.cover_lookup import CoverLookup, cover_lookup
 from .base import Effect, Rays

@@ -24,9 +24,8 @@ from dataclasses import dataclass
 
 from ..checks import one_of
 from ..errors import UserError
-from ..placement import COLUMN_HEIGHT
 from .device import Device, Mount
-from .load import DEFAULT_DEVICE, MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
+from .load import COLUMN_HEIGHT, DEFAULT_DEVICE, MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
 
 MODELS = ("paper", "realistic")
 DEFAULT_MODEL = "paper"

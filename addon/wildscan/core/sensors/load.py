@@ -49,6 +49,7 @@ MAX_HEAD_STEPS = 3600  # device sweeps a 3D scan on a head (0.05 deg steps over 
 # mast (the paper robot's column is 0.723 m, a car roof about 1.7 m)
 MIN_MOUNT_HEIGHT = 0.1
 MAX_MOUNT_HEIGHT = 10.0
+COLUMN_HEIGHT = 0.723  # m, the paper robot's optical centre above the ground (paper section II)
 
 
 def preset_names() -> tuple[str, ...]:

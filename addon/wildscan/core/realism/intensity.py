@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .classes import NUM_IDS, REFLECTIVITY_BY_ID, WATER_ID, class_by_name, counts_by_class
-from .world.cover import COVER_INSTANCE_BASE
+from ..classes import NUM_IDS, REFLECTIVITY_BY_ID, WATER_ID, class_by_name, counts_by_class
+from ..world.cover import COVER_INSTANCE_BASE
 
 INTENSITY_MODES = ("physical", "class")
 DEFAULT_DATASET_INTENSITY = "physical"
