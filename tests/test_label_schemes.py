@@ -178,3 +178,15 @@ def test_wildscenes_has_its_15_ids_and_its_benchmark_ignores_sky_water_and_unlab
     # every WildScan class lands within WildScenes' ids, none of them sky
     assert set(s.from_wildscan.values()) <= set(s.labels) - {10}
     assert s.from_wildscan[0] == 255  # an untagged mesh: unlabelled
+
+
+def test_wildscenes_is_ready_for_the_ground_materials():
+    """The endless landscape's ground classes (issue 33) map to WildScenes' own terrain ids as
+    soon as core/classes.py has them; the ids named here are utils3d.py's."""
+    from wildscan.core.label_schemes import _WS_GROUNDS
+
+    names = scheme("wildscenes").labels
+    assert {n: names[i] for n, i in _WS_GROUNDS.items()} == {
+        "soil": "dirt", "gravel": "gravel", "mud": "mud", "paved": "other-terrain",
+        "leaf litter": "other-terrain", "rock slab": "rock",
+    }  # fmt: skip

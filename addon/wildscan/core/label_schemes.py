@@ -322,6 +322,11 @@ _WS_RGB = {
 }  # fmt: skip
 WILDSCENES_IGNORED = (255, 10, 14)  # unlabelled, sky, water: left out of its benchmark
 _WS_LEARNING_MAP = {raw: (255 if raw in WILDSCENES_IGNORED else raw - (raw > 10)) for raw in _WS_NAMES}
+# The ground materials of the endless landscape (classes 16-21, issue 33), mapped as soon as
+# core/classes.py has them: WildScenes has gravel and mud of its own; soil is its dirt, a
+# rock slab its rock, paving and leaf litter its other-terrain. (Its config always lists all
+# 15 ids: no WildScenes config from before them to keep.)
+_WS_GROUNDS = {"soil": 1, "gravel": 4, "mud": 6, "paved": 8, "leaf litter": 8, "rock slab": 9}
 
 _WILDSCENES = LabelScheme(
     name="wildscenes",
@@ -345,6 +350,7 @@ _WILDSCENES = LabelScheme(
         "water": 14,  # water (ignored by the benchmark)
         "log": 5,  # log
         "particle": 255,  # unlabelled: WildScenes has no class for returns from the air
+        **{name: raw for name, raw in _WS_GROUNDS.items() if name in {c.name for c in ALL_ELEMENTS}},
     },
     other=7,  # other-object
     learning_map=_WS_LEARNING_MAP,
