@@ -386,7 +386,7 @@ def test_drive_with_vlp16_publishes_ring_and_time_that_rosbags_reads(tmp_path):
     out = tmp_path / "drive"
     done = wildscan(
         "drive", "--seed", "1", "--from", "31.712", "65.125", "236.7", "--distance", "0.1",
-        "--sensor", "vlp16", "--bag", "ros2", "--quiet", "--out", str(out),
+        "--sensor", "vlp16", "--mount-height", "1.5", "--bag", "ros2", "--quiet", "--out", str(out),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     store = get_typestore(Stores.ROS2_HUMBLE)
@@ -396,6 +396,10 @@ def test_drive_with_vlp16_publishes_ring_and_time_that_rosbags_reads(tmp_path):
         assert counts["/laser2D"] == 0  # a multi-beam lidar's columns are no LaserScans
         connection, _, raw = next(reader.messages(connections=points))
         message = store.deserialize_cdr(raw, connection.msgtype)
+        static = [c for c in reader.connections if c.topic == "/tf_static"]
+        tf_connection, _, tf_raw = next(reader.messages(connections=static))
+        (mast,) = store.deserialize_cdr(tf_raw, tf_connection.msgtype).transforms
+    assert mast.child_frame_id == "sensor" and mast.transform.translation.z == 1.5  # --mount-height
     fields = {f.name: (f.offset, f.datatype) for f in message.fields}
     assert fields["ring"][1] == 4 and fields["time"][1] == 7  # UINT16 and FLOAT32, as the Velodyne driver
     records = np.frombuffer(
