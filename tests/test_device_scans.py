@@ -398,8 +398,9 @@ def test_drive_with_vlp16_publishes_ring_and_time_that_rosbags_reads(tmp_path):
         message = store.deserialize_cdr(raw, connection.msgtype)
         static = [c for c in reader.connections if c.topic == "/tf_static"]
         tf_connection, _, tf_raw = next(reader.messages(connections=static))
-        (mast,) = store.deserialize_cdr(tf_raw, tf_connection.msgtype).transforms
-    assert mast.child_frame_id == "sensor" and mast.transform.translation.z == 1.5  # --mount-height
+        statics = store.deserialize_cdr(tf_raw, tf_connection.msgtype).transforms
+    (mast,) = [tf for tf in statics if tf.child_frame_id == "sensor"]
+    assert mast.header.frame_id == "base_link" and mast.transform.translation.z == 1.5  # --mount-height
     fields = {f.name: (f.offset, f.datatype) for f in message.fields}
     assert fields["ring"][1] == 4 and fields["time"][1] == 7  # UINT16 and FLOAT32, as the Velodyne driver
     records = np.frombuffer(

@@ -114,3 +114,18 @@ def test_the_command_line_takes_mount_height_and_like_as_one_line_errors(tmp_pat
     assert not (tmp_path / "out").exists()
     help_text = wildscan("drive", "--help").stdout
     assert "--mount-height M" in help_text
+
+
+def test_a_drives_imu_extrinsics_follow_the_mount_height():
+    """calib.txt's Tr_imu_to_velo: the IMU (0.35 m up base_link) seen from the sensor frame,
+    which stands at the mount height (0.723 m by default: -0.373 m; on a 1.5 m mast -1.15 m)."""
+    from wildscan.app.drive.imu import DriveImu
+    from wildscan.core.motion.imu_models import DEFAULT_MOUNT, MODELS
+
+    empty = np.zeros((0, 3))
+    args = (next(iter(MODELS.values())), 200, False, DEFAULT_MOUNT, np.zeros(0, np.int64), np.zeros((0, 4)))
+    column = DriveImu(*args, empty, empty).sensor_from_imu()
+    mast = DriveImu(*args, empty, empty, sensor_height=1.5).sensor_from_imu()
+    assert column[2, 3] == pytest.approx(DEFAULT_MOUNT.translation[2] - 0.723)
+    assert mast[2, 3] == pytest.approx(DEFAULT_MOUNT.translation[2] - 1.5)
+    assert np.array_equal(np.delete(column, 11), np.delete(mast, 11))  # nothing else moves
