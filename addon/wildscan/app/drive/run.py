@@ -79,7 +79,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     path = path or drive_path(request, world.trail)
     sensor = request.sensor
     period = sensor.device.timing.column_period_s
-    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period)
+    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period, sensor.device.columns_named)
     clock.lap("world")
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
@@ -90,7 +90,10 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
         effects = Effects(effects.items + scan_effects(request.weather, sensor, world.cover).items)
     backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
     clock.lap("crop")
-    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start, sensor.mount_height)
+    starts = range(0, plan.scans_2d, plan.sweeps)  # the 3D scans' first 2D scans: their metadata
+    motion = place_all(
+        backend, times, xy, yaw, request.speed * times, request.z_start, sensor.mount_height, keep=starts
+    )
     check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
     clock.lap("placement")
     imu = drive_imu(
@@ -201,7 +204,7 @@ class _Context:
         return self.request.sensor.fixed_noise * self._rng.standard_normal(count)
 
     def metadata(self, index: int, result: Sweep, cloud: str) -> dict:
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         request = self.request
         return {
             "wildscan_version": __version__,
@@ -228,7 +231,7 @@ class _Context:
     def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:
         """The raw and deskewed PLY files of 3D scan `index` and its SemanticKITTI files
         (the format table's writers, core/io/formats.py)."""
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         paths = files.scan_files(index)
         frame = self.request.frame
         clouds = {}
