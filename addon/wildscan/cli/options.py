@@ -271,6 +271,7 @@ _CONFIG_NAMES = {
     "echoes": "echoes",
     "echo_separation": "echo_separation",
     "mount_height": "mount_height",
+    "returns": "returns",
 }
 
 

@@ -20,6 +20,7 @@ from .sensors.config import (
 )
 from .sensors.load import MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
 from .sensors.noise import datasheet_sigma, noise_draws, range_noise, range_sigma
+from .sensors.returns import RETURN_MODES
 
 BEAMS_PER_2D_SCAN = _D.beams.count
 FIRST_BEAM_DEG, R_V_DEG = _D.beams.fan
@@ -68,6 +69,7 @@ __all__ = [
     "MIN_RH_DEG",
     "MODELS",
     "REALISTIC_SETTINGS",
+    "RETURN_MODES",
     "R_V_DEG",
     "SENSOR_SETTINGS",
     "SWEEP_DEG",
