@@ -54,6 +54,7 @@ SETTINGS: dict[str, Setting] = {
     "geometry": Setting("--geometry"),
     "map": Setting("--map"),
     "poses": Setting("--poses"),
+    "like": Setting("--like"),
     "count": Setting("--count"),
     # the pose
     "pose": Setting("--pose", "Pose"),
@@ -156,6 +157,19 @@ SETTINGS: dict[str, Setting] = {
         metavar="M",
         help="realistic model: surfaces farther apart along a beam than this give separate echoes, closer "
         "ones merge into one mixed range, metres",
+    ),
+    "mount_height": Setting(
+        "--mount-height",
+        "Mount height",
+        float,
+        Limits(S.MIN_MOUNT_HEIGHT, S.MAX_MOUNT_HEIGHT),
+        default=S.DEFAULT_MOUNT_HEIGHT,
+        unit="m",
+        metavar="M",
+        help=f"height of the optical centre above the ground the robot stands on, metres, "
+        f"{S.MIN_MOUNT_HEIGHT:g} to {S.MAX_MOUNT_HEIGHT:g}",
+        default_help=f"default {S.DEFAULT_MOUNT_HEIGHT:g}, the paper robot's column; a device file's "
+        "[mount] height for its device",
     ),
     "returns": Setting(
         "--returns",

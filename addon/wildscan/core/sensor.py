@@ -18,6 +18,7 @@ from .sensors.config import (
     REALISTIC_SETTINGS,
     SENSOR_SETTINGS,
 )
+from .sensors.load import MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
 from .sensors.noise import datasheet_sigma, noise_draws, range_noise, range_sigma
 
 BEAMS_PER_2D_SCAN = _D.beams.count
@@ -35,6 +36,7 @@ MAX_ECHOES = _D.optics.echoes
 DEFAULT_ECHO_SEPARATION = _D.optics.echo_separation_m
 DATASHEET_ACCURACY = _D.noise.accuracy
 ACCURACY_SIGMAS = _D.noise.accuracy_sigmas
+DEFAULT_MOUNT_HEIGHT = SensorConfig().mount_height  # the paper robot's column (placement.py)
 
 
 def elevation_angles_rad() -> np.ndarray:
@@ -58,6 +60,9 @@ __all__ = [
     "MAX_DIVERGENCE_MRAD",
     "MAX_ECHOES",
     "MAX_ECHO_SEPARATION",
+    "MAX_MOUNT_HEIGHT",
+    "MIN_MOUNT_HEIGHT",
+    "DEFAULT_MOUNT_HEIGHT",
     "MAX_NOISE_SIGMA",
     "MAX_RANGE_LIMIT",
     "MIN_RH_DEG",

@@ -91,7 +91,9 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
     clock.lap("crop")
     starts = range(0, plan.scans_2d, plan.sweeps)  # the 3D scans' first 2D scans: their metadata
-    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start, keep=starts)
+    motion = place_all(
+        backend, times, xy, yaw, request.speed * times, request.z_start, sensor.mount_height, keep=starts
+    )
     check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
     clock.lap("placement")
     imu = drive_imu(
@@ -102,6 +104,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
         request.imu_rate,
         request.imu_noise == "on",
         int(sensor.noise_seed),
+        sensor.mount_height,
     )
     clock.lap("imu")
 
