@@ -1,4 +1,4 @@
-"""Range images on a scan's native grid (core/rangeimage.py): the cell of a point is its beam
+"""Range images on a scan's native grid (core/io/rangeimage.py): the cell of a point is its beam
 (Eq. 1's n as the row, the 2D scan m as the column), read back with np.load."""
 
 from __future__ import annotations
@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 from plyfile import PlyData
 
+from wildscan.core.io.rangeimage import ARRAYS, NO_DATA, npz_bytes, range_image, scan_range_image
 from wildscan.core.placement import Pose
-from wildscan.core.rangeimage import ARRAYS, NO_DATA, npz_bytes, range_image, scan_range_image
 from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig
 
 from tests.helpers.analytic import weather_scene
-from tests.helpers.scene_helpers import WILDSCAN, run, user_error_line
+from tests.helpers.scene_helpers import PAPER, WILDSCAN, run, user_error_line
 
 RH = 4.0  # 45 2D scans
 
@@ -108,7 +108,7 @@ PARK_POSE_SEED_2_LOW = ("61.908", "-58.594", "126.6")  # `wildscan poses --seed 
 def geometry(tmp_path_factory):
     """Seed 2 at low detail as a geometry file (planned without Blender)."""
     out = tmp_path_factory.mktemp("geometry") / "seed2.npz"
-    done = run([WILDSCAN, "extract", "--seed", "2", "--detail", "low", "--out", str(out), "--quiet"])
+    done = run([WILDSCAN, "extract", *PAPER, "--seed", "2", "--detail", "low", "--out", str(out), "--quiet"])
     assert done.returncode == 0, done.stderr
     return out
 
@@ -214,7 +214,7 @@ sweep_deg = 360.0
 
 
 def test_a_multi_beam_devices_rows_are_its_rings_from_the_lowest_elevation():
-    from wildscan.core.projection import kept_share, projection_for
+    from wildscan.core.io.projection import kept_share, projection_for
     from wildscan.core.sensors.load import device_from_text
 
     device = device_from_text(VLP16_LIKE)

@@ -22,7 +22,8 @@ DESCRIPTION = (
     "every 25 ms and the head turns r_h per 2D scan. Every beam has its own time and pose. Writes into DIR, "
     "per 3D scan, the raw cloud (as a driver gives it) and the deskewed cloud (every point where it is) as "
     "PLY with a per-point time, a SemanticKITTI sequence of the deskewed scans, the ground-truth trajectory "
-    "(TUM) and ROS 1 / ROS 2 bags (docs/motion.md)."
+    "(TUM) and ROS 1 / ROS 2 bags (docs/motion.md). A --seed world is the paper layout's island (its trail): "
+    "drives over the endless layout's trails come with the next issue."
 )
 
 

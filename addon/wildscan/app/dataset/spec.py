@@ -24,6 +24,7 @@ from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
+from ...core.region import dataset_layout
 from ...core.rng import stage_seed
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ..settings import SETTINGS
@@ -167,23 +168,18 @@ def load_spec(path) -> DatasetSpec:
     return spec_from_dict(data, path.name)
 
 
+# the top-level keys of a spec (layout: "paper" only until issue 34, core/region.py dataset_layout)
+TOP_KEYS = tuple(
+    "seeds detail vegetation biome layout scans_per_world formats label_scheme split poses sensor "
+    "weather intensity".split()
+)
+
+
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
     top = _Table(data, "", where)
-    top.only(
-        "seeds",
-        "detail",
-        "vegetation",
-        "biome",
-        "scans_per_world",
-        "formats",
-        "label_scheme",
-        "split",
-        "poses",
-        "sensor",
-        "weather",
-        "intensity",
-    )
+    top.only(*TOP_KEYS)
     d = DatasetSpec()
+    dataset_layout(top.data.get("layout"), where)
     spec = replace(
         d,
         seeds=_seeds(top),
