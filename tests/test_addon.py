@@ -588,7 +588,7 @@ def test_a_failed_generate_leaves_the_previous_world_as_it_was(scene, monkeypatc
 
 
 def test_frame_conversions_round_trip_and_match_the_placement():
-    from wildscan.core import frames
+    from wildscan.core.spatial import frames
 
     placement = {
         "pose": {"yaw_deg": 37.0},

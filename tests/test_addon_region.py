@@ -10,13 +10,13 @@ import pytest
 
 import wildscan
 from wildscan.core.placement import Pose
-from wildscan.core.region import Region, reach_beyond
+from wildscan.core.world.region import Region, reach_beyond
 
 from tests.helpers.scene_helpers import fresh_scene
 
 pytestmark = pytest.mark.slow  # builds tiles of the endless world
 
-CENTRE, SIZE = (50.0, 50.0), 40.0  # one 100 m tile's middle: the region touches that tile only
+CENTRE, SIZE = (50.0, 50.0), 40.0  # a small region: a few tiles
 
 
 @pytest.fixture(scope="module", autouse=True)

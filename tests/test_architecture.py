@@ -295,3 +295,69 @@ def test_no_module_is_over_500_lines():
         if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_LINES
     }
     assert long == {}
+
+
+# Inside core/, the groups by meaning (docs/architecture.md "Layers"): a group is a module at
+# the core/ root or a folder; each imports only groups of its own tier or the tiers above.
+CORE_TIERS = (
+    # foundations: data, parsing, deterministic math, the ray protocol, frames, how a run runs
+    {
+        "errors",
+        "checks",
+        "detmath",
+        "rng",
+        "classes",
+        "label_schemes",
+        "class_weights",
+        "hits",
+        "backend",
+        "pointcloud",
+        "sensors",
+        "sensor",
+        "spatial",
+        "runtime",
+    },
+    # the world and what stands in it or comes out of it besides the scan
+    {"world", "placement", "posesampler", "effects", "truth"},
+    # scanning
+    {"realism", "scan", "motion"},
+    # files
+    {"io"},
+)
+MAX_CORE_ROOT = 15
+
+
+def core_group(name: str) -> str | None:
+    parts = name.split(".")
+    return parts[2] if parts[:2] == [ROOT, "core"] and len(parts) > 2 else None
+
+
+def test_every_core_group_has_a_tier():
+    groups = {
+        p.stem for p in (PACKAGE_DIR / "core").iterdir() if p.suffix == ".py" or (p / "__init__.py").is_file()
+    }
+    groups.discard("__init__")
+    tiers = set().union(*CORE_TIERS)
+    assert groups - tiers == set(), "add the new core/ group to CORE_TIERS and docs/architecture.md"
+    assert tiers - groups == set(), "a core/ group in CORE_TIERS no longer exists"
+
+
+def test_each_core_group_imports_only_its_tier_and_the_tiers_above():
+    tier = {group: n for n, groups in enumerate(CORE_TIERS) for group in groups}
+    offences = []
+    for imp in ALL_IMPORTS:
+        source, target = core_group(imp.source), core_group(imp.target)
+        if source is None or target is None or source == target or source not in tier or target not in tier:
+            continue
+        if tier[target] > tier[source]:
+            offences.append(
+                f"{imp}: core/{source} (tier {tier[source]}) may not import core/{target} "
+                f"(tier {tier[target]}, below it)"
+            )
+    assert offences == [], "\n".join(offences)
+
+
+def test_the_core_root_holds_at_most_15_modules():
+    """Beyond that the root is a heap: a new module goes into the group it belongs to."""
+    root = sorted(p.name for p in (PACKAGE_DIR / "core").glob("*.py"))
+    assert len(root) <= MAX_CORE_ROOT, root

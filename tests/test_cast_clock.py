@@ -1,4 +1,4 @@
-"""core/cast_clock.py: the seconds inside the caster's own calls and inside scans, which
+"""core/runtime/cast_clock.py: the seconds inside the caster's own calls and inside scans, which
 `wildscan bench` prints per suite. No speed is judged here: what is counted, and where."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildscan.core.cast_clock import CLOCK, Reading, cast_share_line
+from wildscan.core.runtime.cast_clock import CLOCK, Reading, cast_share_line
 
 pytest.importorskip("embreex")
 
@@ -58,7 +58,7 @@ def test_the_printed_line_gives_the_share_and_the_ratio():
 def test_casts_on_parallel_threads_are_counted_once(monkeypatch):
     import types
 
-    from wildscan.core import cast_clock
+    from wildscan.core.runtime import cast_clock
 
     now = [100.0]
     monkeypatch.setattr(cast_clock, "time", types.SimpleNamespace(perf_counter=lambda: now[0]))

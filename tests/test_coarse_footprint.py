@@ -1,15 +1,15 @@
-"""Coarse to fine (core/coarse_footprint.py): which ring sub-rays a realistic scan casts, and
+"""Coarse to fine (core/realism/coarse_footprint.py): which ring sub-rays a realistic scan casts, and
 that the ones it computes on their axis's plane are the hits a cast would give."""
 
 import numpy as np
 import pytest
 
-from wildscan.core import coarse_footprint as C
-from wildscan.core import realistic
 from wildscan.core import sensor as S
-from wildscan.core.footprint import subray_directions
 from wildscan.core.hits import RayHits
 from wildscan.core.placement import Pose
+from wildscan.core.realism import coarse_footprint as C
+from wildscan.core.realism import realistic
+from wildscan.core.realism.footprint import subray_directions
 from wildscan.core.scan import run_scan
 
 from tests.helpers.analytic import AnalyticBackend, Patch
@@ -145,7 +145,7 @@ def test_computed_ring_hits_are_the_cast_ones_on_a_plane(scene):
 
 
 def test_the_same_bytes_with_one_or_two_cast_threads(scene, monkeypatch):
-    from wildscan.core import threads
+    from wildscan.core.runtime import threads
 
     sensor = S.SensorConfig(model="realistic", rh_deg=2.0)
     monkeypatch.setenv(threads.THREADS_ENV, "1")

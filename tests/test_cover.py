@@ -244,7 +244,7 @@ def test_a_dataset_scan_carries_support_and_the_birds_eye_traversability_fields(
 
     from wildscan.app.dataset import worker
     from wildscan.app.dataset.spec import spec_from_dict
-    from wildscan.core.traversability import HEIGHT_BINS, SUPPORT_TOLERANCE, TERRAIN_ID
+    from wildscan.core.truth.traversability import HEIGHT_BINS, SUPPORT_TOLERANCE, TERRAIN_ID
 
     spec = spec_from_dict(
         {
@@ -369,7 +369,7 @@ def test_the_sward_medium_gives_the_same_bytes_on_one_thread_or_two(monkeypatch)
 
 def test_the_biomes_bench_counts_the_caves_rock_in_the_cave_and_none_on_the_hills():
     from wildscan.bench.biomes import _cave_rock
-    from wildscan.core.frames import to_world
+    from wildscan.core.spatial.frames import to_world
 
     cave = scan("mixed", "cave", frame="leveled")
     rock = _cave_rock(plan("mixed"), cave)
@@ -382,7 +382,7 @@ def test_the_biomes_bench_counts_the_caves_rock_in_the_cave_and_none_on_the_hill
 
 
 def test_on_the_two_track_support_points_lie_on_the_wheel_tracks_and_grass_points_in_the_median():
-    from wildscan.core.traversability import SUPPORT_TOLERANCE, support_flags
+    from wildscan.core.truth.traversability import SUPPORT_TOLERANCE, support_flags
     from wildscan.core.world.stages import cover as stage
 
     p = plan("mixed")

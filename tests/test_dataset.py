@@ -377,7 +377,7 @@ def gap_dataset(tmp_path_factory):
 
 @pytest.mark.slow
 def test_a_sequence_with_a_failed_scan_reads_back_as_semantic_kitti_api_reads_it(gap_dataset):
-    from wildscan.core.groundtruth import height_above_ground
+    from wildscan.core.truth.groundtruth import height_above_ground
     from wildscan.core.world import plan_world
 
     out, result = gap_dataset
@@ -486,7 +486,7 @@ def test_plyfile_reads_the_ply_with_hag_after_the_contract_fields(dataset):
     ]
     hag = np.fromfile(dataset / "sequences/00/hag/000001.bin", dtype=np.float32)
     np.testing.assert_array_equal(vertex["hag"], hag)
-    # support follows from the label and hag (core/traversability.py), which the other formats carry
+    # support follows from the label and hag (core/truth/traversability.py), which the other formats carry
     np.testing.assert_array_equal(vertex["support"], (vertex["label"] == 1) & (np.abs(hag) <= 0.1))
 
 
@@ -592,10 +592,10 @@ def test_a_full_zone_reports_its_scans_instead_of_dropping_them(world):
 @pytest.mark.slow
 @pytest.mark.parametrize("frame", ["leveled", "sensor"])
 def test_points_of_any_frame_go_back_to_the_world_exactly(world, frame):
-    from wildscan.core.groundtruth import pose_matrix, world_points
     from wildscan.core.placement import Pose
     from wildscan.core.scan import run_scan
     from wildscan.core.sensor import SensorConfig
+    from wildscan.core.truth.groundtruth import pose_matrix, world_points
 
     plan, backend = world
     site = next(s for s in plan.sites if s.zone == "forest")

@@ -558,7 +558,7 @@ def test_bench_dataset_times_each_worker_count_side_by_side_cold_and_warm():
     assert [r[6].strip() for r in rows] == ["0 / 2", "0 / 2", "2 / 0"]  # worlds read / built
     assert float(rows[1][5].strip().rstrip("x")) > 0 and rows[1][8].count("GB") == 2  # a worker each
     assert "speed-up >= 1.85x" in result.stdout and "warm cache, at most 30 s" in result.stdout
-    # each run's line says how much of its scans' time the caster took (core/cast_clock.py)
+    # each run's line says how much of its scans' time the caster took (core/runtime/cast_clock.py)
     assert sum("s in scans (" in line and "scan/cast" in line for line in result.stdout.splitlines()) == 3
     # and where its workers waited (app/dataset/timeline.py): two workers, two tasks
     idle = [line for line in lines if "workers idle" in line]

@@ -181,8 +181,8 @@ def test_the_fallback_reader_reads_the_presets_as_tomllib_does():
 def test_the_directions_of_some_beams_are_the_rows_of_all_beams(name):
     """rotated_beams makes the beams asked for from their gathered angles: the same bits as
     rotated_beam_directions' rows, and with ranges the same bits as its rows times the ranges."""
-    from wildscan.core.leveling import leveling_matrix
     from wildscan.core.sensors.beams import rotated_beams
+    from wildscan.core.spatial.leveling import leveling_matrix
 
     device = device_named(name)
     rh = SensorConfig.for_device(device).rh_deg
@@ -198,7 +198,7 @@ def test_the_directions_of_some_beams_are_the_rows_of_all_beams(name):
 
 
 def test_eq_2_kept_for_a_pose_is_a_copy_with_the_bits_made_afresh():
-    from wildscan.core.leveling import _leveling, leveling_matrix
+    from wildscan.core.spatial.leveling import _leveling, leveling_matrix
 
     first = leveling_matrix(0.02, 0.1)
     first[0, 0] = 7.0  # a caller changing its copy changes nothing kept

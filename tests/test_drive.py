@@ -11,10 +11,10 @@ from wildscan.app.scan import crop_radius, scan_current_scene
 from wildscan.core.io.ply import read_ply
 from wildscan.core.io.tum import read_tum
 from wildscan.core.motion import placements, sweep, timing, trajectory
-from wildscan.core.motion.rotations import quaternions
 from wildscan.core.placement import Pose, place
 from wildscan.core.pointcloud import PLY_FIELDS
 from wildscan.core.sensor import SensorConfig
+from wildscan.core.spatial.rotations import quaternions
 from wildscan.core.world import plan_world
 from wildscan.raycast.from_plan import plan_geometry
 from wildscan.raycast.geometry import from_triangles

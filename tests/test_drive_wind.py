@@ -1,4 +1,4 @@
-"""The wind's moving scene (app/drive/wind.py): the still scene and the swaying objects at rest,
+"""The wind's moving scene (raycast/wind.py): the still scene and the swaying objects at rest,
 each built once, answer every 2D scan's rays as one scene of the objects posed at its time would."""
 
 from __future__ import annotations
@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildscan.app.drive.wind import SEPARATION, MovingScene, moving_scene, sphere_layers
 from wildscan.core.effects import Effects, Wind
 from wildscan.core.motion.timing import head_angles_rad
 from wildscan.core.sensor import SensorConfig
@@ -15,6 +14,7 @@ from wildscan.core.world import plan_world
 from wildscan.raycast.from_plan import plan_geometry
 from wildscan.raycast.geometry import concatenate
 from wildscan.raycast.select import make_backend
+from wildscan.raycast.wind import SEPARATION, MovingScene, moving_scene, sphere_layers
 
 SENSOR = SensorConfig(rh_deg=3.0)
 KS = np.arange(0, 60)  # 2D scans: the head turns 3 deg each, a half turn in all
@@ -110,7 +110,7 @@ def test_spheres_of_one_layer_keep_apart():
 
 @pytest.mark.parametrize("amplitude", [0.0, 6.0])
 def test_a_sweeps_chunks_on_two_threads_answer_as_on_one(forest, monkeypatch, amplitude):
-    """The sweep casts its chunks of 2D scans on the cast's threads (core/threads.py) when the
+    """The sweep casts its chunks of 2D scans on the cast's threads (core/runtime/threads.py) when the
     caster allows it, the still one and the wind's alike: the same answers as on one thread."""
     from wildscan.core.backend import THREADS
     from wildscan.core.motion.sweep import cast_in_chunks

@@ -35,7 +35,7 @@ SEED = 1
 def _forget_everything():
     """Drop every per-process cache, as a fresh process would start."""
     F.landscape.cache_clear()
-    L.library.cache_clear()
+    L.forget_libraries()
     from wildscan.core.world.endless import clearing
 
     clearing.furniture.cache_clear()
@@ -132,14 +132,14 @@ def _feature_tiles(seed: int) -> list[tuple[int, int]]:
     for ci in range(-3, 4):
         for cj in range(-3, 4):
             c = land.anchors.cell(ci, cj)
-            for name, point in (
-                ("clearing", c.node if c.clearing else None),
-                ("lake", (c.lake.basin.cx, c.lake.basin.cy) if c.lake else None),
-                ("cave", (c.cave.pit.cx, c.cave.pit.cy) if c.cave else None),
+            for name, point, reach in (
+                ("clearing", c.node if c.clearing else None, c.clearing),
+                ("lake", (c.lake.basin.cx, c.lake.basin.cy) if c.lake else None, 0.0),
+                ("cave", (c.cave.pit.cx, c.cave.pit.cy) if c.cave else None, 0.0),
             ):
                 if point is not None and name not in found:
                     found.add(name)
-                    out.append((math.floor(point[0] / TILE_M), math.floor(point[1] / TILE_M)))
+                    out += tiles_in_disc(point[0], point[1], reach)
         line = land.anchors.row_line(ci)
         if line is not None and "powerline" not in found:
             found.add("powerline")
@@ -197,9 +197,9 @@ def test_features_come_from_their_anchor_cell_alone():
 
 
 def test_every_ground_material_is_mapped_in_every_scheme_and_has_a_reflectance():
-    from wildscan.core.intensity import MATERIALS
     from wildscan.core.io.las import ASPRS_CODES
     from wildscan.core.label_schemes import SCHEMES
+    from wildscan.core.realism.intensity import MATERIALS
 
     for gid in GROUND_IDS:
         for s in SCHEMES.values():
@@ -227,11 +227,12 @@ def test_lod_levels_grow_with_distance_and_off_is_full_detail():
     os1 = device_named("os1-64")
     levels = tile_levels(os1, 1050.0, 1050.0, lod=True)
     assert set(levels) == set(tiles_in_disc(1050.0, 1050.0, os1.ranges.max_m + 5.0))
-    assert levels[(10, 10)] == 0
+    assert levels[(21, 21)] == 0
     far = max(levels, key=lambda t: tile_distance(*t, 1050.0, 1050.0))
-    assert levels[far] == 1  # beams 0.44 deg apart (0.7 deg rings, 0.35 deg columns): 0.25 m from 33 m
+    assert levels[far] == 2  # beams 0.44 deg apart (0.7 deg rings, 0.35 deg columns): 0.6 m from 79 m
+    assert sorted(set(levels.values())) == [0, 1, 2]
     vlp16 = tile_levels(device_named("vlp16"), 1050.0, 1050.0, lod=True)  # 0.63 deg: 0.6 m from 54 m
-    assert vlp16[(10, 10)] == 0 and max(vlp16.values()) == 2
+    assert vlp16[(21, 21)] == 0 and max(vlp16.values()) == 2
     assert set(tile_levels(os1, 1050.0, 1050.0, lod=False).values()) == {0}
     assert set(tile_levels(os1, 1050.0, 1050.0, lod="off").values()) == {0}
     assert level_at(10.0, math.radians(5.0)) == 0  # full detail near the sensor, whatever the device
@@ -252,3 +253,14 @@ def test_coarse_tiles_leave_small_elements_out():
 def test_a_tile_beyond_reach_is_refused():
     with pytest.raises(ValueError, match="beyond"):
         build_tile(SEED, "mixed", "default", "porous", 500, 0)
+
+
+def test_a_library_from_a_cache_builds_the_same_tile(tmp_path):
+    """A front stores the shared meshes once (np.savez) and a later process builds with them."""
+    path = tmp_path / "library.npz"
+    np.savez(path, **L.library_arrays(L.library(SEED, "default", "porous")))
+    want = tile_digest(build_tile(SEED, "mixed", "default", "porous", -1, 2))
+    L.forget_libraries()
+    with np.load(path) as arrays:
+        L.provide_library(SEED, "default", "porous", arrays)
+    assert tile_digest(build_tile(SEED, "mixed", "default", "porous", -1, 2)) == want

@@ -1,4 +1,4 @@
-"""A dataset's intensity (core/intensity.py, app/dataset/intensity.py): `physical` follows the
+"""A dataset's intensity (core/realism/intensity.py, app/dataset/intensity.py): `physical` follows the
 lidar equation with a reflectance per surface that varies within a class, stays in [0, 100]
 (remission [0, 1]) and does not identify the class; `class` is the paper's tag, which a
 lookup reads back for every point."""
@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildscan.core import intensity as I
 from wildscan.core.classes import class_by_name
 from wildscan.core.io.semantickitti import scan_bytes
+from wildscan.core.realism import intensity as I
 
 TERRAIN = class_by_name("terrain").id
 TRUNK = class_by_name("trunk").id
@@ -36,7 +36,7 @@ def test_physical_intensity_stays_in_0_to_100_whatever_the_inputs():
 
 
 def test_a_realistic_scans_bright_near_energy_saturates_remission_at_1():
-    # the realistic model's echo energy (core/echoes.py) reads 400 for terrain head-on at 5 m
+    # the realistic model's echo energy (core/realism/echoes.py) reads 400 for terrain head-on at 5 m
     remission = np.frombuffer(scan_bytes(np.zeros((2, 3)), np.array([400.0, 40.0])), dtype="<f4")[3::4]
     np.testing.assert_allclose(remission, [1.0, 0.4])
 

@@ -1,4 +1,4 @@
-"""Open ground (core/open_ground.py): the bird's-eye cells a dataset worker answers from a
+"""Open ground (core/truth/open_ground.py): the bird's-eye cells a dataset worker answers from a
 raster instead of casting must get the class the cast gives, on a whole world."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from wildscan.core.open_ground import MARGIN, RASTER_CELL, open_ground
+from wildscan.core.truth.open_ground import MARGIN, RASTER_CELL, open_ground
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
@@ -59,7 +59,7 @@ def context():
 
 
 def test_open_ground_gives_the_class_the_cast_gives_everywhere_in_a_world(context):
-    from wildscan.core.open_ground import no_open_ground
+    from wildscan.core.truth.open_ground import no_open_ground
     from wildscan.core.world import EXTENT as world_extent
 
     assert context.open_ground.is_open.any()  # the worker found its terrain covering the extent

@@ -1,4 +1,4 @@
-"""Open sky (core/open_sky.py): the bird's-eye cells whose upward ray a dataset worker answers
+"""Open sky (core/truth/open_sky.py): the bird's-eye cells whose upward ray a dataset worker answers
 from a raster instead of casting must get what the cast gives, on a whole world."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wildscan.core.open_sky import _block_minimum, _NodeIndex, open_sky
+from wildscan.core.truth.open_sky import _block_minimum, _NodeIndex, open_sky
 from wildscan.core.world.heightfield import TerrainGrid
 
 EXTENT = (-10.0, 10.0, -5.0, 5.0)
@@ -81,7 +81,7 @@ def _grid_triangles(grid: TerrainGrid):
 def test_open_sky_gives_the_distance_the_cast_gives_everywhere_in_a_world():
     from wildscan.app.dataset import spec_from_dict
     from wildscan.app.dataset.worker import build_world
-    from wildscan.core.traversability import ROBOT_HEIGHT
+    from wildscan.core.truth.traversability import ROBOT_HEIGHT
     from wildscan.core.world import EXTENT as world_extent
 
     spec = spec_from_dict({"seeds": [2], "scans_per_world": 1, "detail": "low", "vegetation": "porous"})

@@ -1,4 +1,4 @@
-"""core/threads.py over the embree backend: a large cast split over threads answers exactly
+"""core/runtime/threads.py over the embree backend: a large cast split over threads answers exactly
 what one thread does (every ray's answer is its own), and a dataset worker's backend keeps
 one thread."""
 
@@ -37,7 +37,7 @@ def _rough_ground_and_litter():
 
 @pytest.mark.parametrize("normals", [False, True])
 def test_a_cast_over_threads_is_the_same_bytes_as_one(normals):
-    from wildscan.core.threads import cast_parts
+    from wildscan.core.runtime.threads import cast_parts
     from wildscan.raycast.embree_backend import EmbreeBackend
 
     backend = EmbreeBackend(_rough_ground_and_litter())
@@ -66,7 +66,7 @@ def test_a_cast_over_threads_is_the_same_bytes_as_one(normals):
 
 
 def test_a_small_cast_stays_on_one_thread(monkeypatch):
-    from wildscan.core import threads
+    from wildscan.core.runtime import threads
     from wildscan.raycast.embree_backend import EmbreeBackend
 
     backend = EmbreeBackend(_rough_ground_and_litter())
@@ -79,7 +79,7 @@ def test_a_small_cast_stays_on_one_thread(monkeypatch):
 
 def test_a_commands_backend_uses_the_cores_and_a_dataset_workers_one(monkeypatch):
     from wildscan.app.dataset.worker import _embree
-    from wildscan.core.threads import THREADS_ENV, backend_threads
+    from wildscan.core.runtime.threads import THREADS_ENV, backend_threads
     from wildscan.raycast.select import make_backend
 
     monkeypatch.delenv(THREADS_ENV, raising=False)

@@ -8,9 +8,9 @@ import pytest
 from wildscan.core import placement as P
 from wildscan.core.classes import WATER_ID
 from wildscan.core.errors import PoseRejected, UserError
-from wildscan.core.leveling import leveling_matrix, rot_z, sensor_to_world_matrix
 from wildscan.core.scan import run_scan
 from wildscan.core.sensor import SensorConfig, beam_directions, elevation_angles_rad
+from wildscan.core.spatial.leveling import leveling_matrix, rot_z, sensor_to_world_matrix
 
 from tests.helpers.analytic import AnalyticBackend, Patch, slope_plane
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from wildscan.core.projection import Projection, combined, kept_share, projection_for
+from wildscan.core.io.projection import Projection, combined, kept_share, projection_for
 from wildscan.core.sensors import DEFAULT_DEVICE, beam_directions, device_named
 
 from tests.helpers.dataset_helpers import (
@@ -178,7 +178,7 @@ def test_the_projection_keys_are_the_ones_formats_md_describes(dataset):
     assert sorted(documented) == sorted(_projection(dataset))
 
 
-# --------------------------------------------------------------------------- core/projection.py
+# --------------------------------------------------------------------------- core/io/projection.py
 
 
 def test_a_sensor_frame_scan_keeps_its_beams_where_the_kitti_default_loses_most():

@@ -9,10 +9,10 @@ import pytest
 
 from wildscan.core import sensor as S
 from wildscan.core.classes import BY_ID, REFLECTIVITY_BY_ID
-from wildscan.core.echoes import R_REF
-from wildscan.core.footprint import SUBRAYS, ring_radius_fraction, subray_directions, subrays_around
 from wildscan.core.placement import Pose
-from wildscan.core.realistic import echo_points
+from wildscan.core.realism.echoes import R_REF
+from wildscan.core.realism.footprint import SUBRAYS, ring_radius_fraction, subray_directions, subrays_around
+from wildscan.core.realism.realistic import echo_points
 from wildscan.core.scan import run_scan
 from wildscan.core.world.shapes.primitives import box, merge
 from wildscan.raycast.embree_backend import EmbreeBackend
@@ -264,9 +264,10 @@ def test_echoes_formed_block_by_block_on_threads_are_those_of_one_pass(monkeypat
     """echo_points forms a scan's points a block of beams at a time on the cast's threads:
     every beam's echoes, noise and axis are its own, so the blocks joined are one pass's bytes
     (two- and three-echo beams, mixed pixels and beams that hit nothing included)."""
-    from wildscan.core import realistic, threads
-    from wildscan.core.echoes import form_echoes
-    from wildscan.core.footprint import subray_weights
+    from wildscan.core.realism import realistic
+    from wildscan.core.realism.echoes import form_echoes
+    from wildscan.core.realism.footprint import subray_weights
+    from wildscan.core.runtime import threads
     from wildscan.raycast.geometry import from_triangles
 
     rng = np.random.default_rng(11)

@@ -1,4 +1,4 @@
-"""Layouts and regions (core/region.py) and their command-line options: what a region may be,
+"""Layouts and regions (core/world/region.py) and their command-line options: what a region may be,
 and the one line a wrong one gets."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import pytest
 
 from wildscan.cli import main
 from wildscan.core.errors import UserError
-from wildscan.core.region import (
+from wildscan.core.world.region import (
     DEFAULT_REGION,
     MAX_REGION_SIDE,
     Region,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from wildscan.app.cache.worlds import ground_arrays, ground_from_arrays
-from wildscan.core.groundtruth import height_above_ground
+from wildscan.core.truth.groundtruth import height_above_ground
 from wildscan.core.world import plan_world
 from wildscan.core.world.ground import FloorTops
 from wildscan.core.world.plan import STAGE_INSTANCE_BASE

@@ -1,4 +1,4 @@
-"""core/threads.py: a batch of rays cast in parts from several threads gives the bytes one
+"""core/runtime/threads.py: a batch of rays cast in parts from several threads gives the bytes one
 cast gives, in ray order; how many threads, from the environment."""
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ import threading
 import numpy as np
 import pytest
 
-from wildscan.core import threads
 from wildscan.core.backend import THREADS
 from wildscan.core.errors import UserError
+from wildscan.core.runtime import threads
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.geometry import from_triangles
 
@@ -147,7 +147,7 @@ def test_a_process_casting_on_threads_keeps_its_freed_memory_where_glibc_runs_it
     agrees; elsewhere nothing is asked), once a process, by the first pool made."""
     import platform
 
-    from wildscan.core import heap
+    from wildscan.core.runtime import heap
 
     threads._pool_of(2)
     assert heap.keep_freed_memory.cache_info().currsize == 1

@@ -223,3 +223,30 @@ def test_tiles_cropped_before_the_join_equal_the_joined_whole_cropped():
     for name in ("vertices", "faces", "class_id", "instance", "object_index", "offset"):
         np.testing.assert_array_equal(getattr(early, name), getattr(whole, name))
     assert early.object_names == whole.object_names
+
+
+@pytest.mark.slow
+def test_a_fresh_process_builds_the_same_tiles_from_the_cached_library(tmp_path):
+    cache = tmp_path / "cache"
+    region = ["--region", "10", "10", "40", "40"]
+    for name in ("a", "b"):
+        done = run(
+            [
+                WILDSCAN,
+                "extract",
+                "--seed",
+                "3",
+                *region,
+                *LIGHT,
+                "--cache",
+                str(cache),
+                "--out",
+                str(tmp_path / f"{name}.npz"),
+            ]
+        )
+        assert done.returncode == 0, done.stderr
+        libraries = [p for p in cache.iterdir() if p.name.startswith("library-")]
+        assert len(libraries) == 1
+        for tile in cache.glob("tile-*"):
+            tile.unlink()  # the next run builds its tiles again, from the library it reads back
+    assert (tmp_path / "a.npz").read_bytes() == (tmp_path / "b.npz").read_bytes()

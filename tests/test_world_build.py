@@ -11,11 +11,11 @@ from wildscan.app.poses import valid_poses
 from wildscan.blender import WORLD_COLLECTION
 from wildscan.blender.builder import build_world, generated_objects, scene_counts, scene_hashes
 from wildscan.core.classes import BY_ID, WATER_ID, class_by_name
-from wildscan.core.leveling import rot_z
 from wildscan.core.placement import Pose
 from wildscan.core.rng import stage_rng
 from wildscan.core.scan import run_scan
 from wildscan.core.sensor import SensorConfig
+from wildscan.core.spatial.leveling import rot_z
 from wildscan.core.world import ZONES, WorldParams
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene

@@ -19,8 +19,8 @@ from wildscan.app.cache.config import cache_config, cache_from_options, default_
 from wildscan.app.cache.store import TEMP_PREFIX, DiskCache
 from wildscan.app.cache.worlds import prepared_world, world_inputs
 from wildscan.core.errors import UserError
-from wildscan.core.open_sky import open_sky
-from wildscan.core.traversability import ROBOT_HEIGHT
+from wildscan.core.truth.open_sky import open_sky
+from wildscan.core.truth.traversability import ROBOT_HEIGHT
 from wildscan.core.world import EXTENT
 
 from tests.helpers.dataset_helpers import assert_same_dataset, wildscan
@@ -233,7 +233,7 @@ def test_a_world_read_back_is_the_world_built_and_a_damaged_one_is_built_again(t
         assert np.array_equal(getattr(built.settler, name), getattr(read.settler, name)), name
     assert all(np.array_equal(a, b) for a, b in zip(built.settler.neighbours, read.settler.neighbours))
     assert np.array_equal(built.open_ground.is_open, read.open_ground.is_open)
-    # the open sky stored is the one the worker would make of the triangles (core/open_sky.py)
+    # the open sky stored is the one the worker would make of the triangles (core/truth/open_sky.py)
     g, terrain = built.geometry, built.ground.terrain
     made = open_sky(g.vertices, g.faces, terrain, ROBOT_HEIGHT, EXTENT)
     for sky in (built.open_sky, read.open_sky):

@@ -57,11 +57,11 @@ def region_geometry_of(
     cache=None,
     memory=None,
 ):
-    """(SceneGeometry, metadata, tile counts or None) of a region (core/region.py Region) of
+    """(SceneGeometry, metadata, tile counts or None) of a region (core/world/region.py Region) of
     the world of `seed`: on the endless layout its tiles at full detail (through the world
     cache, app/tiles.py), every triangle whose xy box meets the region; on the paper layout
     the island's, the same way (the default region is the whole island, as before)."""
-    from ..core.region import DEFAULT_REGION
+    from ..core.world.region import DEFAULT_REGION
     from .tiles import TiledWorld, crop_to_region, region_levels, tiles_geometry
 
     if layout == "paper":
@@ -71,10 +71,10 @@ def region_geometry_of(
             metadata["region"] = region.to_dict()
         return geometry, metadata, None
     world = TiledWorld(seed, biome, detail, vegetation)
-    geometry, counts = tiles_geometry(world, region_levels(region), cache, memory)
+    geometry, counts = tiles_geometry(world, region_levels(region), cache, memory, region=region)
     metadata = {"seed": seed, "layout": "endless", "detail": detail, "vegetation": vegetation}
     metadata.update(biome=biome, region=region.to_dict(), world=None)
-    return crop_to_region(geometry, region), metadata, counts
+    return geometry, metadata, counts
 
 
 def extract(
@@ -93,7 +93,7 @@ def extract(
     `layout`: region_geometry_of) to `out` (.npz); returns (path, geometry, metadata, tile
     counts or None). The output path is checked before any work."""
     from ..core.io.files import check_output_path
-    from ..core.region import DEFAULT_REGION
+    from ..core.world.region import DEFAULT_REGION
     from ..raycast.scene_file import SUFFIX, save_geometry
 
     check_output_path(out, SUFFIX)

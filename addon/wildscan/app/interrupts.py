@@ -23,8 +23,16 @@ import signal
 import sys
 from contextlib import contextmanager
 
-from ..core.pause import pause_here
-from ..core.signals import Terminated, deferred, enter, forget_pending, leave, on_signal, signal_pending
+from ..core.runtime.pause import pause_here
+from ..core.runtime.signals import (
+    Terminated,
+    deferred,
+    enter,
+    forget_pending,
+    leave,
+    on_signal,
+    signal_pending,
+)
 
 __all__ = ["Terminated", "deferred", "defer_until_dispatch", "started", "stopping_on_signals"]
 

@@ -28,7 +28,7 @@ def valid_poses(
 ) -> dict[str, list[dict]]:
     """Up to `count` poses per zone that `placement.place` accepts: the zone's reserved
     sites first (chosen where its classes are in view), then random candidates; only those
-    inside `region` (core/region.py Region) when given."""
+    inside `region` (core/world/region.py Region) when given."""
     from ..core.placement import place
 
     out: dict[str, list[dict]] = {}
@@ -101,9 +101,10 @@ class TileBackends:
         self.kept: OrderedDict = OrderedDict()
 
     def key(self, x: float, y: float) -> tuple:
-        from .tiles import endless
+        from .tiles import ELEMENT_OVERHANG_M, endless
 
-        return tuple(sorted(endless().tiles_in_disc(float(x), float(y), PLACEMENT_REACH)))
+        reach = PLACEMENT_REACH + ELEMENT_OVERHANG_M  # an element of a tile nearby may stand over the pose
+        return tuple(sorted(endless().tiles_in_disc(float(x), float(y), reach)))
 
     def backend(self, key: tuple) -> RayBackend:
         if key in self.kept:

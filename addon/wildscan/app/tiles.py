@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.region import Region
+from ..core.world.region import Region
 from ..raycast.geometry import SceneGeometry, concatenate, local_origin
 from .cache.key import entry_key
 from .cache.store import DiskCache
@@ -179,6 +179,7 @@ def tile_part(
         part = part_from_entry(entry.meta, entry.arrays)
         counts.cache += 1
     else:
+        ready_library(world, cache)
         part = build_tile(world, tile, level)
         counts.built += 1
         if cache is not None:
@@ -186,6 +187,38 @@ def tile_part(
     if memory is not None:
         memory.put(key, part)
     return part
+
+
+LIBRARY = "library"  # the cache entry of the meshes every tile of a world shares
+_LIBRARIES_READY: set[tuple] = set()
+
+
+def ready_library(world: TiledWorld, cache: DiskCache | None) -> None:
+    """The shared meshes of the world's tiles (core/world/endless/library.py, about a second of
+    porous crowns to draw) in this process before its first tile is built: from the world
+    cache when it holds them (a pure function of seed, detail, vegetation and the code),
+    else drawn and kept there, so a fresh process's first tile does not draw them again."""
+    from ..core.world.endless import library as L
+
+    inputs = {"seed": int(world.seed), "detail": world.detail, "vegetation": world.vegetation}
+    ready = tuple(inputs.values())
+    if ready in _LIBRARIES_READY or cache is None:
+        return
+    key = entry_key(LIBRARY, inputs)
+    entry = cache.get(LIBRARY, key)
+    if entry is not None:
+        names = entry.meta["names"]
+        L.provide_library(
+            world.seed,
+            world.detail,
+            world.vegetation,
+            {n: entry.arrays[f"a{k}"] for k, n in enumerate(names)},
+        )
+    else:
+        arrays = L.library_arrays(L.library(world.seed, world.detail, world.vegetation))
+        names = sorted(arrays)
+        cache.put(LIBRARY, key, {"names": names}, {f"a{k}": arrays[n] for k, n in enumerate(names)})
+    _LIBRARIES_READY.add(ready)
 
 
 def build_tile(world: TiledWorld, tile, level: int) -> TilePart:
@@ -309,16 +342,21 @@ def tiles_geometry(
     centre=None,
     progress=None,
     radius: float | None = None,
+    region: Region | None = None,
 ) -> tuple[SceneGeometry, TileCounts]:
     """The geometry of the tiles `levels` names (tile -> level), joined in sorted tile
-    order (cropped to `radius` around `centre` when given: join), and where they came from.
-    `progress(done, total)` after each tile."""
+    order, and where they came from: cropped to `radius` around `centre` when given (join),
+    or to the triangles meeting `region` (crop_to_region, tile by tile: only the kept
+    triangles are ever held together). `progress(done, total)` after each tile."""
     counts = TileCounts()
     t0 = time.perf_counter()
     parts = []
     tiles = sorted(levels)
     for k, tile in enumerate(tiles):
-        parts.append(tile_part(world, tile, levels[tile], cache, memory, counts))
+        part = tile_part(world, tile, levels[tile], cache, memory, counts)
+        if region is not None:
+            part = TilePart(crop_to_region(part.geometry, region), part.cover)
+        parts.append(part)
         if progress is not None:
             progress(k + 1, len(tiles))
     geometry = join(parts, centre, radius)
@@ -331,9 +369,18 @@ def full_detail(tiles) -> dict:
     return {tuple(int(v) for v in tile): 0 for tile in tiles}
 
 
-def region_levels(region: Region) -> dict:
-    """The tiles a region touches, all at full detail."""
-    return full_detail(endless().tiles_in_region(*region))
+# How far an element's triangles may reach past its own tile (a crown over the edge): the
+# tiles this near a region are built too, so a region holds every triangle that meets it
+# whichever tile owns it. Measured: at most 3.2 m over five tiles of seed 1 (object_bounds);
+# endless's tile_levels builds 5 m past a sensor's reach for the same reason (RANGE_MARGIN).
+ELEMENT_OVERHANG_M = 5.0
+
+
+def region_levels(region: Region, m: float = ELEMENT_OVERHANG_M) -> dict:
+    """The tiles whose elements can meet a region (within `m` of it), all at full detail."""
+    return full_detail(
+        endless().tiles_in_region(region.xmin - m, region.ymin - m, region.xmax + m, region.ymax + m)
+    )
 
 
 def scan_levels(sensor, x: float, y: float, reach: float, lod: bool, detail: str = "default") -> dict:
@@ -347,8 +394,9 @@ def scan_levels(sensor, x: float, y: float, reach: float, lod: bool, detail: str
 def crop_to_region(geometry: SceneGeometry, region: Region) -> SceneGeometry:
     """The triangles whose xy bounding box meets the region (a whole triangle or none: cut
     triangles would differ between two regions that share them)."""
-    corners = geometry.vertices[geometry.faces]
-    low, high = corners[:, :, :2].min(axis=1), corners[:, :, :2].max(axis=1)
+    xy, f = geometry.vertices[:, :2], geometry.faces
+    a, b, c = xy[f[:, 0]], xy[f[:, 1]], xy[f[:, 2]]
+    low, high = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
     keep = (
         (high[:, 0] >= region.xmin)
         & (low[:, 0] <= region.xmax)

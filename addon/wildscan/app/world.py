@@ -79,7 +79,7 @@ def build_region_in_scene(
     vegetation: str = DEFAULT_VEGETATION,
     biome: str = DEFAULT_BIOME,
 ) -> WorldPlan:
-    """Build `region` (core/region.py Region) of the endless world of `seed` in the current
+    """Build `region` (core/world/region.py Region) of the endless world of `seed` in the current
     scene, every tile it touches at full detail, replacing only what WildScan built before
     (as build_in_scene). The built region is recorded on the world's root collection, so a
     scan in Blender can tell when its sensor reaches past it (ui/)."""
@@ -90,7 +90,7 @@ def build_region_in_scene(
 
     def build() -> WorldPlan:
         t0 = time.perf_counter()
-        levels = region_levels(region)
+        levels = region_levels(region, 0.0)  # whole tiles, each with its elements
         plan = endless().plan_region(seed, biome, detail, vegetation, sorted(levels), levels)
         if progress is not None:
             progress(f"plan {len(levels)} tiles", time.perf_counter() - t0)
@@ -179,7 +179,7 @@ def make_world(
 
     t_start = time.perf_counter()
     if layout == "endless":
-        from ..core.region import DEFAULT_REGION
+        from ..core.world.region import DEFAULT_REGION
 
         region = DEFAULT_REGION if region is None else region
         plan = build_region_in_scene(seed, region, detail, progress, fresh, vegetation, biome)

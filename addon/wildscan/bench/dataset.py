@@ -19,7 +19,7 @@ import tempfile
 from dataclasses import dataclass, field
 
 from ..app.dataset.timeline import Idle, idle_time
-from ..core.cast_clock import Reading, cast_share_line
+from ..core.runtime.cast_clock import Reading, cast_share_line
 from ..core.world import DEFAULT_VEGETATION
 
 TARGET_SECONDS = 45.0  # cold cache

@@ -54,9 +54,9 @@ def embree_cast(backend, origin, dirs, max_range):
 
 
 def device_row(name: str, geometry, pose, z_start, runs: int) -> dict:
+    from ..core.runtime.threads import backend_threads
     from ..core.scan import NOISE_MARGIN_SIGMAS, run_scan
     from ..core.sensors import SensorConfig, device_named, rotated_beam_directions
-    from ..core.threads import backend_threads
 
     device = device_named(name)
     sensor = SensorConfig.for_device(device).validate()

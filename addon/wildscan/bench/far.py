@@ -69,8 +69,8 @@ def point_errors(result, geometry, rh_deg: float, frame: str) -> tuple[np.ndarra
     """(N,) distance of each point as stored (float32) from the exact hit of its beam, and
     (N,) whether the beam passes within EDGE_BAND of an edge before its hit (where a float32
     caster may take the other face: the edge leaks tests/test_stability.py counts)."""
-    from ..core.frames import from_world
     from ..core.sensors import rotated_beam_directions
+    from ..core.spatial.frames import from_world
     from ..raycast.reference import reference_hits
 
     placement, cloud = result.placement, result.cloud

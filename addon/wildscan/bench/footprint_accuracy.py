@@ -23,7 +23,7 @@ INTENSITY_TOLERANCE = 0.01  # relative
 
 def scan_pair(backend, pose, sensor, z_start):
     """(full footprint, coarse to fine) scans of one pose, in clear air."""
-    from ..core import realistic
+    from ..core.realism import realistic
     from ..core.scan import run_scan
 
     fine = run_scan(backend, pose, sensor, z_start=z_start)

@@ -55,7 +55,7 @@ def find_poses(seed: int, count: int, world) -> list:
     from ..app.poses import endless_poses
     from ..app.tiles import TileMemory
     from ..core.placement import Pose
-    from ..core.region import region_around
+    from ..core.world.region import region_around
 
     found = []
     for x, y in spread_points(seed, 4 * count):
@@ -290,7 +290,7 @@ HORIZON_SEED = 1
 def horizon_share(result, device) -> float:
     """The share of the beams aimed within HORIZON_BAND_DEG (rings by the device file's
     elevations, ring 0 the lowest) that returned a point: the range image's mask."""
-    from ..core.rangeimage import cells_of, grid_shape, range_image
+    from ..core.io.rangeimage import cells_of, grid_shape, range_image
 
     cloud = result.cloud
     row, column = cells_of(cloud)
@@ -310,9 +310,9 @@ def horizon_line(out, count: int = 5) -> float:
     from ..app.scan import endless_scan_geometry, scan_current_scene
     from ..app.tiles import TiledWorld, process_memory
     from ..core.placement import Pose
-    from ..core.region import Region
     from ..core.sensors import SensorConfig, device_named
     from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION
+    from ..core.world.region import Region
 
     world = TiledWorld(HORIZON_SEED, DEFAULT_BIOME, "default", DEFAULT_VEGETATION)
     poses = endless_poses(world, Region(*HORIZON_REGION), count, memory=process_memory())

@@ -76,8 +76,8 @@ def paper_lost(weather: Weather, distance: float, rays: int = WALL_RAYS) -> floa
 
 def realistic_lost(weather: Weather, distance: float, rays: int = WALL_RAYS // 4) -> float:
     """The share of realistic beams (the UTM-30LX-EW's footprint) returning no wall echo."""
-    from ..core.footprint import subrays_around
-    from ..core.realistic import echo_points
+    from ..core.realism.footprint import subrays_around
+    from ..core.realism.realistic import echo_points
     from ..core.sensors import SensorConfig
 
     sensor = SensorConfig(model="realistic", noise_sigma=0.0, max_range=30.0).validate()

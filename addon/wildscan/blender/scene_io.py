@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..core.errors import UserError
 from ..core.io.files import check_input_file, remove_quietly
-from ..core.signals import deferred
+from ..core.runtime.signals import deferred
 
 # First bytes of the .blend flavours Blender writes: plain, gzip, zstd.
 BLEND_MAGICS = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")

@@ -34,7 +34,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
 
 def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from ..app.geometry import extract
-    from ..core.region import DEFAULT_LAYOUT
+    from ..core.world.region import DEFAULT_LAYOUT
     from .output import say
 
     vegetation = options.vegetation_of(args)

@@ -20,9 +20,8 @@ from ..app.settings import SETTINGS, command_line_help, flag
 from ..core import sensor as S
 from ..core.checks import whole_number
 from ..core.errors import UserError
-from ..core.frames import FRAMES
 from ..core.io.files import check_input_file, check_output_path
-from ..core.region import DEFAULT_LAYOUT, DEFAULT_REGION, LAYOUTS, MAX_REGION_SIDE, check_layout
+from ..core.spatial.frames import FRAMES
 from ..core.world import (
     BIOMES,
     DEFAULT_BIOME,
@@ -34,6 +33,7 @@ from ..core.world import (
     check_zone,
     detail_level,
 )
+from ..core.world.region import DEFAULT_LAYOUT, DEFAULT_REGION, LAYOUTS, MAX_REGION_SIDE, check_layout
 from ..raycast.select import BACKEND_NAMES
 
 EXIT_USER_ERROR = 2
@@ -286,9 +286,9 @@ def vegetation_of(args: argparse.Namespace) -> str:
 
 
 def region_of(args: argparse.Namespace):
-    """The checked --region (core/region.py Region) of the command's layout; the default
+    """The checked --region (core/world/region.py Region) of the command's layout; the default
     region (the 150 m square around the origin) when none is given."""
-    from ..core.region import check_region
+    from ..core.world.region import check_region
 
     if getattr(args, "region", None) is None:
         return DEFAULT_REGION

@@ -92,7 +92,7 @@ def _layout_of(args: argparse.Namespace) -> str | None:
             if getattr(args, name) is not None:
                 raise UserError("applies to a world built from {seed} only", setting=name, related=("seed",))
         return None
-    from ..core.region import DEFAULT_LAYOUT
+    from ..core.world.region import DEFAULT_LAYOUT
 
     if args.lod is not None and args.layout == "paper":
         raise UserError(

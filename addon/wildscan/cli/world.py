@@ -56,7 +56,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
 def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from ..app.world import make_world
     from ..core.errors import UserError
-    from ..core.region import DEFAULT_REGION
+    from ..core.world.region import DEFAULT_REGION
     from .output import StageProgress
 
     region = options.region_of(args)

@@ -40,7 +40,7 @@ from . import detmath as dm
 from .backend import RayBackend
 from .classes import BY_ID, GROUND_CLASS_IDS, WATER_ID
 from .errors import PoseRejected, UserError
-from .leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
+from .spatial.leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
 
 COLUMN_HEIGHT = 0.723  # m, optical centre above the ground (paper section II)
 ARM_X = 0.335  # m, half-length of the X arm (half of Andabata's ~0.67 m length)

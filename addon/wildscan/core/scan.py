@@ -15,7 +15,6 @@ import numpy as np
 from .. import __version__
 from . import detmath as dm
 from .backend import RayBackend, with_normals
-from .cast_clock import scanning
 from .classes import (
     LABEL_BY_ID,
     REFLECTIVITY_BY_ID,
@@ -26,13 +25,12 @@ from .classes import (
 )
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
-from .frames import check_frame, to_world
 from .hits import RayHits
-from .leveling import leveling_matrix
-from .pause import pause_here
 from .placement import Placement, Pose, place
 from .pointcloud import PointCloud
-from .reach import check_reach
+from .runtime.cast_clock import scanning
+from .runtime.pause import pause_here
+from .runtime.threads import backend_threads, cast_parts
 from .sensors import (
     DEFAULT_DEVICE,
     SensorConfig,
@@ -42,7 +40,9 @@ from .sensors import (
     rotated_beams,
 )
 from .sensors.beams import beam_columns, beam_times
-from .threads import backend_threads, cast_parts
+from .spatial.frames import check_frame, to_world
+from .spatial.leveling import leveling_matrix
+from .spatial.reach import check_reach
 
 # Rays are cast a little past max range so a true range just beyond it can
 # still come back inside after noise; the limit applies to the measured range.
@@ -191,7 +191,7 @@ def points_in_frame(points_sensor: np.ndarray, placement: Placement, frame: str)
     if frame == "sensor":
         return points_sensor
     if frame == "leveled":
-        from .leveling import level_points
+        from .spatial.leveling import level_points
 
         return level_points(points_sensor, placement.roll_rad, placement.pitch_rad)
     return to_world(points_sensor, "sensor", placement)
@@ -241,7 +241,7 @@ def run_scan(
     sensor.validate()
     check_frame(frame)
     if sensor.realistic:
-        from .realistic import check_backend
+        from .realism.realistic import check_backend
 
         check_backend(backend)
     placement = place(backend, pose, z_start)
@@ -368,7 +368,7 @@ def _realistic_cloud(
     effects: Effects,
 ):
     """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
-    from .realistic import realistic_points
+    from .realism.realistic import realistic_points
 
     _, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)
     # the beams' world directions are the points' in the world frame only (the others turn

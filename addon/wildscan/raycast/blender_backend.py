@@ -19,9 +19,9 @@ import bpy
 import numpy as np
 
 from ..core import detmath as dm
-from ..core.cast_clock import CLOCK
 from ..core.classes import UNLABELED
 from ..core.hits import RayHits
+from ..core.runtime.cast_clock import CLOCK
 from .base import broadcast_origins, tags_from
 from .extract import check_scene_tags
 

@@ -15,7 +15,7 @@ import gc
 
 import numpy as np
 
-from ..core.cast_clock import CLOCK
+from ..core.runtime.cast_clock import CLOCK
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler
 

@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.backend import THREADS
-from ..core.cast_clock import CLOCK
+from ..core.runtime.cast_clock import CLOCK
 from .geometry import RefiningBackend, SceneGeometry
 from .sealing import sealed_settler
 from .settle import Settler

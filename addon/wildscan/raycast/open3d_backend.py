@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.threads import cast_threads
+from ..core.runtime.threads import cast_threads
 from .embree_backend import sealed
 from .geometry import RefiningBackend, SceneGeometry
 from .settle import Settler

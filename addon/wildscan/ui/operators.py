@@ -204,7 +204,7 @@ class WILDSCAN_OT_scan(Operator):
     def execute(self, context):
         from ..app.scan import scan_current_scene
         from ..core.errors import UserError
-        from ..core.frames import check_frame
+        from ..core.spatial.frames import check_frame
         from ..raycast.select import check_backend_name
         from . import status
         from .properties import pose_from, sensor_from, z_start_from
@@ -366,7 +366,7 @@ class WILDSCAN_OT_export_ply(_ExportScan, Operator, ExportHelper):
 def cloud_for_export(obj, frame: str):
     """(PointCloud, metadata) of a cloud object in `frame`: as scanned when it is the frame of
     the scan, else moved with the scan's placement (metadata records both)."""
-    from ..core import frames
+    from ..core.spatial import frames
     from .scene import cloud_metadata, read_cloud
 
     frames.check_frame(frame)

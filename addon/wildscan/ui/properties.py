@@ -20,8 +20,8 @@ from ..app.settings import SETTINGS, label, panel_help
 from ..blender.generate import DETAILS
 from ..core import sensor as S
 from ..core.classes import TAG_NAMES
-from ..core.region import DEFAULT_LAYOUT, DEFAULT_REGION, MAX_REGION_SIDE
 from ..core.world.biomes import BIOME_TABLE, BIOMES, DEFAULT_BIOME
+from ..core.world.region import DEFAULT_LAYOUT, DEFAULT_REGION, MAX_REGION_SIDE
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults, take_file_defaults

@@ -4,7 +4,7 @@ centre and size, warn when a scan's reach leaves it, and extend it (an operator)
 A scan in Blender casts against what the scene holds (either caster), so past the built
 region its beams see nothing: the Scan operator says so after the scan (`reach_warning`), and
 World > Extend region rebuilds a region that holds the sensor's reach around the pose
-(core/region.py extended_region), replacing only what WildScan built.
+(core/world/region.py extended_region), replacing only what WildScan built.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from .feedback import Progress, internal_error, tag_view3d_redraw
 
 
 def panel_region(settings):
-    """The World panel's region (centre and size) as a checked core/region.py Region."""
-    from ..core.region import check_region, region_around
+    """The World panel's region (centre and size) as a checked core/world/region.py Region."""
+    from ..core.world.region import check_region, region_around
 
     return check_region(region_around(settings.region_x, settings.region_y, settings.region_size))
 
@@ -30,7 +30,7 @@ def build_region(seed, region, detail, stage, vegetation, biome) -> None:
 
 def built_region(scene):
     """The region of the endless world built in the scene (a Region), or None."""
-    from ..core.region import Region
+    from ..core.world.region import Region
     from .scene import world_info
 
     info = world_info(scene)
@@ -45,7 +45,7 @@ def sensor_reach(sensor) -> float:
 
 def reach_warning(scene, pose, sensor) -> str | None:
     """One line when a scan from `pose` reaches past the built region, else None."""
-    from ..core.region import reach_beyond
+    from ..core.world.region import reach_beyond
 
     region = built_region(scene)
     if region is None:
@@ -74,7 +74,7 @@ class WILDSCAN_OT_extend_region(Operator):
 
     def execute(self, context):
         from ..core.errors import UserError
-        from ..core.region import extended_region
+        from ..core.world.region import extended_region
         from . import status
         from .properties import pose_from, sensor_from
 

@@ -20,8 +20,8 @@ import bpy
 import numpy as np
 
 from ..blender.mesh import GENERATED, remove_objects_and_their_meshes, wildscan_collection
-from ..core import frames
 from ..core.pointcloud import OPTIONAL_FIELDS, PointCloud
+from ..core.spatial import frames
 
 SCANS_COLLECTION = "WildScan Scans"
 MARKER_PROP = "wildscan_pose_marker"

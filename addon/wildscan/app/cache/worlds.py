@@ -35,11 +35,11 @@ import numpy as np
 
 from ...core.classes import class_by_name
 from ...core.errors import PoseRejected
-from ...core.open_ground import OpenGround, no_open_ground, open_ground
-from ...core.open_sky import open_sky
 from ...core.placement import place
 from ...core.posesampler import NoPose, ScanPose, sample_poses
-from ...core.traversability import ROBOT_HEIGHT
+from ...core.truth.open_ground import OpenGround, no_open_ground, open_ground
+from ...core.truth.open_sky import open_sky
+from ...core.truth.traversability import ROBOT_HEIGHT
 from ...core.world import EXTENT, WorldPlan, plan_world
 from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround

@@ -15,7 +15,7 @@ from ...core.classes import BY_ID, CLASSES, LOG, PARTICLE
 from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
-from ...core.pause import pause_here
+from ...core.runtime.pause import pause_here
 from .intensity import intensity_lines, remission_totals
 from .layout import CARD, CARD_FIGURES, DATASET_JSON
 from .manifest import Manifest
@@ -211,7 +211,7 @@ def _height_lines(t: dict) -> list[str]:
     """Points of each class against height above the ground the robot stands on (hag)."""
     if "class_heights" not in t:
         return []
-    from ...core.traversability import HEIGHT_BINS
+    from ...core.truth.traversability import HEIGHT_BINS
 
     lines = ["", "## Points of each class against height above the ground", ""]
     lines += [

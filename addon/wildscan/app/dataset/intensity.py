@@ -14,9 +14,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ...core import intensity as I
-from ...core.echoes import R_REF
-from ...core.groundtruth import world_points
+from ...core.realism import intensity as I
+from ...core.realism.echoes import R_REF
+from ...core.truth.groundtruth import world_points
 
 
 def with_dataset_intensity(mode: str, seed: int, scan: int, result, world=None):

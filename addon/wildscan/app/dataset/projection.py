@@ -4,7 +4,7 @@ every device it may draw the field of view."""
 
 from __future__ import annotations
 
-from ...core.projection import Projection, combined, projection_for
+from ...core.io.projection import Projection, combined, projection_for
 from ...core.sensors import DEFAULT_DEVICE, Device, device_choice
 from .spec import DatasetSpec, rh_choices
 

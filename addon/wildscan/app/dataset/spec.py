@@ -18,15 +18,15 @@ from ... import __version__
 from ...core import sensor as S
 from ...core.classes import TAG_NAMES
 from ...core.errors import UserError
-from ...core.frames import FRAMES
-from ...core.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
-from ...core.region import dataset_layout
+from ...core.realism.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.rng import stage_seed
+from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
+from ...core.world.region import dataset_layout
 from ..settings import SETTINGS
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
@@ -168,7 +168,7 @@ def load_spec(path) -> DatasetSpec:
     return spec_from_dict(data, path.name)
 
 
-# the top-level keys of a spec (layout: "paper" only until issue 34, core/region.py dataset_layout)
+# the top-level keys of a spec (layout: "paper" only until issue 34, core/world/region.py dataset_layout)
 TOP_KEYS = tuple(
     "seeds detail vegetation biome layout scans_per_world formats label_scheme split poses sensor "
     "weather intensity".split()

@@ -29,10 +29,14 @@ from pathlib import Path
 import numpy as np
 
 from ... import __version__
-from ...core.cast_clock import CLOCK
 from ...core.classes import class_by_name
 from ...core.errors import PoseRejected, UserError
-from ...core.groundtruth import (
+from ...core.io.files import atomic_outputs
+from ...core.label_schemes import scheme
+from ...core.posesampler import NoPose
+from ...core.runtime.cast_clock import CLOCK
+from ...core.scan import run_scan
+from ...core.truth.groundtruth import (
     bev_grid,
     height_above_ground,
     map_top_class,
@@ -40,13 +44,9 @@ from ...core.groundtruth import (
     pose_matrix,
     world_points,
 )
-from ...core.io.files import atomic_outputs
-from ...core.label_schemes import scheme
-from ...core.open_ground import OpenGround
-from ...core.open_sky import open_sky
-from ...core.posesampler import NoPose
-from ...core.scan import run_scan
-from ...core.traversability import (
+from ...core.truth.open_ground import OpenGround
+from ...core.truth.open_sky import open_sky
+from ...core.truth.traversability import (
     ROBOT_HEIGHT,
     class_height_histogram,
     support_flags,

@@ -11,13 +11,13 @@ import numpy as np
 from ...core import detmath as dm
 from ...core.errors import UserError
 from ...core.io.rosbag import BASE_LINK, LASER, ODOM, SENSOR, DriveBag, point_records
-from ...core.leveling import rot_z
 from ...core.motion.placements import Motion
-from ...core.motion.rotations import quaternions
 from ...core.motion.sweep import Sweep
 from ...core.placement import COLUMN_HEIGHT
 from ...core.sensors import SensorConfig
 from ...core.sensors.device import Device
+from ...core.spatial.leveling import rot_z
+from ...core.spatial.rotations import quaternions
 
 BAG_NAMES = {"ros1": "drive.bag", "ros2": "drive_ros2"}
 # The laser frame's axes in the head's frame: its x along the column (beam 540, straight up),

@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 
 from ...core.checks import one_of, whole_number
 from ...core.errors import UserError
-from ...core.frames import check_frame
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
 from ...core.placement import check_z_start
 from ...core.sensor import SensorConfig
+from ...core.spatial.frames import check_frame
 from ...core.world import DEFAULT_VEGETATION, check_vegetation
 
 BAGS = ("both", "ros1", "ros2", "none")

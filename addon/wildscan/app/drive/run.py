@@ -19,23 +19,23 @@ from ... import __version__
 from ...core.backend import RayBackend
 from ...core.classes import class_table_dict
 from ...core.effects import Effects
-from ...core.groundtruth import pose_matrix
 from ...core.io.tum import tum_text
 from ...core.io.writer import ScanOutput
 from ...core.label_schemes import scheme
 from ...core.motion.placements import Motion, place_all
 from ...core.motion.sweep import Sweep, sweep
 from ...core.motion.trajectory import instants, schedule
-from ...core.reach import check_reach
 from ...core.rng import seeded
 from ...core.scan import points_in_frame
+from ...core.spatial.reach import check_reach
+from ...core.truth.groundtruth import pose_matrix
+from ...raycast.wind import drive_effects, moving_scene
 from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
 from . import files
 from .bags import BagFeed, open_bags
 from .memory import keep_freed_memory
 from .request import DriveRequest
-from .wind import drive_effects, moving_scene
 from .world import drive_path, drive_world
 
 

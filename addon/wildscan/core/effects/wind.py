@@ -20,8 +20,8 @@ import numpy as np
 
 from .. import detmath as dm
 from ..classes import class_by_name
-from ..motion.rotations import matrix
 from ..rng import stage_rng
+from ..spatial.rotations import matrix
 from .base import Effect
 
 # class -> (amplitude relative to the treetops', lowest and highest frequency in Hz)

@@ -13,7 +13,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import UserError
-from ..pause import pause_here
+from ..runtime.pause import pause_here
 
 DEFAULT_NAME_MAX = 255  # bytes in one file name, where the file system does not say
 # Room kept in a temporary name for what a writer adds to it (Blender saves NAME@, then renames).

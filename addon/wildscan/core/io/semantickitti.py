@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from ..label_schemes import LabelScheme
-from ..projection import Projection
-from ..rangeimage import npz_bytes, scan_range_image
+from .projection import Projection
+from .rangeimage import npz_bytes, scan_range_image
 from .writer import ScanFile, ScanOutput, Writer
 
 REMISSION_SCALE = 0.01  # reflectivity (Table I) -> remission
@@ -110,7 +110,7 @@ ECHO_DTYPE = np.dtype([("echo", "u1"), ("echoes", "u1"), ("label_purity", "<f4")
 
 def echo_bytes(extra: dict) -> bytes:
     """echo/NNNNNN.npy: the echo fields a SemanticKITTI user needs to drop mixed pixels."""
-    from ..groundtruth import npy_bytes
+    from ..truth.groundtruth import npy_bytes
 
     out = np.zeros(len(extra["echo"]), dtype=ECHO_DTYPE)
     for name in ECHO_DTYPE.names:

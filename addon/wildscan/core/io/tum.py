@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..motion.rotations import quaternions
+from ..spatial.rotations import quaternions
 
 HEADER = "# t x y z qx qy qz qw"
 

@@ -3,8 +3,6 @@ pose at every 2D scan and every beam, and the raw and deskewed clouds of each 3D
 
     timing.py      when each beam is measured, where the head points then
     trajectory.py  the path (trail, waypoints, straight line) sampled at constant speed
-    rotations.py   rotation vectors, quaternions, rotating many vectors at once
     placements.py  the four-laser placement at every 2D scan, in batches of rays
     sweep.py       the rays of a run of 2D scans, cast, and their raw and deskewed clouds
-    wind.py        foliage swaying about its base over time
 """

@@ -15,7 +15,6 @@ import numpy as np
 from .. import detmath as dm
 from ..backend import RayBackend
 from ..errors import PoseRejected
-from ..leveling import roll_pitch_from_slopes
 from ..placement import (
     ARM_X,
     ARM_Y,
@@ -34,7 +33,8 @@ from ..placement import (
     probe_ground_z_many,
     stand,
 )
-from .rotations import log_map
+from ..spatial.leveling import roll_pitch_from_slopes
+from ..spatial.rotations import log_map
 
 
 @dataclass

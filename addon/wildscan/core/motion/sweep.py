@@ -27,13 +27,13 @@ import numpy as np
 
 from .. import detmath as dm
 from ..backend import RayBackend, with_scan_times
-from ..cast_clock import scanning
 from ..effects import CLEAR_AIR, Effects, Rays, weather_of
 from ..pointcloud import PointCloud
+from ..runtime.cast_clock import scanning
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame, with_weather_field
 from ..sensors import SensorConfig, directions_at
+from ..spatial.rotations import rotate
 from .placements import Motion
-from .rotations import rotate
 from .timing import beam_fractions, beam_times, head_angles_rad
 
 CAST_CHUNK = 64_800  # rays per cast and progress report (60 2D scans)
@@ -105,7 +105,7 @@ def cast_in_chunks(backend: RayBackend, origins, dirs, max_range, ks, progress):
     scan times (a scene that moves with time: an effect's, app/drive/wind.py) is told which 2D
     scan each chunk's rows belong to."""
     from ..hits import RayHits
-    from ..threads import backend_threads, in_parts
+    from ..runtime.threads import backend_threads, in_parts
 
     per_column = len(dirs) // len(ks)
     per_chunk = max(1, CAST_CHUNK // per_column) * per_column

@@ -20,9 +20,10 @@ from .clearing import add_clearings
 from .ground import cover_cells, materials_of
 from .library import library
 from .powerline import add_powerline
+from .raster import tile_raster
 from .scatter import scatter_elements
 from .tile import Tile, lattice
-from .tiles import LEVEL_FACTORS, TERRAIN_SPACING, TILE_M, check_tile
+from .tiles import LEVEL_FACTORS, TERRAIN_SPACING, TILE_M, check_tile, tile_rect
 
 SKIRT_DEPTH = 0.6  # m a tile's skirt hangs below its edge: more than any level's lattice error
 WATER_CELL = 2.0  # m, the water surface's quads
@@ -30,14 +31,20 @@ COVER_CELL = 0.5  # m (cover.CELL)
 
 
 def build_tile(seed: int, biome: str, detail: str, vegetation: str, i: int, j: int, level: int = 0) -> Tile:
+    """Tile (i, j) at `level` (module docstring). The terrain is sampled on the full-detail
+    lattice; a coarser level's mesh takes every LEVEL_FACTORS[level]-th node of it (the same
+    numbers a coarser lattice would compute: its nodes are the same points)."""
     check_tile(i, j)
     land = F.landscape(seed, biome)
-    spacing = TERRAIN_SPACING[detail] * LEVEL_FACTORS[level]
-    xs, ys = lattice(i, j, spacing)
-    grid = TerrainGrid(xs, ys, land.height(*np.meshgrid(xs, ys)))
-    cls, height = cover_cells(land, i, j, grid) if biome_of(biome).cover else _bare_cover()
-    tile = Tile(i, j, level, grid, cls, height)
-    _terrain(tile, land)
+    xs, ys = lattice(i, j, TERRAIN_SPACING[detail])
+    fine = TerrainGrid(xs, ys, land.height(*np.meshgrid(xs, ys)))
+    step = LEVEL_FACTORS[level]
+    grid = TerrainGrid(xs[::step], ys[::step], fine.z[::step, ::step])
+    x0, _, y0, _ = tile_rect(i, j)
+    raster = tile_raster(land, x0, y0, TILE_M, fine)
+    cls, height = cover_cells(land, raster, fine) if biome_of(biome).cover else _bare_cover()
+    tile = Tile(i, j, level, grid, cls, height, fine=fine, raster=raster)
+    _terrain(tile)
     _water(tile, land)
     lib = library(seed, detail, vegetation)
     scatter_elements(tile, land, lib, level, vegetation)
@@ -52,13 +59,13 @@ def _bare_cover():
     return np.zeros((n, n), dtype=np.uint8), np.zeros((n, n), dtype=np.float32)
 
 
-def _terrain(tile: Tile, land: F.Landscape) -> None:
+def _terrain(tile: Tile) -> None:
     """The lattice's triangles and a skirt round the tile, one element per ground material."""
     g = tile.grid
     v, f = grid_heightfield(g.xs, g.ys, g.z)
     sv, sf = _skirt(g)
     v, f = np.concatenate([v, sv]), np.concatenate([f, sf + len(v)])
-    material = materials_of(land, v, f)
+    material = materials_of(tile.raster, v, f)
     for name in sorted(set(material.tolist())):
         mesh = faces_subset((v, f), material == name)
         key = tile.own(f"ground.{name.replace(' ', '_')}", mesh)

@@ -133,9 +133,10 @@ class Landscape:
 
     # -- land cover ---------------------------------------------------------------------
 
-    def land_cover(self, x, y, height=None) -> np.ndarray:
+    def land_cover(self, x, y, height=None, trail=None) -> np.ndarray:
         """uint8 codes into LAND_COVERS at points (module docstring for the order). `height`:
-        the terrain there if the caller has it (the water's test needs it)."""
+        the terrain there if the caller has it (the water's test needs it); `trail`: the
+        points' anchors.trail_nearest if the caller has it."""
         x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
         veg = self.vegetation(x, y)
         out = np.where(veg > self.forest_cut, FOREST, np.where(veg > self.scrub_cut, SCRUB, MEADOW))
@@ -147,7 +148,8 @@ class Landscape:
         h = self.height(x, y) if height is None else height
         out[self.anchors.shore(x, y, h)] = WETLAND
         out[self.anchors.in_clearing(x, y)] = CLEARING
-        out[self.anchors.trail_distance(x, y) < self.anchors.trail_half_width(x, y)] = TRAIL
+        dist, kind = self.anchors.trail_nearest(x, y) if trail is None else trail
+        out[dist < np.array([k[1] for k in A.TRAIL_KINDS])[kind]] = TRAIL
         out[self.anchors.under_water(x, y, h)] = WETLAND
         return out
 

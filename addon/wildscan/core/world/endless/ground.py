@@ -30,6 +30,7 @@ from ..biomes import biome_of
 from ..heightfield import TerrainGrid
 from . import anchors as A
 from . import fields as F
+from .raster import Raster
 
 CELL = C.CELL
 BARE_SLOPE_TAN = 0.7812856265  # tan 38 deg: steeper ground holds no sward (stages/cover.py)
@@ -41,19 +42,9 @@ VERGE = 1.5  # m of mown verge beside a track or path
 MATERIAL_BY_COVER = ("leaf litter", "soil", "soil", "mud", "rock slab", "soil", "soil")
 
 
-def cell_centres(i: int, j: int, tile_m: float) -> tuple[np.ndarray, np.ndarray]:
-    n = int(round(tile_m / CELL))
-    k = (np.arange(n, dtype=np.float64) + 0.5) * CELL
-    return np.meshgrid(i * tile_m + k, j * tile_m + k)
-
-
-def cover_cells(land: F.Landscape, i: int, j: int, grid: TerrainGrid) -> tuple[np.ndarray, np.ndarray]:
-    """(class, height) of the tile's sward cells."""
-    from .tiles import TILE_M
-
-    x, y = cell_centres(i, j, TILE_M)
-    ground = grid.height_at(x, y)
-    cover = land.land_cover(x, y, ground)
+def cover_cells(land: F.Landscape, r: Raster, fine: TerrainGrid) -> tuple[np.ndarray, np.ndarray]:
+    """(class, height) of the tile's sward cells (r: the tile's raster)."""
+    x, y, cover = r.x, r.y, r.cover
     biome = biome_of(land.biome)
     patch, tall = land.uniform_patch(x, y, 0), land.uniform_patch(x, y, 1)
     cls = np.zeros(x.shape, dtype=np.uint8)
@@ -75,36 +66,21 @@ def cover_cells(land: F.Landscape, i: int, j: int, grid: TerrainGrid) -> tuple[n
     put((cover == F.WETLAND) & (tall < 0.2), C.LOW_GRASS, MEADOW)
     put((cover == F.ROCK) & (patch < 0.25), C.LOW_GRASS, GRAZED)
     put(cover == F.CLEARING, C.LOW_GRASS, LAWN)
-    _trails(land, x, y, put)
-    bare = land.anchors.under_water(x, y, ground) | _in_cave(land, x, y) | _steep(grid, x, y)
-    put(bare, 0, 0.0)
+    _trails(r, put)
+    put(r.water | r.cave | _steep(fine, x, y), 0, 0.0)
     height = height * biome.grass_height * (0.75 + 0.5 * land.uniform_patch(x, y, 2))
     return cls, height.astype(np.float32)
 
 
-def _trails(land: F.Landscape, x, y, put) -> None:
+def _trails(r: Raster, put) -> None:
     """A track's median grows short grass between bare wheel tracks; a footpath or a paved path
     is bare; every trail has a mown verge."""
-    dist, kind = land.anchors.trail_nearest(x, y)
-    half = np.array([k[1] for k in A.TRAIL_KINDS])[kind]
+    dist, half = r.trail, r.half_width
     put((dist >= half) & (dist < half + VERGE), C.LOW_GRASS, LAWN)
     tread = dist < half
     put(tread, 0, 0.0)
     wheels = np.abs(dist - WHEEL_GAUGE / 2) < 0.3  # two 0.6 m wheel tracks
-    put(tread & (kind == 0) & ~wheels, C.LOW_GRASS, GRAZED)  # median and edges
-
-
-def _in_cave(land: F.Landscape, x, y) -> np.ndarray:
-    out = np.zeros(x.shape, dtype=bool)
-    for c in land.anchors.cells_over(
-        float(x.min()), float(x.max()), float(y.min()), float(y.max()), 0.5 * A.ANCHOR_M
-    ):
-        if c.cave is not None:
-            p = c.cave.pit
-            u, v = p.local(x, y)
-            out |= p.radius(x, y) < 1.15
-            out |= (u > 0) & (u < p.a + c.cave.ramp) & (np.abs(v) < 3.0)
-    return out
+    put(tread & (r.kind == 0) & ~wheels, C.LOW_GRASS, GRAZED)  # median and edges
 
 
 def _steep(grid: TerrainGrid, x, y) -> np.ndarray:
@@ -114,18 +90,16 @@ def _steep(grid: TerrainGrid, x, y) -> np.ndarray:
     return gx * gx + gy * gy > BARE_SLOPE_TAN * BARE_SLOPE_TAN
 
 
-def materials_of(land: F.Landscape, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """The ground material (a class name) of each terrain triangle, by the land cover at its
-    centre; a trail's tread by its kind."""
+def materials_of(r: Raster, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """The ground material (a class name) of each terrain triangle: its centre's cell's land
+    cover's; a trail's tread by its kind; mud under water, rock slab in a cave."""
     t = vertices[faces]
-    cx, cy = t[:, :, 0].mean(axis=1), t[:, :, 1].mean(axis=1)
-    ground = t[:, :, 2].mean(axis=1)
-    cover = land.land_cover(cx, cy, ground)
+    flat = r.cells(t[:, :, 0].mean(axis=1), t[:, :, 1].mean(axis=1))
+    cover = r.at("cover", flat)
     names = np.array(MATERIAL_BY_COVER, dtype=object)[cover]
-    dist, kind = land.anchors.trail_nearest(cx, cy)
-    half = np.array([k[1] for k in A.TRAIL_KINDS])[kind]
-    on_trail = (cover == F.TRAIL) & (dist < half)
+    kind = r.at("kind", flat)
+    on_trail = (cover == F.TRAIL) & (r.at("trail", flat) < r.half_width.reshape(-1).take(flat))
     names[on_trail] = np.array([k[2] for k in A.TRAIL_KINDS], dtype=object)[kind[on_trail]]
-    names[land.anchors.under_water(cx, cy, ground)] = "mud"
-    names[_in_cave(land, cx, cy)] = "rock slab"
+    names[r.at("water", flat)] = "mud"
+    names[r.at("cave", flat)] = "rock slab"
     return names

@@ -4,12 +4,18 @@ detail, vegetation) from its own generator `stage_rng(seed, "endless.library.<fa
 
 A tile names these by key; it never draws a mesh of its own but its terrain, water, wires
 and cave roof (which are where they are), so building a tile costs placements, not shapes.
+
+Drawing the library takes about a second (porous crowns); a front that keeps a cache can store
+it (`library_arrays`) and give it back to a later process (`provide_library`), which then
+builds tiles without drawing it again: the same arrays, so the same tiles.
 """
 
 from __future__ import annotations
 
-import functools
+import json
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from ...rng import stage_rng
 from ..detail import detail_level
@@ -36,7 +42,9 @@ class Library:
     )  # kind -> (key, trunk r, crown r)
 
     def add(self, key: str, mesh, radius: float = 0.0) -> str:
-        self.prototypes[key] = Prototype(key, mesh[0], mesh[1])
+        self.prototypes[key] = Prototype(
+            key, np.asarray(mesh[0], dtype=np.float64), np.asarray(mesh[1], dtype=np.int32)
+        )
         self.radius[key] = float(radius)
         return key
 
@@ -44,9 +52,56 @@ class Library:
         return sorted(k for k in self.prototypes if k.startswith(prefix))
 
 
-@functools.lru_cache(maxsize=8)
+_LIBRARIES: dict[tuple, Library] = {}  # per process, by (seed, detail, vegetation)
+_KEEP = 8
+
+
 def library(seed: int, detail: str, vegetation: str) -> Library:
-    """The shared meshes of a landscape (cached per process)."""
+    """The shared meshes of a landscape (drawn once per process, or given: provide_library)."""
+    key = (int(seed), detail, vegetation)
+    if key not in _LIBRARIES:
+        if len(_LIBRARIES) >= _KEEP:
+            _LIBRARIES.pop(next(iter(_LIBRARIES)))
+        _LIBRARIES[key] = draw_library(*key)
+    return _LIBRARIES[key]
+
+
+def forget_libraries() -> None:
+    _LIBRARIES.clear()
+
+
+def provide_library(seed: int, detail: str, vegetation: str, arrays: dict) -> None:
+    """Use `arrays` (library_arrays of the same seed, detail and vegetation, from a cache) as
+    this process's library."""
+    _LIBRARIES[(int(seed), detail, vegetation)] = library_from_arrays(arrays)
+
+
+def library_arrays(lib: Library) -> dict[str, np.ndarray]:
+    """The library as named arrays (np.savez), every mesh and number as it is."""
+    out = {"meta": np.array(json.dumps({"radius": lib.radius, "trees": lib.trees}, sort_keys=True))}
+    for key, p in lib.prototypes.items():
+        out[f"v:{key}"], out[f"f:{key}"] = p.vertices, p.faces
+    return out
+
+
+def library_from_arrays(arrays) -> Library:
+    meta = json.loads(str(np.asarray(arrays["meta"])))
+    lib = Library()
+    for name in arrays.keys() if hasattr(arrays, "keys") else arrays:
+        if name.startswith("v:"):
+            key = name[2:]
+            mesh = (
+                np.asarray(arrays[name], dtype=np.float64),
+                np.asarray(arrays[f"f:{key}"], dtype=np.int32),
+            )
+            lib.prototypes[key] = Prototype(key, *mesh)
+    lib.radius = {k: float(v) for k, v in meta["radius"].items()}
+    lib.trees = {k: [(str(a), float(b), float(c)) for a, b, c in v] for k, v in meta["trees"].items()}
+    return lib
+
+
+def draw_library(seed: int, detail: str, vegetation: str) -> Library:
+    """Draw the shared meshes (each family from its own generator)."""
     d, porous, lib = detail_level(detail), vegetation == "porous", Library()
     rng = stage_rng(seed, "endless.library.trees")
     for kind, make in TREE_KINDS.items():

@@ -214,9 +214,9 @@ def plan_region(
 
 
 def fine_grid(land: F.Landscape, detail: str, tile: Tile) -> TerrainGrid:
-    """A tile's terrain on the full-detail lattice: its own grid at level 0, else sampled."""
-    if tile.level == 0:
-        return tile.grid
+    """A tile's terrain on the full-detail lattice (its own, else sampled: a tile from a cache)."""
+    if tile.fine is not None:
+        return tile.fine
     xs, ys = lattice(tile.i, tile.j, TERRAIN_SPACING[detail])
     return TerrainGrid(xs, ys, land.height(*np.meshgrid(xs, ys)))
 

@@ -17,7 +17,6 @@ import numpy as np
 from ... import detmath as dm
 from ...rng import stage_rng
 from ..biomes import biome_of
-from . import anchors as A
 from . import fields as F
 from .tile import ground_under
 from .tiles import ROCK_DROP_LEVEL, SMALL_DROP_LEVEL, TILE_M
@@ -41,7 +40,7 @@ SMALL_ROCK = 0.5  # m: a stone smaller than this is left out of coarse tiles
 
 
 def _candidates(land: F.Landscape, tile, family: str, densities):
-    """(rng, x, y, cover) of the family's kept candidates."""
+    """(rng, x, y, cover) of the family's kept candidates (the tile's raster answers where)."""
     rng = stage_rng(land.seed, f"endless.{family}.{tile.i}.{tile.j}")
     top = max(densities)
     if top <= 0:
@@ -49,36 +48,25 @@ def _candidates(land: F.Landscape, tile, family: str, densities):
     count = int(rng.poisson(top * TILE_M * TILE_M / 1000.0))
     x0, x1, y0, y1 = tile.rect
     x, y, u = rng.uniform(x0, x1, count), rng.uniform(y0, y1, count), rng.random(count)
-    ground = tile.grid.height_at(x, y)
-    cover = land.land_cover(x, y, ground)
+    flat = tile.raster.cells(x, y)
+    cover = tile.raster.at("cover", flat)
     keep = u < np.asarray(densities)[cover] / top
-    keep &= ~_kept_out(land, x, y, ground, family)
+    keep &= ~_kept_out(tile.raster, flat, family)
     return rng, x[keep], y[keep], cover[keep]
 
 
-def _kept_out(land: F.Landscape, x, y, ground, family: str) -> np.ndarray:
-    a = land.anchors
-    wet_ok = family in ("reeds",)
-    bad = a.under_water(x, y, ground + (0.0 if wet_ok else 0.15))
-    bad |= a.trail_distance(x, y) < a.trail_half_width(x, y) + (0.3 if family in ("low", "high") else 1.0)
-    if family not in ("low",):
-        bad |= a.in_clearing(x, y)
-    for c in a.cells_over(
-        float(np.min(x, initial=0)),
-        float(np.max(x, initial=0)),
-        float(np.min(y, initial=0)),
-        float(np.max(y, initial=0)),
-        0.5 * A.ANCHOR_M,
-    ):
-        if c.cave is not None:
-            p = c.cave.pit
-            u, v = p.local(x, y)
-            bad |= p.radius(x, y) < 1.4
-            bad |= (u > -p.a - 2.0) & (u < p.a + c.cave.ramp + 1.0) & (np.abs(v) < p.b + 2.0)
+def _kept_out(r, flat, family: str) -> np.ndarray:
+    """Where the family may not stand: water (reeds: only under it), a trail's tread and
+    margin, a clearing's lawn (but for grass), a cave, a power line's poles (and, for trees,
+    its corridor)."""
+    bad = r.at("water" if family == "reeds" else "damp", flat)
+    margin = 0.3 if family in ("low", "high") else 1.0
+    bad |= r.at("trail", flat) < r.half_width.reshape(-1).take(flat) + margin
+    if family != "low":
+        bad |= r.at("clearing", flat)
+    bad |= r.at("cave_keep", flat) | r.at("line", flat)
     if family == "trees":
-        bad |= a.corridor(x, y)
-    for line in a.lines_over(float(np.min(y, initial=0)) - 2.0, float(np.max(y, initial=0)) + 2.0):
-        bad |= np.abs(y - line) < 1.5
+        bad |= r.at("corridor", flat)
     return bad
 
 
@@ -86,81 +74,63 @@ def _yaw(rng) -> float:
     return rng.uniform(0, 2 * math.pi)
 
 
-def _place(tile, name: str, cls: str, proto: str, x, y, z, rng, scale, radius) -> None:
-    tile.add(
-        name, cls, proto, location=(float(x), float(y), float(z)), yaw=_yaw(rng), scale=scale, radius=radius
-    )
+def _add_all(tile, cls: str, xs, ys, zs, covers, picks) -> None:
+    """One element of class `cls` a candidate: picks[k] = (prototype, scale, radius, yaw)."""
+    for x, y, z, cover, (key, scale, radius, yaw) in zip(xs, ys, zs, covers, picks):
+        location = (float(x), float(y), float(z))
+        tile.add(F.LAND_COVERS[cover], cls, key, location=location, yaw=yaw, scale=scale, radius=radius)
 
 
 def scatter_elements(tile, land: F.Landscape, lib, level: int, vegetation: str) -> None:
-    drop_small = level >= SMALL_DROP_LEVEL
-    names = F.LAND_COVERS
     biome = biome_of(land.biome)
-    dead = biome.deadwood if biome.cover else 0.0
-    rng, xs, ys, covers = _candidates(
-        land, tile, "trees", TREES_POROUS if vegetation == "porous" else TREES_SOLID
-    )
-    picks = []
-    for cover in covers:
-        kinds, weights = zip(*TREE_MIX.get(int(cover), TREE_MIX[None]))
-        kind = kinds[rng.choice(len(kinds), p=np.array(weights) / sum(weights))]
-        key, trunk_r, crown_r = lib.trees[kind][int(rng.integers(len(lib.trees[kind])))]
-        picks.append((key, trunk_r, crown_r, rng.uniform(0.8, 1.2), _yaw(rng)))
-    reach = np.array([p[1] * p[3] for p in picks])
-    zs = ground_under(tile.grid, xs, ys, reach) if picks else []
-    for x, y, z, cover, (key, trunk_r, crown_r, s, yaw) in zip(xs, ys, zs, covers, picks):
-        placed = dict(location=(float(x), float(y), float(z)), yaw=yaw, scale=(s, s, s))
-        tile.add(names[cover], "trunk", f"{key}_trunk", radius=trunk_r * s, **placed)
-        tile.add(names[cover], "treetop", f"{key}_crown", radius=crown_r * s, **placed)
+    _trees(tile, land, lib, TREES_POROUS if vegetation == "porous" else TREES_SOLID)
     bushes = lib.family("bush")
     rng, xs, ys, covers = _candidates(land, tile, "bushes", BUSHES)
-    for x, y, cover in zip(xs, ys, covers):
+    picks = []
+    for _ in covers:
         key = bushes[int(rng.integers(len(bushes)))]
         s = rng.uniform(0.7, 1.4)
-        z = float(tile.grid.height_at(x, y)) - 0.05
-        _place(
-            tile,
-            names[cover],
-            "bush",
-            key,
-            x,
-            y,
-            z,
-            rng,
-            (s, s, s * rng.uniform(0.8, 1.1)),
-            lib.radius[key] * s,
-        )
+        picks.append((key, (s, s, s * rng.uniform(0.8, 1.1)), lib.radius[key] * s, _yaw(rng)))
+    _add_all(tile, "bush", xs, ys, tile.grid.height_at(xs, ys) - 0.05, covers, picks)
     rocks = lib.family("rock")
     rng, xs, ys, covers = _candidates(land, tile, "rocks", ROCKS)
     lo, hi = dm.log(0.25), dm.log(2.0)
-    picks = []
+    picks, sizes = [], []
     for _ in covers:
         key = rocks[int(rng.integers(len(rocks)))]
         size = dm.exp(rng.uniform(lo, hi))
         sc = (size * rng.uniform(0.8, 1.2), size * rng.uniform(0.8, 1.2), size * rng.uniform(0.7, 1.1))
-        picks.append((key, size, sc, _yaw(rng)))
-    zs = ground_under(tile.grid, xs, ys, np.array([0.3 * p[1] for p in picks])) if picks else []
-    for x, y, z, cover, (key, size, sc, yaw) in zip(xs, ys, zs, covers, picks):
-        if level >= ROCK_DROP_LEVEL and size < SMALL_ROCK:
-            continue
-        tile.add(
-            names[cover],
-            "rock",
-            key,
-            location=(float(x), float(y), float(z)),
-            yaw=yaw,
-            scale=sc,
-            radius=lib.radius[key] * max(sc[:2]),
-        )
-    _deadwood(tile, land, lib, dead, drop_small)
-    if not drop_small:
+        picks.append((key, sc, lib.radius[key] * max(sc[:2]), _yaw(rng)))
+        sizes.append(size)
+    sizes = np.array(sizes)
+    keep = sizes >= (SMALL_ROCK if level >= ROCK_DROP_LEVEL else 0.0)  # coarse tiles: no small stones
+    zs = ground_under(tile.grid, xs, ys, 0.3 * sizes)
+    _add_all(tile, "rock", xs[keep], ys[keep], zs[keep], covers[keep], [p for p, k in zip(picks, keep) if k])
+    if biome.cover:
+        _deadwood(tile, land, lib, biome.deadwood, level >= SMALL_DROP_LEVEL)
+    if level < SMALL_DROP_LEVEL:
         _tufts(tile, land, lib)
 
 
+def _trees(tile, land: F.Landscape, lib, densities) -> None:
+    """A trunk and a crown a tree, of the kinds its land cover grows."""
+    rng, xs, ys, covers = _candidates(land, tile, "trees", densities)
+    picks = []
+    for cover in covers:
+        kinds, weights = zip(*TREE_MIX.get(int(cover), TREE_MIX[None]))
+        kind = kinds[rng.choice(len(kinds), p=np.array(weights) / sum(weights))]
+        picks.append(
+            (*lib.trees[kind][int(rng.integers(len(lib.trees[kind])))], rng.uniform(0.8, 1.2), _yaw(rng))
+        )
+    zs = ground_under(tile.grid, xs, ys, np.array([p[1] * p[3] for p in picks]))
+    for part, k in (("trunk", 1), ("crown", 2)):
+        parts = [
+            (f"{key}_{part}", (s, s, s), p[k] * s, yaw) for p in picks for key, s, yaw in [(p[0], p[3], p[4])]
+        ]
+        _add_all(tile, "trunk" if part == "trunk" else "treetop", xs, ys, zs, covers, parts)
+
+
 def _deadwood(tile, land: F.Landscape, lib, factor: float, drop_small: bool) -> None:
-    if factor <= 0:
-        return
-    names = F.LAND_COVERS
     for family, densities, prefix in (("logs", LOGS, "log"), ("stumps", STUMPS, "stump")):
         protos = lib.family(prefix)
         rng, xs, ys, covers = _candidates(land, tile, family, tuple(factor * d for d in densities))
@@ -170,22 +140,12 @@ def _deadwood(tile, land: F.Landscape, lib, factor: float, drop_small: bool) -> 
         for _ in covers:
             key = protos[int(rng.integers(len(protos)))]
             s = rng.uniform(0.8, 1.2)
-            picks.append((key, s, lib.radius[key] * s, _yaw(rng)))
-        zs = ground_under(tile.grid, xs, ys, np.array([p[2] for p in picks])) - 0.02 if picks else []
-        for x, y, z, cover, (key, s, half, yaw) in zip(xs, ys, zs, covers, picks):
-            tile.add(
-                names[cover],
-                "log",
-                key,
-                location=(float(x), float(y), float(z)),
-                yaw=yaw,
-                scale=(s, s, s),
-                radius=half,
-            )
+            picks.append((key, (s, s, s), lib.radius[key] * s, _yaw(rng)))
+        zs = ground_under(tile.grid, xs, ys, np.array([p[2] for p in picks])) - 0.02
+        _add_all(tile, "log", xs, ys, zs, covers, picks)
 
 
 def _tufts(tile, land: F.Landscape, lib) -> None:
-    names = F.LAND_COVERS
     for family, densities, prefix, cls in (
         ("low", LOW_TUFTS, "low_grass", "low grass"),
         ("high", HIGH_TUFTS, "high_grass", "high grass"),
@@ -193,8 +153,9 @@ def _tufts(tile, land: F.Landscape, lib) -> None:
     ):
         protos = lib.family(prefix)
         rng, xs, ys, covers = _candidates(land, tile, family, densities)
-        zs = tile.grid.height_at(xs, ys)
-        for x, y, z, cover in zip(xs, ys, zs, covers):
+        picks = []
+        for _ in covers:
             key = protos[int(rng.integers(len(protos)))]
             s = rng.uniform(0.7, 1.4)
-            _place(tile, names[cover], cls, key, x, y, z, rng, (s, s, s), lib.radius[key] * s)
+            picks.append((key, (s, s, s), lib.radius[key] * s, _yaw(rng)))
+        _add_all(tile, cls, xs, ys, tile.grid.height_at(xs, ys), covers, picks)

@@ -16,7 +16,7 @@ from ..elements import Element, Prototype
 from ..heightfield import TerrainGrid
 from .tiles import MAX_TILE_INDEX, TILE_M, tile_rect
 
-TILE_BLOCK = 16_384  # instance ids a tile may hand out
+TILE_BLOCK = 8_192  # instance ids a tile may hand out
 INSTANCE_BASE = 1_000_000  # above the cover layer's (cover.COVER_INSTANCE_BASE: 900,000)
 
 
@@ -31,6 +31,8 @@ class Tile:
     prototypes: dict[str, Prototype] = field(default_factory=dict)  # this tile's own meshes
     elements: list[Element] = field(default_factory=list)
     counter: int = 0
+    fine: TerrainGrid | None = None  # the terrain on the full-detail lattice (whatever the level)
+    raster: object = None  # raster.Raster: the land on the tile's 0.5 m cells, while it is built
 
     @property
     def rect(self):

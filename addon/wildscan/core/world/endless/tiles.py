@@ -23,18 +23,21 @@ import math
 
 import numpy as np
 
-TILE_M = 100.0  # m, side of a tile
+# m, side of a tile: small enough that a short-range scanner's disc (the UTM-30LX-EW's 30 m)
+# needs little more than it sees (a 15 m disc touches 1-4 tiles, 0.25-1 ha), large enough that a
+# 120 m device needs ~25 of them
+TILE_M = 50.0
 # m between the terrain lattice's nodes at full detail, per detail level (stages' detail.py
 # names): the terrain's finest noise octave is ~7 m, so a 1 m lattice stays within ~2 cm of
 # the analytic field (s^2/8 times its curvature), today's default tolerance's range
-TERRAIN_SPACING = {"low": 2.0, "default": 1.0, "high": 0.5}
+TERRAIN_SPACING = {"low": 2.5, "default": 1.0, "high": 0.5}
 LEVEL_FOOTPRINT = (0.0, 0.25, 0.6, 1.5)  # m of beam spacing from which each level applies
 LEVEL_FACTORS = (1, 1, 2, 5)  # lattice spacing per level, in full-detail spacings (divide TILE_M)
 SMALL_DROP_LEVEL = 1  # from this level on tufts, reeds and stumps are left out
 ROCK_DROP_LEVEL = 2  # from this level on stones under SMALL_ROCK are left out
 FULL_DETAIL_M = 25.0  # m: tiles nearer the sensor than this are always full detail
 RANGE_MARGIN = 5.0  # m beyond the device's range a tile is still built
-MAX_TILE_INDEX = 90  # tiles -90..90 each way (±9 km): instance ids stay within int32
+MAX_TILE_INDEX = 180  # tiles -180..180 each way (±9 km): instance ids stay within int32
 LOD_CHOICES = ("on", "off")
 
 

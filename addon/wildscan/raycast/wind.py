@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...core import detmath as dm
-from ...core.backend import SCAN_TIMES, THREADS, RayBackend
-from ...core.effects import CLEAR_AIR, Effects, ObjectMotion, Wind
-from ...core.effects.wind import pivots_of
-from ...core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
-from ...core.sensors import SensorConfig
-from ...raycast.geometry import SceneGeometry
+from ..core import detmath as dm
+from ..core.backend import SCAN_TIMES, THREADS, RayBackend
+from ..core.effects import CLEAR_AIR, Effects, ObjectMotion, Wind
+from ..core.effects.wind import pivots_of
+from ..core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
+from ..core.sensors import SensorConfig
+from .geometry import SceneGeometry
 
 # The bounding spheres of two objects in one layer are at least this far apart: far above
 # a float32 cast's error, so a ray cut to one object's sphere cannot be answered by another.

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import UserError
+from ..errors import UserError
 
 FLOAT32_XY_REACH = 2048.0  # m: |x|, |y| of every point below this (float32 steps <= 0.12 mm)
 FLOAT32_Z_REACH = 1024.0  # m: |z| below this (steps <= 61 um), so x, y, z together stay < 1e-4 m

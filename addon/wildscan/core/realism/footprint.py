@@ -33,9 +33,9 @@ import math
 
 import numpy as np
 
-from . import detmath as dm
-from .sensors import DEFAULT_DEVICE, Device, beam_directions, sweep_count
-from .sensors.beams import beam_frames
+from .. import detmath as dm
+from ..sensors import DEFAULT_DEVICE, Device, beam_directions, sweep_count
+from ..sensors.beams import beam_frames
 
 RING = 4  # sub-rays around the axis, along +u, +v, -u, -v
 SUBRAYS = 1 + RING

@@ -13,19 +13,20 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from .checks import one_of
-from .errors import UserError
-from .placement import MAX_COORDINATE
-from .world.plan import HALF
+from ..checks import one_of
+from ..errors import UserError
+from ..placement import MAX_COORDINATE
+from .plan import HALF
 
 LAYOUTS = ("endless", "paper")
 DEFAULT_LAYOUT = "endless"
 
-# The most a side of a built region may span. A region is built whole at full detail: a
-# 100 m tile of the endless world's default detail holds 1.4-1.6 M triangles and 3.6-4 M
-# vertices (~110 MB as a scan or a file holds it; measured on seed 1), so a 400 m square is
-# 16 tiles, ~24 M triangles, ~1.8 GB: what the 2-core machines WildScan targets (a few GB)
-# hold. A scan never needs a region: it builds the tiles within the sensor's reach.
+# The most a side of a built region may span. A region is built whole at full detail: the
+# endless world's default detail holds ~100-150 triangles a square metre where it is wooded
+# (a 100 m forest tile of seed 1: 1.4-1.6 M triangles, ~110 MB as a scan or a file holds
+# them), so a 400 m square is up to ~24 M triangles, ~1.8 GB: what the 2-core machines
+# WildScan targets (a few GB) hold. A scan never needs a region: it builds the tiles within
+# the sensor's reach.
 MAX_REGION_SIDE = 400.0  # m
 
 

@@ -20,18 +20,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import detmath as dm
-from .backend import RayBackend, with_normals
-from .classes import PARTICLE_ID, WATER_ID
+from .. import detmath as dm
+from ..backend import RayBackend, with_normals
+from ..classes import PARTICLE_ID, WATER_ID
+from ..effects import CLEAR_AIR, Effects, Rays
+from ..errors import UserError
+from ..hits import RayHits
+from ..runtime.threads import in_parts, started
+from ..sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
+from ..world.cover import is_cover_instance
 from .coarse_footprint import BeamGrid, footprint_hits, scan_grid
 from .echoes import Echoes, SubrayReturns, form_echoes
-from .effects import CLEAR_AIR, Effects, Rays
-from .errors import UserError
 from .footprint import ring_columns, subray_directions, subray_weights, turn_rings
-from .hits import RayHits
-from .sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
-from .threads import in_parts, started
-from .world.cover import is_cover_instance
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
 AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)

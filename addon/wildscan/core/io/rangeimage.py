@@ -30,7 +30,7 @@ import zipfile
 
 import numpy as np
 
-from .pointcloud import PointCloud
+from ..pointcloud import PointCloud
 
 NO_DATA = -1  # range, intensity and index of a cell without a point (semantic-kitti-api's)
 # 1980-01-01, the earliest time a zip entry can state: the file's bytes never depend on the clock

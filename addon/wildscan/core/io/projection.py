@@ -28,8 +28,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .placement import MAX_TILT_DEG
-from .sensors import Device, beam_directions
+from ..placement import MAX_TILT_DEG
+from ..sensors import Device, beam_directions
 
 OVERSAMPLING = (2, 3, 4)  # pixels per beam spacing, tried in this order (4: ~5 M pixels for a Hokuyo)
 PROBE_KEPT = 0.995  # share of a sensor-frame scan's beams the chosen projection must keep

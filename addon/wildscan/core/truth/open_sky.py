@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..world.heightfield import TerrainGrid
 from .open_ground import BLOCK, MARGIN, OpenGround, corner_boxes, no_open_ground, open_outside_blocks
-from .world.heightfield import TerrainGrid
 
 Z_MARGIN = 1e-3  # m by which a harmless triangle stays below the lowest upward ray's start
 _SPAN = 4  # grid nodes each way looked at around a triangle's box (three cells)

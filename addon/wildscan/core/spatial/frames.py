@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import detmath as dm
-from .checks import one_of
+from .. import detmath as dm
+from ..checks import one_of
 from .leveling import rot_z, sensor_to_world_matrix
 
 FRAMES = ("leveled", "sensor", "world")

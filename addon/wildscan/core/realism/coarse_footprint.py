@@ -46,12 +46,12 @@ import threading
 
 import numpy as np
 
-from . import detmath as dm
-from .classes import PARTICLE_ID, class_by_name
+from .. import detmath as dm
+from ..classes import PARTICLE_ID, class_by_name
+from ..hits import RayHits
+from ..runtime.threads import in_parts
+from ..sensors import Device, sweep_count
 from .footprint import subray_directions
-from .hits import RayHits
-from .sensors import Device, sweep_count
-from .threads import in_parts
 
 # A neighbour's point this far off the plane of the axis's hit (m) marks an edge or a fold. A
 # ring sub-ray lies a third of the way to its nearest neighbour (1.5 of 4.4 mrad for the

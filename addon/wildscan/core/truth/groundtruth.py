@@ -23,9 +23,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from . import detmath as dm
-from .leveling import rot_z
-from .placement import Placement
+from .. import detmath as dm
+from ..placement import Placement
+from ..spatial.leveling import rot_z
 
 BEV_CELL = 0.1  # m
 BEV_SIZE = 30.0  # m, side of the square

@@ -24,8 +24,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .classes import GROUND_CLASS_IDS, class_by_name, counts_by_class
-from .placement import COLUMN_HEIGHT
+from ..classes import GROUND_CLASS_IDS, class_by_name, counts_by_class
+from ..placement import COLUMN_HEIGHT
 
 TERRAIN_ID = class_by_name("terrain").id
 SUPPORT_TOLERANCE = 0.1  # m: the range noise (sigma 1.5 cm, 6 sigma) and the flooring's step

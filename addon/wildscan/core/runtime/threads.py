@@ -22,10 +22,10 @@ from typing import Callable, TypeVar
 
 import numpy as np
 
-from .backend import THREADS, RayBackend
-from .errors import UserError
+from ..backend import THREADS, RayBackend
+from ..errors import UserError
+from ..hits import RayHits
 from .heap import keep_freed_memory
-from .hits import RayHits
 
 THREADS_ENV = "WILDSCAN_CAST_THREADS"
 # A part smaller than this is not worth a thread (the caster's own set-up per call). Each

@@ -19,7 +19,7 @@ import functools
 
 import numpy as np
 
-from . import detmath as dm
+from .. import detmath as dm
 
 # All angles go through detmath (not `math`, whose glibc code differs by CPU) and the
 # products through dm.matmul/dm.apply (not @, whose BLAS kernel differs by CPU).

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .classes import NUM_IDS, REFLECTIVITY_BY_ID, UNLABELED, WATER_ID
+from ..classes import NUM_IDS, REFLECTIVITY_BY_ID, UNLABELED, WATER_ID
 
 R_REF = 10.0  # m: a surface filling the beam head-on at this range reads its Table I reflectivity
 ECHO_REFLECTIVITY_UNLABELED = 50.0  # an untagged mesh: a mid grey

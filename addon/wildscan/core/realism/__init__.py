@@ -1,0 +1,1 @@
+"""The realistic sensor model: the beam footprint and its sub-rays, echoes, intensity (numpy only)."""
