@@ -129,11 +129,15 @@ def user_error_line(proc: subprocess.CompletedProcess) -> str:
     return lines[0]
 
 
+# the paper layout: the tests that read the paper island's zones and poses say so
+PAPER = ("--layout", "paper")
+
+
 def save_seed_2_low(directory: Path) -> Path:
     """The world of seed 2 at low detail saved by the wheel as w.blend (+ w.json) and w.npz."""
     for cmd in (["world", "--out", "w.blend"], ["extract", "--out", "w.npz"]):
         subprocess.run(
-            [WILDSCAN, *cmd, "--seed", "2", "--detail", "low", "--quiet"], cwd=directory, check=True
+            [WILDSCAN, *cmd, *PAPER, "--seed", "2", "--detail", "low", "--quiet"], cwd=directory, check=True
         )
     return directory
 

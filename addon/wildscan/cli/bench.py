@@ -1,5 +1,5 @@
-"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR|biomes|casters]` and
-`wildscan bench-world` (= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR|biomes|casters|
+lod]` and `wildscan bench-world` (= `bench --suite world`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,19 @@ import argparse
 from . import options
 from .options import ArgumentParser, Option
 
-SUITES = ("backends", "world", "drive", "realism", "far", "weather", "devices", "learn", "biomes", "casters")
+SUITES = (
+    "backends",
+    "world",
+    "drive",
+    "realism",
+    "far",
+    "weather",
+    "devices",
+    "learn",
+    "biomes",
+    "casters",
+    "lod",
+)
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
 DESCRIPTION = (
     "Measure scan time (median of several runs, side by side) and accuracy of every ray backend on the test "
@@ -72,7 +84,12 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "poses uniform over the world, and its bare ground by zone (docs/ground.md); "
         "casters: every float32 ray caster (embreex, "
         "Embree filled from numpy, Embree packets, Open3D, Warp, Mitsuba) on the same triangles and rays: "
-        "build time, rays/s on 1 and 2 threads, memory, and whether its scans are the same bytes as embree's",
+        "build time, rays/s on 1 and 2 threads, memory, and whether its scans are the same bytes as "
+        "embree's; "
+        "lod: per device preset on the endless world, cold scan time (tile builds included) and agreement "
+        "(labels, ranges within the device's noise sigma) of level-of-detail scans against --lod off scans "
+        "of the same poses, a cold and a warm Hokuyo scan, and the memory of a process that scans 100 poses "
+        "over 2 km (docs/scanning.md)",
     )
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
     p.add_argument(
@@ -181,6 +198,12 @@ def _bench_casters():
     return bench_casters
 
 
+def _bench_lod():
+    from ..bench.lod import bench_lod
+
+    return bench_lod
+
+
 def _bench_biomes():
     from ..bench.biomes import bench_biomes
 
@@ -195,6 +218,7 @@ SEED_AND_QUICK_SUITES = {
     "devices": _bench_devices,
     "biomes": _bench_biomes,
     "casters": _bench_casters,
+    "lod": _bench_lod,
 }
 
 

@@ -25,7 +25,7 @@ DESCRIPTION = (
     "per 3D scan, the raw cloud (as a driver gives it) and the deskewed cloud (every point where it is) as "
     "PLY with a per-point time, a SemanticKITTI sequence of the deskewed scans, the ground-truth trajectory "
     "(TUM), an IMU's samples (imu.csv, /imu), the scans within 3 m of each other (revisits.json) and ROS 1 / "
-    "ROS 2 bags (docs/motion.md)."
+    "ROS 2 bags (docs/motion.md). A --seed world is the paper layout's island (its trail) unless --trail follows the endless trail network."
 )
 
 

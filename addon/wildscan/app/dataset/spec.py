@@ -26,6 +26,7 @@ from ...core.realism.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.rng import stage_seed
 from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
+from ...core.world.region import dataset_layout
 from ..settings import SETTINGS
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
@@ -167,23 +168,18 @@ def load_spec(path) -> DatasetSpec:
     return spec_from_dict(data, path.name)
 
 
+# the top-level keys of a spec (layout: "paper" only until issue 34, core/world/region.py dataset_layout)
+TOP_KEYS = tuple(
+    "seeds detail vegetation biome layout scans_per_world formats label_scheme split poses sensor "
+    "weather intensity".split()
+)
+
+
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
     top = _Table(data, "", where)
-    top.only(
-        "seeds",
-        "detail",
-        "vegetation",
-        "biome",
-        "scans_per_world",
-        "formats",
-        "label_scheme",
-        "split",
-        "poses",
-        "sensor",
-        "weather",
-        "intensity",
-    )
+    top.only(*TOP_KEYS)
     d = DatasetSpec()
+    dataset_layout(top.data.get("layout"), where)
     spec = replace(
         d,
         seeds=_seeds(top),

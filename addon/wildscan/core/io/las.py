@@ -49,6 +49,14 @@ ASPRS_BY_CLASS: dict[str, int] = {
     "water": 9,  # water: never written (a beam that hits water returns no point), so not in ASPRS_NAMES
     "log": 69,  # user code: ASPRS has no deadwood class
     "particle": 18,  # high noise (returns from the air: rain, snow, fog, dust)
+    # the endless landscape's ground materials are ground (ASPRS codes what a surface is, not
+    # what it is made of)
+    "soil": 2,
+    "gravel": 2,
+    "mud": 2,
+    "paved": 2,
+    "leaf litter": 2,
+    "rock slab": 2,
 }
 ASPRS_CODES: dict[int, int] = ids_by_class_id("asprs (core/io/las.py)", ASPRS_BY_CLASS, None)  # id -> code
 ASPRS_NAMES: dict[int, str] = {

@@ -28,7 +28,7 @@ from ..errors import UserError
 from ..hits import RayHits
 from ..runtime.threads import in_parts, started
 from ..sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
-from ..world.cover import COVER_INSTANCE_BASE
+from ..world.cover import is_cover_instance
 from .coarse_footprint import BeamGrid, footprint_hits, scan_grid
 from .echoes import Echoes, SubrayReturns, form_echoes
 from .footprint import ring_columns, subray_directions, subray_weights, turn_rings
@@ -196,7 +196,7 @@ def _block_points(hits, sub_world, sensor, weights, draws, axis: "AxisHits", cas
     on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False), beams)
     # a pure echo from a medium lies where the medium returned it: a particle (its instance the
     # effect's code) or the ground cover's sward (core/effects/cover.py; its instance the cover's)
-    from_medium = (echoes.label == PARTICLE_ID) | (echoes.instance >= COVER_INSTANCE_BASE)
+    from_medium = (echoes.label == PARTICLE_ID) | is_cover_instance(echoes.instance)
     if from_medium.any():
         on_surface[from_medium] = echoes.purity[from_medium] >= 1.0
         instance[from_medium] = echoes.instance[from_medium]
