@@ -173,8 +173,11 @@ def test_land_cover_shares_follow_the_biome():
     assert want.wetland - 0.02 < share["wetland"] < want.wetland + 0.05
     assert 0.0 < share["trail"] < 0.05 and 0.0 < share["clearing"] < 0.03
     assert share["meadow"] > 0.15
-    forest = land_cover_at(SEED, "forest", x, y)
-    assert float((forest == F.FOREST).mean()) > share["forest"] + 0.1
+    for biome in ("meadow", "forest", "scrub"):
+        cover = land_cover_at(SEED, biome, x, y)
+        want = F.BIOME_SHARES[biome]
+        for code, target in ((F.FOREST, want.forest), (F.SCRUB, want.scrub), (F.ROCK, want.rock)):
+            assert abs(float((cover == code).mean()) - target) < 0.06, (biome, LAND_COVERS[code])
 
 
 def test_land_cover_is_a_pure_function_of_position():
@@ -251,7 +254,9 @@ def test_coarse_tiles_leave_small_elements_out():
 
 
 def test_a_tile_beyond_reach_is_refused():
-    with pytest.raises(ValueError, match="beyond"):
+    from wildscan.core.errors import UserError
+
+    with pytest.raises(UserError, match="beyond"):
         build_tile(SEED, "mixed", "default", "porous", 500, 0)
 
 
@@ -264,3 +269,15 @@ def test_a_library_from_a_cache_builds_the_same_tile(tmp_path):
     with np.load(path) as arrays:
         L.provide_library(SEED, "default", "porous", arrays)
     assert tile_digest(build_tile(SEED, "mixed", "default", "porous", -1, 2)) == want
+
+
+def test_trails_form_a_network_of_nodes():
+    """Trails run node to node: every trail's ends are anchor nodes, and most nodes join two
+    trails or more (a network a drive can follow)."""
+    from wildscan.core.world.endless import trail_network
+
+    trails = trail_network(SEED, "mixed", -1000.0, -1000.0, 1000.0, 1000.0)
+    assert len(trails) > 20 and {kind for _, kind in trails} == {k[0] for k in A.TRAIL_KINDS}
+    ends = [tuple(np.round(p[k], 6)) for p, _ in trails for k in (0, -1)]
+    degree = {e: ends.count(e) for e in ends}
+    assert sum(d >= 2 for d in degree.values()) > len(degree) / 2

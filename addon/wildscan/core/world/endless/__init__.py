@@ -18,7 +18,7 @@ docs/landscape.md describes the model, its sources, the tile size and the LOD ru
 
 from .anchors import ANCHOR_M, TRAIL_KINDS
 from .build import build_tile
-from .fields import BIOME_SHARES, LAND_COVERS, height_at, land_cover_at, landscape
+from .fields import BIOME_SHARES, LAND_COVERS, height_at, land_cover_at, landscape, trail_network
 from .region import LAYOUT, EndlessLayout, merge_covers, merge_grids, plan_region, region_extent
 from .tile import Tile, instance_base
 from .tiles import (
@@ -65,4 +65,5 @@ __all__ = [
     "tile_rect",
     "tiles_in_disc",
     "tiles_in_region",
+    "trail_network",
 ]

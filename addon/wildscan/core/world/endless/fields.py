@@ -169,3 +169,19 @@ def height_at(seed: int, biome: str, x, y) -> np.ndarray:
     """The analytic terrain height of the endless landscape of (seed, biome) at points (the
     mesh is this sampled on the tile lattice)."""
     return landscape(seed, biome).height(x, y)
+
+
+def trail_network(seed: int, biome: str, xmin: float, ymin: float, xmax: float, ymax: float) -> list:
+    """The trails that come within a rectangle: [(path (K, 2) m, kind name)], each from its
+    anchor cell's node to a neighbour's node (anchors.py), in the order of their cells; two
+    trails meet where they share an end (a node)."""
+    trails = landscape(seed, biome).anchors.trails_over(xmin, xmax, ymin, ymax)
+    inside = [
+        t
+        for t in trails
+        if t.path[:, 0].max() >= xmin
+        and t.path[:, 0].min() <= xmax
+        and t.path[:, 1].max() >= ymin
+        and t.path[:, 1].min() <= ymax
+    ]
+    return [(t.path.copy(), A.TRAIL_KINDS[t.kind][0]) for t in inside]

@@ -23,6 +23,8 @@ import math
 
 import numpy as np
 
+from ...errors import UserError
+
 # m, side of a tile: small enough that a short-range scanner's disc (the UTM-30LX-EW's 30 m)
 # needs little more than it sees (a 15 m disc touches 1-4 tiles, 0.25-1 ha), large enough that a
 # 120 m device needs ~25 of them
@@ -111,6 +113,11 @@ def tile_levels(
 
 
 def check_tile(i: int, j: int) -> None:
+    """A tile the landscape can build (instance ids stay within int32), else a UserError."""
     if abs(i) > MAX_TILE_INDEX or abs(j) > MAX_TILE_INDEX:
         limit = MAX_TILE_INDEX * TILE_M
-        raise ValueError(f"tile ({i}, {j}) lies beyond ±{limit:g} m, the endless landscape's reach")
+        raise UserError(
+            f"reaches tile ({i}, {j}), beyond ±{limit:g} m of the origin, the endless landscape's reach",
+            setting="region",
+            allowed=(-limit, limit),
+        )
