@@ -64,22 +64,24 @@ def place_all(
     yaw_deg: np.ndarray,
     distance: np.ndarray,
     z_start: float | None = None,
+    first: int = 0,
 ) -> Motion:
     """Stand the robot at every instant; PoseRejected naming where and when it cannot.
     `z_start`: the lasers start at this height at every instant, as `place` does for one
-    pose (a drive under a roof: the probe from above would stand it on the roof)."""
+    pose (a drive under a roof: the probe from above would stand it on the roof). `first`:
+    the drive's index of the first instant (a drive placed piece by piece names its own)."""
     poses = [Pose(float(x), float(y), float(yaw)).validate() for (x, y), yaw in zip(xy, yaw_deg)]
     if z_start is not None:
-        return _place_from(backend, poses, np.full(len(poses), float(z_start)), times, distance)
+        return _place_from(backend, poses, np.full(len(poses), float(z_start)), times, distance, first)
     ground = probe_ground_z_many(backend, xy)
     off = np.flatnonzero(~np.isfinite(ground))
     if len(off):
         i = int(off[0])
-        _reject(i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
-    return _place_from(backend, poses, ground + LASER_CLEARANCE, times, distance)
+        _reject(i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}", first)
+    return _place_from(backend, poses, ground + LASER_CLEARANCE, times, distance, first)
 
 
-def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance) -> Motion:
+def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance, first: int = 0) -> Motion:
     """The placements with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
     stood = stand_all(poses, rows)
@@ -91,7 +93,7 @@ def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance
         try:  # `stand` says why, in the words a static scan's placement uses
             placements.append(stand(pose, float(z_start[i]), lasers_of(pose, row)))
         except PoseRejected as e:
-            _reject(i, times, distance, e.message)
+            _reject(i, times, distance, e.message, first)
     return motion_of(placements, times, distance, np.where(stood.fits[:, None, None], stood.rotation, np.nan))
 
 
@@ -185,7 +187,8 @@ def motion_of(
     )
 
 
-def _reject(i: int, times: np.ndarray, distance: np.ndarray, why: str) -> None:
+def _reject(i: int, times: np.ndarray, distance: np.ndarray, why: str, first: int = 0) -> None:
     raise PoseRejected(
-        f"the drive stops at t = {times[i]:.3f} s (2D scan {i}, {distance[i]:.2f} m along the path): {why}"
+        f"the drive stops at t = {times[i]:.3f} s (2D scan {first + i}, {distance[i]:.2f} m along the path): "
+        f"{why}"
     )

@@ -1,0 +1,105 @@
+"""A drive of kilometres over the endless world's trail network (`drive --seed S --trail
+--distance M`), its world built piece by piece along the route.
+
+The route (core/motion/routes.py) starts at the trail point nearest the seed's origin. The
+world is never built whole: the drive is cut into pieces of whole 3D scans, about PIECE_M of
+path each, and a piece sees only the tiles within the sensor's reach of its own stretch
+(app/tiles.py: from the process's bounded tile memory, the world cache, or built). Tiles
+behind the robot fall out of the memory as new ones come in, so a drive's memory does not
+grow with its length.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...core.motion.routes import trail_route
+from ...core.motion.trajectory import Path, polyline_path
+from ..tiles import ELEMENT_OVERHANG_M, TiledWorld, TileMemory, endless, join, tile_part
+from .world import crop_along
+
+PIECE_M = 40.0  # m of path a piece of the drive's world covers (whole 3D scans)
+NETWORK_MARGIN_M = 300.0  # the network is read this far past the drive's reach (one anchor cell)
+START = (0.0, 0.0)  # the route starts at the trail point nearest the seed's origin
+# Tiles kept between pieces: a piece of PIECE_M with a 30 m sensor touches up to 3 x 3 of
+# the 50 m tiles; a few more keep the next piece's shared tiles without rebuilding them.
+DRIVE_TILE_BYTES = 700_000_000
+
+
+@dataclass
+class TrailWorld:
+    """The endless world of a seed as a drive sees it, piece by piece."""
+
+    tiled: TiledWorld
+    cache: object = None  # DiskCache or None
+    memory: TileMemory = field(default_factory=lambda: TileMemory(DRIVE_TILE_BYTES))
+    instances: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    trail = None  # the paper island's trail: none here
+    cover = None  # each piece brings its own (SceneGeometry.cover)
+    geometry = None
+    plan = None
+    tiles_seen: set = field(default_factory=set)
+
+    @property
+    def provenance(self) -> dict:
+        t = self.tiled
+        return {
+            "seed": t.seed,
+            "detail": t.detail,
+            "vegetation": t.vegetation,
+            "world": None,
+            "layout": "endless",
+            "biome": t.biome,
+        }
+
+    def route(self, distance: float, route: str) -> Path:
+        """The polyline the drive follows (its first `distance` metres, or out and back)."""
+        reach = distance + NETWORK_MARGIN_M
+        x, y = START
+        network = endless().trail_network(
+            self.tiled.seed, self.tiled.biome, x - reach, y - reach, x + reach, y + reach
+        )
+        return polyline_path(trail_route(network, START, distance, route), "trail", "trail")
+
+    def crop(self, xy: np.ndarray, radius: float):
+        """The triangles a sensor anywhere on `xy` (n, 2) can reach (crop_along), from the
+        tiles within that reach (an element overhangs its tile by up to ELEMENT_OVERHANG_M)."""
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        m = radius + ELEMENT_OVERHANG_M
+        tiles = sorted(
+            tuple(int(v) for v in t)
+            for t in endless().tiles_in_region(lo[0] - m, lo[1] - m, hi[0] + m, hi[1] + m)
+        )
+        self.tiles_seen.update(tiles)
+        parts = [tile_part(self.tiled, tile, 0, self.cache, self.memory) for tile in tiles]
+        centre = 0.5 * (lo + hi)
+        near = float(np.hypot(*(hi - lo)) / 2 + radius + 1.0)  # every object crop_along can keep
+        joined = join(parts, centre, near)
+        part = crop_along(joined, xy, radius)
+        part.cover = joined.cover
+        self.instances = np.union1d(self.instances, np.unique(part.instance))
+        return part
+
+
+def trail_world(request, cache=None) -> TrailWorld:
+    """The endless world of the request's seed (`cache`: the world cache, DiskCache or None)."""
+    from ...core.world import DEFAULT_BIOME
+
+    tiled = TiledWorld(request.seed, DEFAULT_BIOME, request.detail, request.vegetation)
+    return TrailWorld(tiled, cache=cache)
+
+
+def pieces(scans_2d: int, sweeps: int, step_m: float, endless_world: bool) -> list[tuple[int, int]]:
+    """The drive's pieces as ranges of 2D scans [k0, k1): whole 3D scans of about PIECE_M of
+    path each (`step_m`: metres a 2D scan), the last holding what is left; one piece when the
+    world is built whole (a paper island, a .blend)."""
+    if not endless_world:
+        return [(0, scans_2d)]
+    per = max(1, int(PIECE_M // max(step_m * sweeps, 1e-9))) * sweeps
+    edges = list(range(0, scans_2d, per))
+    if len(edges) > 1 and scans_2d - edges[-1] < sweeps:  # a scrap shorter than a 3D scan joins the last
+        edges.pop()
+    return list(zip(edges, edges[1:] + [scans_2d]))
