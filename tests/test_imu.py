@@ -37,7 +37,10 @@ def synthetic_motion(still: bool = False, roll=0.05, pitch=0.08):
         Placement(Pose(float(g[0]), float(g[1]), float(y)), g + [0, 0, 0.723], g, float(r), float(p))
         for g, y, r, p in zip(ground, yaw, rolls, pitches)
     ]
-    return motion_of(placements, t, t)
+    centre = np.stack([p.optical_centre for p in placements])
+    rotation = np.stack([p.rotation for p in placements])
+    angles = np.column_stack([yaw, pitches, rolls])
+    return motion_of(t, t, centre, ground, rotation, angles=angles)
 
 
 def test_gyro_and_accelerometer_are_the_exact_derivatives_of_the_imus_own_pose():

@@ -129,10 +129,12 @@ def _verify(folder: str) -> int:
     for problem in report.problems:
         sys.stderr.write(f"wildscan dataset --verify: {problem}\n")
     state = "complete" if report.complete else f"incomplete ({report.scans:,} of {report.planned:,} scans)"
-    if report.problems:
+    if report.problems:  # never "complete" beside them: the rerun that repairs them says so
         print(
             f"{len(report.problems):,} problems: {report.file_problems:,} of {report.checked:,} files differ "
-            f"from the manifest, {len(report.unlisted):,} files nothing lists; the dataset is {state}"
+            f"from the manifest, {len(report.unlisted):,} files nothing lists; the dataset is incomplete "
+            f"({report.scans:,} of {report.planned:,} scans) until they are repaired (the same "
+            "`wildscan dataset` command repairs them)"
         )
         return 1
     print(

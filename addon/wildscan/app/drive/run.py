@@ -86,7 +86,7 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
         )
     sensor = request.sensor
     period = sensor.device.timing.column_period_s
-    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period)
+    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period, sensor.device.columns_named)
     clock.lap("world")
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
@@ -101,11 +101,14 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
         clock.lap("crop")
         span = slice(k0, k1 + 1)
         distance = request.speed * times[span]
-        motions.append(place_all(backend, times[span], xy[span], yaw[span], distance, request.z_start, k0))
+        keep = [s - k0 for s in range(k0, k1, plan.sweeps)]  # the 3D scans' first 2D scans: their metadata
+        motions.append(
+            place_all(backend, times[span], xy[span], yaw[span], distance, request.z_start, keep, k0)
+        )
         clock.lap("placement")
         if len(runs) > 1:
             backend = None  # built again for its sweeps: the placements of every piece come first (IMU)
-    motion = joined_motion(motions)
+    motion = joined_motion(motions, [k0 for k0, _ in runs])
     check_reach(motion.centre, sensor.max_range, request.frame, backend_name)
     imu = drive_imu(
         motion,
@@ -208,16 +211,19 @@ def _groups(runs: list[tuple[int, int]], sweeps: int) -> list[tuple[int, int, tu
     return out
 
 
-def joined_motion(motions: list[Motion]) -> Motion:
-    """The motions of consecutive pieces as one: each piece's last instant is the next one's
-    first (placed again there on the next piece's triangles), so it is kept from the next."""
+def joined_motion(motions: list[Motion], firsts: list[int]) -> Motion:
+    """The motions of consecutive pieces (starting at 2D scans `firsts`) as one: each piece's
+    last instant is the next one's first (placed again there on the next piece's triangles),
+    so it is taken from the next."""
     if len(motions) == 1:
         return motions[0]
-    placements = [p for m in motions[:-1] for p in m.placements[:-1]] + motions[-1].placements
-    times = np.concatenate([m.times[:-1] for m in motions[:-1]] + [motions[-1].times])
-    distance = np.concatenate([m.distance[:-1] for m in motions[:-1]] + [motions[-1].distance])
-    rotation = np.concatenate([m.rotation[:-1] for m in motions[:-1]] + [motions[-1].rotation])
-    return motion_of(placements, times, distance, rotation)
+
+    def joined(name: str) -> np.ndarray:
+        return np.concatenate([getattr(m, name)[:-1] for m in motions[:-1]] + [getattr(motions[-1], name)])
+
+    kept = {first + k: p for m, first in zip(motions, firsts) for k, p in m.kept.items()}
+    names = ("times", "distance", "centre", "ground", "rotation")
+    return motion_of(*(joined(name) for name in names), kept, joined("angles"))
 
 
 class _Context:
@@ -255,7 +261,7 @@ class _Context:
         return self.request.sensor.fixed_noise * self._rng.standard_normal(count)
 
     def metadata(self, index: int, result: Sweep, cloud: str) -> dict:
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         request = self.request
         return {
             "wildscan_version": __version__,
@@ -282,7 +288,7 @@ class _Context:
     def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:
         """The raw and deskewed PLY files of 3D scan `index` and its SemanticKITTI files
         (the format table's writers, core/io/formats.py)."""
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         paths = files.scan_files(index)
         frame = self.request.frame
         clouds = {}

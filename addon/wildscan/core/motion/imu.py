@@ -92,9 +92,9 @@ def sample_stamps(duration_ns: int, rate_hz: int) -> np.ndarray:
 def knot_values(motion: Motion) -> np.ndarray:
     """(K + 1, 6): base_link's x, y, z and the attitude's yaw (unwrapped), pitch, roll (rad)
     at every knot of the drive."""
-    yaw = unwrap(dm.radians(np.array([p.pose.yaw_deg for p in motion.placements], dtype=np.float64)))
-    pitch = np.array([p.pitch_rad for p in motion.placements], dtype=np.float64)
-    roll = np.array([p.roll_rad for p in motion.placements], dtype=np.float64)
+    yaw_deg, pitch, roll = motion.angles.T  # as placed (placements.py Motion.angles)
+    yaw = unwrap(dm.radians(np.ascontiguousarray(yaw_deg)))
+    pitch, roll = np.ascontiguousarray(pitch), np.ascontiguousarray(roll)
     return np.column_stack([motion.ground, yaw, pitch, roll])
 
 
