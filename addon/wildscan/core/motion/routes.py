@@ -25,28 +25,44 @@ def check_route(route: str) -> str:
     return route
 
 
-def trail_route(network: list, start_xy, distance: float, route: str = "out") -> np.ndarray:
+def trail_route(network: list, start_xy, distance: float, route: str = "out", drivable=None) -> np.ndarray:
     """(n, 2) the polyline driven: `distance` metres along the network from the point of it
-    nearest `start_xy` (route "out"), or half of it out and the same way back ("loop")."""
+    nearest `start_xy` (route "out"), or half of it out and the same way back ("loop").
+    `drivable(path) -> bool`: whether the robot can drive a trail (asked only of the trails
+    the route comes to; default: every one); one it cannot is never taken."""
     check_route(route)
     trails = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p, *_ in network]
     trails = [t for t in trails if len(t) >= 2]
     if not trails or not distance > 0:
         raise UserError("has no trail to follow here", setting="trail")
     out = distance / 2 if route == "loop" else distance
-    walk = _walk(trails, np.asarray(start_xy, dtype=np.float64)[:2], out)
+    walk = _walk(trails, np.asarray(start_xy, dtype=np.float64)[:2], out, _Drivable(trails, drivable))
     if route == "loop":
         walk = np.concatenate([walk, walk[-2::-1]])
     return walk
 
 
-def _walk(trails: list[np.ndarray], start: np.ndarray, distance: float) -> np.ndarray:
-    """`distance` metres from the network's point nearest `start`, node to node."""
+class _Drivable:
+    """Whether each trail can be driven, asked once a trail."""
+
+    def __init__(self, trails: list[np.ndarray], test):
+        self.trails, self.test, self.known = trails, test, {}
+
+    def __call__(self, i: int) -> bool:
+        if self.test is None:
+            return True
+        if i not in self.known:
+            self.known[i] = bool(self.test(self.trails[i]))
+        return self.known[i]
+
+
+def _walk(trails: list[np.ndarray], start: np.ndarray, distance: float, drivable: _Drivable) -> np.ndarray:
+    """`distance` metres from the network's drivable point nearest `start`, node to node."""
     nodes: dict[tuple, list[tuple[int, int]]] = {}
     for i, t in enumerate(trails):
         nodes.setdefault(_key(t[0]), []).append((i, 1))  # leaving by its first point: forwards
         nodes.setdefault(_key(t[-1]), []).append((i, -1))
-    trail, seg, point = _nearest(trails, start)
+    trail, seg, point = _nearest(trails, start, drivable)
     t = trails[trail]
     # along the trail towards the farther of its two ends (more road before the first choice)
     ahead = np.concatenate([[point], t[seg + 1 :]])
@@ -57,7 +73,8 @@ def _walk(trails: list[np.ndarray], start: np.ndarray, distance: float) -> np.nd
     while driven < distance:
         here = pieces[-1][-1]
         heading = pieces[-1][-1] - pieces[-1][-2]
-        trail, direction = _choose(trails, nodes.get(_key(here), []), heading, used)
+        exits = [(i, d) for i, d in nodes.get(_key(here), []) if drivable(i)]
+        trail, direction = _choose(trails, exits, heading, used)
         if trail is None:
             break
         t = trails[trail] if direction > 0 else trails[trail][::-1]
@@ -81,9 +98,9 @@ def _choose(trails, exits: list[tuple[int, int]], heading: np.ndarray, used: dic
     return best
 
 
-def _nearest(trails: list[np.ndarray], p: np.ndarray) -> tuple[int, int, np.ndarray]:
-    """(trail, segment, point): the network's point nearest p."""
-    best = None
+def _nearest(trails: list[np.ndarray], p: np.ndarray, drivable) -> tuple[int, int, np.ndarray]:
+    """(trail, segment, point): the network's drivable point nearest p."""
+    found = []
     for i, t in enumerate(trails):
         a, b = t[:-1], t[1:]
         ab = b - a
@@ -91,9 +108,11 @@ def _nearest(trails: list[np.ndarray], p: np.ndarray) -> tuple[int, int, np.ndar
         q = a + u[:, None] * ab
         d = ((q - p) ** 2).sum(axis=1)
         j = int(np.argmin(d))
-        if best is None or d[j] < best[0]:
-            best = (float(d[j]), i, j, q[j])
-    return best[1], best[2], best[3]
+        found.append((float(d[j]), i, j, q[j]))
+    for _, i, j, q in sorted(found, key=lambda f: (f[0], f[1])):  # nearest first
+        if drivable(i):
+            return i, j, q
+    raise UserError("has no trail the robot can drive near the start", setting="trail")
 
 
 def _cut(points: np.ndarray, distance: float) -> np.ndarray:
