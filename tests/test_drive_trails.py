@@ -113,3 +113,26 @@ def test_a_trail_drive_refuses_bad_settings_by_name(tmp_path, change, setting):
     with pytest.raises(UserError) as e:
         DriveRequest(str(tmp_path / "d"), **fields).check()
     assert e.value.setting == setting
+
+
+def test_a_trail_the_robot_cannot_drive_is_never_taken():
+    """A cross of four trails from the node (0, 0): going east from the west arm, the route
+    would go straight on; with the east arm undrivable it turns, and it never starts on it."""
+    arms = {
+        name: np.array([[0.0, 0.0], end]) for name, end in (("east", [100.0, 0.0]), ("west", [-100.0, 0.0]))
+    }
+    arms |= {
+        name: np.array([[0.0, 0.0], end]) for name, end in (("north", [0.0, 100.0]), ("south", [0.0, -100.0]))
+    }
+    network = [(path, "track") for path in arms.values()]
+    every = trail_route(network, (-60.0, 1.0), 150.0)
+    assert np.array_equal(every[-1], [90.0, 0.0])  # from the west arm straight on east
+
+    def drivable(path):
+        return not np.array_equal(path[-1], arms["east"][-1])
+
+    route = trail_route(network, (-60.0, 1.0), 150.0, drivable=drivable)
+    assert np.all(route[:, 0] <= 0.0) and _lengths(route).sum() == pytest.approx(150.0)
+    assert np.array_equal(route[-1], [0.0, 90.0])  # north: as straight as south, listed first
+    start = trail_route(network, (30.0, 1.0), 10.0, drivable=drivable)
+    assert not np.any((start[:, 0] > 0) & (start[:, 1] == 0))  # not on the east arm, though nearest
