@@ -221,6 +221,8 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         f"{report.scans_3d} 3D scans ({points:,} points); wrote {len(report.files)} files into {report.out} "
         f"in {report.total_seconds:.1f} s"
     )
+    stages = ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in report.seconds.items())
+    print(f"  time: {stages}")
     if args.imu != "none":
         print(f"  imu: {args.imu} at {args.imu_rate} Hz, noise {args.imu_noise} (imu.csv)")
     for flavour, counts in report.bag_counts.items():

@@ -95,7 +95,7 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
     motions, backend, backend_name = [], None, None
     for k0, k1 in runs:  # the robot stood on each piece's own triangles (the sweep's, below)
         backend, effects = _piece_backend(
-            request, world, xy[k0 : k1 + 1], reach, say if not motions else None
+            request, world, xy[k0 : k1 + 1], reach, say if not motions else None, placing=len(runs) > 1
         )
         backend_name = backend_name or backend.name
         clock.lap("crop")
@@ -169,10 +169,11 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
     )
 
 
-def _piece_backend(request: DriveRequest, world, xy: np.ndarray, reach: float, say):
+def _piece_backend(request: DriveRequest, world, xy: np.ndarray, reach: float, say, placing: bool = False):
     """(the ray caster over the world's triangles within reach of the path `xy`, the drive's
-    effects there: wind, weather, the ground cover: the world's, or an endless piece's own)."""
-    cropped = world.crop(xy, reach)
+    effects there: wind, weather, the ground cover: the world's, or an endless piece's own).
+    `placing`: an endless piece's ground only, for the placement (the sweep's comes later)."""
+    cropped = world.ground(xy, reach) if placing else world.crop(xy, reach)
     cover = cropped.cover if isinstance(world, TrailWorld) else world.cover
     effects = drive_scan_effects(request, cover)
     return _backend(request, effects, cropped, say), effects

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...core.motion.routes import trail_route
 from ...core.motion.trajectory import Path, polyline_path
-from ..tiles import ELEMENT_OVERHANG_M, TiledWorld, TileMemory, endless, join, tile_part
+from ..tiles import ELEMENT_OVERHANG_M, TiledWorld, TileMemory, endless, join, objects_near, tile_part
 from .world import crop_along
 
 PIECE_M = 40.0  # m of path a piece of the drive's world covers (whole 3D scans)
@@ -31,6 +31,7 @@ MAX_TRAIL_SLOPE_DEG = 18.0
 MAX_TRAIL_GRADE = math.tan(math.radians(MAX_TRAIL_SLOPE_DEG))
 SLOPE_STEP_M = 2.0  # m between the slope's samples along a trail
 SLOPE_SPAN_M = 0.6  # m: the placement lasers' span (core/placement.py: ARM_X 0.335, ARM_Y 0.27 m each way)
+PLACE_REACH_M = 2.0  # m: the placement lasers stand within 0.5 m of the path (placement.py ARM_X, ARM_Y)
 START = (0.0, 0.0)  # the route starts at the trail point nearest the seed's origin
 # Tiles kept between pieces: a piece of PIECE_M with a 30 m sensor touches up to 3 x 3 of
 # the 50 m tiles; a few more keep the next piece's shared tiles without rebuilding them.
@@ -88,8 +89,32 @@ class TrailWorld:
         return bool(np.all(gx * gx + gy * gy <= MAX_TRAIL_GRADE**2))
 
     def crop(self, xy: np.ndarray, radius: float):
-        """The triangles a sensor anywhere on `xy` (n, 2) can reach (crop_along), from the
-        tiles within that reach (an element overhangs its tile by up to ELEMENT_OVERHANG_M)."""
+        """Every object a sensor anywhere on `xy` (n, 2) can reach, from the tiles within
+        that reach (an element overhangs its tile by up to ELEMENT_OVERHANG_M): the objects
+        whose box comes within `radius` of the stretch's bounding disc. Triangles beyond the
+        reach are never hit within range, so they are not cut away one by one (the triangle
+        crop of a 40 m stretch cost seconds a piece)."""
+        parts, centre, near = self._parts(xy, radius)
+        joined = join(parts, centre, near)
+        self.instances = np.union1d(self.instances, np.unique(joined.instance))
+        return joined
+
+    def ground(self, xy: np.ndarray, reach: float):
+        """The triangles the placement lasers can meet along `xy` (within PLACE_REACH_M of
+        it); every instance within `reach` of it is noted for the scans' labels."""
+        parts, centre, near = self._parts(xy, reach)
+        for part in parts:
+            keep = objects_near(*part.bounds(), centre, near)[part.geometry.object_index]
+            self.instances = np.union1d(self.instances, np.unique(part.geometry.instance[keep]))
+        parts, centre, near = self._parts(xy, PLACE_REACH_M)
+        joined = join(parts, centre, near)
+        part = crop_along(joined, xy, PLACE_REACH_M)
+        part.cover = joined.cover
+        return part
+
+    def _parts(self, xy: np.ndarray, radius: float):
+        """(the tiles' parts within `radius` of the stretch `xy`, in sorted tile order, the
+        centre and radius of a disc holding every point within `radius` of the stretch)."""
         xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         lo, hi = xy.min(axis=0), xy.max(axis=0)
         m = radius + ELEMENT_OVERHANG_M
@@ -99,13 +124,7 @@ class TrailWorld:
         )
         self.tiles_seen.update(tiles)
         parts = [tile_part(self.tiled, tile, 0, self.cache, self.memory) for tile in tiles]
-        centre = 0.5 * (lo + hi)
-        near = float(np.hypot(*(hi - lo)) / 2 + radius + 1.0)  # every object crop_along can keep
-        joined = join(parts, centre, near)
-        part = crop_along(joined, xy, radius)
-        part.cover = joined.cover
-        self.instances = np.union1d(self.instances, np.unique(part.instance))
-        return part
+        return parts, 0.5 * (lo + hi), float(np.hypot(*(hi - lo)) / 2 + radius + 1.0)
 
 
 def _along(path: np.ndarray, step: float) -> np.ndarray:
