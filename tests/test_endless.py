@@ -281,3 +281,27 @@ def test_trails_form_a_network_of_nodes():
     ends = [tuple(np.round(p[k], 6)) for p, _ in trails for k in (0, -1)]
     degree = {e: ends.count(e) for e in ends}
     assert sum(d >= 2 for d in degree.values()) > len(degree) / 2
+
+
+def test_no_pose_stands_in_a_thicket_or_a_reed_bed():
+    """footprint_ok refuses a pose whose laser tips fall where the sward is taller than
+    STAND_COVER_MAX (reeds, undergrowth, shrubs), and accepts one on a low sward."""
+    from wildscan.core.world import footprint_ok
+    from wildscan.core.world.endless.region import STAND_COVER_MAX
+
+    plan = plan_region(SEED, "mixed", "default", "porous", tiles_in_region(0, 0, 100, 100))
+    cover = plan.cover
+    ys, xs = np.nonzero(cover.height > 1.2)
+    tall = [(cover.x0 + (i + 0.5) * cover.cell, cover.y0 + (j + 0.5) * cover.cell) for j, i in zip(ys, xs)]
+    assert tall, "the test region holds reeds or shrubs"
+    assert sum(footprint_ok(plan, x, y, 0.0) for x, y in tall[::50]) == 0
+    ok = [
+        footprint_ok(plan, x, y, 0.0)
+        for x in np.arange(2.0, 98.0, 3.0)
+        for y in np.arange(2.0, 98.0, 3.0)
+        if np.all(
+            cover.at(np.array([x - 0.8, x + 0.8, x, x]), np.array([y, y, y - 0.8, y + 0.8]))[1]
+            < STAND_COVER_MAX
+        )
+    ]
+    assert any(ok)

@@ -143,6 +143,9 @@ def class_id_for_tag(tag: object) -> int:
 MAX_INSTANCE = 2**31 - 1
 # Per-object reflectivity override (intensity only; the label still comes from the class).
 REFLECTIVITY_PROP = "wildscan_reflectivity"
+# An object's diffuse reflectance (0-1) at the laser's wavelength: what the realistic model's
+# detection step weighs in place of its class's material draw (core/realism/lost_returns.py)
+REFLECTANCE_PROP = "wildscan_reflectance"
 MAX_REFLECTIVITY = 1000.0
 
 
@@ -156,6 +159,19 @@ def object_tags(name: str, class_tag: object, instance_tag: object, reflectivity
     instance = 0 if instance_tag is None else _strict_instance(name, instance_tag)
     override = None if reflectivity is None else _strict_reflectivity(name, reflectivity)
     return class_id, instance, override
+
+
+def object_reflectance(name: str, value: object) -> float:
+    """The object `name`'s `wildscan_reflectance` (a number from 0 to 1), or a UserError naming
+    the object, the value and what is allowed."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not 0.0 <= float(value) <= 1.0:
+        raise UserError(
+            f"object {name!r} has {REFLECTANCE_PROP} = {value!r}; it must be a number from 0 to 1 "
+            "(its diffuse reflectance at the laser's wavelength)",
+            allowed=(0.0, 1.0),
+        )
+    return float(value)
 
 
 def _strict_class(name: str, tag: object) -> int:

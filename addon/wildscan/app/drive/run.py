@@ -224,7 +224,7 @@ def joined_motion(motions: list[Motion], firsts: list[int]) -> Motion:
 
     kept = {first + k: p for m, first in zip(motions, firsts) for k, p in m.kept.items()}
     names = ("times", "distance", "centre", "ground", "rotation")
-    return motion_of(*(joined(name) for name in names), kept, joined("angles"))
+    return motion_of(*(joined(name) for name in names), kept, joined("attitude"))
 
 
 class _Context:

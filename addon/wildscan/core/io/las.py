@@ -96,6 +96,8 @@ REALISTIC_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
     ("label_purity", np.float32, "share of echo energy from label"),
     ("mixed", np.uint8, "1: a mixed pixel on no surface"),
 )
+# a dual-return scan's (core/sensors/returns.py RETURN_TYPES): which return of its beam a point is
+RETURN_TYPE_DIMENSION = ("return_type", np.uint8, "1 strong,2 last,3 both,4 second")
 # extra dimensions of a scan by a device other than the default (core/sensors; the default
 # device's files keep their bytes): the firing's index and time, also the point's GPS time
 DEVICE_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
@@ -147,6 +149,7 @@ def las_bytes(
     dimensions = tuple(d for d in EXTRA_DIMENSIONS if d[0] != "hag" or "hag" in fields)
     dimensions += REALISTIC_DIMENSIONS if realistic else ()
     dimensions += DEVICE_DIMENSIONS if "column" in fields else ()
+    dimensions += (RETURN_TYPE_DIMENSION,) if "return_type" in fields else ()
     las = laspy.LasData(_header(version, np.asarray(offsets), dimensions))
     xyz = np.asarray(xyz, dtype=np.float64)
     las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]

@@ -92,10 +92,8 @@ def sample_stamps(duration_ns: int, rate_hz: int) -> np.ndarray:
 def knot_values(motion: Motion) -> np.ndarray:
     """(K + 1, 6): base_link's x, y, z and the attitude's yaw (unwrapped), pitch, roll (rad)
     at every knot of the drive."""
-    yaw_deg, pitch, roll = motion.angles.T  # as placed (placements.py Motion.angles)
-    yaw = unwrap(dm.radians(np.ascontiguousarray(yaw_deg)))
-    pitch, roll = np.ascontiguousarray(pitch), np.ascontiguousarray(roll)
-    return np.column_stack([motion.ground, yaw, pitch, roll])
+    yaw = unwrap(dm.radians(motion.attitude[:, 0]))
+    return np.column_stack([motion.ground, yaw, motion.attitude[:, 1], motion.attitude[:, 2]])
 
 
 def knot_derivatives(values: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:

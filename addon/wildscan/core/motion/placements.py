@@ -29,7 +29,7 @@ from ..placement import (
     MAX_TILT_DEG,
     MAX_UNEVENNESS,
     NO_GROUND,
-    TERRAIN_ID,
+    STANDING_IDS,
     Placement,
     Pose,
     cast_lasers_many,
@@ -56,10 +56,9 @@ class Motion:
     ground: np.ndarray  # (K + 1, 3) where the column meets the ground (base_link)
     rotation: np.ndarray  # (K + 1, 3, 3) sensor frame -> world frame
     step: np.ndarray  # (K, 3) rotation vector from the attitude at k to that at k + 1 (frame at k)
+    # (K + 1, 3): each knot's Placement.pose.yaw_deg, pitch_rad and roll_rad (the IMU's knots, imu.py)
+    attitude: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     kept: dict[int, Placement] = field(default_factory=dict)  # the whole placements asked for
-    # (K + 1, 3): each knot's pose yaw (degrees, as the pose has it), pitch and roll (rad, as
-    # the placement found them): the IMU's knots (imu.py knot_values), bit for bit
-    angles: np.ndarray | None = None
 
     def placement(self, k: int) -> Placement:
         """The whole placement at the start of 2D scan `k` (one place_all was asked to keep)."""
@@ -91,7 +90,7 @@ def place_all(
     names the 2D scan it stops at in its own numbering)."""
     count, keep = len(times), set(keep)
     centre, ground, rotation = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3, 3))
-    angles = np.empty((count, 3))
+    attitude = np.empty((count, 3))
     kept: dict[int, Placement] = {}
     for a in range(0, count, PLACE_CHUNK):
         b = min(count, a + PLACE_CHUNK)
@@ -109,29 +108,19 @@ def place_all(
             starts = found + LASER_CLEARANCE
         chunk_keep = {k - a for k in keep if a <= k < b}
         placed = _place_from(backend, poses, starts, times, distance, a, chunk_keep, index0)
-        centre[a:b], ground[a:b], rotation[a:b], angles[a:b] = placed[:4]
+        centre[a:b], ground[a:b], rotation[a:b], attitude[a:b] = placed[:4]
         kept.update({a + i: p for i, p in placed[4].items()})
-    return motion_of(times, distance, centre, ground, rotation, kept, angles)
+    return motion_of(times, distance, centre, ground, rotation, kept, attitude)
 
 
-def _place_from(
-    backend,
-    poses: list[Pose],
-    z_start: np.ndarray,
-    times,
-    distance,
-    first: int,
-    keep: set[int],
-    index0: int = 0,
-):
-    """(centre, ground, rotation, angles (yaw deg, pitch, roll), {i: Placement kept}) of the
-    poses (instants first, first + 1, ...) with each pose's four lasers cast down from its
-    `z_start`."""
+def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance, first: int, keep, index0=0):
+    """(centre, ground, rotation, attitude, {i: Placement kept}) of the poses (instants first,
+    first + 1, ...) with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
     stood = stand_all(poses, rows)
     centre, ground, rotation = stood.optical.copy(), stood.ground.copy(), stood.rotation.copy()
     yaw = np.array([pose.yaw_deg for pose in poses], dtype=np.float64)
-    angles = np.column_stack([yaw, stood.pitch, stood.roll])
+    attitude = np.column_stack([yaw, stood.pitch, stood.roll])
     kept = {}
     for i in np.flatnonzero(~stood.fits):
         try:  # `stand` says why, in the words a static scan's placement uses
@@ -139,13 +128,13 @@ def _place_from(
         except PoseRejected as e:
             _reject(first + int(i), times, distance, e.message, index0)
         centre[i], ground[i], rotation[i] = p.optical_centre, p.ground_centre, p.rotation
-        angles[i] = (p.pose.yaw_deg, p.pitch_rad, p.roll_rad)
+        attitude[i] = (p.pose.yaw_deg, p.pitch_rad, p.roll_rad)
         if i in keep:
             kept[int(i)] = p
     for i in keep:
         if stood.fits[i]:
             kept[i] = stood.placement(i, poses[i], lasers_of(poses[i], rows[i]))
-    return centre, ground, rotation, angles, kept
+    return centre, ground, rotation, attitude, kept
 
 
 @dataclass
@@ -186,7 +175,9 @@ def stand_all(poses: list[Pose], rows) -> Stood:
         )
         tilt = dm.degrees(dm.arccos(np.maximum(-1.0, np.minimum(1.0, dm.cos(roll) * dm.cos(pitch)))))
         fits = (
-            np.all(class_id == TERRAIN_ID, axis=1) & (unevenness <= MAX_UNEVENNESS) & (tilt <= MAX_TILT_DEG)
+            np.all(np.isin(class_id, STANDING_IDS), axis=1)
+            & (unevenness <= MAX_UNEVENNESS)
+            & (tilt <= MAX_TILT_DEG)
         )
     xy = np.array([[pose.x, pose.y] for pose in poses]).reshape(-1, 2)
     yaw = dm.radians(np.array([pose.yaw_deg for pose in poses], dtype=np.float64))
@@ -217,10 +208,9 @@ def motion_of(
     ground: np.ndarray,
     rotation: np.ndarray,
     kept: dict[int, Placement] | None = None,
-    angles: np.ndarray | None = None,
+    attitude: np.ndarray | None = None,
 ) -> Motion:
-    """The motion of a drive from its poses' arrays (K + 1 each); `angles` (K + 1, 3): yaw
-    (degrees), pitch and roll (rad) of each pose, as placed."""
+    """The motion of a drive from its poses' arrays (K + 1 each)."""
     relative = dm.matmul(np.swapaxes(rotation[:-1], 1, 2), rotation[1:])  # R_k^T R_{k+1}
     step = log_map(relative)
     same = np.all(rotation[1:] == rotation[:-1], axis=(1, 2))
@@ -232,8 +222,22 @@ def motion_of(
         ground=ground,
         rotation=rotation,
         step=step,
+        attitude=np.zeros((len(times), 3)) if attitude is None else attitude,
         kept=dict(kept or {}),
-        angles=None if angles is None else np.asarray(angles, dtype=np.float64),
+    )
+
+
+def motion_of_placements(placements: list[Placement], times: np.ndarray, distance: np.ndarray) -> Motion:
+    """The motion through whole placements (a few knots: tests, a caller with its own poses),
+    every one kept."""
+    return motion_of(
+        times,
+        distance,
+        np.stack([p.optical_centre for p in placements]),
+        np.stack([p.ground_centre for p in placements]),
+        np.stack([p.rotation for p in placements]),
+        dict(enumerate(placements)),
+        np.array([(p.pose.yaw_deg, p.pitch_rad, p.roll_rad) for p in placements], dtype=np.float64),
     )
 
 

@@ -28,7 +28,6 @@ from . import anchors as A
 
 LAND_COVERS = ("forest", "meadow", "scrub", "wetland", "rock", "trail", "clearing")  # add, never rename
 FOREST, MEADOW, SCRUB, WETLAND, ROCK, TRAIL, CLEARING = range(len(LAND_COVERS))
-WATER_DEPTH_MIN = 0.0  # m: a point whose ground lies below its lake's level is under water
 
 
 @dataclass(frozen=True)
@@ -71,6 +70,7 @@ RELIEF_AMPLITUDE = 14.0  # m
 DETAIL_WAVELENGTH = 55.0  # m
 DETAIL_AMPLITUDE = 2.5  # m
 OUTCROP_RISE = 3.0  # m
+OUTCROP_RAMP = 0.25  # of the rockiness field: the rise spreads over the outcrop's rim, no cliff
 FIELD_WAVELENGTH = 260.0  # m: the patches of the land-cover fields (forest stands, meadows)
 QUANTILE_SAMPLES = 160  # per side of the lattice a field's quantiles are measured on (3.2 km)
 
@@ -119,7 +119,7 @@ class Landscape:
         """The terrain before lakes and caves: hills, detail and outcrops."""
         x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
         h = RELIEF_AMPLITUDE * self.relief(x, y) + DETAIL_AMPLITUDE * self.detail(x, y)
-        rise = smootherstep((self.rockiness(x, y) - self.rock_cut) / 0.08 + 0.5)
+        rise = smootherstep((self.rockiness(x, y) - self.rock_cut) / OUTCROP_RAMP + 0.5)
         return h + OUTCROP_RISE * rise
 
     def height(self, x, y) -> np.ndarray:

@@ -17,11 +17,12 @@ from typing import Callable
 
 import numpy as np
 
+from ... import detmath as dm
 from ..biomes import biome_of
 from ..cover import CELL, CoverGrid
 from ..detail import detail_level
 from ..heightfield import GridError, GridFit, TerrainGrid
-from ..plan import Clearance, WorldPlan, ZoneShape, check_seed, check_vegetation, rounded
+from ..plan import Clearance, WorldPlan, ZoneShape, check_seed, check_vegetation, plan_hash
 from . import anchors as A
 from . import fields as F
 from .build import build_tile
@@ -113,6 +114,38 @@ class _Caves(ZoneShape):
         return {}
 
 
+# The tallest sward a pose may stand in (m): well below the optical centre (placement.py
+# COLUMN_HEIGHT, 0.723 m), so the beams leave the layer near the robot. A robot does not drive
+# into a reed bed, a thicket or undergrowth; standing in one, its beams would stop within a
+# spinning lidar's minimum range (0.8 m for the OS1-64) and return nothing.
+STAND_COVER_MAX = 0.5
+# ... nor any within this reach (m) of a laser tip: a beam stopped that near the sensor falls
+# inside the minimum range too (the robot itself flattens only cover_cells.TRAMPLED, 0.45 m)
+STAND_COVER_REACH = 1.0
+# eight directions at half and at the whole reach
+_AROUND = [(f * c, f * s) for f in (0.5, 1.0) for s, c in zip(*dm.sincos(np.arange(8) * np.pi / 4))]
+
+
+class _Thickets(ZoneShape):
+    """Where the sward is too tall to stand in (STAND_COVER_MAX, within STAND_COVER_REACH):
+    no pose there."""
+
+    def keep_out(self, plan, x, y, need: Clearance) -> np.ndarray:
+        return np.zeros(np.broadcast(x, y).shape, dtype=bool)
+
+    def pose_keep_out(self, plan, x, y, allow_pit: bool) -> np.ndarray:
+        if plan.cover is None:
+            return np.zeros(np.broadcast(x, y).shape, dtype=bool)
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64))
+        tall = plan.cover.at(x, y)[1] > STAND_COVER_MAX
+        for dx, dy in _AROUND:
+            tall |= plan.cover.at(x + STAND_COVER_REACH * dx, y + STAND_COVER_REACH * dy)[1] > STAND_COVER_MAX
+        return tall
+
+    def features(self, plan) -> dict:
+        return {}
+
+
 class EndlessLayout:
     """The layout of a region of the endless landscape: the fields and anchors, answering what
     stages/layout.py's Layout answers for the paper's island."""
@@ -125,16 +158,15 @@ class EndlessLayout:
         self.lake = _Water(land)
         self.trail = _Trails(land, self.extent)
         self.cave = _Caves(land)
+        self.thickets = _Thickets()
 
     def zone_shapes(self) -> dict[str, ZoneShape]:
-        return {"lake": self.lake, "trail": self.trail, "cave": self.cave}
+        return {"lake": self.lake, "trail": self.trail, "cave": self.cave, "thickets": self.thickets}
 
     def land_cover(self, x, y) -> np.ndarray:
         return self.land.land_cover(x, y)
 
     def describe(self, plan: WorldPlan, poses=None) -> dict:
-        from ..plan import plan_hash
-
         x0, x1, y0, y1 = self.extent
         t = (np.arange(int((x1 - x0) / 10)) + 0.5) * 10 + x0, (np.arange(int((y1 - y0) / 10)) + 0.5) * 10 + y0
         cover = self.land.land_cover(*np.meshgrid(*t))
@@ -264,7 +296,3 @@ def tile_cover(tile: Tile, fine: TerrainGrid) -> CoverGrid:
     """A tile's own cover grid, over its full-detail terrain."""
     x0, _, y0, _ = tile.rect
     return CoverGrid(x0, y0, CELL, tile.cover_class, tile.cover_height, fine.xs, fine.ys, fine.z)
-
-
-def rounded_extent(extent) -> list[float]:
-    return [rounded(v) for v in extent]
