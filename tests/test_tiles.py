@@ -250,3 +250,39 @@ def test_a_fresh_process_builds_the_same_tiles_from_the_cached_library(tmp_path)
         for tile in cache.glob("tile-*"):
             tile.unlink()  # the next run builds its tiles again, from the library it reads back
     assert (tmp_path / "a.npz").read_bytes() == (tmp_path / "b.npz").read_bytes()
+
+
+@pytest.mark.slow
+def test_world_builds_a_region_of_the_endless_world_with_its_poses_and_map(tmp_path, capsys):
+    from matplotlib.image import imread
+
+    from wildscan.core.world.endless import LAND_COVERS
+
+    out = tmp_path / "w.blend"
+    region = ["--region", "10", "10", "60", "50"]
+    argv = [
+        "world",
+        "--seed",
+        "4",
+        *region,
+        *LIGHT,
+        "--poses",
+        "1",
+        "--out",
+        str(out),
+        "--map",
+        str(tmp_path / "m.png"),
+    ]
+    assert main(argv) == 0, capsys.readouterr().err
+    sidecar = json.loads((tmp_path / "w.json").read_text())
+    assert sidecar["layout"] == "endless" and sidecar["region"] == {
+        "xmin": 10,
+        "ymin": 10,
+        "xmax": 60,
+        "ymax": 50,
+    }
+    assert set(sidecar["poses"]) == set(LAND_COVERS) and sum(map(len, sidecar["poses"].values())) >= 1
+    for cover, poses in sidecar["poses"].items():
+        assert all(p["cover"] == cover and 10 <= p["x"] <= 60 and 10 <= p["y"] <= 50 for p in poses)
+    assert imread(str(tmp_path / "m.png")).shape[0] > 400
+    assert out.stat().st_size > 0

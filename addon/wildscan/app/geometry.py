@@ -56,6 +56,7 @@ def region_geometry_of(
     biome: str = DEFAULT_BIOME,
     cache=None,
     memory=None,
+    progress=None,
 ):
     """(SceneGeometry, metadata, tile counts or None) of a region (core/world/region.py Region) of
     the world of `seed`: on the endless layout its tiles at full detail (through the world
@@ -71,7 +72,8 @@ def region_geometry_of(
             metadata["region"] = region.to_dict()
         return geometry, metadata, None
     world = TiledWorld(seed, biome, detail, vegetation)
-    geometry, counts = tiles_geometry(world, region_levels(region), cache, memory, region=region)
+    levels = region_levels(region)
+    geometry, counts = tiles_geometry(world, levels, cache, memory, progress=progress, region=region)
     metadata = {"seed": seed, "layout": "endless", "detail": detail, "vegetation": vegetation}
     metadata.update(biome=biome, region=region.to_dict(), world=None)
     return geometry, metadata, counts
@@ -88,6 +90,7 @@ def extract(
     layout: str = "paper",
     region=None,
     cache=None,
+    progress=None,
 ):
     """Save the geometry of a world (see world_geometry_of; with `seed`, the `region` of its
     `layout`: region_geometry_of) to `out` (.npz); returns (path, geometry, metadata, tile
@@ -100,7 +103,7 @@ def extract(
     if seed is not None and (layout != "paper" or (region is not None and region != DEFAULT_REGION)):
         region = DEFAULT_REGION if region is None else region
         geometry, metadata, counts = region_geometry_of(
-            seed, layout, region, detail, vegetation, biome, cache
+            seed, layout, region, detail, vegetation, biome, cache, progress=progress
         )
     else:
         (geometry, metadata), counts = world_geometry_of(world, seed, detail, vegetation, quiet, biome), None

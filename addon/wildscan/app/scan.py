@@ -177,6 +177,7 @@ def endless_scan_geometry(
     detail: str = "default",
     cache=None,
     memory=None,
+    progress=None,
 ):
     """(SceneGeometry, TileCounts): the endless world of `seed` as a scan from `pose` sees it,
     the tiles within the sensor's reach (crop_radius), each at the level the device resolves
@@ -186,4 +187,4 @@ def endless_scan_geometry(
     world = TiledWorld(seed, biome, detail, vegetation)
     reach = crop_radius(sensor)
     levels = scan_levels(sensor, pose.x, pose.y, reach, lod, detail)
-    return tiles_geometry(world, levels, cache, memory, centre=(pose.x, pose.y), radius=reach)
+    return tiles_geometry(world, levels, cache, memory, (pose.x, pose.y), progress, radius=reach)

@@ -35,7 +35,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
 def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from ..app.geometry import extract
     from ..core.world.region import DEFAULT_LAYOUT
-    from .output import say
+    from .output import Progress, say
 
     vegetation = options.vegetation_of(args)
     if args.seed is None and (args.layout is not None or args.region is not None):
@@ -58,6 +58,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         args.layout,
         region,
         cache,
+        Progress("tiles", args.quiet),
     )
     if counts is not None:
         say(args, counts.text())

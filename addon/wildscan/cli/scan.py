@@ -41,7 +41,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         p,
         "seed",
         group=source,
-        help="build the world from this seed (integer from 0 to 2147483647) and scan it",
+        help="scan the world of this seed (integer from 0 to 2147483647): on the endless layout (the "
+        "default) the tiles within the sensor's reach, anywhere, built or read from the world cache; "
+        "with --layout paper the paper's island, built in Blender",
     )
     options.add(
         p,
@@ -108,7 +110,7 @@ def _endless_geometry(args, pose, sensor, biome: str, vegetation: str, lod: str)
     from ..app.geometry import GEOMETRY_BACKENDS
     from ..app.scan import endless_scan_geometry
     from ..app.tiles import process_memory
-    from .output import say
+    from .output import Progress, say
 
     if args.backend not in GEOMETRY_BACKENDS:
         raise UserError(
@@ -120,7 +122,15 @@ def _endless_geometry(args, pose, sensor, biome: str, vegetation: str, lod: str)
     cache = options.cache_of(args, "wildscan scan")
     say(args, f"the endless world of seed {args.seed} around ({pose.x:g}, {pose.y:g}), level of detail {lod}")
     geometry, counts = endless_scan_geometry(
-        args.seed, pose, sensor, lod == "on", biome, vegetation, cache=cache, memory=process_memory()
+        args.seed,
+        pose,
+        sensor,
+        lod == "on",
+        biome,
+        vegetation,
+        cache=cache,
+        memory=process_memory(),
+        progress=Progress("tiles", args.quiet),
     )
     say(args, counts.text())
     return geometry, {"layout": "endless", "biome": biome, "vegetation": vegetation, "lod": lod}
