@@ -136,3 +136,23 @@ def test_a_trail_the_robot_cannot_drive_is_never_taken():
     assert np.array_equal(route[-1], [0.0, 90.0])  # north: as straight as south, listed first
     start = trail_route(network, (30.0, 1.0), 10.0, drivable=drivable)
     assert not np.any((start[:, 0] > 0) & (start[:, 1] == 0))  # not on the east arm, though nearest
+
+
+def test_a_trail_drive_is_the_same_bytes_built_fresh_or_from_the_world_cache(tmp_path):
+    """80 m at 4 m/s: two pieces (3D scans of 18 m, two to a piece of PIECE_M), tiles built
+    the first time and read from the world cache the second: every file the same bytes."""
+    assert len(pieces(800, 180, 0.1, True)) == 2
+    from wildscan.app.cache.store import DiskCache
+
+    cache = DiskCache(tmp_path / "cache", 10**10)
+    files = []
+    for run in ("built", "cached"):
+        out = tmp_path / run
+        request = DriveRequest(str(out), seed=SEED, trail=True, distance=80.0, speed=4.0, bag="ros2")
+        run_drive(request, say=lambda text: None, cache=cache)
+        files.append({p.relative_to(out): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()})
+    assert files[0].keys() == files[1].keys() and len(files[0]) > 10
+    assert all(files[0][k] == files[1][k] for k in files[0]), [
+        k for k in files[0] if files[0][k] != files[1][k]
+    ]
+    assert any(p.name.startswith("tile-") for p in (tmp_path / "cache").rglob("*"))
