@@ -195,6 +195,7 @@ SETTINGS: dict[str, Setting] = {
     "imu": Setting("--imu"),
     "imu_rate": Setting("--imu-rate"),
     "imu_noise": Setting("--imu-noise"),
+    "route": Setting("--route"),
     # outputs
     "out": Setting("--out", "File"),
     "format": Setting("--format", "Format"),
