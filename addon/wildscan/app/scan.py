@@ -9,7 +9,7 @@ from typing import Callable
 
 from ..core.backend import RayBackend
 from ..core.errors import UserError
-from ..core.placement import COLUMN_HEIGHT, Pose, check_z_start
+from ..core.placement import Pose, check_z_start
 from ..core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
 from ..core.sensors import SensorConfig
 from ..core.world.biomes import DEFAULT_BIOME
@@ -37,7 +37,7 @@ def make_scene_backend(
 def crop_radius(sensor: SensorConfig) -> float:
     """How far from the pose (in xy) a scan can reach: rays are cast past max range by
     the noise margin (core.scan), from an optical centre up to a column height off the pose."""
-    return sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma + COLUMN_HEIGHT + CROP_MARGIN
+    return sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma + sensor.mount_height + CROP_MARGIN
 
 
 def scan_current_scene(

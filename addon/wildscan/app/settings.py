@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 
 from ..core import sensor as S
 from ..core.errors import UserError
+from ..core.sensors.returns import RETURN_MODES
 
 
 class Limits(NamedTuple):
@@ -59,6 +60,7 @@ SETTINGS: dict[str, Setting] = {
     "geometry": Setting("--geometry"),
     "map": Setting("--map"),
     "poses": Setting("--poses"),
+    "like": Setting("--like"),
     "count": Setting("--count"),
     # the pose
     "pose": Setting("--pose", "Pose"),
@@ -162,11 +164,24 @@ SETTINGS: dict[str, Setting] = {
         help="realistic model: surfaces farther apart along a beam than this give separate echoes, closer "
         "ones merge into one mixed range, metres",
     ),
+    "mount_height": Setting(
+        "--mount-height",
+        "Mount height",
+        float,
+        Limits(S.MIN_MOUNT_HEIGHT, S.MAX_MOUNT_HEIGHT),
+        default=S.DEFAULT_MOUNT_HEIGHT,
+        unit="m",
+        metavar="M",
+        help=f"height of the optical centre above the ground the robot stands on, metres, "
+        f"{S.MIN_MOUNT_HEIGHT:g} to {S.MAX_MOUNT_HEIGHT:g}",
+        default_help=f"default {S.DEFAULT_MOUNT_HEIGHT:g}, the paper robot's column; a device file's "
+        "[mount] height for its device",
+    ),
     "returns": Setting(
         "--returns",
         "Returns",  # the panel scans in the device's default mode
         str,
-        choices=S.RETURN_MODES,
+        choices=RETURN_MODES,
         default=None,
         help="realistic model: which returns a beam reports, as the device's manual defines them: "
         "strongest, last, dual (both, each point's return_type says which; Velodyne: the strongest and "

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..core.label_schemes import SCHEME_NAMES
 from . import options
 from .options import ArgumentParser, Option
 
@@ -79,7 +80,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "model's curve, and the default world in each (docs/weather.md); devices: every device preset's "
         "full-frame scan time beside Embree's own cast of the same rays (goal <= 1.5x); learn DIR: train a "
         "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
-        "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md); "
+        "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md), or "
+        "with --test REAL_DIR --scheme NAME score it on real scans beside a real-trained ceiling "
+        "(docs/training.md); "
         "biomes: per biome the class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time "
         "and memory beside the paper world of the same seeds at the same poses; the default biome also with "
         "poses uniform over the world, and its bare ground by zone (docs/ground.md); "
@@ -99,6 +102,20 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
     p.add_argument(
         "--card", action="store_true", help="--suite learn: also write its table into DIR's CARD.md"
+    )
+    p.add_argument(
+        "--test",
+        metavar="REAL_DIR",
+        help="--suite learn: score the baseline trained on DIR on the real scans in REAL_DIR, in their "
+        "dataset's own layout (SemanticKITTI, RELLIS-3D or GOOSE .bin + .label, WildScenes Clouds/ + "
+        "Labels/), beside the same model trained on the earlier half of REAL_DIR (the ceiling); needs "
+        "--scheme",
+    )
+    p.add_argument(
+        "--scheme",
+        choices=SCHEME_NAMES,
+        help="--suite learn --test: the label ids of REAL_DIR's labels (its learning map decides the "
+        "classes)",
     )
     p.add_argument(
         "--with-intensity",
@@ -248,9 +265,13 @@ def _run_suite(args: argparse.Namespace) -> int:
 
 def _run_chosen_suite(args: argparse.Namespace) -> int:
     if args.suite == "learn":
+        _only_for_backends(args, also=("details",))
+        if args.test is not None or args.scheme is not None:
+            from ..bench.learn_real import run_transfer
+
+            return run_transfer(args)
         from ..bench.learn import run_learn
 
-        _only_for_backends(args, also=("details",))
         return run_learn(args)
     _only_for_learn(args)
     if args.suite == "far":
@@ -303,7 +324,7 @@ def _only_for_learn(args: argparse.Namespace) -> None:
 
     if args.dataset is not None:
         raise UserError(f"a dataset folder ({args.dataset}) is measured by --suite learn only")
-    for flag in ("card", "with_intensity"):
+    for flag in ("card", "with_intensity", "test", "scheme"):
         if getattr(args, flag):
             raise UserError(f"--{flag.replace('_', '-')} applies to --suite learn only")
 

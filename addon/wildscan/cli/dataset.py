@@ -38,6 +38,14 @@ def _positive(text: str, setting: str, high: int = 1_000_000) -> int:
         raise argparse.ArgumentTypeError(e.message) from None
 
 
+def _like(text: str) -> str:
+    from ..app.dataset.like import LIKES
+
+    if text not in LIKES:
+        raise UserError(f"must be one of {', '.join(LIKES)}, got {text!r}", setting="like")
+    return text
+
+
 def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument("spec", nargs="?", metavar="SPEC.toml", help="the dataset spec (docs/datasets.md)")
     p.add_argument(
@@ -69,6 +77,14 @@ def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
         "size and SHA-256, no file nothing lists) and exit",
     )
     p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
+    options.add(
+        p,
+        options.Option("like", dict(metavar="NAME"), _like),
+        help="a real dataset's rig, mount height, label ids and files in one word (SPEC.toml's `like`, "
+        "which this replaces; the spec's own keys win): rellis3d (OS1-64 at 1.14 m), goose (VLS-128 at "
+        "2.0 m), wildscenes (the tilted VLP-16 on its turning mount at 1.2 m), semantickitti (HDL-64E at "
+        "1.73 m); without SPEC.toml every other key is the default",
+    )
     options.add_cache_arguments(p)
 
 
@@ -80,9 +96,9 @@ def run(args, in_blender: bool = False) -> int:
         if args.spec or args.out or args.workers or args.scheduler or args.limit:
             raise UserError("--verify DIR takes no SPEC.toml, --out, --workers, --scheduler or --limit")
         return _verify(args.verify)
-    if args.spec is None or args.out is None:
-        raise UserError("give SPEC.toml and --out DIR (or --verify DIR)")
-    spec = load_spec(args.spec)
+    if (args.spec is None and args.like is None) or args.out is None:
+        raise UserError("give SPEC.toml (or --like NAME) and --out DIR (or --verify DIR)")
+    spec = load_spec(args.spec, args.like)
     cache = cache_from_options(args.cache, args.no_cache, args.cache_size, args.scheduler, _warn)
     try:
         report = run_dataset(

@@ -370,6 +370,7 @@ _CONFIG_NAMES = {
     "divergence": "divergence_mrad",
     "echoes": "echoes",
     "echo_separation": "echo_separation",
+    "mount_height": "mount_height",
     "returns": "returns",
 }
 
@@ -387,7 +388,7 @@ def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
         if model != "realistic":
             raise UserError("applies to {model} realistic only", setting=setting, related=("model",))
         given[_CONFIG_NAMES[setting]] = value
-    for setting in ("rh", "min_range", "max_range"):
+    for setting in ("rh", "min_range", "max_range", "mount_height"):
         if getattr(args, setting, None) is not None:
             given[_CONFIG_NAMES[setting]] = getattr(args, setting)
     device = getattr(args, "device", None) or S.SensorConfig().device

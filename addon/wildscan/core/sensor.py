@@ -18,8 +18,8 @@ from .sensors.config import (
     REALISTIC_SETTINGS,
     SENSOR_SETTINGS,
 )
+from .sensors.load import MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
 from .sensors.noise import datasheet_sigma, noise_draws, range_noise, range_sigma
-from .sensors.returns import RETURN_MODES
 
 BEAMS_PER_2D_SCAN = _D.beams.count
 FIRST_BEAM_DEG, R_V_DEG = _D.beams.fan
@@ -36,6 +36,7 @@ MAX_ECHOES = _D.optics.echoes
 DEFAULT_ECHO_SEPARATION = _D.optics.echo_separation_m
 DATASHEET_ACCURACY = _D.noise.accuracy
 ACCURACY_SIGMAS = _D.noise.accuracy_sigmas
+DEFAULT_MOUNT_HEIGHT = SensorConfig().mount_height  # the paper robot's column (placement.py)
 
 
 def elevation_angles_rad() -> np.ndarray:
@@ -59,12 +60,14 @@ __all__ = [
     "MAX_DIVERGENCE_MRAD",
     "MAX_ECHOES",
     "MAX_ECHO_SEPARATION",
+    "MAX_MOUNT_HEIGHT",
+    "MIN_MOUNT_HEIGHT",
+    "DEFAULT_MOUNT_HEIGHT",
     "MAX_NOISE_SIGMA",
     "MAX_RANGE_LIMIT",
     "MIN_RH_DEG",
     "MODELS",
     "REALISTIC_SETTINGS",
-    "RETURN_MODES",
     "R_V_DEG",
     "SENSOR_SETTINGS",
     "SWEEP_DEG",

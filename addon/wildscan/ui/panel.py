@@ -130,6 +130,7 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         col.prop(s, "rh", text="r_h (deg)")
         col.prop(s, "min_range")
         col.prop(s, "max_range")
+        col.prop(s, "mount_height")
         layout.prop(s, "model")
         realistic = s.model == "realistic"
         if realistic:

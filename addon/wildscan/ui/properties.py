@@ -245,6 +245,7 @@ class WildScanSettings(PropertyGroup):
     rh: FloatProperty(**_declared("rh", soft_max=10.0, precision=2, step=25))
     min_range: FloatProperty(**_declared("min_range", unit="LENGTH"))
     max_range: FloatProperty(**_declared("max_range", unit="LENGTH"))
+    mount_height: FloatProperty(**_declared("mount_height", unit="LENGTH", precision=3))
     # the paper model's noise; the realistic model's is the datasheet's unless Datasheet noise is off
     noise: FloatProperty(
         **_declared(
@@ -358,6 +359,7 @@ def sensor_from(settings):
         noise_seed=int(settings.noise_seed),
         model=str(settings.model),
         divergence_mrad=typed_value(settings.divergence) if realistic else device.optics.divergence_mrad,
+        mount_height=typed_value(settings.mount_height),
     )
 
 

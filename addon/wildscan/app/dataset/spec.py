@@ -28,6 +28,7 @@ from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ...core.world.region import dataset_layout
 from ..settings import SETTINGS
+from .like import with_like
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
 # changes no existing spec's files or config hash
@@ -46,7 +47,7 @@ DEFAULT_ZONE_WEIGHTS = (
 )
 Value = float | tuple[float, float]
 TOP_KEYS = ("seeds", "detail", "vegetation", "biome", "scans_per_world", "formats", "label_scheme")
-TOP_KEYS += ("split", "poses", "sensor", "weather", "intensity")
+TOP_KEYS += ("split", "poses", "sensor", "weather", "intensity", "layout")  # layout: region.py dataset_layout
 
 
 @dataclass(frozen=True)
@@ -62,6 +63,7 @@ class SensorSpec:
     divergence: Value = S.DEFAULT_DIVERGENCE_MRAD
     echoes: int | tuple[int, int] = S.MAX_ECHOES
     echo_separation: Value = S.DEFAULT_ECHO_SEPARATION
+    mount_height: Value | None = None  # m (or a range); None: the device's own [mount] height
     returns: str | None = None  # the return mode (core/sensors/returns.py); None: the device's own
     # a preset or device file, or a tuple of them drawn per scan (app/dataset/devices.py); with
     # another device than the default, rh, min_range and max_range are None for its own
@@ -99,8 +101,9 @@ class DatasetSpec:
             del out["weather"]
         if not self.poses.min_scans_with:  # the same for class-aware poses
             del out["poses"]["min_scans_with"]
-        if out["sensor"]["device"] == SensorSpec.device:  # and one with the default device too
-            del out["sensor"]["device"]
+        for key, default in (("device", SensorSpec.device), ("mount_height", None)):
+            if out["sensor"][key] == default:  # and one with the default device, at its height
+                del out["sensor"][key]
         return out
 
     def config_hash(self) -> str:
@@ -152,16 +155,15 @@ class DatasetSpec:
         )
 
 
-# ---------------------------------------------------------------------------------------
-# loading
-
-
-def load_spec(path) -> DatasetSpec:
+def load_spec(path, like: str | None = None) -> DatasetSpec:
+    """SPEC.toml at `path` (None: every default), `like` (--like) in place of its own."""
     try:
         import tomllib
     except ImportError:  # Python 3.10: the same parser as a package (the `dataset` extra)
         import tomli as tomllib
 
+    if path is None:
+        return spec_from_dict({"like": like} if like else {}, "--like")
     path = user_path(path, "spec", "a spec file name")
     try:
         text = path.read_bytes()
@@ -171,21 +173,15 @@ def load_spec(path) -> DatasetSpec:
         data = tomllib.loads(text.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise UserError(f"{path.name}: not valid TOML ({e})") from None
-    return spec_from_dict(data, path.name)
-
-
-TOP_KEYS = tuple(  # a spec's top-level keys (layout: "paper" only so far, region.py dataset_layout)
-    "seeds detail vegetation biome layout scans_per_world formats label_scheme split poses sensor "
-    "weather intensity".split()
-)
+    return spec_from_dict(data | ({"like": like} if like else {}), path.name)
 
 
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
-    top = _Table(data, "", where)
+    top = _Table(with_like(data, where), "", where)  # `like`: a real dataset's rig and files
     top.only(*TOP_KEYS)
     d = DatasetSpec()
     dataset_layout(top.data.get("layout"), where)
-    spec = replace(
+    return replace(
         d,
         seeds=_seeds(top),
         detail=top.choice("detail", d.detail, tuple(DETAILS)),
@@ -200,7 +196,6 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         weather=_weather(top.table("weather", {})),
         intensity=top.choice("intensity", d.intensity, INTENSITY_MODES),
     )
-    return spec
 
 
 def _weather(t: "_Table") -> tuple[tuple[str, Value], ...]:
@@ -385,7 +380,7 @@ def _sensor(t: _Table) -> SensorSpec:
     values = {
         key: _sensor_value(t, key, getattr(d, key))
         for key in RANGED_SENSOR_KEYS
-        if key not in own and (key != "noise" or t.get(key, None) is not None)
+        if key not in own and (key not in ("noise", "mount_height") or t.get(key, None) is not None)
     }
     if own:
         values.update(device_values(t.data, t.where, device))

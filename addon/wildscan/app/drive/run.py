@@ -102,8 +102,9 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
         span = slice(k0, k1 + 1)
         distance = request.speed * times[span]
         keep = [s - k0 for s in range(k0, k1, plan.sweeps)]  # the 3D scans' first 2D scans: their metadata
+        height = sensor.mount_height
         motions.append(
-            place_all(backend, times[span], xy[span], yaw[span], distance, request.z_start, keep, k0)
+            place_all(backend, times[span], xy[span], yaw[span], distance, request.z_start, height, keep, k0)
         )
         clock.lap("placement")
         if len(runs) > 1:
@@ -118,6 +119,7 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
         request.imu_rate,
         request.imu_noise == "on",
         int(sensor.noise_seed),
+        sensor.mount_height,
     )
     clock.lap("imu")
 

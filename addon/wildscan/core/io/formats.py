@@ -12,6 +12,7 @@ file and must end in its suffix; the others go beside it, same name, their own s
     ply            SCAN.ply + SCAN.json (the sidecar)
     las            SCAN.las
     semantickitti  SCAN.bin (velodyne: x y z remission) + SCAN.label (SemanticKITTI ids)
+    wildscenes     SCAN.bin (x y z) + SCAN.label (int32 WildScenes ids)
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..label_schemes import scheme
-from . import las, ply, semantickitti
+from . import las, ply, semantickitti, wildscenes
 from .files import atomic_outputs, check_output_path, write_durably, writing_to
 from .writer import ScanOutput, Writer
 
@@ -43,6 +44,7 @@ WRITERS: dict[str, Writer] = _table(
     semantickitti.WRITER,
     las.WRITER,
     ply.WRITER,
+    wildscenes.WRITER,
 )
 FORMATS: tuple[str, ...] = tuple(WRITERS)
 
