@@ -81,7 +81,7 @@ def test_a_panel_scan_with_a_sensor_file_equals_a_scan_with_that_device(settings
     from wildscan.ui import status
     from wildscan.ui.scene import clouds, read_cloud
 
-    settings.seed, settings.detail = 5, "low"
+    settings.seed, settings.detail, settings.world_layout = 5, "low", "paper"
     assert bpy.ops.wildscan.generate_world() == {"FINISHED"}
     pose = next(Pose(x, y, 30.0) for x, y in CANDIDATE_XY if status.check_pose(Pose(x, y, 30.0), None).ok)
     settings.pose_x, settings.pose_y, settings.pose_yaw = pose.x, pose.y, pose.yaw_deg

@@ -19,7 +19,7 @@ from wildscan.core.sensors.load import PRESETS_DIR, device_from_text
 from wildscan.core.spatial.frames import FRAMES
 
 from tests.helpers.analytic import AnalyticBackend, Patch
-from tests.helpers.scene_helpers import WILDSCAN, user_error_line
+from tests.helpers.scene_helpers import PAPER, WILDSCAN, user_error_line
 from tests.test_formats import PARK_POSE_SEED_2_LOW
 from tests.test_formats import geometry as seed_2_low_geometry
 
@@ -260,11 +260,11 @@ def test_vlp16_scan_has_its_rings_columns_and_times(geometry, tmp_path):
 def test_vlp16_scan_of_seed_1_as_the_issue_states(tmp_path):
     out = tmp_path / "vlp16.ply"
     pose = ("31.712", "65.125", "236.7")  # the forest's first valid pose (tests/golden/scans.json)
-    done = wildscan("scan", "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor")
+    done = wildscan("scan", *PAPER, "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor")
     assert done.returncode == 2  # --out is required: nothing to scan into
     done = wildscan(
-        "scan", "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor", "--noise", "0",
-        "--quiet", "--out", str(out),
+        "scan", *PAPER, "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor",
+        "--noise", "0", "--quiet", "--out", str(out),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     check_vlp16_scan(out)

@@ -165,3 +165,26 @@ def write_scan(
     w = formats.writer(fmt)
     scan = formats.single_scan(w, result.cloud, metadata, ascii, result.lost_cells)
     return formats.write_scan(w, scan, out, range_image)
+
+
+def endless_scan_geometry(
+    seed: int,
+    pose: Pose,
+    sensor: SensorConfig,
+    lod: bool = True,
+    biome: str = DEFAULT_BIOME,
+    vegetation: str = "porous",
+    detail: str = "default",
+    cache=None,
+    memory=None,
+    progress=None,
+):
+    """(SceneGeometry, TileCounts): the endless world of `seed` as a scan from `pose` sees it,
+    the tiles within the sensor's reach (crop_radius), each at the level the device resolves
+    there (full detail with `lod` off), from memory, the world cache or built (app/tiles.py)."""
+    from .tiles import TiledWorld, scan_levels, tiles_geometry
+
+    world = TiledWorld(seed, biome, detail, vegetation)
+    reach = crop_radius(sensor)
+    levels = scan_levels(sensor, pose.x, pose.y, reach, lod, detail)
+    return tiles_geometry(world, levels, cache, memory, (pose.x, pose.y), progress, radius=reach)

@@ -1,5 +1,5 @@
-"""`wildscan bench [--suite backends|world|...|casters|detection]` and
-`wildscan bench-world` (= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR|biomes|casters|
+lod|detection]` and `wildscan bench-world` (= `bench --suite world`)."""
 
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ SUITES = (
     "learn",
     "biomes",
     "casters",
+    "lod",
     "detection",
 )
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
@@ -88,7 +89,12 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "casters: every float32 ray caster (embreex, "
         "Embree filled from numpy, Embree packets, Open3D, Warp, Mitsuba) on the same triangles and rays: "
         "build time, rays/s on 1 and 2 threads, memory, and whether its scans are the same bytes as "
-        "embree's; detection: per device preset the farthest range a flat 10 %% and 80 %% target is "
+        "embree's; lod: per device preset on the endless world, cold scan time (tile builds included) and "
+        "agreement "
+        "(labels, ranges within the device's noise sigma) of level-of-detail scans against --lod off scans "
+        "of the same poses, a cold and a warm Hokuyo scan, and the memory of a process that scans 100 poses "
+        "over 2 km (docs/scanning.md); "
+        "detection: per device preset the farthest range a flat 10 %% and 80 %% target is "
         "detected at by the realistic model beside its datasheet's (goal within 5 %%), the default world's "
         "lost returns by class, range and incidence, and the realistic scan time with and without the "
         "detection step (goal <= 1.1x)",
@@ -214,6 +220,12 @@ def _bench_casters():
     return bench_casters
 
 
+def _bench_lod():
+    from ..bench.lod import bench_lod
+
+    return bench_lod
+
+
 def _bench_biomes():
     from ..bench.biomes import bench_biomes
 
@@ -234,6 +246,7 @@ SEED_AND_QUICK_SUITES = {
     "devices": _bench_devices,
     "biomes": _bench_biomes,
     "casters": _bench_casters,
+    "lod": _bench_lod,
     "detection": _bench_detection,
 }
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..core.checks import decimal, whole_number
+from ..core.checks import whole_number
 from ..core.errors import UserError
 from . import options
 
@@ -16,8 +16,9 @@ HELP, DESCRIPTION = (
     "code reads (SemanticKITTI, LAS 1.4, PLY), with a manifest of every file (size, SHA-256), a dataset card "
     "and ground truth for traversability (height above terrain per point, a bird's-eye grid per scan). Runs "
     "on a local Dask cluster, or on an existing one with --scheduler; rerunning the same command into the "
-    "same --out resumes and gives the bytes of one uninterrupted run. See docs/datasets.md for the spec "
-    "keys.",
+    "same --out resumes and gives the bytes of one uninterrupted run. A dataset's worlds are the paper "
+    'layout\'s island (layout = "paper"; datasets over the endless layout come with the next issue). See '
+    "docs/datasets.md for the spec keys.",
 )
 BENCH_HELP, BENCH_DESCRIPTION = (
     "time `wildscan dataset` with 1 and 2 workers side by side, cold and warm world cache",
@@ -84,37 +85,7 @@ def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
         "2.0 m), wildscenes (the tilted VLP-16 on its turning mount at 1.2 m), semantickitti (HDL-64E at "
         "1.73 m); without SPEC.toml every other key is the default",
     )
-    add_cache_arguments(p)
-
-
-def add_cache_arguments(p: argparse.ArgumentParser) -> None:
-    from ..app.cache.config import DEFAULT_MAX_GB
-
-    cache = p.add_mutually_exclusive_group()
-    cache.add_argument(
-        "--cache",
-        metavar="DIR",
-        help="keep each world a worker builds in DIR, for every later run and worker (default: "
-        "$XDG_CACHE_HOME/wildscan, or ~/.cache/wildscan; docs/datasets.md says how to clear it)",
-    )
-    cache.add_argument("--no-cache", action="store_true", help="build every world, keep none")
-    p.add_argument(
-        "--cache-size",
-        type=_cache_size,
-        metavar="GB",
-        help="most gigabytes the world cache holds; the least recently used worlds go first "
-        f"(default {DEFAULT_MAX_GB:g})",
-    )
-
-
-def _cache_size(text: str) -> float:
-    try:
-        value = decimal(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a number of gigabytes above 0, got {text!r}")
-    return value
+    options.add_cache_arguments(p)
 
 
 def run(args, in_blender: bool = False) -> int:

@@ -21,6 +21,7 @@ from ..blender.generate import DETAILS
 from ..core import sensor as S
 from ..core.classes import TAG_NAMES
 from ..core.world.biomes import BIOME_TABLE, BIOMES, DEFAULT_BIOME
+from ..core.world.region import DEFAULT_LAYOUT, DEFAULT_REGION, MAX_REGION_SIDE
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults, take_file_defaults
@@ -158,6 +159,34 @@ class WildScanSettings(PropertyGroup):
             for b in BIOMES
         ],
         default=DEFAULT_BIOME,
+    )
+
+    world_layout: EnumProperty(
+        name=label("layout"),
+        description="Which world the seed gives",
+        items=[
+            ("endless", "Endless", "A landscape without edges: Generate builds the region below"),
+            (
+                "paper",
+                "Paper",
+                "The paper's 150 m island of six zones (with biome Paper: the paper's worlds)",
+            ),
+        ],
+        default=DEFAULT_LAYOUT,
+    )
+    region_x: FloatProperty(
+        name="Centre X", description="Centre of the region of the endless world to build", unit="LENGTH"
+    )
+    region_y: FloatProperty(
+        name="Centre Y", description="Centre of the region of the endless world to build", unit="LENGTH"
+    )
+    region_size: FloatProperty(
+        name="Size",
+        description=f"Side of the square region of the endless world to build, at most {MAX_REGION_SIDE:g} m",
+        unit="LENGTH",
+        min=10.0,
+        max=MAX_REGION_SIDE,
+        default=DEFAULT_REGION.xmax - DEFAULT_REGION.xmin,
     )
 
     # Pose

@@ -26,6 +26,7 @@ from ...core.realism.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.rng import stage_seed
 from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
+from ...core.world.region import dataset_layout
 from ..settings import SETTINGS
 from .like import with_like
 
@@ -46,7 +47,7 @@ DEFAULT_ZONE_WEIGHTS = (
 )
 Value = float | tuple[float, float]
 TOP_KEYS = ("seeds", "detail", "vegetation", "biome", "scans_per_world", "formats", "label_scheme")
-TOP_KEYS += ("split", "poses", "sensor", "weather", "intensity")
+TOP_KEYS += ("split", "poses", "sensor", "weather", "intensity", "layout")  # layout: region.py dataset_layout
 
 
 @dataclass(frozen=True)
@@ -179,6 +180,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
     top = _Table(with_like(data, where), "", where)  # `like`: a real dataset's rig and files
     top.only(*TOP_KEYS)
     d = DatasetSpec()
+    dataset_layout(top.data.get("layout"), where)
     return replace(
         d,
         seeds=_seeds(top),

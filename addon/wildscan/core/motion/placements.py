@@ -81,13 +81,15 @@ def place_all(
     z_start: float | None = None,
     height: float = COLUMN_HEIGHT,
     keep: Iterable[int] = (0,),
+    index0: int = 0,
 ) -> Motion:
     """Stand the robot at every instant, its optical centre `height` up the column;
     PoseRejected naming where and when it cannot.
     `z_start`: the lasers start at this height at every instant, as `place` does for one
     pose (a drive under a roof: the probe from above would stand it on the roof). `keep`:
     the instants whose whole Placement the caller needs (Motion.placement; the first's by
-    default)."""
+    default). `index0`: the drive's index of the first instant (a drive placed piece
+    by piece names the 2D scan it stops at in its own numbering)."""
     count, keep = len(times), set(keep)
     centre, ground, rotation = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3, 3))
     attitude = np.empty((count, 3))
@@ -104,10 +106,10 @@ def place_all(
             off = np.flatnonzero(~np.isfinite(found))
             if len(off):
                 i = int(off[0])
-                _reject(a + i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
+                _reject(a + i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}", index0)
             starts = found + LASER_CLEARANCE
         window = {k - a for k in keep if a <= k < b}
-        placed = _place_from(backend, poses, starts, times, distance, a, window, height)
+        placed = _place_from(backend, poses, starts, times, distance, a, window, height, index0)
         centre[a:b], ground[a:b], rotation[a:b], attitude[a:b] = placed[:4]
         kept.update({a + i: p for i, p in placed[4].items()})
     return motion_of(times, distance, centre, ground, rotation, kept, attitude)
@@ -122,6 +124,7 @@ def _place_from(
     first: int,
     keep: set[int],
     height: float,
+    index0: int = 0,
 ):
     """(centre, ground, rotation, attitude, {i: Placement kept}) of the poses (instants first,
     first + 1, ...) with each pose's four lasers cast down from its `z_start`."""
@@ -135,7 +138,7 @@ def _place_from(
         try:  # `stand` says why, in the words a static scan's placement uses
             p = stand(poses[i], float(z_start[i]), lasers_of(poses[i], rows[i]), height)
         except PoseRejected as e:
-            _reject(first + int(i), times, distance, e.message)
+            _reject(first + int(i), times, distance, e.message, index0)
         centre[i], ground[i], rotation[i] = p.optical_centre, p.ground_centre, p.rotation
         attitude[i] = (p.pose.yaw_deg, p.pitch_rad, p.roll_rad)
         if i in keep:
@@ -252,7 +255,8 @@ def motion_of_placements(placements: list[Placement], times: np.ndarray, distanc
     )
 
 
-def _reject(i: int, times: np.ndarray, distance: np.ndarray, why: str) -> None:
+def _reject(i: int, times: np.ndarray, distance: np.ndarray, why: str, index0: int = 0) -> None:
     raise PoseRejected(
-        f"the drive stops at t = {times[i]:.3f} s (2D scan {i}, {distance[i]:.2f} m along the path): {why}"
+        f"the drive stops at t = {times[i]:.3f} s (2D scan {index0 + i}, {distance[i]:.2f} m along the "
+        f"path): {why}"
     )
