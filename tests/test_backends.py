@@ -172,7 +172,7 @@ def _on_cylinder(points):
 def test_backends_agree_on_the_test_world():
     from wildscan.blender.testworld import build_test_world
     from wildscan.core.placement import Pose, place
-    from wildscan.core.sensor import beam_directions
+    from wildscan.core.sensors import beam_directions
 
     empty_scene()
     build_test_world(7)

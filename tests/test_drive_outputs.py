@@ -13,7 +13,7 @@ from wildscan.app.drive import DriveRequest, Interrupted, run_drive
 from wildscan.app.drive import bags as bag_module
 from wildscan.app.interrupts import Terminated
 from wildscan.core.io.ply import read_ply
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 
 from tests.helpers.scene_helpers import WILDSCAN, run, user_error_line
 

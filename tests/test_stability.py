@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from wildscan.core.hits import RayHits
-from wildscan.core.sensor import beam_directions
+from wildscan.core.sensors import beam_directions
 from wildscan.raycast.bvh_backend import BVHBackend
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene

@@ -95,12 +95,12 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         help="stepped: the head stands still during each 2D scan and steps r_h between them, as Eq. 1 "
         "(default); continuous: it turns steadily, each beam at the head angle of its own time",
     )
-    from .sensors import add_sensor, device_default
+    from .sensors import add_sensor
 
     add_sensor(p)
     for name in options.SENSOR_OPTIONS:
         if name not in options.REALISTIC_ONLY:
-            options.add(p, name, **{**device_default(name), **DRIVE_OVERRIDES.get(name, {})})
+            options.add(p, name, **DRIVE_OVERRIDES.get(name, {}))
     options.add(
         p,
         "frame",

@@ -50,13 +50,13 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     )
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
     options.add(p, "biome", default=None, help=f"with --seed: {options.BIOME_HELP}")
-    from .sensors import add_sensor, device_default
+    from .sensors import add_sensor
 
     for name in ("pose", "z_start"):
         options.add(p, name)
     add_sensor(p)
     for name in (*options.SENSOR_OPTIONS, "frame", "backend"):
-        options.add(p, name, **device_default(name))
+        options.add(p, name)
     from .weather import add_weather
 
     add_weather(p)

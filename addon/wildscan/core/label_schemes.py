@@ -60,10 +60,11 @@ class LabelScheme:
     learning_map_inv: dict[int, int]
     learning_ignore: dict[int, bool]
     from_wildscan: dict[int, int] = field(init=False, repr=False)  # WildScan id -> raw id, from by_class
-    # What a label config without weather lists (the bytes it had before the particle class):
-    # not the raw ids only weather's particles use, and these colours where theirs differ.
-    weather_ids: tuple[int, ...] = ()
-    clear_colors_bgr: dict[int, tuple[int, int, int]] | None = None
+    # What a label config lists for data without an optional class (classes.listed_classes; the
+    # bytes it had before that class): not the raw ids only that class uses (`only_for`, by
+    # WildScan id), and the colours of `colors_without` where that class's differ.
+    only_for: dict[int, tuple[int, ...]] = field(default_factory=dict)
+    colors_without: dict[int, dict[int, tuple[int, int, int]]] = field(default_factory=dict)
 
     def __post_init__(self):
         from_wildscan = ids_by_class_id(self.name, self.by_class, self.other)
@@ -82,19 +83,24 @@ class LabelScheme:
     def map(self, wildscan_ids: np.ndarray) -> np.ndarray:
         return self.lookup()[np.asarray(wildscan_ids, dtype=np.intp)]
 
-    def config_tables(self, particles: bool) -> dict[str, dict]:
-        """The tables of a label config (labels.yaml): as they are with weather's particles,
-        without them (`particles` False) as they were before the particle class."""
+    def config_tables(self, classes) -> dict[str, dict]:
+        """The tables of a label config (labels.yaml) for data that lists `classes`
+        (classes.listed_classes): without the raw ids and colours of the optional classes it
+        does not list (`only_for`, `colors_without`)."""
+        listed = {c.id for c in classes}
+        absent = [i for i in (*self.only_for, *self.colors_without) if i not in listed]
+        dropped = {raw for i in absent for raw in self.only_for.get(i, ())}
+        colors = dict(self.colors_bgr)
+        for i in absent:
+            colors.update(self.colors_without.get(i, {}))
         tables = dict(
             labels=self.labels,
-            color_map=self.colors_bgr if particles else self.clear_colors_bgr or self.colors_bgr,
+            color_map=colors,
             learning_map=self.learning_map,
             learning_map_inv=self.learning_map_inv,
             learning_ignore=self.learning_ignore,
         )
-        if particles:
-            return tables
-        return {name: {k: v for k, v in t.items() if k not in self.weather_ids} for name, t in tables.items()}
+        return {name: {k: v for k, v in t.items() if k not in dropped} for name, t in tables.items()}
 
     def is_other(self, wildscan_id: int) -> bool:
         """Whether this class has no counterpart in the scheme (it got the "other" id)."""
@@ -128,7 +134,7 @@ _WILDSCAN = LabelScheme(
     },
     learning_map_inv={0: 0, **_identity(c.id for c in CLASSES), LOG_ID: LOG_ID, PARTICLE_ID: PARTICLE_ID},
     learning_ignore={0: True, **{c.id: False for c in CLASSES}, LOG_ID: False, PARTICLE_ID: False},
-    weather_ids=(PARTICLE_ID,),
+    only_for={PARTICLE_ID: (PARTICLE_ID,)},  # the raw id 15 is weather's alone
 )
 
 # -- SemanticKITTI (semantic-kitti-api, config/semantic-kitti-all.yaml) ------------------------
@@ -294,7 +300,8 @@ _GOOSE = LabelScheme(
     title="GOOSE",
     labels=dict(enumerate(_GOOSE_NAMES)),
     colors_bgr=_goose_colors(),
-    clear_colors_bgr=_goose_colors(particles=False),  # outlier (56) grey, as before weather
+    # outlier (56) grey without weather, as before it
+    colors_without={PARTICLE_ID: {_GOOSE_BY_CLASS["particle"]: _goose_colors(particles=False)[56]}},
     by_class=_GOOSE_BY_CLASS,
     other=_GOOSE_OTHER,
     learning_map=_identity(range(len(_GOOSE_NAMES))),

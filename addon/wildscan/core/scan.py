@@ -15,7 +15,14 @@ import numpy as np
 from .. import __version__
 from . import detmath as dm
 from .backend import RayBackend, with_normals
-from .classes import LABEL_BY_ID, REFLECTIVITY_BY_ID, WATER_ID, class_table_dict, reflectivity_of
+from .classes import (
+    LABEL_BY_ID,
+    REFLECTIVITY_BY_ID,
+    WATER_ID,
+    class_table_dict,
+    listed_classes,
+    reflectivity_of,
+)
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
 from .hits import RayHits
@@ -261,9 +268,7 @@ def run_scan(
         **{k: v for k, v in facts.items() if k != "hits"},
         "points": int(len(cloud)),
         "untagged_objects_hit": sorted(untagged),
-        "classes": class_table_dict(
-            particles=weather_of(effects) is not None, logs=any(e.name == "cover" for e in effects.items)
-        ),
+        "classes": class_table_dict(listed_classes(cloud.label, effects.classes)),
     }
     if effects:  # clear air says nothing, so scans without effects keep their bytes
         metadata["effects"] = effects.describe()

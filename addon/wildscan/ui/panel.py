@@ -106,7 +106,7 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         from ..app.settings import panel_message
         from ..core.errors import UserError
         from .device import FILE_CHOICE
-        from .properties import sensor_from
+        from .properties import device_limits_text, sensor_from
         from .weather import draw_weather, weather_from
 
         s = context.scene.wildscan
@@ -120,6 +120,9 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         col.prop(s, "rh", text="r_h (deg)")
         col.prop(s, "min_range")
         col.prop(s, "max_range")
+        hint = device_limits_text(s)
+        if hint:
+            layout.label(text=hint)
         layout.prop(s, "model")
         realistic = s.model == "realistic"
         if realistic:

@@ -15,7 +15,6 @@ import re
 from dataclasses import asdict, dataclass, field, replace
 
 from ... import __version__
-from ...core import sensor as S
 from ...core.classes import TAG_NAMES
 from ...core.errors import UserError
 from ...core.io.files import user_path
@@ -24,9 +23,12 @@ from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
 from ...core.realism.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.rng import stage_seed
+from ...core.sensors import DEFAULT_DEVICE
+from ...core.sensors.config import DEFAULT_MODEL, REALISTIC_SETTINGS, SENSOR_SETTINGS
 from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
-from ..settings import SETTINGS
+from ..settings import SETTINGS, default, limits
+from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_limits
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
 # changes no existing spec's files or config hash
@@ -48,17 +50,17 @@ Value = float | tuple[float, float]
 
 @dataclass(frozen=True)
 class SensorSpec:
-    rh: Value = S.DEFAULT_RH_DEG
-    min_range: Value = S.DEFAULT_MIN_RANGE
-    max_range: Value = S.DEFAULT_MAX_RANGE
+    rh: Value = default("rh")  # the default device's
+    min_range: Value = default("min_range")
+    max_range: Value = default("max_range")
     noise: Value | None = None  # None: the model's own (paper 0.015 m; realistic the datasheet's)
     noise_seed: int | tuple[int, int] | None = None  # None: a seed of its own per scan
     frame: str = "leveled"
-    model: str = S.DEFAULT_MODEL
+    model: str = DEFAULT_MODEL
     # the realistic model's own settings (as `wildscan scan`: a mistake with model "paper")
-    divergence: Value = S.DEFAULT_DIVERGENCE_MRAD
-    echoes: int | tuple[int, int] = S.MAX_ECHOES
-    echo_separation: Value = S.DEFAULT_ECHO_SEPARATION
+    divergence: Value = default("divergence")
+    echoes: int | tuple[int, int] = default("echoes")
+    echo_separation: Value = default("echo_separation")
     # a preset or device file, or a tuple of them drawn per scan (app/dataset/devices.py); with
     # another device than the default, rh, min_range and max_range are None for its own
     device: str | tuple[str, ...] = "utm30lx-ew"
@@ -362,27 +364,25 @@ def _poses(t: _Table) -> PoseSpec:
     )
 
 
-# the sensor values that may be numbers or ranges of numbers, with their limits in app/settings.py
-RANGED_SENSOR_KEYS = tuple(k for k in S.SENSOR_SETTINGS if SETTINGS[k].kind is float)
+# the sensor values that may be numbers or ranges of numbers, with their limits the device's
+RANGED_SENSOR_KEYS = tuple(k for k in SENSOR_SETTINGS if SETTINGS[k].kind is float)
 # the keys of [sensor]: the sensor settings of `wildscan scan` and the frame
-SENSOR_KEYS = (*S.SENSOR_SETTINGS, "frame")
+SENSOR_KEYS = (*SENSOR_SETTINGS, "frame")
 
 
 def _sensor(t: _Table) -> SensorSpec:
-    from .devices import DEVICE_KEYS, device_values, is_default, spec_device
-
     t.only(*SENSOR_KEYS, "device")
     device = spec_device(t.get("device", SensorSpec.device), t.where)
     own = () if is_default(device) else DEVICE_KEYS  # the settings the device decides
     d = SensorSpec()
     model = t.choice("model", d.model, SETTINGS["model"].choices)
-    for key in S.REALISTIC_SETTINGS:
+    for key in REALISTIC_SETTINGS:
         if key in t.data and model != "realistic":
             raise UserError(
                 f'{t.where}: {t.name(key)} applies to model = "realistic" only (sensor.model is "{model}")'
             )
     values = {
-        key: _sensor_value(t, key, getattr(d, key))
+        key: _sensor_value(t, key, getattr(d, key), device)
         for key in RANGED_SENSOR_KEYS
         if key not in own and (key != "noise" or t.get(key, None) is not None)
     }
@@ -399,13 +399,13 @@ def _sensor(t: _Table) -> SensorSpec:
     for key, value in values.items():
         if key not in own:
             _check_open_low(t, key, value)
-    values["echoes"] = _whole_value(t, "echoes", d.echoes)
+    values["echoes"] = _whole_value(t, "echoes", None if own else d.echoes, device)
     if own:  # the realistic model's settings not given are the device's own too
-        values.update({key: None for key in S.REALISTIC_SETTINGS if key not in t.data})
+        values.update({key: None for key in REALISTIC_SETTINGS if key not in t.data})
     return SensorSpec(
         **values,
         device=device,
-        noise_seed=_whole_value(t, "noise_seed", None),
+        noise_seed=_whole_value(t, "noise_seed", None, device),
         frame=t.choice("frame", d.frame, FRAMES),
         model=model,
     )
@@ -413,7 +413,7 @@ def _sensor(t: _Table) -> SensorSpec:
 
 def _check_open_low(t: _Table, key: str, value: Value) -> None:
     """A setting whose lowest value is excluded ((0, 30] m): not there, nor in a range."""
-    low, high, low_open = SETTINGS[key].limits
+    low, high, low_open = limits(key, DEFAULT_DEVICE)  # another device: devices.py checks its own
     if low_open and _lo(value) <= low:
         raise t.fail(
             key,
@@ -430,9 +430,9 @@ def _hi(v: Value) -> float:
     return v[1] if isinstance(v, tuple) else v
 
 
-def _sensor_value(t: _Table, key: str, default: float) -> Value:
+def _sensor_value(t: _Table, key: str, default: float, device) -> Value:
     setting = SETTINGS[key]
-    low, high, _ = setting.limits
+    low, high, _ = spec_limits(key, device)
     unit = f"{setting.unit} {setting.rule}" if key == "rh" else setting.unit
     value = t.get(key, default)
     allowed = f"a number from {low:g} to {high:g} {unit}, or a range [lo, hi] of such numbers"
@@ -449,9 +449,9 @@ def _sensor_value(t: _Table, key: str, default: float) -> Value:
     return float(value)
 
 
-def _whole_value(t: _Table, key: str, default):
+def _whole_value(t: _Table, key: str, default, device):
     """A whole number within the setting's limits, or a range [lo, hi] of such (drawn per scan)."""
-    low, high, _ = SETTINGS[key].limits
+    low, high, _ = spec_limits(key, device)
     value = t.get(key, default)
     if value is None:
         return None
@@ -465,13 +465,13 @@ def _whole_value(t: _Table, key: str, default):
     return value
 
 
-def rh_choices(rh: Value):
-    """The r_h values allowed by a fixed value or range: 180/M for whole M."""
-    lo, hi = _lo(rh), _hi(rh)
+def rh_choices(rh: Value, mount=DEFAULT_DEVICE.mount):
+    """The r_h values allowed by a fixed value or range: the mount's sweep / M for whole M."""
+    lo, hi, sweep = _lo(rh), _hi(rh), mount.sweep_deg
     for m in range(
-        max(1, math.ceil(S.SWEEP_DEG / hi - 1e-9)), math.floor(S.SWEEP_DEG / max(lo, S.MIN_RH_DEG) + 1e-9) + 1
+        max(1, math.ceil(sweep / hi - 1e-9)), math.floor(sweep / max(lo, mount.min_step_deg) + 1e-9) + 1
     ):
-        value = S.SWEEP_DEG / m
+        value = sweep / m
         if lo - 1e-9 <= value <= hi + 1e-9:
             yield value
 

@@ -10,7 +10,7 @@ from ...core.errors import UserError
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
 from ...core.placement import check_z_start
-from ...core.sensor import SensorConfig
+from ...core.sensors import SensorConfig
 from ...core.spatial.frames import check_frame
 from ...core.world import DEFAULT_VEGETATION, check_vegetation
 

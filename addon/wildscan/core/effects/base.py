@@ -67,9 +67,12 @@ class Effect:
     name            what files and messages call it ("wind", "fog")
     changes_medium  True when `medium` is overridden
     moves_scene     True when `moving_classes` and `motion` are
+    classes         the optional class ids (core/classes.py) its scans can carry: the files of
+                    a scan with this effect list them (classes.listed_classes)
     """
 
     name = "effect"
+    classes: tuple[int, ...] = ()
     changes_medium = False
     moves_scene = False
     moving_classes: tuple[int, ...] = ()
@@ -117,6 +120,11 @@ class Effects:
 
     def describe(self) -> dict:
         return {e.name: e.describe() for e in self.items}
+
+    @property
+    def classes(self) -> tuple[int, ...]:
+        """The class ids the effects declare they can produce (Effect.classes), each once."""
+        return tuple(dict.fromkeys(i for e in self.items for i in e.classes))
 
 
 CLEAR_AIR = Effects()

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..classes import LOG_ID
 from ..hits import RayHits
 from ..rng import stage_rng
 from ..runtime.threads import in_parts
@@ -82,6 +83,9 @@ class GroundCover(Effect):
     changes along one run (the run's end cell decides its length)."""
 
     name = "cover"
+    # The cover goes with a world whose biome has a ground layer, and those worlds have deadwood
+    # (core/world/biomes.py): its scans can carry `log` points, so their files list the class.
+    classes = (LOG_ID,)
     changes_medium = True
 
     def __init__(self, grid: CoverGrid, seed: int = 0):

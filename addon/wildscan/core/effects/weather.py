@@ -178,6 +178,7 @@ class Weather(Effect):
     min_range: float = 0.1
 
     name = "weather"
+    classes = (PARTICLE_ID,)  # a return from the air
     changes_medium = True
 
     @staticmethod

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..classes import listed_classes
 from ..label_schemes import LabelScheme
 from .projection import Projection
 from .rangeimage import npz_bytes, scan_range_image
@@ -159,17 +160,17 @@ def label_config_yaml(
     content: dict[int, float],
     splits: dict[str, list[int]],
     title: str,
-    particles: bool = False,
+    classes=None,
     projection: Projection | None = None,
     weights: dict[str, dict[int, float]] | None = None,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
-    learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
-    the data has weather, so weather's particle class is listed (without: the bytes of before it);
+    learning_map, learning_map_inv, learning_ignore, split by sequence number) for data that
+    lists `classes` (classes.listed_classes; None: the classes that are not optional);
     `weights` (core/class_weights.py, by learning-map id): `class_weights_<name>` tables after
     the split (without: the bytes of before them); `projection`: LaserScan's H, W, fov_up and
     fov_down for these scans (core/projection.py)."""
-    t = scheme.config_tables(particles)
+    t = scheme.config_tables(listed_classes() if classes is None else classes)
     lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
     lines += _yaml_map("labels", t["labels"], json.dumps)
     lines += _yaml_map("color_map", t["color_map"], lambda c: f"[{c[0]}, {c[1]}, {c[2]}]")
