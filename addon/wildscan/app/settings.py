@@ -216,9 +216,12 @@ def panel_help(setting: str) -> str:
 
 
 def flag(setting: str) -> str:
-    """The command-line name of `setting` (a name the table lacks is used as it is)."""
+    """The command-line name of `setting` (an effect's: --NAME, core/effects/table.py; a name
+    neither table has is used as it is)."""
+    from ..core.effects.table import ENTRIES
+
     known = SETTINGS.get(setting)
-    return known.flag if known is not None else setting
+    return known.flag if known is not None else f"--{setting}" if setting in ENTRIES else setting
 
 
 def label(setting: str) -> str:

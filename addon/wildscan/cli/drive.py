@@ -11,6 +11,7 @@ from ..core.errors import UserError
 from ..core.motion.timing import HEAD_MODES
 from ..core.motion.trajectory import DEFAULT_SPEED, MAX_SPEED
 from . import options
+from .effects import effect_values
 from .options import ArgumentParser, finite_float, non_negative_int
 
 HELP = (
@@ -118,9 +119,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "default, is still air)",
     )
     p.add_argument("--wind-seed", type=non_negative_int, default=0, metavar="N", help="seed of the sway (0)")
-    from .weather import add_weather
+    from .effects import add_effects
 
-    add_weather(p)
+    add_effects(p)
     options.add(p, "out", metavar="DIR", help="folder to write into (created if missing)")
     p.add_argument(
         "--bag",
@@ -148,6 +149,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         start=tuple(args.start) if args.start is not None else None,
         sensor=options.sensor_of(args),
         vegetation=options.vegetation_of(args),
+        effects=effect_values(args),
     )
     try:
         report = run_drive(request, progress=Progress("driving", args.quiet), say=print)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from . import options
+from .effects import effect_values
 from .options import ArgumentParser
 
 HELP = "scan a world from a pose and write a labeled PLY (or LAS, SemanticKITTI)"
@@ -57,9 +58,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     add_sensor(p)
     for name in (*options.SENSOR_OPTIONS, "frame", "backend"):
         options.add(p, name)
-    from .weather import add_weather
+    from .effects import add_effects
 
-    add_weather(p)
+    add_effects(p)
     from ..core.io.formats import DEFAULT_FORMAT, FORMATS
 
     p.add_argument("--format", choices=FORMATS, default=DEFAULT_FORMAT, help=_format_help())
@@ -115,6 +116,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
         geometry=geometry,
         weather=args.weather,
+        effects=effect_values(args),
     )
     if geometry is not None:
         seed, blend = provenance.get("seed"), provenance.get("world")

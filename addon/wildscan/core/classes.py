@@ -71,7 +71,14 @@ PARTICLE_ID = PARTICLE.id
 LOG = ElementClass(14, "log", 85.0, (92, 51, 23), optional=True)
 LOG_ID = LOG.id
 
-ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, LOG, PARTICLE)
+# The classes beyond the paper's Table I and water, one a line in id order: each optional, so a
+# file lists it only where its scan could make it (docs/extending.md "Add a class").
+OPTIONAL_CLASSES: tuple[ElementClass, ...] = (
+    LOG,
+    PARTICLE,
+)
+
+ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, *OPTIONAL_CLASSES)
 
 
 def _check_table(elements: tuple[ElementClass, ...]) -> None:
@@ -98,8 +105,9 @@ COLOR_BY_ID = np.array(
 
 # Class names as users write them in the `wildscan_class` custom property;
 # "low grass", "low_grass" and "Low-Grass" all mean the same class.
-_BY_NAME: dict[str, ElementClass] = {c.name: c for c in (*CLASSES, WATER, LOG)}  # a tag names no particle
-TAG_NAMES: tuple[str, ...] = tuple(c.name for c in (*CLASSES, WATER, LOG))
+_TAGGED = tuple(c for c in ALL_ELEMENTS if c not in (UNLABELED, PARTICLE))  # a tag names no particle
+_BY_NAME: dict[str, ElementClass] = {c.name: c for c in _TAGGED}
+TAG_NAMES: tuple[str, ...] = tuple(c.name for c in _TAGGED)
 
 
 def normalize_name(name: str) -> str:
@@ -203,7 +211,8 @@ def label_from_reflectivity(intensity: np.ndarray) -> np.ndarray:
 # The label each class's reflectivity reads back as (label_from_reflectivity of every class,
 # taken once here): a scan labels its beams by class id through it, one gather a beam where
 # reading each beam's intensity back took a sorted search, with the same labels.
-LABEL_BY_ID = label_from_reflectivity(REFLECTIVITY_BY_ID)
+LABEL_BY_ID = np.zeros(NUM_IDS, dtype=np.uint16)  # an id no class has (a gap in the ids) reads 0
+LABEL_BY_ID[sorted(BY_ID)] = label_from_reflectivity(REFLECTIVITY_BY_ID[sorted(BY_ID)])
 
 
 def counts_by_class(label: np.ndarray, bins: np.ndarray, bin_count: int) -> dict[str, list[int]]:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .classes import ALL_ELEMENTS, BY_ID, CLASSES, LOG_ID, PARTICLE_ID, WATER_ID
+from .classes import ALL_ELEMENTS, BY_ID, CLASSES, OPTIONAL_CLASSES, PARTICLE_ID, WATER_ID
 
 SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
 OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
@@ -129,11 +129,10 @@ _WILDSCAN = LabelScheme(
         **_identity(c.id for c in CLASSES),
         0: 0,
         WATER_ID: 0,
-        LOG_ID: LOG_ID,
-        PARTICLE_ID: PARTICLE_ID,
+        **_identity(c.id for c in OPTIONAL_CLASSES),
     },
-    learning_map_inv={0: 0, **_identity(c.id for c in CLASSES), LOG_ID: LOG_ID, PARTICLE_ID: PARTICLE_ID},
-    learning_ignore={0: True, **{c.id: False for c in CLASSES}, LOG_ID: False, PARTICLE_ID: False},
+    learning_map_inv={0: 0, **_identity(c.id for c in (*CLASSES, *OPTIONAL_CLASSES))},
+    learning_ignore={0: True, **{c.id: False for c in (*CLASSES, *OPTIONAL_CLASSES)}},
     only_for={PARTICLE_ID: (PARTICLE_ID,)},  # the raw id 15 is weather's alone
 )
 

@@ -107,7 +107,7 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         from ..core.errors import UserError
         from .device import FILE_CHOICE
         from .properties import device_limits_text, sensor_from
-        from .weather import draw_weather, weather_from
+        from .weather import draw_effects, draw_weather, effects_from, weather_from
 
         s = context.scene.wildscan
         layout = self.layout
@@ -136,8 +136,10 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         col.prop(s, "noise_seed")
         layout.prop(s, "frame")
         draw_weather(layout, s)
+        draw_effects(layout, s)
         try:
             weather_from(s)
+            effects_from(s)
             sensor = sensor_from(s).validate()
         except UserError as e:
             box = layout.box()

@@ -26,7 +26,7 @@ from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults, take_file_defaults
 from .weather import CLASSES as WEATHER_CLASSES
-from .weather import WildScanWeather
+from .weather import WildScanEffects, WildScanWeather
 
 _MODEL_TEXT = {
     "paper": "One thin ray a beam; intensity is the class reflectivity (as the paper)",
@@ -267,6 +267,7 @@ class WildScanSettings(PropertyGroup):
         default=True,
     )
     weather: PointerProperty(type=WildScanWeather, name=label("weather"))  # ui/weather.py
+    effects: PointerProperty(type=WildScanEffects, name="Effects")  # ui/weather.py, from the effects table
     frame: EnumProperty(
         name=label("frame"),
         description="Coordinate frame of the exported points",

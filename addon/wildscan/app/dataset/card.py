@@ -12,6 +12,7 @@ from pathlib import Path
 
 from ... import __version__
 from ...core.classes import BY_ID, PARTICLE
+from ...core.effects.weather import weather_on
 from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
@@ -90,7 +91,7 @@ def _height_totals(ok: list[dict]) -> dict:
 
 def _particle_totals(spec: DatasetSpec, ok: list[dict], class_points: dict) -> dict:
     """The share of the points that are weather's particles (a dataset with [weather] only)."""
-    if not spec.weather:
+    if not weather_on(spec.weather):
         return {}
     points = sum(r["points"] for r in ok)
     return {"particle_share": class_points[PARTICLE.name] / points if points else 0.0}

@@ -12,9 +12,10 @@ def declared_classes(weather, biome: str) -> tuple[int, ...]:
     weather's where the spec has [weather]."""
     from ...core.effects import Weather
     from ...core.effects.cover import GroundCover
+    from ...core.effects.weather import weather_on
     from ...core.world.biomes import biome_of
 
-    effects = ((GroundCover, biome_of(biome).cover), (Weather, bool(weather)))
+    effects = ((GroundCover, biome_of(biome).cover), (Weather, weather_on(weather)))
     return tuple(i for effect, on in effects if on for i in effect.classes)
 
 

@@ -43,6 +43,7 @@ class DriveRequest:
     wind: float = 0.0  # peak sway of the treetops, degrees (0: no wind)
     wind_seed: int = 0
     weather: dict | None = None  # key -> value (core/effects/weather.py); None or {}: clear air
+    effects: dict = field(default_factory=dict)  # the effects table's others, name -> value (0: off)
     z_start: float | None = None  # where the placement lasers start (under a roof), or probed
     quiet: bool = False  # no progress, nor Blender's "Read blend" line
 
@@ -113,6 +114,7 @@ class DriveRequest:
             "wind": self.wind,
             "wind_seed": self.wind_seed,
             **({"weather": dict(self.weather)} if self.weather else {}),  # clear air: the same dict
+            **({"effects": dict(self.effects)} if self.effects else {}),
         }
 
 

@@ -82,10 +82,12 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
     effects = drive_effects(request.wind, request.wind_seed)
-    if request.weather or world.cover is not None:  # every ray draws its own particles, its sward depth
-        from ..scan import scan_effects
+    from ..scan import scan_effects
 
-        effects = Effects(effects.items + scan_effects(request.weather, sensor, world.cover).items)
+    # every ray draws its own particles, its sward depth: the effects table's and the cover
+    effects = Effects(
+        effects.items + scan_effects(request.weather, sensor, world.cover, request.effects).items
+    )
     backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
     clock.lap("crop")
     motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
