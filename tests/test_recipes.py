@@ -163,6 +163,22 @@ def test_a_per_beam_dropout_is_one_module_and_one_line_with_its_option_and_spec_
     )
     assert refused.returncode == 2 and refused.stderr.count("\n") == 1
     assert "--dropout must be a number from 0 to 1" in refused.stderr
+    spec = python(
+        clone,
+        "from wildscan.app.dataset.spec import spec_from_dict\n"
+        "from wildscan.app.dataset.draws import draw_effects\n"
+        "from wildscan.core.errors import UserError\n"
+        "spec = spec_from_dict({'effects': {'dropout': [0.2, 0.8]}})\n"
+        "print(spec.effects, 0.2 <= draw_effects(spec, 0, 3)['dropout'] <= 0.8)\n"
+        "try:\n"
+        "    spec_from_dict({'effects': {'dropout': 2}})\n"
+        "except UserError as e:\n"
+        "    print(e)\n",
+    )
+    assert spec.splitlines() == [
+        "(('dropout', (0.2, 0.8)),) True",
+        "SPEC.toml: effects.dropout: must be a number from 0 to 1 of the beams, got 2",
+    ]
     for model in ("paper", "realistic"):
         clear = scan(clone, world, f"clear-{model}", "--model", model)
         dropped = scan(clone, world, f"dropout-{model}", "--model", model, "--dropout", "0.5")

@@ -70,9 +70,18 @@ def _device_sensor(spec: SensorSpec, seed: int, index: int, noise_seed: int) -> 
 def draw_weather(spec: "DatasetSpec", seed: int, index: int) -> dict[str, float]:
     """The weather of scan `index` of world `seed`: fixed values as given, ranges drawn from a
     stream of their own (seeded by world seed, key and scan index)."""
+    return _drawn(spec.weather, "weather", seed, index)
+
+
+def draw_effects(spec: "DatasetSpec", seed: int, index: int) -> dict[str, float]:
+    """The [effects] of scan `index` of world `seed`, drawn as the weather is."""
+    return _drawn(spec.effects, "effects", seed, index)
+
+
+def _drawn(pairs, table: str, seed: int, index: int) -> dict[str, float]:
     out = {}
-    for key, value in spec.weather:
+    for key, value in pairs:
         if isinstance(value, tuple):
-            value = float(stage_rng(seed, f"dataset.weather.{key}.{index}").uniform(value[0], value[1]))
+            value = float(stage_rng(seed, f"dataset.{table}.{key}.{index}").uniform(value[0], value[1]))
         out[key] = value
     return out

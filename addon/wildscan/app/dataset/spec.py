@@ -29,6 +29,7 @@ from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ..settings import SETTINGS, default, limits
 from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_limits
+from .effects_spec import effects_table, weather_table
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
 # changes no existing spec's files or config hash
@@ -89,12 +90,14 @@ class DatasetSpec:
     sensor: SensorSpec = field(default_factory=SensorSpec)
     # [weather]: key (core/effects/weather.py KEYS) -> a value or a range [lo, hi] drawn per scan
     weather: tuple[tuple[str, Value], ...] = ()
+    effects: tuple[tuple[str, Value], ...] = ()  # [effects]: name (core/effects/table.py) -> value or range
     intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/intensity.py)
 
     def to_dict(self) -> dict:
         out = json.loads(json.dumps(asdict(self)))
-        if not self.weather:  # a spec without weather keeps its dict, so its config hash
-            del out["weather"]
+        for key in ("weather", "effects"):  # a spec without them keeps its dict, so its config hash
+            if not getattr(self, key):
+                del out[key]
         if not self.poses.min_scans_with:  # the same for class-aware poses
             del out["poses"]["min_scans_with"]
         if out["sensor"]["device"] == SensorSpec.device:  # and one with the default device too
@@ -183,6 +186,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         "poses",
         "sensor",
         "weather",
+        "effects",
         "intensity",
     )
     d = DatasetSpec()
@@ -198,33 +202,11 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         split=_split(top.table("split", dict(d.split))),
         poses=_poses(top.table("poses", {})),
         sensor=_sensor(top.table("sensor", {})),
-        weather=_weather(top.table("weather", {})),
+        weather=weather_table(top.table("weather", {})),
+        effects=effects_table(top.table("effects", {})),
         intensity=top.choice("intensity", d.intensity, INTENSITY_MODES),
     )
     return spec
-
-
-def _weather(t: "_Table") -> tuple[tuple[str, Value], ...]:
-    """[weather]: each key of core/effects/weather.py a value or a range [lo, hi] of values."""
-    from ...core.effects.weather import KEYS, check_value
-
-    t.only(*KEYS)
-    out = []
-    for key in KEYS:
-        value = t.get(key, None)
-        if value is None:
-            continue
-        bounds = value if isinstance(value, list) else [value]
-        try:
-            if len(bounds) not in (1, 2) or any(isinstance(v, (list, dict, str)) for v in bounds):
-                raise UserError("a number or a range [lo, hi]")
-            checked = [check_value(key, v) for v in bounds]
-        except UserError as e:
-            raise UserError(f"{t.where}: {t.name(key)}: {e.message}") from None
-        if len(checked) == 2 and checked[0] > checked[1]:
-            raise t.fail(key, "a range [lo, hi] with lo <= hi", value)
-        out.append((key, (checked[0], checked[1]) if len(checked) == 2 else checked[0]))
-    return tuple(out)
 
 
 class _Table:
@@ -495,5 +477,6 @@ def spec_from_json(data: dict) -> DatasetSpec:
         poses=PoseSpec(**{k: value(v) for k, v in poses.items()}),
         sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
         weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
+        effects=tuple((k, value(v)) for k, v in data.get("effects", [])),
         intensity=data.get("intensity", DEFAULT_DATASET_INTENSITY),
     )

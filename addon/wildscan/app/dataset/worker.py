@@ -57,7 +57,7 @@ from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
 from ..cache.config import open_cache, world_facts
 from ..cache.store import DiskCache
-from .draws import draw_sensor, draw_weather
+from .draws import draw_effects, draw_sensor, draw_weather
 from .intensity import scan_intensity_facts, with_dataset_intensity
 from .layout import scan_paths
 from .spec import DatasetSpec, spec_from_json
@@ -287,10 +287,10 @@ def base_row(spec: DatasetSpec, seed: int, index: int) -> dict:
     }
 
 
-def _effects(weather: dict, sensor, cover=None):
+def _effects(weather: dict, sensor, cover=None, others=None):
     from ..scan import scan_effects
 
-    return scan_effects(weather, sensor, cover)
+    return scan_effects(weather, sensor, cover, others)
 
 
 def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -> dict:
@@ -303,9 +303,8 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
     sensor = draw_sensor(spec.sensor, context.seed, index)
     frame = spec.sensor.frame
     row["sensor"] = sensor_row(sensor, frame)
-    weather = draw_weather(spec, context.seed, index)
-    if weather:
-        row["weather"] = weather
+    weather, others = draw_weather(spec, context.seed, index), draw_effects(spec, context.seed, index)
+    row.update({k: v for k, v in (("weather", weather), ("effects", others)) if v})
     try:
         result = run_scan(
             context.backend,
@@ -314,7 +313,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             frame,
             choice.z_start,
             None,
-            _effects(weather, sensor, context.cover),
+            _effects(weather, sensor, context.cover, others),
             incidence=spec.intensity == "physical",  # the physical intensity's cos θ, from the sweep
         )
     except PoseRejected as e:
