@@ -33,6 +33,7 @@ from .engine import Batch, Engine, make_batches
 from .layout import LABELS_YAML, LOCK, WEIGHTS_JSON, remove_temp_files, sequence_files
 from .manifest import Manifest, broken_rows
 from .progress import ScanProgress
+from .revisits import REVISITS_JSON, revisits_text
 from .spec import DatasetSpec
 
 
@@ -346,6 +347,8 @@ def finalize(state: _State, report: RunReport) -> None:
     spec = state.spec
     for seed in spec.seeds:  # written again each time: cheap, and repairs a changed one
         state.write_sequence_files(seed)
+    worlds = {spec.sequence_of(seed): state.world_rows(seed) for seed in spec.seeds}
+    state.write_text(REVISITS_JSON, revisits_text({k: v for k, v in worlds.items() if v is not None}))
     complete = all(state.world_rows(seed) is not None for seed in spec.seeds)
     totals = card.totals(spec, state.manifest)
     counts = _learning_counts(spec, totals)
