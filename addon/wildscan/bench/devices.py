@@ -47,7 +47,7 @@ def embree_backend(geometry, pose, sensor):
 
 def embree_cast(backend, origin, dirs, max_range):
     """Embree's own first hits of the rays (float32, as embreex takes them): the caster alone."""
-    from ..raycast.geometry import prepare_rays
+    from ..raycast.refine import prepare_rays
 
     local, directions = prepare_rays(origin, dirs, backend.geometry.offset)
     return lambda: backend._first_hits(local, directions, max_range)

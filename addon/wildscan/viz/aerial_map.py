@@ -51,7 +51,7 @@ def hillshade(z: np.ndarray, spacing: float) -> np.ndarray:
 
 def terrain_image(plan, spacing: float = 0.5) -> tuple[np.ndarray, tuple[float, float, float, float]]:
     from ..core.world import EXTENT
-    from ..core.world.heightfield import lattice
+    from ..core.world.terrain_grid import lattice
 
     xs, ys = lattice(EXTENT, spacing)
     gx, gy = np.meshgrid(xs, ys)

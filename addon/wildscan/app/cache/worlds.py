@@ -43,7 +43,7 @@ from ...core.truth.traversability import ROBOT_HEIGHT
 from ...core.world import EXTENT, WorldPlan, plan_world
 from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
-from ...core.world.heightfield import TerrainGrid
+from ...core.world.terrain_grid import TerrainGrid
 from ...raycast.geometry import SceneGeometry
 from ...raycast.sealing import local_corners, sealed_settler
 from ...raycast.settle import Settler

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..world.heightfield import TerrainGrid
+from ..world.terrain_grid import TerrainGrid
 from .open_ground import BLOCK, MARGIN, OpenGround, corner_boxes, no_open_ground, open_outside_blocks
 
 Z_MARGIN = 1e-3  # m by which a harmless triangle stays below the lowest upward ray's start
