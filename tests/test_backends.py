@@ -396,7 +396,7 @@ def test_select_imports_without_bpy_or_embreex():
         "import sys, wildscan.raycast.select as s, wildscan.raycast.geometry; "
         "assert not {'bpy', 'mathutils', 'embreex', 'open3d'} & set(sys.modules), sorted(sys.modules)"
     )
-    subprocess.run([sys.executable, "-c", code], check=True)
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=300)
 
 
 # -- numpy-level pieces ------------------------------------------------------------------------

@@ -519,7 +519,9 @@ def test_plyfile_reads_the_ply_with_hag_after_the_contract_fields(dataset):
 def test_pcl_reads_the_ply_labels_and_hag(dataset, tmp_path):
     exe = require_tool("pcl_ply2pcd", "pcl-tools")
     ply = dataset / "sequences/01/ply/000000.ply"
-    subprocess.run([exe, "-format", "0", str(ply), str(tmp_path / "s.pcd")], check=True, capture_output=True)
+    subprocess.run(
+        [exe, "-format", "0", str(ply), str(tmp_path / "s.pcd")], check=True, capture_output=True, timeout=300
+    )
     header, columns = parse_ascii_pcd(tmp_path / "s.pcd")
     vertex = plyfile.PlyData.read(str(ply))["vertex"]
     assert "label" in header["FIELDS"] and "hag" in header["FIELDS"]

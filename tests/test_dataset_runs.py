@@ -23,6 +23,7 @@ import pytest
 from wildscan.app.dataset.layout import TEMP_NAME
 
 from tests.helpers.dataset_helpers import assert_same_dataset, manifest_rows, start_wildscan, wildscan
+from tests.helpers.processes import started
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
@@ -244,9 +245,7 @@ def test_another_spec_into_the_same_folder_is_refused(clean, tmp_path):
 
 def dask_process(*args: str, stderr=subprocess.DEVNULL, env=None) -> subprocess.Popen:
     exe = str(Path(sys.executable).with_name("dask"))
-    return subprocess.Popen(
-        [exe, *args], stdout=subprocess.DEVNULL, stderr=stderr, env=env, start_new_session=True
-    )
+    return started([exe, *args], stdout=subprocess.DEVNULL, stderr=stderr, env=env, start_new_session=True)
 
 
 def stop_processes(*processes) -> None:

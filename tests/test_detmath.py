@@ -209,7 +209,12 @@ print(h.hexdigest())
 
 def run_probe(code: str, env: dict) -> str:
     result = subprocess.run(
-        [sys.executable, "-c", code], env={**os.environ, **env}, capture_output=True, text=True, check=True
+        [sys.executable, "-c", code],
+        env={**os.environ, **env},
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=300,
     )
     return result.stdout.strip()
 

@@ -37,7 +37,9 @@ print(mapped, libc.mallinfo2().fordblks)
 def where(mode: str) -> tuple[int, int]:
     """(bytes in mappings of their own while the array lives, free heap bytes once it is
     freed) in a fresh process (its malloc untouched by this one's)."""
-    done = subprocess.run([sys.executable, "-c", WHERE, mode], capture_output=True, text=True, check=True)
+    done = subprocess.run(
+        [sys.executable, "-c", WHERE, mode], capture_output=True, text=True, check=True, timeout=300
+    )
     if done.stdout.strip() == "none":
         pytest.skip("glibc without mallinfo2")
     mapped, free = done.stdout.split()

@@ -16,6 +16,7 @@ from wildscan.core.io.imu_csv import read_imu_csv
 from wildscan.core.io.ply import read_ply
 from wildscan.core.sensors import SensorConfig
 
+from tests.helpers.processes import started
 from tests.helpers.scene_helpers import WILDSCAN, run, user_error_line
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
@@ -148,7 +149,10 @@ print(json.dumps(out))
 @pytest.mark.external
 def test_ros1_bag_reads_back_with_debians_rosbag(drive_dir):
     proc = subprocess.run(
-        ["/usr/bin/python3", "-c", ROS1_READER, str(drive_dir / "drive.bag")], capture_output=True, text=True
+        ["/usr/bin/python3", "-c", ROS1_READER, str(drive_dir / "drive.bag")],
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
     got = json.loads(proc.stdout)
@@ -353,7 +357,7 @@ def test_a_signal_mid_drive_ends_it_and_leaves_nothing(tmp_path, signum, code, s
     import time
 
     out = tmp_path / "out"
-    proc = subprocess.Popen(
+    proc = started(
         [WILDSCAN, "drive", "--seed", str(SEED), "--detail", "low", "--trail", "--quiet", "--out", str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

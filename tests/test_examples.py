@@ -36,7 +36,9 @@ def test_the_data_path_imports_no_torch():
         f"import sys; sys.path.insert(0, {str(EXAMPLES)!r}); import wildscan_torch.data; "
         "print('torch' in sys.modules)"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    )
     assert out.stdout.strip() == "False"
 
 

@@ -114,7 +114,9 @@ def test_the_blender_free_path_needs_no_bpy():
         + inspect.getsource(geometry_digest)
         + "print(geometry_digest(world_geometry(4, 'low')))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    )
     empty_scene()
     build_world(4, "low")
     assert out.stdout.strip() == geometry_digest(extract_scene())

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers.processes import finished, how_it_ended, started
 from tests.helpers.scene_helpers import BLENDER, REPO, WILDSCAN, save_seed_2_low
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
@@ -29,9 +30,8 @@ COMPLETED = re.compile(r"completed (\d+) files? in (\S+) \((.*)\), nothing else$
 def stop_at(cmd: list[str], moment: str, sig: signal.Signals, cwd: Path) -> tuple[int, list[str]]:
     """Run `cmd`, send `sig` when it reaches `moment`; (exit code, stderr lines after the marker)."""
     env = dict(os.environ, WILDSCAN_TEST_PAUSE_AT=moment, PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen(
-        cmd, cwd=cwd, env=env, text=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
-    )
+    # the deadline ends a process that hangs before its marker: the loop below then reads the end
+    proc = started(cmd, 300, cwd=cwd, env=env, text=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     before = []
     for line in proc.stderr:
         if line.startswith(f"wildscan-test-pause {moment.split(':')[0]}"):
@@ -40,7 +40,7 @@ def stop_at(cmd: list[str], moment: str, sig: signal.Signals, cwd: Path) -> tupl
         before.append(line)
     else:
         proc.wait(timeout=60)
-        pytest.fail(f"{moment} never reached (exit {proc.returncode}): {''.join(before)}")
+        pytest.fail(f"{moment} never reached ({how_it_ended(proc)}): {''.join(before)}")
     rest = proc.stderr.read()
     proc.wait(timeout=60)
     return proc.returncode, [ln for ln in rest.splitlines() if ln.strip()]
@@ -119,12 +119,9 @@ def blender_world(tmp_path_factory):
     """Seed 2 at low detail saved by Blender 3.4 (it cannot read the wheel's newer .blend)."""
     d = tmp_path_factory.mktemp("blender_world")
     script = [BLENDER, "-b", "--factory-startup", "-P", "blender_scripts/world.py", "--"]
-    subprocess.run(
-        [*script, "--seed", "2", "--detail", "low", "--quiet", "--out", str(d / "w.blend")],
-        cwd=REPO,
-        check=True,
-        capture_output=True,
-    )
+    what = "Blender 3.4's world.py building seed 2 (low detail) for the signal tests"
+    args = ["--seed", "2", "--detail", "low", "--quiet", "--out", str(d / "w.blend")]
+    finished([*script, *args], what, 300, cwd=REPO)
     return d / "w.blend"
 
 
@@ -196,7 +193,9 @@ def test_sigterm_after_the_ply_is_written_removes_it_and_exits_143(tmp_path, wor
         sig="SIGTERM",
         run=f"from wildscan.cli import main; sys.exit(main({args!r}))",
     )
-    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300
+    )
     assert (done.returncode, done.stderr) == (143, "wildscan scan: terminated; nothing written\n")
     assert not any(tmp_path.iterdir())
 
@@ -238,7 +237,9 @@ def test_a_ctrl_c_while_the_wheel_reads_the_blend_is_not_swallowed(tmp_path, wor
     code = IN_LOAD_HANDLER.format(
         addon=str(REPO / "addon"), run=f"from wildscan.cli import main; sys.exit(main({args!r}))"
     )
-    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300
+    )
     assert (done.returncode, done.stderr) == (130, "wildscan scan: interrupted; nothing written\n")
     assert not any(tmp_path.iterdir())
 
@@ -280,6 +281,56 @@ sys.exit(main({args!r}))
 def test_a_ctrl_c_while_the_command_line_imports_exits_130_in_one_line(tmp_path, worlds):
     args = ["scan", "--geometry", str(worlds / "w.npz"), *SCAN, "--out", "s.ply"]
     code = DURING_IMPORT.format(addon=str(REPO / "addon"), args=args)
-    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True)
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300
+    )
     assert (done.returncode, done.stderr) == (130, "wildscan scan: interrupted; nothing written\n")
     assert not any(tmp_path.iterdir())
+
+
+# Debian's Blender takes a Ctrl-C that comes while it starts (before the script's handler is
+# installed) with its own handler, which only sets G.is_break: the run used to go on and
+# write its files, exit 0. The --python-expr before -P is that moment, made certain: it runs
+# under Blender's handler, and signals the process.
+CTRL_C_WHILE_BLENDER_STARTS = "import os, signal; os.kill(os.getpid(), signal.SIGINT)"
+
+
+@pytest.mark.blender_binary
+@pytest.mark.parametrize(
+    "script, args",
+    [
+        ("extract", ["--out", "x.npz"]),  # the factory scene's cube: seconds
+        ("scan", ["--seed", "2", *SCAN, "--backend", "bvh", "--out", "s.ply"]),
+        ("world", ["--seed", "2", "--detail", "low", "--quiet", "--out", "w.blend"]),
+    ],
+)
+def test_a_ctrl_c_while_blender_starts_stops_the_script_with_130(tmp_path, script, args):
+    cmd = [BLENDER, "-b", "--factory-startup", "--python-expr", CTRL_C_WHILE_BLENDER_STARTS]
+    cmd += ["-P", str(REPO / "blender_scripts" / f"{script}.py"), "--", *args]
+    done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert "Sent an internal break event" in done.stdout  # Blender's own handler took it
+    assert (done.returncode, done.stderr) == (
+        130,
+        f"blender_scripts/{script}.py: interrupted; nothing written\n",
+    )
+    assert not any(tmp_path.iterdir())
+
+
+def test_blenders_break_flag_is_found_from_its_handlers_first_instructions():
+    from wildscan.app.host_break import _flag_address
+
+    # Debian's Blender 3.4.1, sig_handle_blender_esc: lea rax,[rip+0x4af5bc9]; mov byte [rax+0x818],1
+    code = bytes.fromhex("488d05c95baf04c6801808000001")
+    assert _flag_address(0x1000, code) == 0x1000 + 7 + 0x04AF5BC9 + 0x818
+    assert _flag_address(0x1000, bytes(14)) is None  # another build's code: nothing read
+    assert _flag_address(0x1000, code[:10]) is None
+
+
+def test_a_host_break_found_set_is_one_ctrl_c():
+    from wildscan.core.runtime import signals
+
+    flag = [True]
+    with pytest.raises(KeyboardInterrupt):
+        signals.watch_host_break(lambda: flag[0])
+        signals.check_host_break()
+    signals.check_host_break()  # read once: it does not stop the run again

@@ -14,6 +14,7 @@ import pytest
 from wildscan.core.errors import UserError
 from wildscan.core.io import files
 
+from tests.helpers.processes import started
 from tests.helpers.scene_helpers import WILDSCAN, run, save_seed_2_low, user_error_line
 
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose
@@ -66,7 +67,9 @@ def test_every_path_option_takes_a_tilde_the_same_way(tmp_path, worlds):
     env = dict(os.environ, HOME=str(home), PYTHONUNBUFFERED="1")
 
     def wildscan(*args):
-        done = subprocess.run([WILDSCAN, *args], capture_output=True, text=True, env=env, cwd=tmp_path)
+        done = subprocess.run(
+            [WILDSCAN, *args], capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300
+        )
         assert done.returncode == 0, done.stderr
 
     # `--opt=~/x` reaches us unexpanded (the shell only expands a word-initial ~)
@@ -185,13 +188,11 @@ def test_two_scans_to_the_same_out_at_once_leave_one_scans_ply_and_sidecar_toget
     resume = tmp_path / "resume"
     scan = [WILDSCAN, "scan", "--geometry", str(worlds / "w.npz"), "--rh", "4", "--quiet", "--out", "s.ply"]
     env = dict(os.environ, WILDSCAN_TEST_PAUSE_AT="renamed", WILDSCAN_TEST_RESUME=str(resume))
-    first = subprocess.Popen(
+    first = started(
         [*scan, "--pose", "0", "0", "0"], cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True
     )
     assert first.stderr.readline().startswith("wildscan-test-pause renamed")
-    second = subprocess.Popen(
-        [*scan, "--pose", "0", "0", "90"], cwd=tmp_path, stderr=subprocess.PIPE, text=True
-    )
+    second = started([*scan, "--pose", "0", "0", "90"], cwd=tmp_path, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     while second.poll() is None and not blocked_on_a_lock(second.pid):  # an event: B done, or B waiting
         assert time.monotonic() < deadline, "the second scan neither finished nor waited"

@@ -432,3 +432,29 @@ def test_a_missing_fast_backend_falls_back_and_says_so_once(world_blend, tmp_pat
     # …and both give the same points.
     a, b = PlyData.read(str(tmp_path / "b.ply"))["vertex"], PlyData.read(str(tmp_path / "w.ply"))["vertex"]
     assert a.count == b.count and np.array_equal(a["label"], b["label"])
+
+
+DEBIAN_OPEN3D = "/usr/lib/python3/dist-packages/open3d"
+
+
+@pytest.mark.blender_binary
+def test_with_debians_open3d_blender_34_scans_the_points_the_wheel_does(tmp_path):
+    # Issue 31: Debian's python3-open3d (0.16.1) misses every ray; Blender 3.4 picked it as the
+    # fallback and found "no terrain below" the pose. Now it is proven first and refused.
+    from pathlib import Path
+
+    assert Path(DEBIAN_OPEN3D).is_dir(), "install Debian's python3-open3d (.ci/run does): its case is tested"
+    args = ["--seed", "0", "--pose", "-13.797", "-63.485", "357", "--noise", "0", "--frame", "world"]
+    proc = blender_scan([*args, "--out", str(tmp_path / "b.ply")])
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
+    wheel = run([WILDSCAN, "scan", *args, "--out", str(tmp_path / "w.ply")])
+    assert wheel.returncode == 0, wheel.stderr
+    a, b = (PlyData.read(str(tmp_path / f"{n}.ply"))["vertex"] for n in ("b", "w"))
+    assert a.count == b.count > 50_000 and a.data.tobytes() == b.data.tobytes()
+    # Asked for by name, Debian's Open3D is proven, refused in one line, and the BVH goes on.
+    proc = blender_scan([*args, "--rh", "10", "--backend", "open3d", "--out", str(tmp_path / "o.ply")])
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr
+    lines = [ln for ln in proc.stdout.splitlines() if "'open3d'" in ln]
+    assert len(lines) == 1 and "Open3D 0.16" in lines[0] and "failed its proof" in lines[0], proc.stdout
+    assert "straight down" in lines[0] and "using 'bvh' instead" in lines[0]
+    assert json.loads((tmp_path / "o.json").read_text())["backend"] == "bvh"

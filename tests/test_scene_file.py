@@ -94,7 +94,9 @@ def test_a_python_without_blender_loads_and_scans_it_to_the_same_bytes(extracted
         f"ply, _ = write_scan_files({str(tmp_path / 'free.ply')!r}, r.cloud, dict(r.metadata, seed=None))\n"
         "print(hashlib.sha256(ply.read_bytes()).hexdigest())\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    )
     here = scan_current_scene(POSE, SENSOR, backend="embree", notify=None, geometry=extracted)
     assert out.stdout.split()[-1] == hashlib.sha256(ply_of(here, tmp_path / "here.ply")).hexdigest()
 

@@ -61,6 +61,7 @@ def test_a_bad_value_on_the_command_line_exits_2_with_one_line(tmp_path):
         + ["--weather", "rain=1000", "--out", str(tmp_path / "s.ply")],
         capture_output=True,
         text=True,
+        timeout=300,
     )
     assert run.returncode == 2
     assert run.stderr.strip().count("\n") == 0 and "--weather rain='1000' is out of range" in run.stderr

@@ -170,7 +170,10 @@ def _write_when_told(root: str, ready, go) -> None:
 def test_two_processes_writing_the_same_entry_at_once_leave_one_whole_entry(tmp_path):
     spawn = multiprocessing.get_context("spawn")
     ready, go = spawn.Barrier(3), spawn.Event()
-    writers = [spawn.Process(target=_write_when_told, args=(str(tmp_path), ready, go)) for _ in range(2)]
+    # daemonic: a writer that never ends is ended with the test run, not waited for at its exit
+    writers = [
+        spawn.Process(target=_write_when_told, args=(str(tmp_path), ready, go), daemon=True) for _ in range(2)
+    ]
     for w in writers:
         w.start()
     ready.wait(timeout=120)  # both have written every byte, neither has renamed

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from tests.helpers.processes import started
+
 RUN_TIMEOUT_S = 300
 # Files whose content records time (how long scans took): compared without those fields.
 TIMED = ("manifest.jsonl", "dataset.json", "CARD.md")
@@ -48,8 +50,9 @@ def written_dataset(root: Path, spec_text: str, out: str = "out") -> tuple[Path,
 
 
 def start_wildscan(*args: str, **kw) -> subprocess.Popen:
-    """`wildscan ...` in its own process group, so a test can kill the whole job."""
-    return subprocess.Popen(
+    """`wildscan ...` in its own process group, so a test can kill the whole job (and the
+    watchdog does, at its deadline)."""
+    return started(
         [sys.executable, "-m", "wildscan.cli", *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

@@ -10,6 +10,11 @@ from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION, ZONES, WorldPlan, ca
 
 DEFAULT_POSES_PER_ZONE = 5
 MAX_POSE_COUNT = 1000
+# A zone's search ends after this many candidates for each pose asked (besides its reserved
+# sites): where placement rejects every pose (a caster that misses every ray, issue 31, kept
+# `wildscan world` at "valid poses" for good) the zone gets fewer poses instead of a search
+# without end. Seeds 0-3 accept a pose within the first few candidates.
+CANDIDATES_PER_POSE = 100
 
 
 def plan_backend(plan: WorldPlan, notify=None) -> RayBackend:
@@ -24,7 +29,8 @@ def valid_poses(
     plan: WorldPlan, backend: RayBackend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
 ) -> dict[str, list[dict]]:
     """Up to `count` poses per zone that `placement.place` accepts: the zone's reserved
-    sites first (chosen where its classes are in view), then random candidates."""
+    sites first (chosen where its classes are in view), then random candidates, at most
+    CANDIDATES_PER_POSE a pose asked."""
     from ..core.placement import place
 
     out: dict[str, list[dict]] = {}
@@ -32,8 +38,9 @@ def valid_poses(
         accepted: list[dict] = []
         tried = 0
         asked = count
-        while len(accepted) < count:
-            pool = candidate_sites(plan, zone, asked)  # a longer ask keeps the same prefix
+        budget = sum(site.zone == zone for site in plan.sites) + CANDIDATES_PER_POSE * count
+        while len(accepted) < count and tried < budget:
+            pool = candidate_sites(plan, zone, min(asked, budget))  # a longer ask keeps the same prefix
             if len(pool) <= tried:
                 break
             for site in pool[tried:]:
@@ -48,7 +55,8 @@ def valid_poses(
                 entry["optical_centre_z"] = round(float(placement.optical_centre[2]), 3)
                 accepted.append(entry)
             tried = len(pool)
-            asked = tried + 2 * (count - len(accepted)) + 2
+            # at least twice as many each time: the pool is drawn again from its start
+            asked = max(tried + 2 * (count - len(accepted)) + 2, 2 * tried)
         out[zone] = accepted
     return out
 

@@ -195,7 +195,8 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         return e.code
     points = sum(report.points)
     print(
-        f"drove {report.distance:.2f} m in {report.duration:.2f} s: {report.scans_2d:,} 2D scans, "
+        f"drove {report.distance:.2f} m in {report.duration:.2f} s: {report.scans_2d:,} "
+        f"{request.sensor.device.columns_named}, "
         f"{report.scans_3d} 3D scans ({points:,} points); wrote {len(report.files)} files into {report.out} "
         f"in {report.total_seconds:.1f} s"
     )

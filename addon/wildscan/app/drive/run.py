@@ -79,7 +79,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     path = path or drive_path(request, world.trail)
     sensor = request.sensor
     period = sensor.device.timing.column_period_s
-    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period)
+    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period, sensor.device.columns_named)
     clock.lap("world")
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
@@ -92,7 +92,8 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     )
     backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
     clock.lap("crop")
-    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
+    starts = range(0, plan.scans_2d, plan.sweeps)  # the 3D scans' first 2D scans: their metadata
+    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start, keep=starts)
     check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
     clock.lap("placement")
     imu = drive_imu(
@@ -205,7 +206,7 @@ class _Context:
         return self.request.sensor.fixed_noise * self._rng.standard_normal(count)
 
     def metadata(self, index: int, result: Sweep, cloud: str, labels: np.ndarray) -> dict:
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         request = self.request
         return {
             "wildscan_version": __version__,
@@ -232,7 +233,7 @@ class _Context:
     def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:
         """The raw and deskewed PLY files of 3D scan `index` and its SemanticKITTI files
         (the format table's writers, core/io/formats.py)."""
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         paths = files.scan_files(index)
         frame = self.request.frame
         clouds = {}
