@@ -15,8 +15,9 @@ import re
 from dataclasses import asdict, dataclass, field, replace
 
 from ... import __version__
+from ...core.checks import Table, is_int, is_number, show
 from ...core.classes import TAG_NAMES
-from ...core.errors import UserError, shortened
+from ...core.errors import UserError
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
@@ -178,95 +179,33 @@ def load_spec(path) -> DatasetSpec:
 
 
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
-    top = _Table(data, "", where)
+    top = Table(data, "", where)
     top.only(*TOP_KEYS)
     d = DatasetSpec()
     spec = replace(
         d,
         seeds=_seeds(top),
-        detail=top.choice("detail", d.detail, tuple(DETAILS)),
-        vegetation=top.choice("vegetation", d.vegetation, VEGETATION),
-        biome=top.choice("biome", d.biome, BIOMES),
-        scans_per_world=top.integer("scans_per_world", d.scans_per_world, 1, MAX_SCANS_PER_WORLD),
+        detail=top.choice("detail", tuple(DETAILS), default=d.detail),
+        vegetation=top.choice("vegetation", VEGETATION, default=d.vegetation),
+        biome=top.choice("biome", BIOMES, default=d.biome),
+        scans_per_world=top.integer("scans_per_world", 1, MAX_SCANS_PER_WORLD, default=d.scans_per_world),
         formats=_formats(top),
-        label_scheme=top.choice("label_scheme", d.label_scheme, SCHEME_NAMES),
+        label_scheme=top.choice("label_scheme", SCHEME_NAMES, default=d.label_scheme),
         split=_split(top.table("split", dict(d.split))),
         poses=_poses(top.table("poses", {})),
         sensor=_sensor(top.table("sensor", {})),
         weather=weather_table(top.table("weather", {})),
         effects=effects_table(top.table("effects", {})),
-        intensity=top.choice("intensity", d.intensity, INTENSITY_MODES),
+        intensity=top.choice("intensity", INTENSITY_MODES, default=d.intensity),
     )
     return spec
-
-
-class _Table:
-    """One TOML table with its dotted name, for messages that say which key is wrong."""
-
-    def __init__(self, data, prefix: str, where: str):
-        self.data, self.prefix, self.where = data, prefix, where
-
-    def name(self, key: str) -> str:
-        return f"{self.prefix}{key}"
-
-    def fail(self, key: str, allowed: str, value) -> UserError:
-        return UserError(f"{self.where}: {self.name(key)} must be {allowed}, got {_show(value)}")
-
-    def only(self, *keys: str) -> None:
-        for key in self.data:
-            if key not in keys:
-                where = f"[{self.prefix[:-1]}]" if self.prefix else "the top level"
-                raise UserError(
-                    f"{self.where}: unknown key {self.name(key)!r}; allowed in {where}: {', '.join(keys)}"
-                )
-
-    def get(self, key: str, default):
-        return self.data.get(key, default)
-
-    def table(self, key: str, default: dict) -> "_Table":
-        value = self.data.get(key, default)
-        if not isinstance(value, dict):
-            raise self.fail(key, "a table", value)
-        return _Table(value, f"{self.name(key)}.", self.where)
-
-    def choice(self, key: str, default: str, allowed: tuple[str, ...]) -> str:
-        value = self.data.get(key, default)
-        if value not in allowed:
-            raise self.fail(key, "one of " + ", ".join(f'"{a}"' for a in allowed), value)
-        return value
-
-    def integer(self, key: str, default: int, low: int, high: int) -> int:
-        value = self.data.get(key, default)
-        if not _is_int(value) or not low <= value <= high:
-            raise self.fail(key, f"a whole number from {low} to {high}", value)
-        return value
-
-    def number(self, key: str, default: float, low: float, high: float) -> float:
-        value = self.data.get(key, default)
-        if not _is_number(value) or not low <= value <= high:
-            raise self.fail(key, f"a number from {low:g} to {high:g}", value)
-        return float(value)
-
-
-def _show(value) -> str:
-    if isinstance(value, (str, list, dict, bool)):  # "²..³" as written, not escaped
-        return shortened(json.dumps(value, ensure_ascii=False))
-    return shortened(repr(value))
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
-
-
-def _is_number(v) -> bool:
-    return (isinstance(v, (int, float)) and not isinstance(v, bool)) and math.isfinite(v)
 
 
 # "A..B" with ASCII digits only: str.isdigit() also takes "²" or "٣", which int() refuses
 _SEED_RANGE = re.compile(r"\s*([0-9]+)\s*\.\.\s*([0-9]+)\s*")
 
 
-def _seeds(t: _Table) -> tuple[int, ...]:
+def _seeds(t: Table) -> tuple[int, ...]:
     value = t.get("seeds", list(DatasetSpec().seeds))
     allowed = f'a list of world seeds (whole numbers from 0 to {MAX_SEED}) or a range "A..B"'
     seeds: list = []
@@ -274,14 +213,14 @@ def _seeds(t: _Table) -> tuple[int, ...]:
         seeds = _seed_range(t, value, allowed)
     elif isinstance(value, list):
         seeds = value
-    ok = seeds and all(_is_int(s) and 0 <= s <= MAX_SEED for s in seeds) and len(seeds) <= MAX_WORLDS
+    ok = seeds and all(is_int(s) and 0 <= s <= MAX_SEED for s in seeds) and len(seeds) <= MAX_WORLDS
     if not ok or len(set(seeds)) != len(seeds):
         extra = " without repeats" if ok else ""
         raise t.fail("seeds", f"{allowed}{extra}, at most {MAX_WORLDS:,} worlds", value)
     return tuple(seeds)
 
 
-def _seed_range(t: _Table, value: str, allowed: str) -> list[int]:
+def _seed_range(t: Table, value: str, allowed: str) -> list[int]:
     """The seeds of "A..B" (inclusive), its size checked before a list is made of it (a
     range of millions would take seconds and gigabytes only to be refused)."""
     match = _SEED_RANGE.fullmatch(value)
@@ -291,12 +230,12 @@ def _seed_range(t: _Table, value: str, allowed: str) -> list[int]:
     if b > MAX_SEED or b - a + 1 > MAX_WORLDS:
         raise UserError(
             f"{t.where}: seeds must be {allowed} of at most {MAX_WORLDS:,} worlds from 0 to {MAX_SEED}, "
-            f"got {_show(value)} ({b - a + 1:,} worlds)"
+            f"got {show(value)} ({b - a + 1:,} worlds)"
         )
     return list(range(a, b + 1))
 
 
-def _formats(t: _Table) -> tuple[str, ...]:
+def _formats(t: Table) -> tuple[str, ...]:
     value = t.get("formats", list(DEFAULT_FORMATS))
     if (
         not isinstance(value, list)
@@ -309,9 +248,9 @@ def _formats(t: _Table) -> tuple[str, ...]:
     return tuple(f for f in FORMATS if f in value)
 
 
-def _split(t: _Table) -> tuple[tuple[str, float], ...]:
+def _split(t: Table) -> tuple[tuple[str, float], ...]:
     t.only(*SPLITS)
-    shares = {s: t.number(s, 0.0, 0.0, 1.0) for s in SPLITS}
+    shares = {s: t.number(s, 0.0, 1.0, default=0.0) for s in SPLITS}
     if abs(sum(shares.values()) - 1.0) > 1e-9:
         raise UserError(
             f"{t.where}: split shares must add up to 1 (train + val + test), got {sum(shares.values()):g}"
@@ -319,21 +258,23 @@ def _split(t: _Table) -> tuple[tuple[str, float], ...]:
     return tuple(shares.items())
 
 
-def _poses(t: _Table) -> PoseSpec:
+def _poses(t: Table) -> PoseSpec:
     t.only("strategy", "zones", "min_distance", "min_scans_with")
     d = PoseSpec()
     zones = t.table("zones", dict(d.zones))
     zones.only(*ZONES)
-    weights = tuple((z, zones.number(z, 0.0, 0.0, 1e9)) for z in ZONES if z in zones.data)
+    weights = tuple((z, zones.number(z, 0.0, 1e9, default=0.0)) for z in ZONES if z in zones.data)
     if not any(w > 0 for _, w in weights):
         raise UserError(f"{t.where}: poses.zones must give at least one zone a weight above 0")
     shares = t.table("min_scans_with", {})  # class -> share 0..1 of the scans
     shares.only(*POSE_CLASSES)
     return PoseSpec(
-        strategy=t.choice("strategy", d.strategy, STRATEGIES),
+        strategy=t.choice("strategy", STRATEGIES, default=d.strategy),
         zones=weights,
-        min_distance=t.number("min_distance", d.min_distance, 0.0, 50.0),
-        min_scans_with=tuple((c, shares.number(c, 0.0, 0.0, 1.0)) for c in POSE_CLASSES if c in shares.data),
+        min_distance=t.number("min_distance", 0.0, 50.0, default=d.min_distance),
+        min_scans_with=tuple(
+            (c, shares.number(c, 0.0, 1.0, default=0.0)) for c in POSE_CLASSES if c in shares.data
+        ),
     )
 
 
@@ -343,12 +284,12 @@ RANGED_SENSOR_KEYS = tuple(k for k in SENSOR_SETTINGS if SETTINGS[k].kind is flo
 SENSOR_KEYS = (*SENSOR_SETTINGS, "frame")
 
 
-def _sensor(t: _Table) -> SensorSpec:
+def _sensor(t: Table) -> SensorSpec:
     t.only(*SENSOR_KEYS, "device")
     device = spec_device(t.get("device", SensorSpec.device), t.where)
     own = () if is_default(device) else DEVICE_KEYS  # the settings the device decides
     d = SensorSpec()
-    model = t.choice("model", d.model, SETTINGS["model"].choices)
+    model = t.choice("model", SETTINGS["model"].choices, default=d.model)
     for key in REALISTIC_SETTINGS:
         if key in t.data and model != "realistic":
             raise UserError(
@@ -379,12 +320,12 @@ def _sensor(t: _Table) -> SensorSpec:
         **values,
         device=device,
         noise_seed=_whole_value(t, "noise_seed", None, device),
-        frame=t.choice("frame", d.frame, FRAMES),
+        frame=t.choice("frame", FRAMES, default=d.frame),
         model=model,
     )
 
 
-def _check_open_low(t: _Table, key: str, value: Value) -> None:
+def _check_open_low(t: Table, key: str, value: Value) -> None:
     """A setting whose lowest value is excluded ((0, 30] m): not there, nor in a range."""
     low, high, low_open = limits(key, DEFAULT_DEVICE)  # another device: devices.py checks its own
     if low_open and _lo(value) <= low:
@@ -403,7 +344,7 @@ def _hi(v: Value) -> float:
     return v[1] if isinstance(v, tuple) else v
 
 
-def _sensor_value(t: _Table, key: str, default: float, device) -> Value:
+def _sensor_value(t: Table, key: str, default: float, device) -> Value:
     setting = SETTINGS[key]
     low, high, _ = spec_limits(key, device)
     unit = f"{setting.unit} {setting.rule}" if key == "rh" else setting.unit
@@ -412,17 +353,17 @@ def _sensor_value(t: _Table, key: str, default: float, device) -> Value:
     if isinstance(value, list):
         if (
             len(value) != 2
-            or not all(_is_number(v) and low <= v <= high for v in value)
+            or not all(is_number(v) and low <= v <= high for v in value)
             or value[0] > value[1]
         ):
             raise t.fail(key, allowed + " with lo <= hi", value)
         return (float(value[0]), float(value[1]))
-    if not _is_number(value) or not low <= value <= high:
+    if not is_number(value) or not low <= value <= high:
         raise t.fail(key, allowed, value)
     return float(value)
 
 
-def _whole_value(t: _Table, key: str, default, device):
+def _whole_value(t: Table, key: str, default, device):
     """A whole number within the setting's limits, or a range [lo, hi] of such (drawn per scan)."""
     low, high, _ = spec_limits(key, device)
     value = t.get(key, default)
@@ -430,10 +371,10 @@ def _whole_value(t: _Table, key: str, default, device):
         return None
     allowed = f"a whole number from {low} to {high}, or a range [lo, hi] of such"
     if isinstance(value, list):
-        if len(value) != 2 or not all(_is_int(v) and low <= v <= high for v in value) or value[0] > value[1]:
+        if len(value) != 2 or not all(is_int(v) and low <= v <= high for v in value) or value[0] > value[1]:
             raise t.fail(key, allowed, value)
         return (value[0], value[1])
-    if not _is_int(value) or not low <= value <= high:
+    if not is_int(value) or not low <= value <= high:
         raise t.fail(key, allowed, value)
     return value
 
