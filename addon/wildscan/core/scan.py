@@ -76,7 +76,7 @@ def cast_in_chunks(
 ):
     """Cast all rays, reporting progress between chunks when asked (with each hit's surface
     normal when `normals`: the realistic model's), in parallel threads where the backend
-    allows it (core/threads.py: the same bytes)."""
+    allows it (core/runtime/threads.py: the same bytes)."""
     pause_here("casting")
     cast = _caster(backend, normals)
     chunk = None if progress is None else PROGRESS_CHUNK
@@ -363,7 +363,7 @@ def _realistic_cloud(
     progress,
     effects: Effects,
 ):
-    """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
+    """The realistic model's scan (core/realism/realistic.py): a point per echo, with its echo fields."""
     from .realism.realistic import realistic_points
 
     _, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)

@@ -25,7 +25,7 @@ soup or (V,3) + (T,3)), and `scene.run(origins f32 (N,3), dirs f32 (N,3), dists=
 tfar, output=1)` -> dict with primID/geomID (-1 on a miss), tfar, u, v, Ng. `run` commits
 the scene (builds the BVH) on its first call, then casts one ray after another
 (rtcIntersect1), with the GIL released (two threads can cast at once): a command's large
-casts are split over its cores (core/threads.py), while a dataset runs one single-threaded
+casts are split over its cores (core/runtime/threads.py), while a dataset runs one single-threaded
 worker per core.
 """
 
@@ -58,7 +58,7 @@ class EmbreeBackend(RefiningBackend):
     """First hits against one Embree scene of the extracted triangles."""
 
     name = "embree"
-    # its `run` traces with the GIL released, one ray after another (core/threads.py)
+    # its `run` traces with the GIL released, one ray after another (core/runtime/threads.py)
     capabilities = RefiningBackend.capabilities | {THREADS}
 
     def __init__(

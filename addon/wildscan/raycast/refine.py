@@ -86,7 +86,7 @@ class RefiningBackend:
         raise NotImplementedError
 
     capabilities = frozenset({NORMALS})  # cast(..., normals=True) gives each hit's triangle normal
-    threads: int | None = None  # core/threads.py: None the cores (or the environment), 1 a dataset worker
+    threads: int | None = None  # runtime/threads.py: None the cores (or the environment), 1 a dataset worker
 
     def cast(
         self, origins: np.ndarray, directions: np.ndarray, max_range: float, normals: bool = False

@@ -80,7 +80,7 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
 
 
 def _height_totals(ok: list[dict]) -> dict:
-    """Points of each class per height above the ground (core/traversability.py HEIGHT_BINS)."""
+    """Points of each class per height above the ground (core/truth/traversability.py HEIGHT_BINS)."""
     heights: dict[str, list[int]] = {}
     for r in ok:
         for cid, counts in r.get("class_heights", {}).items():

@@ -94,7 +94,7 @@ class DatasetSpec:
     # [weather]: key (core/effects/weather.py KEYS) -> a value or a range [lo, hi] drawn per scan
     weather: tuple[tuple[str, Value], ...] = ()
     effects: tuple[tuple[str, Value], ...] = ()  # [effects]: name (core/effects/table.py) -> value or range
-    intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/intensity.py)
+    intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/realism/intensity.py)
 
     def to_dict(self) -> dict:
         out = json.loads(json.dumps(asdict(self)))

@@ -8,11 +8,11 @@ An effect changes what the sensor measures through one or both of two hooks:
                particle's range with class `particle`). Same rows, same fields. In the
                realistic model the rays are the beams' sub-rays, so a particle met by part
                of a footprint becomes an extra echo. Every scan path calls it once, on its
-               first hits, before ranges are measured: core/scan.py (paper), core/realistic.py,
+               first hits, before ranges are measured: core/scan.py (paper), core/realism/realistic.py,
                core/motion/sweep.py.
   the scene    `moving_classes` and `motion(class_ids, pivots)`: which objects move with
   at a time    time and where they are at time t (the drive's wind). Posing triangles needs a
-               ray caster, so the caster lives with the backends (app/drive/wind.py
+               ray caster, so the caster lives with the backends (raycast/wind.py
                `moving_scene`) and asks the effect; the scan paths see a backend whose
                `cast_scans` answers for each column's time.
 

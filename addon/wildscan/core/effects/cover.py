@@ -61,7 +61,7 @@ from .cover_cells import (
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
 SETTLE = 4  # times a stop outside its own cell's sward goes on along its run (_settle)
-# rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
+# rays a part of the medium, on the cast's threads (core/runtime/threads.py in_parts); fixed, so a scan's
 # bytes do not depend on the threads
 PART = 49_152
 

@@ -87,7 +87,7 @@ def single_scan(w: Writer, cloud, metadata: dict, ascii: bool = False) -> ScanOu
 
 
 def range_image_bytes(w: Writer, scan: ScanOutput) -> bytes:
-    """A single scan's range image (core/rangeimage.py), its labels and instances as the label
+    """A single scan's range image (core/io/rangeimage.py), its labels and instances as the label
     file of format `w` has them (SemanticKITTI's .label: instances ranked; PLY and LAS: as is)."""
     cloud = scan.cloud
     instances = cloud.instance

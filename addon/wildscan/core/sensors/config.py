@@ -8,7 +8,7 @@ Two physics models share the device's beams (`SensorConfig.model`):
               point, intensity is the element's Table I reflectivity (which carries the
               label), Gaussian range noise of the device's fixed σ. The default; its files
               never change.
-  realistic   the beam as the device sends it (core/footprint.py, core/echoes.py): a
+  realistic   the beam as the device sends it (core/realism/footprint.py, core/realism/echoes.py): a
               footprint of `divergence_mrad` sampled by sub-rays, up to `echoes` echoes
               split `echo_separation` apart (closer surfaces merge into one mixed pixel),
               intensity from reflectivity, incidence and range, and the datasheet's range
