@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from wildscan.core.classes import LABELS, LOG, LOG_ID, PARTICLE_ID, listed_classes
+from wildscan.core.classes import GROUND_IDS, LABELS, LOG, LOG_ID, PARTICLE_ID, listed_classes
 from wildscan.core.effects import CLEAR_AIR, Effects, Weather
 from wildscan.core.io.ply import read_ply, write_scan_files
 from wildscan.core.pointcloud import PointCloud
@@ -42,7 +42,7 @@ def cloud_of(labels) -> PointCloud:
 
 def test_optional_classes_are_listed_where_declared_or_carried_in_id_order():
     assert [c.id for c in listed_classes()] == REQUIRED == list(range(13))
-    assert {c.id for c in LABELS if c.optional} == {LOG_ID, PARTICLE_ID}
+    assert {c.id for c in LABELS if c.optional} == {LOG_ID, PARTICLE_ID, *GROUND_IDS}
     assert [c.id for c in listed_classes(declared=(PARTICLE_ID,))] == [*REQUIRED, PARTICLE_ID]
     assert [c.id for c in listed_classes([2, PARTICLE_ID, LOG_ID], ())] == [*REQUIRED, LOG_ID, PARTICLE_ID]
     assert listed_classes([LOG_ID], (LOG_ID,))[-1] is LOG

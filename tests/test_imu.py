@@ -15,7 +15,7 @@ from wildscan.core.errors import UserError
 from wildscan.core.io.imu_csv import HEADER, imu_csv_text, read_imu_csv
 from wildscan.core.motion.imu import GRAVITY, ImuMount, imu_truth, sample_stamps
 from wildscan.core.motion.imu_models import ADIS16495, BMI088, check_rate, with_errors
-from wildscan.core.motion.placements import motion_of, sensor_to_world_matrices
+from wildscan.core.motion.placements import motion_of_placements, sensor_to_world_matrices
 from wildscan.core.placement import Placement, Pose
 from wildscan.core.spatial.rotations import log_map
 
@@ -37,7 +37,7 @@ def synthetic_motion(still: bool = False, roll=0.05, pitch=0.08):
         Placement(Pose(float(g[0]), float(g[1]), float(y)), g + [0, 0, 0.723], g, float(r), float(p))
         for g, y, r, p in zip(ground, yaw, rolls, pitches)
     ]
-    return motion_of(placements, t, t)
+    return motion_of_placements(placements, t, t)
 
 
 def test_gyro_and_accelerometer_are_the_exact_derivatives_of_the_imus_own_pose():

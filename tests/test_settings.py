@@ -46,7 +46,7 @@ def test_scan_help_states_every_presets_numbers_and_no_one_devices_rule_as_every
     scan = build_parser().command_parsers["scan"]
     actions = {a.dest: a for a in scan._actions}
     text = " ".join(" ".join(actions[s].help.split()) for s in SENSOR_SETTINGS)
-    for rule in ("180/r_h", "at most 30 ", "1 to 3 ", "the UTM-30LX-EW"):
+    for rule in ("180/r_h", "at most 30 ", "1 to 3 ", "the UTM-30LX-EW's"):
         assert rule not in text, rule
     for name in PRESETS:
         d = device_named(name)
@@ -101,6 +101,8 @@ def test_every_front_end_allows_each_presets_own_limit_and_refuses_past_it(front
     model = "realistic" if setting in REALISTIC_SETTINGS else "paper"
     for name in PRESETS:
         device = device_named(name)
+        if setting == "echoes" and device.optics.return_mode != "multi":
+            continue  # its return mode fixes the echoes (core/sensors/returns.py), not a limit
         high = limits(setting, device).high
         check(name, setting, high if setting != "rh" else device.mount.step_deg, model)
         past = high + 1 if SETTINGS[setting].kind is int else high * 1.01

@@ -51,14 +51,16 @@ def scan_current_scene(
     geometry=None,
     weather: dict[str, float] | None = None,
     effects: dict[str, float] | None = None,
+    world_seed: int = 0,
 ) -> ScanResult:
     """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air;
-    `effects`: the other effects of the effects table (core/effects/table.py), name -> value."""
+    `effects`: the other effects of the effects table (core/effects/table.py), name -> value.
+    `world_seed`: the world's seed (its surfaces' reflectances: core/realism/lost_returns.py)."""
     sensor.validate()
     pose.validate()
     effects = scan_effects(weather, sensor, scene_cover(geometry), effects)
     backend_ = make_scene_backend(backend, pose, sensor, notify, geometry)
-    return run_scan(backend_, pose, sensor, frame, z_start, progress, effects)
+    return run_scan(backend_, pose, sensor, frame, z_start, progress, effects, world_seed=world_seed)
 
 
 def scan_effects(weather: dict[str, float] | None, sensor: SensorConfig, cover=None, others=None):
@@ -164,5 +166,5 @@ def write_scan(
 
     metadata = dict(result.metadata, seed=seed, world=world, **extra)
     w = formats.writer(fmt)
-    scan = formats.single_scan(w, result.cloud, metadata, ascii)
+    scan = formats.single_scan(w, result.cloud, metadata, ascii, result.lost_cells)
     return formats.write_scan(w, scan, out, range_image)

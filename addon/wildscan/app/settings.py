@@ -27,6 +27,7 @@ from ..core.sensors.config import (
     setting_defaults,
     setting_limits,
 )
+from ..core.sensors.returns import RETURN_MODES
 
 __all__ = ["Limits", "SETTINGS", "Setting", "default", "limits"]
 
@@ -143,8 +144,8 @@ SETTINGS: dict[str, Setting] = {
         "Echoes",
         int,
         metavar="N",
-        help="realistic model: most echoes a beam returns, 1 to the device's most: "
-        + _per_device(lambda d: d.optics.echoes),
+        help="realistic model: most echoes a beam returns, 1 to the device's most (its return mode may "
+        "fix it): " + _per_device(lambda d: d.optics.echoes),
         default_help="default: the device's most",
     ),
     "echo_separation": Setting(
@@ -156,6 +157,19 @@ SETTINGS: dict[str, Setting] = {
         help="realistic model: surfaces farther apart along a beam than this give separate echoes, closer "
         f"ones merge into one mixed range, metres, above 0 and at most {MAX_ECHO_SEPARATION:g}",
         default_help="default: the device's; " + _per_device(lambda d: d.optics.echo_separation_m),
+    ),
+    "returns": Setting(
+        "--returns",
+        "Returns",  # the panel scans in the device's default mode
+        str,
+        choices=RETURN_MODES,
+        default=None,
+        help="realistic model: which returns a beam reports, as the device's manual defines them: "
+        "strongest, last, dual (both, each point's return_type says which; Velodyne: the strongest and "
+        "the last, Ouster: the two strongest) or multi (every echo up to --echoes: the UTM-30LX-EW); a "
+        "mode the device does not have is an error",
+        default_help="default the device's own: strongest for the Velodyne and Ouster presets, multi for "
+        "the UTM-30LX-EW",
     ),
     "frame": Setting("--frame", "Frame"),
     "backend": Setting("--backend", "Ray caster"),

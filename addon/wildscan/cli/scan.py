@@ -106,6 +106,13 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
             quiet=args.quiet,
             biome=biome,
         )
+    if geometry is not None:
+        seed, blend = provenance.get("seed"), provenance.get("world")
+        extra = {"geometry": provenance["geometry"]}
+    else:
+        seed, blend = scene_provenance()
+        extra = {}
+    seed = seed if args.seed is None else args.seed
     result = scan_current_scene(
         pose,
         sensor,
@@ -117,14 +124,8 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         geometry=geometry,
         weather=args.weather,
         effects=effect_values(args),
+        world_seed=seed or 0,  # the surfaces' reflectances the detection step weighs
     )
-    if geometry is not None:
-        seed, blend = provenance.get("seed"), provenance.get("world")
-        extra = {"geometry": provenance["geometry"]}
-    else:
-        seed, blend = scene_provenance()
-        extra = {}
-    seed = seed if args.seed is None else args.seed
     first, *beside = write_scan(
         out, result, seed, blend, ascii=args.ascii, fmt=args.format, range_image=range_image, **extra
     )

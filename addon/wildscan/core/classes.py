@@ -71,11 +71,30 @@ PARTICLE_ID = PARTICLE.id
 LOG = ElementClass(14, "log", 85.0, (92, 51, 23), optional=True)
 LOG_ID = LOG.id
 
+# The ground's surface materials of the endless landscape (core/world/endless/ground.py): what the
+# ground is where no sward covers it. Appended after 15 (ids never change); like log and particle
+# they are optional: a file's class table lists them only when its points carry one, so every
+# file of the paper's island (whose ground is `terrain`) keeps its bytes. Reflectivities are tags
+# (unique, as Table I's: the paper labels a return by its intensity); each material's reflectance
+# at 905 nm, with its source, is in core/intensity.py MATERIALS.
+GROUND_MATERIALS: tuple[ElementClass, ...] = (
+    ElementClass(16, "soil", 95.0, (176, 122, 70), optional=True),
+    ElementClass(17, "gravel", 65.0, (190, 182, 160), optional=True),
+    ElementClass(18, "mud", 35.0, (84, 62, 40), optional=True),
+    ElementClass(19, "paved", 45.0, (64, 64, 72), optional=True),
+    ElementClass(20, "leaf litter", 25.0, (196, 136, 40), optional=True),
+    ElementClass(21, "rock slab", 10.0, (104, 104, 116), optional=True),
+)
+GROUND_IDS: tuple[int, ...] = tuple(c.id for c in GROUND_MATERIALS)
+# Every class that is the ground itself: the paper's terrain and the materials.
+GROUND_CLASS_IDS: tuple[int, ...] = (1, *GROUND_IDS)
+
 # The classes beyond the paper's Table I and water, one a line in id order: each optional, so a
 # file lists it only where its scan could make it (docs/extending.md "Add a class").
 OPTIONAL_CLASSES: tuple[ElementClass, ...] = (
     LOG,
     PARTICLE,
+    *GROUND_MATERIALS,
 )
 
 ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, *OPTIONAL_CLASSES)
@@ -138,6 +157,9 @@ def class_id_for_tag(tag: object) -> int:
 MAX_INSTANCE = 2**31 - 1
 # Per-object reflectivity override (intensity only; the label still comes from the class).
 REFLECTIVITY_PROP = "wildscan_reflectivity"
+# An object's diffuse reflectance (0-1) at the laser's wavelength: what the realistic model's
+# detection step weighs in place of its class's material draw (core/realism/lost_returns.py)
+REFLECTANCE_PROP = "wildscan_reflectance"
 MAX_REFLECTIVITY = 1000.0
 
 
@@ -151,6 +173,19 @@ def object_tags(name: str, class_tag: object, instance_tag: object, reflectivity
     instance = 0 if instance_tag is None else _strict_instance(name, instance_tag)
     override = None if reflectivity is None else _strict_reflectivity(name, reflectivity)
     return class_id, instance, override
+
+
+def object_reflectance(name: str, value: object) -> float:
+    """The object `name`'s `wildscan_reflectance` (a number from 0 to 1), or a UserError naming
+    the object, the value and what is allowed."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not 0.0 <= float(value) <= 1.0:
+        raise UserError(
+            f"object {name!r} has {REFLECTANCE_PROP} = {value!r}; it must be a number from 0 to 1 "
+            "(its diffuse reflectance at the laser's wavelength)",
+            allowed=(0.0, 1.0),
+        )
+    return float(value)
 
 
 def _strict_class(name: str, tag: object) -> int:

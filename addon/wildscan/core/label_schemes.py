@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .classes import ALL_ELEMENTS, BY_ID, CLASSES, OPTIONAL_CLASSES, PARTICLE_ID, WATER_ID
+from .classes import ALL_ELEMENTS, BY_ID, CLASSES, GROUND_IDS, OPTIONAL_CLASSES, PARTICLE_ID, WATER_ID
 
 SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
 OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
@@ -133,7 +133,8 @@ _WILDSCAN = LabelScheme(
     },
     learning_map_inv={0: 0, **_identity(c.id for c in (*CLASSES, *OPTIONAL_CLASSES))},
     learning_ignore={0: True, **{c.id: False for c in (*CLASSES, *OPTIONAL_CLASSES)}},
-    only_for={PARTICLE_ID: (PARTICLE_ID,)},  # the raw id 15 is weather's alone
+    # the raw ids 15 and 16-21 are weather's and the ground materials' alone
+    only_for={PARTICLE_ID: (PARTICLE_ID,), **{i: (i,) for i in GROUND_IDS}},
 )
 
 # -- SemanticKITTI (semantic-kitti-api, config/semantic-kitti-all.yaml) ------------------------
@@ -188,6 +189,12 @@ _SEMANTICKITTI = LabelScheme(
         "water": OTHER,
         "log": 71,  # trunk: SemanticKITTI has no deadwood class; a log is a lying trunk
         "particle": 1,  # outlier (SemanticKITTI's label for spurious returns)
+        "soil": 72,  # terrain (SemanticKITTI's terrain: grass and soil)
+        "gravel": 49,  # other-ground (unpaved ground that is neither road nor terrain)
+        "mud": 72,  # terrain
+        "paved": 48,  # sidewalk (a paved path is for walking, not driving)
+        "leaf litter": 72,  # terrain
+        "rock slab": 49,  # other-ground
     },
     other=99,  # other-object
     # the single-scan (19-class) learning map of semantic-kitti.yaml: moving objects as static
@@ -244,6 +251,12 @@ _RELLIS3D = LabelScheme(
         "water": 6,  # water
         "log": 15,  # log
         "particle": 0,  # void: RELLIS-3D has no class for returns from the air
+        "soil": 1,  # dirt
+        "gravel": 1,  # dirt (RELLIS-3D's unpaved trails are dirt; it has no gravel class)
+        "mud": 33,  # mud
+        "paved": 10,  # asphalt
+        "leaf litter": 1,  # dirt (the forest floor)
+        "rock slab": 34,  # rubble (as rock)
     },
     other=9,  # object
     learning_map=_RELLIS_LEARNING_MAP,
@@ -280,6 +293,12 @@ _GOOSE_BY_CLASS: dict[str, int | str] = {
     "water": 54,  # water
     "log": OTHER,  # obstacle: GOOSE's 64 classes have no deadwood class; to a robot a log is an obstacle
     "particle": 56,  # outlier
+    "soil": 31,  # soil
+    "gravel": 24,  # gravel
+    "mud": 31,  # soil (GOOSE has no mud class: wet soil)
+    "paved": 23,  # asphalt
+    "leaf litter": 5,  # leaves
+    "rock slab": 40,  # rock
 }
 _GOOSE_OTHER = 4  # obstacle
 
@@ -287,7 +306,10 @@ _GOOSE_OTHER = 4  # obstacle
 def _goose_colors(particles: bool = True) -> dict[int, tuple[int, int, int]]:
     colors = {i: (160, 160, 160) for i in range(len(_GOOSE_NAMES))}
     elements = ALL_ELEMENTS if particles else [c for c in ALL_ELEMENTS if c.id != PARTICLE_ID]
-    for c in elements:  # in id order: where classes share an id, the last one's colour
+    # the ground materials keep GOOSE's colours as they were (a label config keeps its bytes)
+    for c in (
+        c for c in elements if c.id not in GROUND_IDS
+    ):  # in id order: where classes share an id, the last one's colour
         if _GOOSE_BY_CLASS[c.name] != OTHER:
             colors[_GOOSE_BY_CLASS[c.name]] = _WILDSCAN.colors_bgr[c.id]
     colors[0] = (0, 0, 0)

@@ -29,7 +29,7 @@ from ...core.sensors.config import DEFAULT_MODEL, REALISTIC_SETTINGS, SENSOR_SET
 from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ..settings import SETTINGS, default, limits
-from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_limits
+from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_limits, spec_returns
 from .effects_spec import effects_table, weather_table
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
@@ -65,6 +65,7 @@ class SensorSpec:
     divergence: Value = default("divergence")
     echoes: int | tuple[int, int] = default("echoes")
     echo_separation: Value = default("echo_separation")
+    returns: str | None = None  # the return mode (core/sensors/returns.py); None: the device's own
     # a preset or device file, or a tuple of them drawn per scan (app/dataset/devices.py); with
     # another device than the default, rh, min_range and max_range are None for its own
     device: str | tuple[str, ...] = "utm30lx-ew"
@@ -313,7 +314,10 @@ def _sensor(t: Table) -> SensorSpec:
     for key, value in values.items():
         if key not in own:
             _check_open_low(t, key, value)
-    values["echoes"] = _whole_value(t, "echoes", None if own else d.echoes, device)
+    values.update(
+        echoes=_whole_value(t, "echoes", None if own else d.echoes, device),
+        returns=spec_returns(t.data, t.where, device),
+    )
     if own:  # the realistic model's settings not given are the device's own too
         values.update({key: None for key in REALISTIC_SETTINGS if key not in t.data})
     return SensorSpec(

@@ -92,10 +92,8 @@ def sample_stamps(duration_ns: int, rate_hz: int) -> np.ndarray:
 def knot_values(motion: Motion) -> np.ndarray:
     """(K + 1, 6): base_link's x, y, z and the attitude's yaw (unwrapped), pitch, roll (rad)
     at every knot of the drive."""
-    yaw = unwrap(dm.radians(np.array([p.pose.yaw_deg for p in motion.placements], dtype=np.float64)))
-    pitch = np.array([p.pitch_rad for p in motion.placements], dtype=np.float64)
-    roll = np.array([p.roll_rad for p in motion.placements], dtype=np.float64)
-    return np.column_stack([motion.ground, yaw, pitch, roll])
+    yaw = unwrap(dm.radians(motion.attitude[:, 0]))
+    return np.column_stack([motion.ground, yaw, motion.attitude[:, 1], motion.attitude[:, 2]])
 
 
 def knot_derivatives(values: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:

@@ -29,7 +29,7 @@ from ..placement import (
     MAX_TILT_DEG,
     MAX_UNEVENNESS,
     NO_GROUND,
-    TERRAIN_ID,
+    STANDING_IDS,
     Placement,
     Pose,
     cast_lasers_many,
@@ -56,6 +56,8 @@ class Motion:
     ground: np.ndarray  # (K + 1, 3) where the column meets the ground (base_link)
     rotation: np.ndarray  # (K + 1, 3, 3) sensor frame -> world frame
     step: np.ndarray  # (K, 3) rotation vector from the attitude at k to that at k + 1 (frame at k)
+    # (K + 1, 3): each knot's Placement.pose.yaw_deg, pitch_rad and roll_rad (the IMU's knots, imu.py)
+    attitude: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     kept: dict[int, Placement] = field(default_factory=dict)  # the whole placements asked for
 
     def placement(self, k: int) -> Placement:
@@ -86,6 +88,7 @@ def place_all(
     default)."""
     count, keep = len(times), set(keep)
     centre, ground, rotation = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3, 3))
+    attitude = np.empty((count, 3))
     kept: dict[int, Placement] = {}
     for a in range(0, count, PLACE_CHUNK):
         b = min(count, a + PLACE_CHUNK)
@@ -102,17 +105,19 @@ def place_all(
                 _reject(a + i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
             starts = found + LASER_CLEARANCE
         placed = _place_from(backend, poses, starts, times, distance, a, {k - a for k in keep if a <= k < b})
-        centre[a:b], ground[a:b], rotation[a:b] = placed[:3]
-        kept.update({a + i: p for i, p in placed[3].items()})
-    return motion_of(times, distance, centre, ground, rotation, kept)
+        centre[a:b], ground[a:b], rotation[a:b], attitude[a:b] = placed[:4]
+        kept.update({a + i: p for i, p in placed[4].items()})
+    return motion_of(times, distance, centre, ground, rotation, kept, attitude)
 
 
 def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance, first: int, keep: set[int]):
-    """(centre, ground, rotation, {i: Placement kept}) of the poses (instants first, first + 1,
-    ...) with each pose's four lasers cast down from its `z_start`."""
+    """(centre, ground, rotation, attitude, {i: Placement kept}) of the poses (instants first,
+    first + 1, ...) with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
     stood = stand_all(poses, rows)
     centre, ground, rotation = stood.optical.copy(), stood.ground.copy(), stood.rotation.copy()
+    yaw = np.array([pose.yaw_deg for pose in poses], dtype=np.float64)
+    attitude = np.column_stack([yaw, stood.pitch, stood.roll])
     kept = {}
     for i in np.flatnonzero(~stood.fits):
         try:  # `stand` says why, in the words a static scan's placement uses
@@ -120,12 +125,13 @@ def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance
         except PoseRejected as e:
             _reject(first + int(i), times, distance, e.message)
         centre[i], ground[i], rotation[i] = p.optical_centre, p.ground_centre, p.rotation
+        attitude[i] = (p.pose.yaw_deg, p.pitch_rad, p.roll_rad)
         if i in keep:
             kept[int(i)] = p
     for i in keep:
         if stood.fits[i]:
             kept[i] = stood.placement(i, poses[i], lasers_of(poses[i], rows[i]))
-    return centre, ground, rotation, kept
+    return centre, ground, rotation, attitude, kept
 
 
 @dataclass
@@ -166,7 +172,9 @@ def stand_all(poses: list[Pose], rows) -> Stood:
         )
         tilt = dm.degrees(dm.arccos(np.maximum(-1.0, np.minimum(1.0, dm.cos(roll) * dm.cos(pitch)))))
         fits = (
-            np.all(class_id == TERRAIN_ID, axis=1) & (unevenness <= MAX_UNEVENNESS) & (tilt <= MAX_TILT_DEG)
+            np.all(np.isin(class_id, STANDING_IDS), axis=1)
+            & (unevenness <= MAX_UNEVENNESS)
+            & (tilt <= MAX_TILT_DEG)
         )
     xy = np.array([[pose.x, pose.y] for pose in poses]).reshape(-1, 2)
     yaw = dm.radians(np.array([pose.yaw_deg for pose in poses], dtype=np.float64))
@@ -197,6 +205,7 @@ def motion_of(
     ground: np.ndarray,
     rotation: np.ndarray,
     kept: dict[int, Placement] | None = None,
+    attitude: np.ndarray | None = None,
 ) -> Motion:
     """The motion of a drive from its poses' arrays (K + 1 each)."""
     relative = dm.matmul(np.swapaxes(rotation[:-1], 1, 2), rotation[1:])  # R_k^T R_{k+1}
@@ -210,7 +219,22 @@ def motion_of(
         ground=ground,
         rotation=rotation,
         step=step,
+        attitude=np.zeros((len(times), 3)) if attitude is None else attitude,
         kept=dict(kept or {}),
+    )
+
+
+def motion_of_placements(placements: list[Placement], times: np.ndarray, distance: np.ndarray) -> Motion:
+    """The motion through whole placements (a few knots: tests, a caller with its own poses),
+    every one kept."""
+    return motion_of(
+        times,
+        distance,
+        np.stack([p.optical_centre for p in placements]),
+        np.stack([p.ground_centre for p in placements]),
+        np.stack([p.rotation for p in placements]),
+        dict(enumerate(placements)),
+        np.array([(p.pose.yaw_deg, p.pitch_rad, p.roll_rad) for p in placements], dtype=np.float64),
     )
 
 
