@@ -51,7 +51,7 @@ def settings():
 
 def generate(seed=SEED, detail="low"):
     s = settings()
-    s.seed, s.detail = seed, detail
+    s.seed, s.detail, s.world_layout = seed, detail, "paper"  # the paper's island: its zones' poses
     assert bpy.ops.wildscan.generate_world() == {"FINISHED"}
 
 
@@ -264,6 +264,8 @@ def test_panel_export_equals_the_wildscan_scan_command(scene, tmp_path):
     cmd = [
         WILDSCAN,
         "scan",
+        "--layout",
+        "paper",
         "--seed",
         str(SEED),
         "--pose",
@@ -654,7 +656,7 @@ else:
     module = addon_utils.enable("wildscan", default_set=True, handle_error=None)
 assert module.__file__.startswith(user_dir), module.__file__
 s = bpy.context.scene.wildscan
-s.seed, s.rh, s.detail = 3, 6.0, "low"
+s.seed, s.rh, s.detail, s.world_layout = 3, 6.0, "low", "paper"
 assert bpy.ops.wildscan.generate_world() == {"FINISHED"}
 check = module.ui.status.check_pose
 Pose = module.core.placement.Pose

@@ -61,14 +61,17 @@ def test_a_sensor_file_sets_the_fields_to_its_defaults_and_scans_as_its_device(s
 
     # the preset written as a user's file, with its own default r_h and range window
     text = PRESET.replace("step_deg = 1.0", "step_deg = 4.0").replace("max_m = 15.0", "max_m = 12.0")
+    text = text.replace("[mount]\n", "[mount]\nheight = 1.5\n")  # and carried on a 1.5 m mast
     path = _file(tmp_path, text)
     settings.device = "FILE"
     settings.sensor_file = path
-    assert (settings.rh, settings.max_range) == (4.0, 12.0)
+    assert (settings.rh, settings.max_range) == (4.0, 12.0) and settings.mount_height == 1.5
     sensor = sensor_from(settings)
     assert sensor.device == load_device(path) and sensor.sweeps == 45 and sensor.max_range == 12.0
+    assert sensor.mount_height == 1.5
     settings.device = "utm30lx-ew"  # back to the preset: its defaults again
     assert (settings.rh, settings.max_range) == (1.0, 15.0)
+    assert settings.mount_height == pytest.approx(0.723)
     settings.sensor_file = path  # a file while a preset is the choice changes nothing
     assert (settings.rh, settings.max_range) == (1.0, 15.0)
 
@@ -78,7 +81,7 @@ def test_a_panel_scan_with_a_sensor_file_equals_a_scan_with_that_device(settings
     from wildscan.ui import status
     from wildscan.ui.scene import clouds, read_cloud
 
-    settings.seed, settings.detail = 5, "low"
+    settings.seed, settings.detail, settings.world_layout = 5, "low", "paper"
     assert bpy.ops.wildscan.generate_world() == {"FINISHED"}
     pose = next(Pose(x, y, 30.0) for x, y in CANDIDATE_XY if status.check_pose(Pose(x, y, 30.0), None).ok)
     settings.pose_x, settings.pose_y, settings.pose_yaw = pose.x, pose.y, pose.yaw_deg

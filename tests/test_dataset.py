@@ -46,6 +46,10 @@ from tests.helpers.reader_helpers import (
 # --------------------------------------------------------------------------- the spec
 
 
+def test_a_spec_may_name_the_paper_layout_its_worlds_have():
+    assert spec_from_dict({"layout": "paper"}) == spec_from_dict({})
+
+
 def test_an_empty_spec_takes_every_documented_default():
     spec = spec_from_dict({})
     assert spec.seeds == (0, 1, 2)
@@ -92,6 +96,8 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"sensor": {"model": "realistic", "divergence": 80}}, ["sensor.divergence must be", "0 to 50 mrad"]),
         ({"sensor": {"model": "realistic", "echo_separation": 0}}, ["sensor.echo_separation", "above 0"]),
         ({"sensor": {"model": "realistic", "echo-separation": 1}}, ["unknown key", "echo_separation"]),
+        ({"layout": "endless"}, ['layout = "endless" is not available for datasets yet', '"paper"']),
+        ({"layout": "island"}, ['layout must be "paper"']),
     ],
 )
 def test_a_bad_key_or_value_names_the_key_and_what_is_allowed(data, words):

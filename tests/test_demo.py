@@ -32,10 +32,21 @@ def test_demo_builds_the_world_its_map_and_a_scan_with_preview_per_zone(tmp_path
         assert image.shape[0] > 400 and len(np.unique(image.reshape(-1, image.shape[-1]), axis=0)) > 5
     assert labels >= {c.id for c in CLASSES}
     assert "all 12 classes across the scans" in proc.stdout
+    # which world is which: the paper's island first, then the default (endless) world
+    first, second = proc.stdout.index("1. the paper's island"), proc.stdout.index("2. the default world")
+    assert first < second and "--layout paper --biome paper" in proc.stdout[first:second]
+    endless = sorted((out / "endless").glob("scan_*.ply"))
+    assert len(endless) >= 3
+    for ply in endless:
+        meta = json.loads(ply.with_suffix(".json").read_text())
+        assert meta["layout"] == "endless" and meta["cover"] == ply.stem[len("scan_") :]
+        assert PlyData.read(str(ply))["vertex"].count > 1_000
 
 
 def test_scan_by_seed_builds_the_procedural_world_and_scans_a_listed_pose(tmp_path):
-    poses = run([WILDSCAN, "poses", "--seed", "4", "--zone", "park", "--count", "1", "--json"])
+    poses = run(
+        [WILDSCAN, "poses", "--layout", "paper", "--seed", "4", "--zone", "park", "--count", "1", "--json"]
+    )
     assert poses.returncode == 0, poses.stderr
     p = json.loads(poses.stdout)["poses"]["park"][0]
     out = tmp_path / "park.ply"
@@ -43,6 +54,8 @@ def test_scan_by_seed_builds_the_procedural_world_and_scans_a_listed_pose(tmp_pa
         [
             WILDSCAN,
             "scan",
+            "--layout",
+            "paper",
             "--seed",
             "4",
             "--pose",

@@ -19,7 +19,7 @@ from wildscan.core.sensors.load import PRESETS_DIR, device_from_text
 from wildscan.core.spatial.frames import FRAMES
 
 from tests.helpers.analytic import AnalyticBackend, Patch
-from tests.helpers.scene_helpers import WILDSCAN, user_error_line
+from tests.helpers.scene_helpers import PAPER, WILDSCAN, user_error_line
 from tests.test_formats import PARK_POSE_SEED_2_LOW
 from tests.test_formats import geometry as seed_2_low_geometry
 
@@ -28,7 +28,8 @@ geometry = seed_2_low_geometry  # the fixture: seed 2 at low detail as a geometr
 EXAMPLES = PRESETS_DIR.parent / "examples"
 HEAD_EXAMPLE = EXAMPLES / "vlp16-tilted-head.toml"
 TIMEOUT_S = 300
-MULTI_BEAM = ("vlp16", "hdl32e", "hdl64e", "os1-64")
+MULTI_BEAM = ("vlp16", "hdl32e", "hdl64e", "os1-64", "vlp32c", "vls128", "os1-128")
+HEADED = ("wildscenes",)  # presets on a turning head (a [head] table)
 
 
 def wildscan(*args: str) -> subprocess.CompletedProcess:
@@ -84,6 +85,40 @@ def test_the_presets_are_listed_with_their_published_tables():
     assert SensorConfig.for_device(os1).sweeps == 1024
 
 
+def test_the_real_rigs_presets_carry_their_calibration_tables():
+    """vlp32c and vls128 from ros-drivers/velodyne's VeloView-VLP-32C.yaml and VLS128.yaml, os1-128
+    from an OS-1-128's published metadata (ouster-sdk tests/metadata), as their files cite."""
+    vlp32 = device_named("vlp32c")  # the Ultra Puck: -25 to +15 deg, dense about the horizon
+    assert vlp32.beams.count == 32 and vlp32.vertical_fov_deg == (-25.0, 15.0)
+    assert vlp32.beams.elevation_deg[0] == -25.0 and vlp32.beams.azimuth_offset_deg[1] == pytest.approx(4.2)
+    steps = np.diff(np.sort(vlp32.beams.elevation_deg))  # 0.33 deg apart at the finest (datasheet)
+    assert steps.min() == pytest.approx(0.333, abs=1e-3) and steps.max() > 5.0
+    assert vlp32.timing.column_period_ns == 55_296 and vlp32.timing.beam_step[:4] == (0, 0, 1, 1)
+    vls = device_named("vls128")  # 16 groups of 8 in a 53.3 us sequence, a maintenance step after 8
+    assert vls.beams.count == 128 and vls.timing.column_period_ns == 53_300
+    assert vls.timing.steps_per_column == 20 and vls.timing.beam_step[63:65] == (7, 9)
+    assert vls.beams.elevation_deg[36] == -25.0 and vls.beams.elevation_deg[59] == 15.0
+    os128 = device_named("os1-128")
+    assert os128.beams.count == 128 and os128.beams.ring[0] == 127  # beam 0 is Ouster's highest
+    assert os128.vertical_fov_deg == pytest.approx((-21.4764, 21.4764))
+    assert os128.beams.azimuth_offset_deg[0] == -4.2521  # -beam_azimuth_angles[0]
+    assert SensorConfig.for_device(os128).sweeps == 1024
+
+
+def test_the_wildscenes_rig_is_a_vlp16_tilted_45_deg_on_a_half_hz_head():
+    """A VLP-16 (its own beams and timing) tilted 45 deg, turned 18 deg per 10 Hz revolution (0.5 Hz)
+    through half a turn: its beams reach 120 deg of elevation, -60 to +60."""
+    from wildscan.core.sensors import beam_directions
+
+    ws, vlp = device_named("wildscenes"), device_named("vlp16")
+    assert ws.beams == vlp.beams and ws.timing == vlp.timing and ws.mount == vlp.mount
+    assert ws.head.tilt_deg == 45.0 and ws.head.turn == "continuous"
+    assert ws.head.step_deg / vlp.sweep_period_s == pytest.approx(180.0, rel=0.01)  # 0.5 Hz: 180 deg/s
+    dirs = beam_directions(ws.mount.step_deg, ws)[0]
+    elevation = elevation_deg(dirs)
+    assert elevation.min() == pytest.approx(-60.0) and elevation.max() == pytest.approx(60.0)
+
+
 @pytest.mark.parametrize("name", MULTI_BEAM)
 def test_spinning_lidars_turn_clockwise_as_their_drivers_count_azimuth(name):
     """Velodyne's driver and Ouster's encoder count azimuth clockwise seen from above: column
@@ -107,12 +142,15 @@ def test_wildscan_sensors_lists_every_preset_with_its_source():
     for name in preset_names():
         assert name in done.stdout
     assert "64e_s3-xiesc.yaml" in done.stdout and "2_0_0_os1-991913000010-64.json" in done.stdout
+    assert {"vlp32c", "vls128", "os1-128", "wildscenes"} <= set(preset_names())
+    line = next(x for x in done.stdout.splitlines() if x.startswith("wildscenes "))
+    assert "tilted 45 deg on a head turning 180 deg: elevations -60.00 to +60.00 deg" in line
 
 
 # --------------------------------------------------------------------------- every device, model, frame
 
 
-@pytest.mark.parametrize("name", MULTI_BEAM)
+@pytest.mark.parametrize("name", MULTI_BEAM + HEADED)
 @pytest.mark.parametrize("model", ("paper", "realistic"))
 def test_every_device_scans_flat_ground_in_every_frame(name, model):
     """Without noise a point on the ground is on the ground (world frame), and the leveled
@@ -222,14 +260,27 @@ def test_vlp16_scan_has_its_rings_columns_and_times(geometry, tmp_path):
 def test_vlp16_scan_of_seed_1_as_the_issue_states(tmp_path):
     out = tmp_path / "vlp16.ply"
     pose = ("31.712", "65.125", "236.7")  # the forest's first valid pose (tests/golden/scans.json)
-    done = wildscan("scan", "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor")
+    done = wildscan("scan", *PAPER, "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor")
     assert done.returncode == 2  # --out is required: nothing to scan into
     done = wildscan(
-        "scan", "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor", "--noise", "0",
-        "--quiet", "--out", str(out),
+        "scan", *PAPER, "--seed", "1", "--pose", *pose, "--sensor", "vlp16", "--frame", "sensor",
+        "--noise", "0", "--quiet", "--out", str(out),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     check_vlp16_scan(out)
+
+
+def test_a_wildscenes_scan_spans_more_than_110_deg_of_elevation():
+    """The issue's bar: under a canopy the tilted VLP-16 on its turning mount sees the ground and
+    the crowns overhead alike (the VLP-16 alone spans 30 deg)."""
+    terrain, treetop = 1, 3
+    forest = AnalyticBackend([Patch((0, 0, 0), (0, 0, 1), terrain), Patch((0, 0, 6), (0, 0, -1), treetop, 2)])
+    sensor = SensorConfig.for_device(device_named("wildscenes"), noise_sigma=0.0)
+    cloud = run_scan(forest, Pose(0.0, 0.0, 0.0), sensor, frame="leveled").cloud
+    elevation = elevation_deg(cloud.xyz)
+    assert elevation.max() - elevation.min() >= 110.0
+    assert set(np.unique(cloud.ring)) == set(range(16))
+    assert set(np.unique(cloud.label)) == {terrain, treetop}
 
 
 def test_a_4_beam_sensor_file_gives_4_rings(geometry, tmp_path):
@@ -335,7 +386,7 @@ def test_drive_with_vlp16_publishes_ring_and_time_that_rosbags_reads(tmp_path):
     out = tmp_path / "drive"
     done = wildscan(
         "drive", "--seed", "1", "--from", "31.712", "65.125", "236.7", "--distance", "0.1",
-        "--sensor", "vlp16", "--bag", "ros2", "--quiet", "--out", str(out),
+        "--sensor", "vlp16", "--mount-height", "1.5", "--bag", "ros2", "--quiet", "--out", str(out),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     store = get_typestore(Stores.ROS2_HUMBLE)
@@ -345,6 +396,11 @@ def test_drive_with_vlp16_publishes_ring_and_time_that_rosbags_reads(tmp_path):
         assert counts["/laser2D"] == 0  # a multi-beam lidar's columns are no LaserScans
         connection, _, raw = next(reader.messages(connections=points))
         message = store.deserialize_cdr(raw, connection.msgtype)
+        static = [c for c in reader.connections if c.topic == "/tf_static"]
+        tf_connection, _, tf_raw = next(reader.messages(connections=static))
+        statics = store.deserialize_cdr(tf_raw, tf_connection.msgtype).transforms
+    (mast,) = [tf for tf in statics if tf.child_frame_id == "sensor"]
+    assert mast.header.frame_id == "base_link" and mast.transform.translation.z == 1.5  # --mount-height
     fields = {f.name: (f.offset, f.datatype) for f in message.fields}
     assert fields["ring"][1] == 4 and fields["time"][1] == 7  # UINT16 and FLOAT32, as the Velodyne driver
     records = np.frombuffer(
@@ -414,7 +470,11 @@ def test_a_spec_device_list_is_drawn_per_scan_with_each_devices_own_settings():
 @pytest.mark.parametrize(
     "sensor, says",
     [
-        ({"device": "vlp99"}, "sensor.device must be one of hdl32e, hdl64e, os1-64, utm30lx-ew, vlp16"),
+        (
+            {"device": "vlp99"},
+            "sensor.device must be one of hdl32e, hdl64e, os1-128, os1-64, utm30lx-ew, vlp16, vlp32c, "
+            "vls128, wildscenes",
+        ),
         ({"device": "vlp16", "max_range": 150.0}, "with device vlp16, sensor.max_range must be in (0, 100]"),
         ({"device": "vlp16", "rh": [0.1, 0.2]}, "sensor.rh must be a number"),
     ],

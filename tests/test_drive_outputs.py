@@ -340,7 +340,19 @@ def test_drive_along_the_trail_of_a_saved_world(tmp_path):
     blend = tmp_path / "w.blend"
     assert (
         run(
-            [WILDSCAN, "world", "--seed", str(SEED), "--detail", "low", "--quiet", "--out", str(blend)]
+            [
+                WILDSCAN,
+                "world",
+                "--seed",
+                str(SEED),
+                "--layout",
+                "paper",
+                "--detail",
+                "low",
+                "--quiet",
+                "--out",
+                str(blend),
+            ]
         ).returncode
         == 0
     )

@@ -115,3 +115,17 @@ def test_the_learn_suites_dataset_spec_loads_as_docs_benchmarks_says():
     assert len(spec.seeds) == 20 and spec.scans_per_world == 30 and spec.sensor.rh == 2.0
     assert dict(spec.poses.min_scans_with)["log"] == 0.25
     assert "examples/learn20.toml" in (REPO / "docs" / "benchmarks.md").read_text()
+
+
+def test_the_transfer_figures_specs_load_as_docs_training_says():
+    """The two datasets of docs/training.md's WildScan -> other-biome transfer: RELLIS-3D's rig
+    and ids (like = "rellis3d"), mixed for training, forest as the 'real' folder."""
+    from wildscan.app.dataset.spec import load_spec
+
+    mixed, forest = (load_spec(EXAMPLES / f"transfer-{b}.toml") for b in ("mixed", "forest"))
+    for spec in (mixed, forest):
+        assert spec.sensor.device == "os1-64" and spec.sensor.mount_height == 1.14
+        assert spec.label_scheme == "rellis3d" and spec.formats == ("semantickitti",)
+    assert (mixed.biome, forest.biome) == ("mixed", "forest") and not set(mixed.seeds) & set(forest.seeds)
+    page = (REPO / "docs" / "training.md").read_text()
+    assert "examples/transfer-mixed.toml" in page and "examples/transfer-forest.toml" in page

@@ -104,7 +104,7 @@ print("BACKEND", module.raycast.select.resolve_backend("auto"))
 import embreex
 print("EMBREEX", os.path.realpath(embreex.__file__))
 s = bpy.context.scene.wildscan
-s.seed, s.detail = 3, "low"
+s.seed, s.detail, s.world_layout = 3, "low", "paper"
 assert bpy.ops.wildscan.generate_world() == {"FINISHED"}
 Pose = module.core.placement.Pose
 SensorConfig = module.core.sensors.SensorConfig

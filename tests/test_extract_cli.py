@@ -10,7 +10,7 @@ import pytest
 
 from wildscan.core.io.ply import read_ply
 
-from tests.helpers.scene_helpers import BLENDER, WILDSCAN, run, user_error_line
+from tests.helpers.scene_helpers import BLENDER, PAPER, WILDSCAN, run, user_error_line
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
@@ -32,14 +32,16 @@ def points(path) -> bytes:
 
 def test_a_seeds_geometry_is_extracted_and_scanned_without_blender_as_the_seed_itself(tmp_path):
     scene = tmp_path / "seed2.npz"
-    extracted = without_bpy("extract", "--seed", "2", "--detail", "low", "--out", str(scene))
+    extracted = without_bpy("extract", *PAPER, "--seed", "2", "--detail", "low", "--out", str(scene))
     assert extracted.returncode == 0, extracted.stderr
     assert f"wrote {scene}" in extracted.stdout
     pose = ["--pose", *PARK_POSE_SEED_2_LOW, "--rh", "4", "--noise", "0"]
     from_file = without_bpy("scan", "--geometry", str(scene), *pose, "--out", str(tmp_path / "file.ply"))
     assert from_file.returncode == 0, from_file.stderr
     # the same world built in Blender (the bpy wheel) and scanned there
-    low = run([WILDSCAN, "world", "--seed", "2", "--detail", "low", "--out", str(tmp_path / "w.blend")])
+    low = run(
+        [WILDSCAN, "world", *PAPER, "--seed", "2", "--detail", "low", "--out", str(tmp_path / "w.blend")]
+    )
     assert low.returncode == 0, low.stderr
     in_blender = run(
         [WILDSCAN, "scan", "--world", str(tmp_path / "w.blend"), *pose, "--out", str(tmp_path / "b.ply")]
@@ -59,7 +61,9 @@ def test_a_seeds_geometry_is_extracted_and_scanned_without_blender_as_the_seed_i
 )
 def test_geometry_mistakes_exit_2_in_one_line(tmp_path, args, message):
     scene = tmp_path / "s.npz"
-    assert without_bpy("extract", "--seed", "0", "--detail", "low", "--out", str(scene)).returncode == 0
+    assert (
+        without_bpy("extract", *PAPER, "--seed", "0", "--detail", "low", "--out", str(scene)).returncode == 0
+    )
     argv = ["scan", "--geometry", str(scene), "--pose", "0", "0", "0", "--out", str(tmp_path / "x.ply")]
     if args[0] == "--geometry":
         argv[2] = str(tmp_path / args[1])
@@ -77,7 +81,7 @@ def test_extract_builds_the_vegetation_asked_for_and_records_it(tmp_path):
 
     scene = tmp_path / "solid.npz"
     proc = without_bpy(
-        "extract", "--seed", "2", "--detail", "low", "--vegetation", "solid", "--out", str(scene)
+        "extract", *PAPER, "--seed", "2", "--detail", "low", "--vegetation", "solid", "--out", str(scene)
     )
     assert proc.returncode == 0, proc.stderr
     geometry, header = load_geometry_file(scene)
@@ -94,7 +98,7 @@ def test_extract_builds_the_vegetation_asked_for_and_records_it(tmp_path):
 
 
 def test_extract_refuses_a_wrong_suffix_before_any_work(tmp_path):
-    proc = without_bpy("extract", "--seed", "1", "--out", str(tmp_path / "scene.txt"))
+    proc = without_bpy("extract", *PAPER, "--seed", "1", "--out", str(tmp_path / "scene.txt"))
     assert proc.returncode == 2
     assert "must end in .npz" in user_error_line(proc)
     assert list(tmp_path.iterdir()) == []
@@ -105,7 +109,18 @@ def test_blender_34_extracts_the_open_file_and_the_wheel_scans_it_as_blender_doe
     blend, scene = tmp_path / "w.blend", tmp_path / "w.npz"
     script = [BLENDER, "-b", "--factory-startup", "-P"]
     built = run(
-        [*script, "blender_scripts/world.py", "--", "--seed", "2", "--detail", "low", "--out", str(blend)]
+        [
+            *script,
+            "blender_scripts/world.py",
+            "--",
+            *PAPER,
+            "--seed",
+            "2",
+            "--detail",
+            "low",
+            "--out",
+            str(blend),
+        ]
     )
     assert built.returncode == 0, built.stderr
     extracted = run(

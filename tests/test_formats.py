@@ -18,7 +18,7 @@ from wildscan.core.io.ply import read_ply, write_scan_files
 from wildscan.core.label_schemes import scheme
 from wildscan.core.pointcloud import PointCloud
 
-from tests.helpers.scene_helpers import WILDSCAN, user_error_line
+from tests.helpers.scene_helpers import PAPER, WILDSCAN, user_error_line
 
 PARK_POSE_SEED_2_LOW = ("61.908", "-58.594", "126.6")  # `wildscan poses --seed 2 --detail low --zone park`
 TIMEOUT_S = 300
@@ -32,7 +32,7 @@ def wildscan(*args: str, cwd=None) -> subprocess.CompletedProcess:
 def geometry(tmp_path_factory):
     """Seed 2 at low detail as a geometry file (planned without Blender)."""
     out = tmp_path_factory.mktemp("geometry") / "seed2.npz"
-    done = wildscan("extract", "--seed", "2", "--detail", "low", "--out", str(out), "--quiet")
+    done = wildscan("extract", *PAPER, "--seed", "2", "--detail", "low", "--out", str(out), "--quiet")
     assert done.returncode == 0, done.stderr
     return out
 

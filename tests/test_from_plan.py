@@ -124,3 +124,17 @@ def test_the_blender_free_path_needs_no_bpy():
 
 def test_world_geometry_is_plan_geometry_of_the_seeds_plan():
     assert geometry_digest(world_geometry(1, "low")) == geometry_digest(plan_geometry(plan_world(1, "low")))
+
+
+def test_all_elements_moved_at_once_equal_each_moved_alone_bit_for_bit():
+    from wildscan.raycast.from_plan import _moved_vertices
+    from wildscan.raycast.geometry import world_vertices
+
+    rng = np.random.default_rng(5)
+    locals_ = [rng.normal(size=(n, 3)) * 7 for n in (4, 1, 9)]
+    matrices = np.zeros((3, 4, 4))
+    matrices[:, :3, :] = rng.normal(size=(3, 3, 4)) * 1e3
+    matrices[:, 3, 3] = 1.0
+    together = _moved_vertices(locals_, matrices, np.array([4, 1, 9]))
+    alone = np.concatenate([world_vertices(v, m) for v, m in zip(locals_, matrices)])
+    assert together.tobytes() == alone.tobytes()

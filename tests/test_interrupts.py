@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from tests.helpers.processes import finished, how_it_ended, started
-from tests.helpers.scene_helpers import BLENDER, REPO, WILDSCAN, save_seed_2_low
+from tests.helpers.scene_helpers import BLENDER, PAPER, REPO, WILDSCAN, save_seed_2_low
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
@@ -95,7 +95,10 @@ WHEEL_CASES = [
 
 def wheel_command(case: str, worlds: Path) -> tuple[list[str], str]:
     return {
-        "world": (["world", "--seed", "2", "--detail", "low", "--map", "m.png", "--out", "w.blend"], "world"),
+        "world": (
+            ["world", *PAPER, "--seed", "2", "--detail", "low", "--map", "m.png", "--out", "w.blend"],
+            "world",
+        ),
         "scan-world": (["scan", "--world", str(worlds / "w.blend"), *SCAN, "--out", "s.ply"], "scan"),
         "scan-geometry": (["scan", "--geometry", str(worlds / "w.npz"), *SCAN, "--out", "s.ply"], "scan"),
         "demo": (["demo", "--seed", "2", "--rh", "6", "--out", "demo"], "demo"),
@@ -120,7 +123,7 @@ def blender_world(tmp_path_factory):
     d = tmp_path_factory.mktemp("blender_world")
     script = [BLENDER, "-b", "--factory-startup", "-P", "blender_scripts/world.py", "--"]
     what = "Blender 3.4's world.py building seed 2 (low detail) for the signal tests"
-    args = ["--seed", "2", "--detail", "low", "--quiet", "--out", str(d / "w.blend")]
+    args = [*PAPER, "--seed", "2", "--detail", "low", "--quiet", "--out", str(d / "w.blend")]
     finished([*script, *args], what, 300, cwd=REPO)
     return d / "w.blend"
 
@@ -142,7 +145,7 @@ def test_a_signal_stops_a_real_blender_with_130_or_143_and_no_debris(
 ):
     """Blender's own SIGINT handler ignores the first Ctrl-C and exits 2 on the second."""
     if script == "world":
-        args = ["--seed", "2", "--detail", "low", "--out", str(tmp_path / "w.blend")]
+        args = [*PAPER, "--seed", "2", "--detail", "low", "--out", str(tmp_path / "w.blend")]
         cmd = [BLENDER, "-b", "--factory-startup", "-P", "blender_scripts/world.py", "--", *args]
     else:
         args = [*SCAN, "--backend", "bvh", "--out", str(tmp_path / "s.ply")]

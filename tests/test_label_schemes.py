@@ -3,7 +3,9 @@
 The literal ids below are read from each dataset's published label configuration, not from
 our own table: semantic-kitti-api `config/semantic-kitti-all.yaml` (`labels:`), RELLIS-3D
 `benchmarks/SalsaNext/train/tasks/semantic/config/labels/rellis.yaml` (`labels:`), GOOSE's
-`goose_label_mapping.csv` (64 classes, `label_key`), and LAS 1.4 R15 table 17 (ASPRS standard
+`goose_label_mapping.csv` (64 classes, `label_key`), WildScenes' `wildscenes/tools/utils3d.py`
+(METAINFO `classes` and `cidx`) and its 3D benchmark's `labels_map`
+(`wildscenes/configs3d/_base_/datasets/wildscenes.py`), and LAS 1.4 R15 table 17 (ASPRS standard
 classes).
 """
 
@@ -72,13 +74,28 @@ GOOSE = [
     ("water", 54, "water"),
     ("wire", 55, "wire"),
 ]
+WILDSCENES = [
+    ("bush", 0, "bush"),
+    ("terrain", 1, "dirt"),
+    ("fence", 2, "fence"),
+    ("low grass", 3, "grass"),
+    ("high grass", 3, "grass"),
+    ("log", 5, "log"),
+    ("bench", 7, "other-object"),
+    ("rock", 9, "rock"),
+    ("pole", 11, "structure"),
+    ("treetop", 12, "tree-foliage"),
+    ("trunk", 13, "tree-trunk"),
+    ("water", 14, "water"),
+]
 
 
 @pytest.mark.parametrize(
     "scheme_name, class_name, raw, raw_name",
     [("semantickitti", *row) for row in SEMANTICKITTI]
     + [("rellis3d", *row) for row in RELLIS3D]
-    + [("goose", *row) for row in GOOSE],
+    + [("goose", *row) for row in GOOSE]
+    + [("wildscenes", *row) for row in WILDSCENES],
 )
 def test_a_class_gets_the_published_id_of_its_counterpart(scheme_name, class_name, raw, raw_name):
     assert mapped(scheme_name, class_name) == raw
@@ -146,3 +163,30 @@ def test_two_classes_with_one_reflectivity_stop_the_import():
     twin = ElementClass(99, "moss", 90.0, (1, 2, 3))  # trunk's 90
     with pytest.raises(ValueError, match=r"share the reflectivity \[90.0\]"):
         _check_table((*ALL_ELEMENTS, twin))
+
+
+def test_wildscenes_has_its_15_ids_and_its_benchmark_ignores_sky_water_and_unlabelled():
+    """utils3d.py's ids 0-14 and 255 unlabelled; the 3D benchmark learns the 13 others (0-9 as
+    they are, 11-13 as 10-12) and maps sky, water and unlabelled to its ignore index 255."""
+    s = scheme("wildscenes")
+    assert sorted(s.labels) == [*range(15), 255]
+    assert s.labels[10] == "sky" and s.labels[8] == "other-terrain" and s.labels[6] == "mud"
+    want = {**{i: i for i in range(10)}, 10: 255, 11: 10, 12: 11, 13: 12, 14: 255, 255: 255}
+    assert s.learning_map == want
+    assert [x for x, ignored in s.learning_ignore.items() if ignored] == [255]
+    assert all(s.learning_map[s.learning_map_inv[x]] == x for x in s.learning_map_inv)
+    # every WildScan class lands within WildScenes' ids, none of them sky
+    assert set(s.from_wildscan.values()) <= set(s.labels) - {10}
+    assert s.from_wildscan[0] == 255  # an untagged mesh: unlabelled
+
+
+def test_wildscenes_is_ready_for_the_ground_materials():
+    """The endless landscape's ground classes (issue 33) map to WildScenes' own terrain ids as
+    soon as core/classes.py has them; the ids named here are utils3d.py's."""
+    from wildscan.core.label_schemes import _WS_GROUNDS
+
+    names = scheme("wildscenes").labels
+    assert {n: names[i] for n, i in _WS_GROUNDS.items()} == {
+        "soil": "dirt", "gravel": "gravel", "mud": "mud", "paved": "other-terrain",
+        "leaf litter": "other-terrain", "rock slab": "rock",
+    }  # fmt: skip

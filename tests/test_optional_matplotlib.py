@@ -8,6 +8,8 @@ import sys
 
 import pytest
 
+from tests.helpers.scene_helpers import PAPER
+
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 
@@ -23,14 +25,23 @@ def test_only_the_pictures_need_matplotlib(tmp_path):
         "from wildscan.cli import main\n"
         "sys.exit(main(sys.argv[1:]))\n"
     )
-    argv = ["world", "--seed", "1", "--out", str(tmp_path / "w.blend"), "--map", str(tmp_path / "m.png")]
+    argv = [
+        "world",
+        *PAPER,
+        "--seed",
+        "1",
+        "--out",
+        str(tmp_path / "w.blend"),
+        "--map",
+        str(tmp_path / "m.png"),
+    ]
     proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2 and list(tmp_path.iterdir()) == [], proc.stderr
     assert proc.stderr.strip() == (
         "wildscan world: error: --map needs matplotlib (pip install matplotlib); it is not installed here"
     )
     proc = subprocess.run(
-        [sys.executable, "-c", code, "poses", "--seed", "1", "--zone", "park", "--count", "1"],
+        [sys.executable, "-c", code, "poses", *PAPER, "--seed", "1", "--zone", "park", "--count", "1"],
         capture_output=True,
         text=True,
         timeout=120,

@@ -15,7 +15,7 @@ from wildscan.core.errors import UserError
 from wildscan.core.io import files
 
 from tests.helpers.processes import started
-from tests.helpers.scene_helpers import WILDSCAN, run, save_seed_2_low, user_error_line
+from tests.helpers.scene_helpers import PAPER, WILDSCAN, run, save_seed_2_low, user_error_line
 
 SCAN = ["--pose", "0", "0", "0", "--rh", "4", "--quiet"]  # seed 2, low detail: a valid pose
 TOO_LONG = "n" * 300  # over NAME_MAX (255 bytes) on every file system we write to
@@ -42,9 +42,12 @@ def test_a_legal_long_name_is_written_though_its_temporary_name_would_be_too_lon
         (["scan", "--geometry", "{w}/w.npz", *SCAN, "--out", "{d}/" + TOO_LONG + ".ply"], "--out"),
         (["scan", "--world", "{d}/" + TOO_LONG + ".blend", *SCAN, "--out", "{d}/s.ply"], "--world"),
         (["scan", "--geometry", "{d}/" + TOO_LONG + "/g.npz", *SCAN, "--out", "{d}/s.ply"], "--geometry"),
-        (["world", "--seed", "2", "--out", "{d}/" + TOO_LONG + ".blend"], "--out"),
-        (["world", "--seed", "2", "--out", "{d}/w.blend", "--map", "{d}/" + TOO_LONG + ".png"], "--map"),
-        (["extract", "--seed", "2", "--out", "{d}/" + TOO_LONG + ".npz"], "--out"),
+        (["world", *PAPER, "--seed", "2", "--out", "{d}/" + TOO_LONG + ".blend"], "--out"),
+        (
+            ["world", *PAPER, "--seed", "2", "--out", "{d}/w.blend", "--map", "{d}/" + TOO_LONG + ".png"],
+            "--map",
+        ),
+        (["extract", *PAPER, "--seed", "2", "--out", "{d}/" + TOO_LONG + ".npz"], "--out"),
         (["demo", "--out", "{d}/" + TOO_LONG], "--out"),
     ],
     ids=["scan-out", "scan-world", "scan-geometry", "world-out", "world-map", "extract-out", "demo-out"],
@@ -162,7 +165,7 @@ def test_an_existing_world_by_a_path_longer_than_blender_reads_is_called_too_lon
 
 def test_a_world_out_path_blender_cannot_write_is_refused_before_any_work(tmp_path):
     out = deep_folder(tmp_path, 1010) / "w.blend"
-    done = run([WILDSCAN, "world", "--seed", "2", "--detail", "low", "--quiet", "--out", str(out)])
+    done = run([WILDSCAN, "world", *PAPER, "--seed", "2", "--detail", "low", "--quiet", "--out", str(out)])
     assert done.returncode == 2
     assert "too long for Blender" in user_error_line(done)
     assert not any(out.parent.iterdir())

@@ -16,7 +16,7 @@ from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig
 
 from tests.helpers.analytic import weather_scene
-from tests.helpers.scene_helpers import WILDSCAN, run, user_error_line
+from tests.helpers.scene_helpers import PAPER, WILDSCAN, run, user_error_line
 
 RH = 4.0  # 45 2D scans
 
@@ -108,7 +108,7 @@ PARK_POSE_SEED_2_LOW = ("61.908", "-58.594", "126.6")  # `wildscan poses --seed 
 def geometry(tmp_path_factory):
     """Seed 2 at low detail as a geometry file (planned without Blender)."""
     out = tmp_path_factory.mktemp("geometry") / "seed2.npz"
-    done = run([WILDSCAN, "extract", "--seed", "2", "--detail", "low", "--out", str(out), "--quiet"])
+    done = run([WILDSCAN, "extract", *PAPER, "--seed", "2", "--detail", "low", "--out", str(out), "--quiet"])
     assert done.returncode == 0, done.stderr
     return out
 

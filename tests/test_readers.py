@@ -29,7 +29,7 @@ from tests.helpers.reader_helpers import (
     open3d_read,
     pcl_columns,
 )
-from tests.helpers.scene_helpers import BLENDER, WILDSCAN, blender_scan, run
+from tests.helpers.scene_helpers import BLENDER, PAPER, WILDSCAN, blender_scan, run
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
@@ -46,7 +46,7 @@ OPEN3D_TENSOR_KEEPS = {"positions", "colors", "intensity", "range", "scalar_labe
 
 def zone_poses(seed: int) -> dict[str, dict]:
     """The first valid pose of every zone of a seed (`wildscan poses`, no Blender)."""
-    proc = run([WILDSCAN, "poses", "--seed", str(seed), "--count", "1", "--json"])
+    proc = run([WILDSCAN, "poses", *PAPER, "--seed", str(seed), "--count", "1", "--json"])
     assert proc.returncode == 0, proc.stderr
     poses = {zone: found[0] for zone, found in json.loads(proc.stdout)["poses"].items() if found}
     assert sorted(poses) == sorted(ZONES), poses
@@ -71,11 +71,11 @@ def wildscan_scans(poses: dict, out: Path) -> list[Path]:
     for seed, zones in poses.items():
         scene = out.joinpath(*USER_FOLDER) / f"world {seed}.npz"
         scene.parent.mkdir(parents=True, exist_ok=True)
-        extract = run([WILDSCAN, "extract", "--seed", str(seed), "--out", str(scene), "--quiet"])
+        extract = run([WILDSCAN, "extract", *PAPER, "--seed", str(seed), "--out", str(scene), "--quiet"])
         assert extract.returncode == 0, extract.stderr
         for k, (zone, pose) in enumerate(zones.items()):
             ply = out / f"wildscan-{seed}-{zone}.ply"
-            world = ["--seed", str(seed)] if k == 0 else ["--geometry", str(scene)]
+            world = [*PAPER, "--seed", str(seed)] if k == 0 else ["--geometry", str(scene)]
             proc = run([WILDSCAN, "scan", *world, *pose_args(pose), "--out", str(ply), "--quiet"])
             assert proc.returncode == 0, proc.stderr
             plys.append(ply)
@@ -90,7 +90,7 @@ def blender_scans(poses: dict, out: Path) -> list[Path]:
         blend = out.joinpath(*USER_FOLDER) / f"world {seed}.blend"
         blend.parent.mkdir(parents=True, exist_ok=True)
         build = run([BLENDER, "-b", "--factory-startup", "-P", "blender_scripts/world.py", "--"] + [
-            "--seed", str(seed), "--out", str(blend), "--poses", "1", "--quiet",
+            *PAPER, "--seed", str(seed), "--out", str(blend), "--poses", "1", "--quiet",
         ])  # fmt: skip
         assert build.returncode == 0, build.stdout[-2000:] + build.stderr
         for zone, pose in zones.items():

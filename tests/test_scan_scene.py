@@ -15,6 +15,7 @@ from wildscan.core.world.testworld import plan_test_world
 
 from tests.helpers.scene_helpers import (
     BLENDER,
+    PAPER,
     REPO,
     WILDSCAN,
     blender_scan,
@@ -306,6 +307,7 @@ def test_a_bug_inside_blender_exits_1_not_0(tmp_path):
             "-P",
             str(script),
             "--",
+            *PAPER,
             "--seed",
             "1",
             "--pose",

@@ -70,7 +70,9 @@ def _panel_sensor(name: str, setting: str, value, model: str):
     from wildscan.ui.properties import field_limits, sensor_from
 
     device = device_named(name)
-    fields = {k: default(k, device) for k in ("rh", "min_range", "max_range", "noise", "divergence")}
+    fields = {
+        k: default(k, device) for k in ("rh", "min_range", "max_range", "noise", "divergence", "mount_height")
+    }
     fields[setting] = value
     settings = SimpleNamespace(
         device=name, model=model, noise_seed=0, datasheet_noise=False, sensor_file="", **fields

@@ -24,6 +24,7 @@ from wildscan.core.scan import run_scan
 from wildscan.core.sensors import SensorConfig
 
 from tests.helpers.analytic import weather_scene as scene
+from tests.helpers.scene_helpers import PAPER
 
 TERRAIN, FENCE, ROCK = 1, 6, 9
 
@@ -57,7 +58,7 @@ def test_a_bad_value_names_the_key_and_its_range(text, words):
 
 def test_a_bad_value_on_the_command_line_exits_2_with_one_line(tmp_path):
     run = subprocess.run(
-        [sys.executable, "-m", "wildscan.cli", "scan", "--seed", "0", "--pose", "0", "0", "0"]
+        [sys.executable, "-m", "wildscan.cli", "scan", *PAPER, "--seed", "0", "--pose", "0", "0", "0"]
         + ["--weather", "rain=1000", "--out", str(tmp_path / "s.ply")],
         capture_output=True,
         text=True,

@@ -15,6 +15,8 @@ from wildscan.blender.scene_io import BLEND_MAGICS
 from wildscan.cli import main
 from wildscan.core.world import ZONES
 
+from tests.helpers.scene_helpers import PAPER
+
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 
@@ -27,7 +29,17 @@ def run(capsys, *argv):
 def test_world_writes_blend_sidecar_and_map(tmp_path, capsys):
     out = tmp_path / "w.blend"
     code, stdout, err = run(
-        capsys, "world", "--seed", "3", "--out", str(out), "--map", str(tmp_path / "m.png"), "--detail", "low"
+        capsys,
+        "world",
+        *PAPER,
+        "--seed",
+        "3",
+        "--out",
+        str(out),
+        "--map",
+        str(tmp_path / "m.png"),
+        "--detail",
+        "low",
     )
     assert code == 0, err
     assert out.read_bytes().startswith(BLEND_MAGICS)
@@ -49,12 +61,12 @@ def test_world_writes_blend_sidecar_and_map(tmp_path, capsys):
 
 
 def test_poses_prints_valid_poses_per_zone(capsys):
-    code, out, err = run(capsys, "poses", "--seed", "1", "--zone", "cave", "--count", "4")
+    code, out, err = run(capsys, "poses", *PAPER, "--seed", "1", "--zone", "cave", "--count", "4")
     assert code == 0, err
     rows = [line.split() for line in out.splitlines() if not line.startswith("#")]
     assert len(rows) == 4 and all(r[0] == "cave" for r in rows)
     assert rows[0][4] != "-"  # the first cave pose stands inside: it needs --z-start
-    code, out, _ = run(capsys, "poses", "--seed", "1", "--count", "2", "--json")
+    code, out, _ = run(capsys, "poses", *PAPER, "--seed", "1", "--count", "2", "--json")
     data = json.loads(out)
     assert set(data["poses"]) == set(ZONES) and all(len(v) == 2 for v in data["poses"].values())
 
@@ -172,7 +184,7 @@ def test_quiet_scan_and_extract_of_a_blend_print_only_the_files_written(tmp_path
 def test_numbers_are_ascii_decimals_and_a_comma_is_told_to_be_a_point(tmp_path, capsys, value, message):
     for argv in (["--pose", value, "0", "0"], ["--pose", "0", "0", "0", "--max-range", value]):
         with pytest.raises(SystemExit) as exited:  # argparse's own exit, in one line
-            main(["scan", "--seed", "1", *argv, "--out", str(tmp_path / "s.ply")])
+            main(["scan", *PAPER, "--seed", "1", *argv, "--out", str(tmp_path / "s.ply")])
         err = capsys.readouterr().err
         assert exited.value.code == 2 and err.count("\n") == 1 and message in err, err
     assert list(tmp_path.iterdir()) == []
@@ -181,5 +193,7 @@ def test_numbers_are_ascii_decimals_and_a_comma_is_told_to_be_a_point(tmp_path, 
 def test_numbers_as_people_type_them_still_parse(capsys):
     from wildscan.cli import build_parser
 
-    args = build_parser().parse_args(["scan", "--seed", "1", "--pose", "-1e3", ".5", "-.5", "--out", "s.ply"])
+    args = build_parser().parse_args(
+        ["scan", *PAPER, "--seed", "1", "--pose", "-1e3", ".5", "-.5", "--out", "s.ply"]
+    )
     assert args.pose == [-1000.0, 0.5, -0.5]

@@ -67,7 +67,7 @@ def demo_table() -> str:
 def label_scheme_table() -> str:
     from wildscan.core.label_schemes import mapping_table_rows
 
-    headers = ["WildScan", "SemanticKITTI", "RELLIS-3D", "GOOSE"]
+    headers = ["WildScan", "SemanticKITTI", "RELLIS-3D", "GOOSE", "WildScenes"]
     rows = [list(r) for r in mapping_table_rows()]
     if any(len(r) != len(headers) for r in rows):
         raise SystemExit(f"mapping_table_rows() has {len(rows[0])} columns; name them in {__file__}")

@@ -110,6 +110,7 @@ def step_generate():
     s = bpy.context.scene.wildscan
     s.seed = ARGS.seed
     s.detail = "low"
+    s.world_layout = "paper"  # the paper's island: the screenshots show its zones
     run_op("generate_world", bpy.ops.wildscan.generate_world)
     from wildscan.ui.scene import world_objects
 

@@ -129,13 +129,19 @@ def user_error_line(proc: subprocess.CompletedProcess) -> str:
     return lines[0]
 
 
+# the paper layout: the tests that read the paper island's zones and poses say so
+PAPER = ("--layout", "paper")
+
+
 def save_seed_2_low(directory: Path) -> Path:
     """The world of seed 2 at low detail saved by the wheel as w.blend (+ w.json) and w.npz."""
     from tests.helpers.processes import finished
 
     for cmd in (["world", "--out", "w.blend"], ["extract", "--out", "w.npz"]):
         what = f"`wildscan {cmd[0]}` of seed 2 (low detail) for the tests' worlds"
-        finished([WILDSCAN, *cmd, "--seed", "2", "--detail", "low", "--quiet"], what, 600, cwd=directory)
+        finished(
+            [WILDSCAN, *cmd, *PAPER, "--seed", "2", "--detail", "low", "--quiet"], what, 600, cwd=directory
+        )
     return directory
 
 

@@ -1,6 +1,9 @@
-"""The demo: the default world of a seed with its aerial map, and one labeled scan per zone
-with a preview image each — the paper's section V in one command. It builds and scans
-with the very functions `wildscan world` and `wildscan scan` use (app.world, app.scan)."""
+"""The demo, in two parts that say which is which. First the paper's island (`--layout paper
+--biome paper`) of a seed with its aerial map and one labeled scan per zone with a preview
+image each, the paper's section V in one command, its point counts beside the paper's.
+Then the default world (the endless layout, the default biome, what `wildscan scan --seed`
+scans): one scan per land cover found around the origin. It builds and scans with the very
+functions `wildscan world` and `wildscan scan` use (app.world, app.scan)."""
 
 from __future__ import annotations
 
@@ -109,3 +112,79 @@ def scan_zones(
 def classes_in_no_scan(scans: list[ZoneScan]) -> list[str]:
     seen = {c for s in scans for c in s.cloud.class_counts()}
     return [c.name for c in CLASSES if c.id not in seen]
+
+
+# ---------------------------------------------------------------------------------------
+# the second half: the default world (the endless layout, the default biome)
+
+
+@dataclass
+class CoverScan:
+    cover: str  # the land cover the pose stands on
+    pose: Pose
+    cloud: PointCloud
+    ply: Path
+    tiles: str  # where its tiles came from (app/tiles.py TileCounts.text)
+
+    @property
+    def classes(self) -> list[str]:
+        return sorted(BY_ID[c].name for c in self.cloud.class_counts())
+
+
+def scan_endless(
+    seed: int, out: Path, sensor: SensorConfig, backend: str = "auto", notify=print, cache=None
+) -> Iterator[CoverScan]:
+    """One scan per land cover of the default endless world around the origin (its default
+    biome): the valid pose of each cover nearest the origin (nearest_cover_poses), scanned as
+    `wildscan scan --seed S --pose X Y YAW` scans it (the tiles within reach, levels of
+    detail on); each scan's PLY, sidecar and preview under `out`."""
+    from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION
+    from ..viz.preview import render_preview
+    from .poses import TileBackends
+    from .scan import endless_scan_geometry, scan_current_scene, write_scan
+    from .tiles import TiledWorld, process_memory
+
+    world = TiledWorld(seed, DEFAULT_BIOME, DETAIL, DEFAULT_VEGETATION)
+    memory = process_memory()
+    backends = TileBackends(world, cache, memory)
+    for cover, found in nearest_cover_poses(world, backends).items():
+        pose = Pose(found["x"], found["y"], found["yaw"])
+        geometry, counts = endless_scan_geometry(
+            seed, pose, sensor, True, world.biome, world.vegetation, DETAIL, cache, memory
+        )
+        result = scan_current_scene(pose, sensor, "leveled", None, backend, notify=notify, geometry=geometry)
+        ply = out / f"scan_{cover}.ply"
+        write_scan(ply, result, seed, None, layout="endless", biome=world.biome, lod="on", cover=cover)
+        where = f"({pose.x:.1f}, {pose.y:.1f}, {pose.yaw_deg:.0f} deg)"
+        title = f"endless world, {cover}: {len(result.cloud):,} points, seed {seed}, pose {where}"
+        render_preview(result.cloud, ply.with_suffix(".png"), title=title)
+        yield CoverScan(cover, pose, result.cloud, ply, counts.text())
+
+
+COVER_SEARCH_M = 300.0  # how far from the origin the demo looks for each land cover
+COVER_STEP_M = 5.0  # spacing of the points it looks at
+COVER_TRIES = 12  # nearest points of a cover tried before that cover is left out
+
+
+def nearest_cover_poses(world, backends) -> dict[str, dict]:
+    """For each land cover, the valid pose nearest the origin on it (yaw 0; points on a
+    COVER_STEP_M lattice within COVER_SEARCH_M, the nearest COVER_TRIES tried): every cover
+    the landscape has near the origin, in a few tiles' builds."""
+    import numpy as np
+
+    from .poses import placed_poses
+    from .tiles import endless
+
+    E = endless()
+    axis = np.arange(-COVER_SEARCH_M, COVER_SEARCH_M + COVER_STEP_M / 2, COVER_STEP_M)
+    gx, gy = (a.ravel() for a in np.meshgrid(axis, axis))
+    near = np.argsort(np.hypot(gx, gy), kind="stable")
+    cover = np.asarray(E.land_cover_at(world.seed, world.biome, gx, gy)).ravel()
+    out = {}
+    for k, name in enumerate(E.LAND_COVERS):
+        tried = near[cover[near] == k][:COVER_TRIES]
+        placed = placed_poses(backends, [(float(gx[i]), float(gy[i]), 0.0) for i in tried])
+        found = next((p for p in placed if p is not None), None)
+        if found is not None:
+            out[name] = found
+    return out

@@ -47,6 +47,38 @@ def world_geometry_of(
     return extract_scene(), {"seed": scene_seed, "detail": None, "world": blend}
 
 
+def region_geometry_of(
+    seed: int,
+    layout: str,
+    region,
+    detail: str = "default",
+    vegetation: str = DEFAULT_VEGETATION,
+    biome: str = DEFAULT_BIOME,
+    cache=None,
+    memory=None,
+    progress=None,
+):
+    """(SceneGeometry, metadata, tile counts or None) of a region (core/world/region.py Region) of
+    the world of `seed`: on the endless layout its tiles at full detail (through the world
+    cache, app/tiles.py), every triangle whose xy box meets the region; on the paper layout
+    the island's, the same way (the default region is the whole island, as before)."""
+    from ..core.world.region import DEFAULT_REGION
+    from .tiles import TiledWorld, crop_to_region, region_levels, tiles_geometry
+
+    if layout == "paper":
+        geometry, metadata = world_geometry_of(None, seed, detail, vegetation, True, biome)
+        if region != DEFAULT_REGION:
+            geometry = crop_to_region(geometry, region)
+            metadata["region"] = region.to_dict()
+        return geometry, metadata, None
+    world = TiledWorld(seed, biome, detail, vegetation)
+    levels = region_levels(region)
+    geometry, counts = tiles_geometry(world, levels, cache, memory, progress=progress, region=region)
+    metadata = {"seed": seed, "layout": "endless", "detail": detail, "vegetation": vegetation}
+    metadata.update(biome=biome, region=region.to_dict(), world=None)
+    return geometry, metadata, counts
+
+
 def extract(
     out: str | os.PathLike,
     world: str | None = None,
@@ -55,15 +87,27 @@ def extract(
     vegetation: str = DEFAULT_VEGETATION,
     quiet: bool = False,
     biome: str = DEFAULT_BIOME,
+    layout: str = "paper",
+    region=None,
+    cache=None,
+    progress=None,
 ):
-    """Save the geometry of a world (see world_geometry_of) to `out` (.npz); returns
-    (path, geometry, metadata). The output path is checked before any work."""
+    """Save the geometry of a world (see world_geometry_of; with `seed`, the `region` of its
+    `layout`: region_geometry_of) to `out` (.npz); returns (path, geometry, metadata, tile
+    counts or None). The output path is checked before any work."""
     from ..core.io.files import check_output_path
+    from ..core.world.region import DEFAULT_REGION
     from ..raycast.scene_file import SUFFIX, save_geometry
 
     check_output_path(out, SUFFIX)
-    geometry, metadata = world_geometry_of(world, seed, detail, vegetation, quiet, biome)
-    return save_geometry(geometry, out, metadata), geometry, metadata
+    if seed is not None and (layout != "paper" or (region is not None and region != DEFAULT_REGION)):
+        region = DEFAULT_REGION if region is None else region
+        geometry, metadata, counts = region_geometry_of(
+            seed, layout, region, detail, vegetation, biome, cache, progress=progress
+        )
+    else:
+        (geometry, metadata), counts = world_geometry_of(world, seed, detail, vegetation, quiet, biome), None
+    return save_geometry(geometry, out, metadata), geometry, metadata, counts
 
 
 def load_scan_geometry(path: str | os.PathLike, backend: str):

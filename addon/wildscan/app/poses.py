@@ -4,8 +4,11 @@ lists them in the world's sidecar, the demo and the benchmark scan from them."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..core.backend import RayBackend
 from ..core.errors import PoseRejected
+from ..core.rng import stage_rng
 from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION, ZONES, WorldPlan, candidate_sites, plan_world
 
 DEFAULT_POSES_PER_ZONE = 5
@@ -26,11 +29,12 @@ def plan_backend(plan: WorldPlan, notify=None) -> RayBackend:
 
 
 def valid_poses(
-    plan: WorldPlan, backend: RayBackend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES
+    plan: WorldPlan, backend: RayBackend, count: int = DEFAULT_POSES_PER_ZONE, zones=ZONES, region=None
 ) -> dict[str, list[dict]]:
     """Up to `count` poses per zone that `placement.place` accepts: the zone's reserved
     sites first (chosen where its classes are in view), then random candidates, at most
-    CANDIDATES_PER_POSE a pose asked."""
+    CANDIDATES_PER_POSE a pose asked; only those inside `region` (core/world/region.py Region)
+    when given."""
     from ..core.placement import place
 
     out: dict[str, list[dict]] = {}
@@ -46,6 +50,8 @@ def valid_poses(
             for site in pool[tried:]:
                 if len(accepted) >= count:
                     break
+                if region is not None and not _inside(region, site.x, site.y):
+                    continue
                 try:
                     placement = place(backend, site.pose, site.z_start)
                 except PoseRejected:
@@ -61,6 +67,10 @@ def valid_poses(
     return out
 
 
+def _inside(region, x: float, y: float) -> bool:
+    return region.xmin <= x <= region.xmax and region.ymin <= y <= region.ymax
+
+
 def poses_of_seed(
     seed: int,
     detail: str = "default",
@@ -68,7 +78,114 @@ def poses_of_seed(
     zones=ZONES,
     vegetation: str = DEFAULT_VEGETATION,
     biome: str = DEFAULT_BIOME,
+    region=None,
 ) -> dict[str, list[dict]]:
-    """Valid poses of the world of `seed`, planned (not built): `wildscan poses`."""
+    """Valid poses of the paper layout's world of `seed`, planned (not built), inside `region`
+    when given: `wildscan poses --layout paper`."""
     plan = plan_world(seed, detail, vegetation=vegetation, biome=biome)
-    return valid_poses(plan, plan_backend(plan), count, zones)
+    return valid_poses(plan, plan_backend(plan), count, zones, region)
+
+
+# ---------------------------------------------------------------------------------------
+# the endless layout: poses anywhere in a region, by land cover
+
+ENDLESS_TRIES = 40  # candidates tried per pose asked before giving up (a region with little of a cover)
+EDGE_MARGIN = 2.0  # m kept from the region's edge: the placement's lasers reach ~1 m around the pose
+
+
+PLACEMENT_REACH = 3.0  # m around a pose the placement casts in (its lasers, the enclosure check)
+BACKENDS_KEPT = 4  # tile backends a pose search keeps (a region's neighbourhoods, built once each)
+
+
+class TileBackends:
+    """Ray backends over the few full-detail tiles around a pose (a pose's placement reaches a
+    metre or two), built when first asked for and the last BACKENDS_KEPT kept: a region's
+    poses are checked tile by tile, never against the whole region at once."""
+
+    def __init__(self, world, cache=None, memory=None):
+        from collections import OrderedDict
+
+        self.world, self.cache, self.memory = world, cache, memory
+        self.kept: OrderedDict = OrderedDict()
+
+    def key(self, x: float, y: float) -> tuple:
+        from .tiles import ELEMENT_OVERHANG_M, endless
+
+        reach = PLACEMENT_REACH + ELEMENT_OVERHANG_M  # an element of a tile nearby may stand over the pose
+        return tuple(sorted(endless().tiles_in_disc(float(x), float(y), reach)))
+
+    def backend(self, key: tuple) -> RayBackend:
+        if key in self.kept:
+            self.kept.move_to_end(key)
+            return self.kept[key]
+        from ..raycast.select import make_backend
+        from .tiles import full_detail, tiles_geometry
+
+        geometry, _ = tiles_geometry(self.world, full_detail(key), self.cache, self.memory)
+        self.kept[key] = make_backend("auto", geometry=geometry, notify=None)
+        while len(self.kept) > BACKENDS_KEPT:
+            self.kept.popitem(last=False)
+        return self.kept[key]
+
+
+def endless_poses(
+    world,
+    region,
+    count: int = DEFAULT_POSES_PER_ZONE,
+    covers: tuple[str, ...] | None = None,
+    cache=None,
+    memory=None,
+    backends: TileBackends | None = None,
+) -> list[dict]:
+    """Up to `count` poses in `region` of the endless world `world` (app/tiles.py TiledWorld)
+    that the placement accepts, on the land covers `covers` (None: any), each listed with
+    its land cover. Candidates are drawn uniformly over the region from a generator of the
+    seed, the region and the covers, a batch at a time; a batch is checked tile by tile
+    (TileBackends) and its accepted poses taken in the order drawn, so the same request lists
+    the same poses. `backends`: shared when a caller asks for several covers of one region."""
+    from .tiles import endless
+
+    E = endless()
+    backends = TileBackends(world, cache, memory) if backends is None else backends
+    wanted = None if covers is None else {E.LAND_COVERS.index(c) for c in covers}
+    rng = stage_rng(world.seed, f"poses.endless:{region.text()}:{','.join(covers or ())}")
+    accepted: list[dict] = []
+    for _ in range(ENDLESS_TRIES):
+        if len(accepted) >= count:
+            break
+        batch = 2 * count + 2
+        x = rng.uniform(region.xmin + EDGE_MARGIN, region.xmax - EDGE_MARGIN, batch)
+        y = rng.uniform(region.ymin + EDGE_MARGIN, region.ymax - EDGE_MARGIN, batch)
+        yaw = rng.uniform(0.0, 360.0, batch)
+        cover = np.asarray(E.land_cover_at(world.seed, world.biome, x, y))
+        tried = [k for k in range(batch) if wanted is None or int(cover[k]) in wanted]
+        found = placed_poses(
+            backends, [(round(float(x[k]), 3), round(float(y[k]), 3), round(float(yaw[k]), 1)) for k in tried]
+        )
+        for k, entry in zip(tried, found):
+            if entry is not None and len(accepted) < count:
+                accepted.append(dict(entry, cover=E.LAND_COVERS[int(cover[k])]))
+    return accepted
+
+
+def placed_poses(backends: TileBackends, poses: list[tuple]) -> list[dict | None]:
+    """Each (x, y, yaw) placed (its entry) or rejected (None), checked grouped by the tiles
+    around it so each group's backend is built once."""
+    from ..core.placement import Pose, place
+
+    keys = [backends.key(x, y) for x, y, _ in poses]
+    out: list[dict | None] = [None] * len(poses)
+    for k in sorted(range(len(poses)), key=lambda k: keys[k]):
+        pose = Pose(*poses[k])
+        try:
+            placement = place(backends.backend(keys[k]), pose)
+        except PoseRejected:
+            continue
+        out[k] = {
+            "x": pose.x,
+            "y": pose.y,
+            "yaw": pose.yaw_deg,
+            "tilt_deg": round(float(placement.to_dict()["tilt_deg"]), 2),
+            "optical_centre_z": round(float(placement.optical_centre[2]), 3),
+        }
+    return out

@@ -9,7 +9,7 @@ from typing import Callable
 
 from ..core.backend import RayBackend
 from ..core.errors import UserError
-from ..core.placement import COLUMN_HEIGHT, Pose, check_z_start
+from ..core.placement import Pose, check_z_start
 from ..core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
 from ..core.sensors import SensorConfig
 from ..core.world.biomes import DEFAULT_BIOME
@@ -37,7 +37,7 @@ def make_scene_backend(
 def crop_radius(sensor: SensorConfig) -> float:
     """How far from the pose (in xy) a scan can reach: rays are cast past max range by
     the noise margin (core.scan), from an optical centre up to a column height off the pose."""
-    return sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma + COLUMN_HEIGHT + CROP_MARGIN
+    return sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma + sensor.mount_height + CROP_MARGIN
 
 
 def scan_current_scene(
@@ -168,3 +168,26 @@ def write_scan(
     w = formats.writer(fmt)
     scan = formats.single_scan(w, result.cloud, metadata, ascii, result.lost_cells)
     return formats.write_scan(w, scan, out, range_image)
+
+
+def endless_scan_geometry(
+    seed: int,
+    pose: Pose,
+    sensor: SensorConfig,
+    lod: bool = True,
+    biome: str = DEFAULT_BIOME,
+    vegetation: str = "porous",
+    detail: str = "default",
+    cache=None,
+    memory=None,
+    progress=None,
+):
+    """(SceneGeometry, TileCounts): the endless world of `seed` as a scan from `pose` sees it,
+    the tiles within the sensor's reach (crop_radius), each at the level the device resolves
+    there (full detail with `lod` off), from memory, the world cache or built (app/tiles.py)."""
+    from .tiles import TiledWorld, scan_levels, tiles_geometry
+
+    world = TiledWorld(seed, biome, detail, vegetation)
+    reach = crop_radius(sensor)
+    levels = scan_levels(sensor, pose.x, pose.y, reach, lod, detail)
+    return tiles_geometry(world, levels, cache, memory, (pose.x, pose.y), progress, radius=reach)

@@ -27,6 +27,7 @@ from ..core.sensors.config import (
     setting_defaults,
     setting_limits,
 )
+from ..core.sensors.load import COLUMN_HEIGHT, MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
 from ..core.sensors.returns import RETURN_MODES
 
 __all__ = ["Limits", "SETTINGS", "Setting", "default", "limits"]
@@ -59,11 +60,18 @@ SETTINGS: dict[str, Setting] = {
     "detail": Setting("--detail", "Detail"),
     "vegetation": Setting("--vegetation", "Vegetation"),
     "biome": Setting("--biome", "Biome"),
+    "layout": Setting("--layout", "Layout"),
+    "region": Setting("--region", "Region"),
+    "lod": Setting("--lod", "Level of detail"),
+    "cache": Setting("--cache"),
+    "no_cache": Setting("--no-cache"),
+    "cache_size": Setting("--cache-size"),
     "zone": Setting("--zone"),
     "world": Setting("--world"),
     "geometry": Setting("--geometry"),
     "map": Setting("--map"),
     "poses": Setting("--poses"),
+    "like": Setting("--like"),
     "count": Setting("--count"),
     # the pose
     "pose": Setting("--pose", "Pose"),
@@ -158,6 +166,17 @@ SETTINGS: dict[str, Setting] = {
         f"ones merge into one mixed range, metres, above 0 and at most {MAX_ECHO_SEPARATION:g}",
         default_help="default: the device's; " + _per_device(lambda d: d.optics.echo_separation_m),
     ),
+    "mount_height": Setting(
+        "--mount-height",
+        "Mount height",
+        float,
+        unit="m",
+        metavar="M",
+        help=f"height of the optical centre above the ground the robot stands on, metres, "
+        f"{MIN_MOUNT_HEIGHT:g} to {MAX_MOUNT_HEIGHT:g}",
+        default_help=f"default {COLUMN_HEIGHT:g}, the paper robot's column; a device file's [mount] "
+        "height for its device",
+    ),
     "returns": Setting(
         "--returns",
         "Returns",  # the panel scans in the device's default mode
@@ -191,6 +210,7 @@ SETTINGS: dict[str, Setting] = {
     "imu": Setting("--imu"),
     "imu_rate": Setting("--imu-rate"),
     "imu_noise": Setting("--imu-noise"),
+    "route": Setting("--route"),
     # outputs
     "out": Setting("--out", "File"),
     "format": Setting("--format", "Format"),

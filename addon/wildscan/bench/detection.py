@@ -15,12 +15,18 @@ core/sensors/detection.py).
    preset: the share of echoes lost by class, range and incidence.
 3. The time of that scan with and without the detection step, side by side: RUNS pairs, the two
    scans of a pair back to back, so a change in the machine's load falls on both; the medians,
-   and the median of the pairs' ratios. Goal: that ratio at most TARGET_TIME_RATIO.
+   the median of the pairs' ratios, and the ratio of the fastest of each (what the step itself
+   costs: other processes only ever slow a run down, as timeit's documentation says of its
+   minimum); and, in one scan on one thread, the time spent inside the step itself (its
+   functions timed as they run) against the whole scan's: the ratio that scan would have
+   without it, free of what other processes do between runs. Goal: the median of the pairs'
+   ratios at most TARGET_TIME_RATIO (on a loaded machine read the step's own share beside it).
 """
 
 from __future__ import annotations
 
 import statistics
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -33,7 +39,7 @@ RANGE_STEP = 0.005  # of the limit's range between target placements
 RANGE_SPAN = (0.8, 1.2)
 TOLERANCE = 0.05
 TARGET_TIME_RATIO = 1.1
-RUNS = 7
+RUNS = 9
 QUICK_RUNS = 1
 TARGET_CLASS = 4  # a table: a flat surface of a class with a Table I reflectivity (its energy is divided out)
 TARGET_INSTANCE = 1
@@ -186,9 +192,38 @@ def world_rows(seed: int, quick: bool) -> list[dict]:
                 "with_s": statistics.median(times),
                 "without_s": statistics.median(times_off),
                 "ratio": statistics.median(a / b for a, b in zip(times, times_off, strict=True)),
+                "fastest_ratio": min(times) / min(times_off),
+                "step_share": step_share(backend, pose, sensor, z_start, seed),
             }
         )
     return rows
+
+
+def step_share(backend, pose, sensor, z_start, seed: int) -> float:
+    """The share of one scan's time (on one thread) spent in the detection step's own functions
+    (core/realism/realistic.py calls lost_echoes and tally per block of beams)."""
+    from ..core.realism import realistic
+
+    spent = [0.0]
+
+    def clocked(f):
+        def run(*args):
+            t0 = time.perf_counter()
+            try:
+                return f(*args)
+            finally:
+                spent[0] += time.perf_counter() - t0
+
+        return run
+
+    saved = realistic.lost_echoes, realistic.tally, getattr(backend, "threads", None)
+    realistic.lost_echoes, realistic.tally = clocked(saved[0]), clocked(saved[1])
+    backend.threads = 1
+    try:
+        whole = _timed_scan(backend, pose, sensor, z_start, seed)
+    finally:
+        realistic.lost_echoes, realistic.tally, backend.threads = saved
+    return spent[0] / whole
 
 
 def _timed_scan(backend, pose, sensor, z_start, seed: int) -> float:
@@ -219,12 +254,31 @@ def print_world(rows: list[dict], seed: int) -> bool:
         print(text_table(["range", "lost"], [[k, share(v)] for k, v in lost["by_range"].items()]))
         print(text_table(["incidence", "lost"], [[k, share(v)] for k, v in lost["by_incidence"].items()]))
     print("\nrealistic scan time with and without the detection step (medians of pairs run back to back)")
-    table = [[r["device"], f"{r['without_s']:.3f}", f"{r['with_s']:.3f}", f"{r['ratio']:.3f}x"] for r in rows]
-    print(text_table(["preset", "without s", "with s", "ratio (median of pairs)"], table))
+    table = [
+        [
+            r["device"],
+            f"{r['without_s']:.3f}",
+            f"{r['with_s']:.3f}",
+            f"{r['ratio']:.3f}x",
+            f"{r['fastest_ratio']:.3f}x",
+            f"{100 * r['step_share']:.1f} % ({1 / (1 - r['step_share']):.3f}x)",
+        ]
+        for r in rows
+    ]
+    headers = [
+        "preset",
+        "without s",
+        "with s",
+        "ratio (median of pairs)",
+        "ratio (fastest)",
+        "step's own share",
+    ]
+    print(text_table(headers, table))
     worst = max(r["ratio"] for r in rows)
     met = worst <= TARGET_TIME_RATIO
     verdict = "met" if met else "NOT met"
-    print(f"goal: at most {TARGET_TIME_RATIO:g}x the time without the step: {verdict} (worst {worst:.3f}x)")
+    goal = f"the median pair at most {TARGET_TIME_RATIO:g}x"
+    print(f"goal: {goal}: {verdict} (worst {worst:.3f}x)")
     return met
 
 

@@ -149,7 +149,7 @@ def _check_finished(root: Path, data: dict) -> None:
         )
 
 
-def _velodyne(row: dict) -> tuple[str, str]:
+def velodyne_files(row: dict) -> tuple[str, str]:
     bins = [f["path"] for f in row["files"] if f["path"].split("/")[-2] == "velodyne"]
     path = bins[0]
     return path, path.replace("/velodyne/", "/labels/").removesuffix(".bin") + ".label"
@@ -157,7 +157,7 @@ def _velodyne(row: dict) -> tuple[str, str]:
 
 def read_scan(ds: LearnDataset, row: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(xyz, remission, learning id) of one scan, from its .bin and .label."""
-    bin_path, label_path = _velodyne(row)
+    bin_path, label_path = velodyne_files(row)
     points = np.fromfile(ds.root / bin_path, dtype="<f4").reshape(-1, 4)
     raw = np.fromfile(ds.root / label_path, dtype="<u4") & 0xFFFF
     return points[:, :3], points[:, 3], ds.lookup()[raw]
@@ -240,13 +240,36 @@ def collect(ds: LearnDataset, with_intensity: bool, say=print) -> tuple[Split, S
 # the baseline
 
 
-def bench_learn(root: Path, with_intensity: bool = False) -> LearnResult:
+def classifier():
+    """scikit-learn's HistGradientBoostingClassifier, or a UserError saying how to get it."""
     try:
         from sklearn.ensemble import HistGradientBoostingClassifier
     except ImportError:
         raise UserError(
             "the learn suite needs scikit-learn: pip install scikit-learn (the `learn` extra)"
         ) from None
+    return HistGradientBoostingClassifier
+
+
+def fit_predict(x_train, y_train, x_test, model_class=None):
+    """The baseline (MODEL) fitted on (x_train, y_train): its predictions for x_test and the
+    perf_counter time its training ended (the prediction's start)."""
+    from threadpoolctl import threadpool_limits
+
+    model_class = model_class or classifier()
+    # One thread: OpenMP's threads spin-wait, and on a shared, loaded machine two of them took
+    # 13x as long as one (20k points, 12 classes: 42 s against 3.3 s); one is also the same
+    # arithmetic everywhere.
+    with threadpool_limits(1):
+        model = model_class(**MODEL)
+        model.fit(x_train, y_train)
+        trained = time.perf_counter()
+        predicted = model.predict(x_test) if len(x_test) else np.zeros(0, dtype=np.int64)
+    return predicted, trained
+
+
+def bench_learn(root: Path, with_intensity: bool = False) -> LearnResult:
+    HistGradientBoostingClassifier = classifier()
     ds = open_dataset(root)
     width = len(feature_names(with_intensity))
     t0 = time.perf_counter()
@@ -254,16 +277,7 @@ def bench_learn(root: Path, with_intensity: bool = False) -> LearnResult:
     x_train, y_train = train.arrays(width)
     x_test, y_test = test.arrays(width)
     t1 = time.perf_counter()
-    from threadpoolctl import threadpool_limits
-
-    # One thread: OpenMP's threads spin-wait, and on a shared, loaded machine two of them took
-    # 13x as long as one (20k points, 12 classes: 42 s against 3.3 s); one is also the same
-    # arithmetic everywhere.
-    with threadpool_limits(1):
-        model = HistGradientBoostingClassifier(**MODEL)
-        model.fit(x_train, y_train)
-        t2 = time.perf_counter()
-        predicted = model.predict(x_test) if len(x_test) else np.zeros(0, dtype=np.int64)
+    predicted, t2 = fit_predict(x_train, y_train, x_test, HistGradientBoostingClassifier)
     t3 = time.perf_counter()
     result = score(ds, y_train, y_test, predicted, test.name, with_intensity)
     result.seconds = {"features": t1 - t0, "training": t2 - t1, "prediction": t3 - t2}

@@ -1,10 +1,11 @@
-"""`wildscan bench [--suite backends|world|...|casters|detection]` and
-`wildscan bench-world` (= `bench --suite world`)."""
+"""`wildscan bench [--suite backends|world|drive|realism|far|weather|devices|learn DIR|biomes|casters|
+lod|detection]` and `wildscan bench-world` (= `bench --suite world`)."""
 
 from __future__ import annotations
 
 import argparse
 
+from ..core.label_schemes import SCHEME_NAMES
 from . import options
 from .options import ArgumentParser, Option
 
@@ -19,6 +20,7 @@ SUITES = (
     "learn",
     "biomes",
     "casters",
+    "lod",
     "detection",
 )
 HELP = "time and check every ray backend against scene.ray_cast (--suite world: world building)"
@@ -78,14 +80,21 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "model's curve, and the default world in each (docs/weather.md); devices: every device preset's "
         "full-frame scan time beside Embree's own cast of the same rays (goal <= 1.5x); learn DIR: train a "
         "fixed CPU-only baseline (gradient boosting on per-point geometry) on the dataset DIR's train split "
-        "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md); "
+        "and print per-class IoU, mIoU and the confusion matrix on its test split (docs/benchmarks.md), or "
+        "with --test REAL_DIR --scheme NAME score it on real scans beside a real-trained ceiling "
+        "(docs/training.md); "
         "biomes: per biome the class mix in RELLIS-3D's categories beside RELLIS-3D's, build time, scan time "
         "and memory beside the paper world of the same seeds at the same poses; the default biome also with "
         "poses uniform over the world, and its bare ground by zone (docs/ground.md); "
         "casters: every float32 ray caster (embreex, "
         "Embree filled from numpy, Embree packets, Open3D, Warp, Mitsuba) on the same triangles and rays: "
         "build time, rays/s on 1 and 2 threads, memory, and whether its scans are the same bytes as "
-        "embree's; detection: per device preset the farthest range a flat 10 %% and 80 %% target is "
+        "embree's; lod: per device preset on the endless world, cold scan time (tile builds included) and "
+        "agreement "
+        "(labels, ranges within the device's noise sigma) of level-of-detail scans against --lod off scans "
+        "of the same poses, a cold and a warm Hokuyo scan, and the memory of a process that scans 100 poses "
+        "over 2 km (docs/scanning.md); "
+        "detection: per device preset the farthest range a flat 10 %% and 80 %% target is "
         "detected at by the realistic model beside its datasheet's (goal within 5 %%), the default world's "
         "lost returns by class, range and incidence, and the realistic scan time with and without the "
         "detection step (goal <= 1.1x)",
@@ -93,6 +102,20 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument("dataset", nargs="?", metavar="DIR", help="--suite learn: the dataset to measure")
     p.add_argument(
         "--card", action="store_true", help="--suite learn: also write its table into DIR's CARD.md"
+    )
+    p.add_argument(
+        "--test",
+        metavar="REAL_DIR",
+        help="--suite learn: score the baseline trained on DIR on the real scans in REAL_DIR, in their "
+        "dataset's own layout (SemanticKITTI, RELLIS-3D or GOOSE .bin + .label, WildScenes Clouds/ + "
+        "Labels/), beside the same model trained on the earlier half of REAL_DIR (the ceiling); needs "
+        "--scheme",
+    )
+    p.add_argument(
+        "--scheme",
+        choices=SCHEME_NAMES,
+        help="--suite learn --test: the label ids of REAL_DIR's labels (its learning map decides the "
+        "classes)",
     )
     p.add_argument(
         "--with-intensity",
@@ -197,6 +220,12 @@ def _bench_casters():
     return bench_casters
 
 
+def _bench_lod():
+    from ..bench.lod import bench_lod
+
+    return bench_lod
+
+
 def _bench_biomes():
     from ..bench.biomes import bench_biomes
 
@@ -217,6 +246,7 @@ SEED_AND_QUICK_SUITES = {
     "devices": _bench_devices,
     "biomes": _bench_biomes,
     "casters": _bench_casters,
+    "lod": _bench_lod,
     "detection": _bench_detection,
 }
 
@@ -235,9 +265,13 @@ def _run_suite(args: argparse.Namespace) -> int:
 
 def _run_chosen_suite(args: argparse.Namespace) -> int:
     if args.suite == "learn":
+        _only_for_backends(args, also=("details",))
+        if args.test is not None or args.scheme is not None:
+            from ..bench.learn_real import run_transfer
+
+            return run_transfer(args)
         from ..bench.learn import run_learn
 
-        _only_for_backends(args, also=("details",))
         return run_learn(args)
     _only_for_learn(args)
     if args.suite == "far":
@@ -290,7 +324,7 @@ def _only_for_learn(args: argparse.Namespace) -> None:
 
     if args.dataset is not None:
         raise UserError(f"a dataset folder ({args.dataset}) is measured by --suite learn only")
-    for flag in ("card", "with_intensity"):
+    for flag in ("card", "with_intensity", "test", "scheme"):
         if getattr(args, flag):
             raise UserError(f"--{flag.replace('_', '-')} applies to --suite learn only")
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..core.checks import decimal, whole_number
+from ..core.checks import whole_number
 from ..core.errors import UserError
 from . import options
 
@@ -16,8 +16,9 @@ HELP, DESCRIPTION = (
     "code reads (SemanticKITTI, LAS 1.4, PLY), with a manifest of every file (size, SHA-256), a dataset card "
     "and ground truth for traversability (height above terrain per point, a bird's-eye grid per scan). Runs "
     "on a local Dask cluster, or on an existing one with --scheduler; rerunning the same command into the "
-    "same --out resumes and gives the bytes of one uninterrupted run. See docs/datasets.md for the spec "
-    "keys.",
+    "same --out resumes and gives the bytes of one uninterrupted run. A dataset's worlds are the paper "
+    'layout\'s island (layout = "paper"; datasets over the endless layout come with the next issue). See '
+    "docs/datasets.md for the spec keys.",
 )
 BENCH_HELP, BENCH_DESCRIPTION = (
     "time `wildscan dataset` with 1 and 2 workers side by side, cold and warm world cache",
@@ -35,6 +36,14 @@ def _positive(text: str, setting: str, high: int = 1_000_000) -> int:
         return whole_number(text, setting, 1, high)
     except UserError as e:
         raise argparse.ArgumentTypeError(e.message) from None
+
+
+def _like(text: str) -> str:
+    from ..app.dataset.like import LIKES
+
+    if text not in LIKES:
+        raise UserError(f"must be one of {', '.join(LIKES)}, got {text!r}", setting="like")
+    return text
 
 
 def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
@@ -68,37 +77,15 @@ def add_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
         "size and SHA-256, no file nothing lists) and exit",
     )
     p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
-    add_cache_arguments(p)
-
-
-def add_cache_arguments(p: argparse.ArgumentParser) -> None:
-    from ..app.cache.config import DEFAULT_MAX_GB
-
-    cache = p.add_mutually_exclusive_group()
-    cache.add_argument(
-        "--cache",
-        metavar="DIR",
-        help="keep each world a worker builds in DIR, for every later run and worker (default: "
-        "$XDG_CACHE_HOME/wildscan, or ~/.cache/wildscan; docs/datasets.md says how to clear it)",
+    options.add(
+        p,
+        options.Option("like", dict(metavar="NAME"), _like),
+        help="a real dataset's rig, mount height, label ids and files in one word (SPEC.toml's `like`, "
+        "which this replaces; the spec's own keys win): rellis3d (OS1-64 at 1.14 m), goose (VLS-128 at "
+        "2.0 m), wildscenes (the tilted VLP-16 on its turning mount at 1.2 m), semantickitti (HDL-64E at "
+        "1.73 m); without SPEC.toml every other key is the default",
     )
-    cache.add_argument("--no-cache", action="store_true", help="build every world, keep none")
-    p.add_argument(
-        "--cache-size",
-        type=_cache_size,
-        metavar="GB",
-        help="most gigabytes the world cache holds; the least recently used worlds go first "
-        f"(default {DEFAULT_MAX_GB:g})",
-    )
-
-
-def _cache_size(text: str) -> float:
-    try:
-        value = decimal(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a number of gigabytes above 0, got {text!r}")
-    return value
+    options.add_cache_arguments(p)
 
 
 def run(args, in_blender: bool = False) -> int:
@@ -109,9 +96,9 @@ def run(args, in_blender: bool = False) -> int:
         if args.spec or args.out or args.workers or args.scheduler or args.limit:
             raise UserError("--verify DIR takes no SPEC.toml, --out, --workers, --scheduler or --limit")
         return _verify(args.verify)
-    if args.spec is None or args.out is None:
-        raise UserError("give SPEC.toml and --out DIR (or --verify DIR)")
-    spec = load_spec(args.spec)
+    if (args.spec is None and args.like is None) or args.out is None:
+        raise UserError("give SPEC.toml (or --like NAME) and --out DIR (or --verify DIR)")
+    spec = load_spec(args.spec, args.like)
     cache = cache_from_options(args.cache, args.no_cache, args.cache_size, args.scheduler, _warn)
     try:
         report = run_dataset(

@@ -9,6 +9,7 @@ from ..app.drive.request import MAX_SCANS_3D
 from ..core.checks import whole_number
 from ..core.errors import UserError
 from ..core.motion.imu_models import DEFAULT_IMU, DEFAULT_RATE, IMU_CHOICES, MAX_RATE, MIN_RATE, MODELS
+from ..core.motion.routes import ROUTES
 from ..core.motion.timing import HEAD_MODES
 from ..core.motion.trajectory import DEFAULT_SPEED, MAX_SPEED
 from . import options
@@ -26,7 +27,8 @@ DESCRIPTION = (
     "per 3D scan, the raw cloud (as a driver gives it) and the deskewed cloud (every point where it is) as "
     "PLY with a per-point time, a SemanticKITTI sequence of the deskewed scans, the ground-truth trajectory "
     "(TUM), an IMU's samples (imu.csv, /imu), the scans within 3 m of each other (revisits.json) and ROS 1 / "
-    "ROS 2 bags (docs/motion.md)."
+    "ROS 2 bags (docs/motion.md). A --seed world is the paper layout's island (its trail); --trail "
+    "--distance M drives kilometres over the endless world's trail network (--route loop: back to the start)."
 )
 
 
@@ -87,7 +89,12 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     options.add(p, "detail", help="detail level of the --seed world: low | default | high (default: default)")
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
     route = p.add_mutually_exclusive_group(required=True)
-    route.add_argument("--trail", action="store_true", help="drive along the world's trail, from its start")
+    route.add_argument(
+        "--trail",
+        action="store_true",
+        help="drive along the world's trail, from its start (the paper island's); with --distance the "
+        "endless world's trail network",
+    )
     route.add_argument(
         "--waypoints", metavar="PATH.csv", help="drive through these waypoints: one `x,y` a line, metres"
     )
@@ -99,7 +106,21 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         metavar=("X", "Y", "YAW"),
         help="drive straight ahead from X, Y (metres) heading YAW (degrees CCW from +X); with --distance",
     )
-    p.add_argument("--distance", type=finite_float, metavar="M", help="how far to drive from --from, metres")
+    p.add_argument(
+        "--distance",
+        type=finite_float,
+        metavar="M",
+        help="how far to drive from --from, metres; with --trail: drive M metres over the endless world "
+        "of --seed along its trail network, from the trail point nearest the origin (node to node, the "
+        "least driven and straightest trail at every junction), its tiles built as the robot goes",
+    )
+    p.add_argument(
+        "--route",
+        choices=ROUTES,
+        default="out",
+        help="with --trail --distance: out (default) drives M metres away; loop drives M/2 out and the same "
+        "way back to the start (a loop closure)",
+    )
     p.add_argument(
         "--speed",
         type=finite_float,
@@ -171,6 +192,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         help="storage of the ROS 2 bag (default mcap)",
     )
     add_imu(p)
+    options.add_cache_arguments(p, "the endless world's tiles of a --trail --distance drive")
     p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
 
 
@@ -180,7 +202,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
 
     same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
     same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "weather", "z_start", "quiet")
-    same += ("imu", "imu_rate", "imu_noise")
+    same += ("imu", "imu_rate", "imu_noise", "route")
     request = DriveRequest(
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,
@@ -189,7 +211,8 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         effects=effect_values(args),
     )
     try:
-        report = run_drive(request, progress=Progress("driving", args.quiet), say=print)
+        cache = options.cache_of(args, "wildscan drive") if request.long_trail else None
+        report = run_drive(request, progress=Progress("driving", args.quiet), say=print, cache=cache)
     except Interrupted as e:
         sys.stderr.write(f"wildscan drive: {e}\n")
         return e.code
@@ -200,6 +223,8 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         f"{report.scans_3d} 3D scans ({points:,} points); wrote {len(report.files)} files into {report.out} "
         f"in {report.total_seconds:.1f} s"
     )
+    stages = ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in report.seconds.items())
+    print(f"  time: {stages}")
     if args.imu != "none":
         print(f"  imu: {args.imu} at {args.imu_rate} Hz, noise {args.imu_noise} (imu.csv)")
     for flavour, counts in report.bag_counts.items():

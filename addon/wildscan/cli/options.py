@@ -34,6 +34,7 @@ from ..core.world import (
     check_zone,
     detail_level,
 )
+from ..core.world.region import DEFAULT_LAYOUT, DEFAULT_REGION, LAYOUTS, MAX_REGION_SIDE, check_layout
 from ..raycast.select import BACKEND_NAMES
 
 EXIT_USER_ERROR = 2
@@ -138,6 +139,22 @@ BIOME_HELP = (
 )
 
 
+LAYOUT_HELP = (
+    f"{' | '.join(LAYOUTS)}: endless, a landscape without edges (forest, meadow, scrub, wetland, rock, "
+    "trails, clearings in any order, built in tiles where they are needed); paper, the paper's 150 m "
+    f"island of six zones (with --biome paper: the worlds of before, byte for byte). Default {DEFAULT_LAYOUT}"
+)
+REGION_HELP = (
+    "the part of the world to build, metres in the world frame; each side at most "
+    f"{MAX_REGION_SIDE:g} m (default: the {DEFAULT_REGION.xmax - DEFAULT_REGION.xmin:g} m square "
+    f"around the origin, {DEFAULT_REGION.text()})"
+)
+LOD_HELP = (
+    "on: tiles far from the sensor coarser, as fine as its beams resolve there (docs/scanning.md); off: "
+    "every tile at full detail (default on)"
+)
+
+
 def _declared(setting: str) -> Option:
     """The option of a setting declared in full in app/settings.py: its type, default,
     allowed names, placeholder and help from there. A setting the device decides defaults to
@@ -161,12 +178,23 @@ _SHARED = (
         detail_name,
     ),
     Option(
-        "zone", dict(metavar="NAME", help=f"only this zone: {', '.join(ZONES)} (default: all)"), check_zone
+        "zone",
+        dict(
+            metavar="NAME",
+            help="only this land cover (endless layout: forest, meadow, scrub, wetland, rock, trail, "
+            f"clearing) or zone (paper layout: {', '.join(ZONES)}) (default: all)",
+        ),
     ),
     Option(
         "vegetation", dict(default=DEFAULT_VEGETATION, metavar="KIND", help=VEGETATION_HELP), check_vegetation
     ),
     Option("biome", dict(default=DEFAULT_BIOME, metavar="NAME", help=BIOME_HELP), check_biome),
+    Option("layout", dict(default=DEFAULT_LAYOUT, metavar="NAME", help=LAYOUT_HELP), check_layout),
+    Option(
+        "region",
+        dict(nargs=4, type=finite_float, metavar=("XMIN", "YMIN", "XMAX", "YMAX"), help=REGION_HELP),
+    ),
+    Option("lod", dict(choices=("on", "off"), default="on", help=LOD_HELP)),
     _count("poses", "valid scan poses listed per zone in the sidecar"),
     _count("count", f"poses per zone, 1..{MAX_POSE_COUNT}"),
     Option(
@@ -257,6 +285,78 @@ def vegetation_of(args: argparse.Namespace) -> str:
     return args.vegetation or DEFAULT_VEGETATION
 
 
+def region_of(args: argparse.Namespace):
+    """The checked --region (core/world/region.py Region) of the command's layout; the default
+    region (the 150 m square around the origin) when none is given."""
+    from ..core.world.region import check_region
+
+    if getattr(args, "region", None) is None:
+        return DEFAULT_REGION
+    return check_region(args.region, getattr(args, "layout", DEFAULT_LAYOUT))
+
+
+def add_cache_arguments(p: argparse.ArgumentParser, what: str = "each world a worker builds") -> None:
+    """--cache DIR | --no-cache, and --cache-size GB: the world cache (app/cache/)."""
+    from ..app.cache.config import DEFAULT_MAX_GB
+
+    cache = p.add_mutually_exclusive_group()
+    cache.add_argument(
+        "--cache",
+        metavar="DIR",
+        help=f"keep {what} in DIR, for every later run (default: $XDG_CACHE_HOME/wildscan, or "
+        "~/.cache/wildscan; docs/datasets.md says how to clear it)",
+    )
+    cache.add_argument("--no-cache", action="store_true", help="build everything, keep nothing")
+    p.add_argument(
+        "--cache-size",
+        type=_cache_size,
+        metavar="GB",
+        help="most gigabytes the world cache holds; the least recently used entries go first "
+        f"(default {DEFAULT_MAX_GB:g})",
+    )
+
+
+def _cache_size(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a number of gigabytes above 0, got {text!r}")
+    return value
+
+
+def cache_of(args: argparse.Namespace, where: str):
+    """The world cache the command's --cache / --no-cache / --cache-size name (a DiskCache),
+    or None; a default folder that cannot be written is a warning on stderr, not an error."""
+    from ..app.cache.config import cache_from_options, open_cache
+
+    def warn(text: str) -> None:
+        sys.stderr.write(f"{where}: warning: {text}\n")
+
+    config = cache_from_options(args.cache, args.no_cache, args.cache_size, None, warn)
+    return open_cache(config)
+
+
+def zone_of(args: argparse.Namespace) -> str | None:
+    """The checked --zone: a land cover on the endless layout, a zone on the paper's."""
+    if args.zone is None:
+        return None
+    if getattr(args, "layout", DEFAULT_LAYOUT) == "paper":
+        return check_zone(args.zone)
+    from ..core.checks import one_of
+    from ..core.world.endless import LAND_COVERS
+
+    if args.zone in ZONES and args.zone not in LAND_COVERS:
+        raise UserError(
+            f"{args.zone!r} is a zone of {{layout}} paper; the endless layout's land covers are "
+            f"{', '.join(LAND_COVERS)}",
+            setting="zone",
+            related=("layout",),
+        )
+    return one_of(args.zone, "zone", LAND_COVERS)
+
+
 def biome_of(args: argparse.Namespace) -> str:
     """The biome of the --seed world (default mixed); a mistake without --seed (a saved world
     has the biome it was built with)."""
@@ -273,6 +373,7 @@ _CONFIG_NAMES = {
     "divergence": "divergence_mrad",
     "echoes": "echoes",
     "echo_separation": "echo_separation",
+    "mount_height": "mount_height",
     "returns": "returns",
 }
 
@@ -290,7 +391,7 @@ def sensor_of(args: argparse.Namespace) -> SensorConfig:
         if model != "realistic":
             raise UserError("applies to {model} realistic only", setting=setting, related=("model",))
         given[_CONFIG_NAMES[setting]] = value
-    for setting in ("rh", "min_range", "max_range"):
+    for setting in ("rh", "min_range", "max_range", "mount_height"):
         if getattr(args, setting, None) is not None:
             given[_CONFIG_NAMES[setting]] = getattr(args, setting)
     device = getattr(args, "device", None) or SensorConfig().device

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..core.errors import UserError
 from . import options
 from .effects import effect_values
 from .options import ArgumentParser
@@ -41,7 +42,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
         p,
         "seed",
         group=source,
-        help="build the world from this seed (integer from 0 to 2147483647) and scan it",
+        help="scan the world of this seed (integer from 0 to 2147483647): on the endless layout (the "
+        "default) the tiles within the sensor's reach, anywhere, built or read from the world cache; "
+        "with --layout paper the paper's island, built in Blender",
     )
     options.add(
         p,
@@ -51,6 +54,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     )
     options.add(p, "vegetation", default=None, help=f"with --seed: {options.VEGETATION_HELP}")
     options.add(p, "biome", default=None, help=f"with --seed: {options.BIOME_HELP}")
+    options.add(p, "layout", default=None, help=f"with --seed: {options.LAYOUT_HELP}")
+    options.add(p, "lod", default=None, help=f"with --seed on the endless layout: {options.LOD_HELP}")
+    options.add_cache_arguments(p, "the endless world's tiles")
     from .sensors import add_sensor
 
     for name in ("pose", "z_start"):
@@ -81,6 +87,56 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     p.add_argument("--quiet", action="store_true", help="print only the files written, no progress")
 
 
+def _layout_of(args: argparse.Namespace) -> str | None:
+    """The layout of the --seed world (default endless); None for a saved world or geometry,
+    where --layout, --lod are a mistake."""
+    if args.seed is None:
+        for name in ("layout", "lod"):
+            if getattr(args, name) is not None:
+                raise UserError("applies to a world built from {seed} only", setting=name, related=("seed",))
+        return None
+    from ..core.world.region import DEFAULT_LAYOUT
+
+    if args.lod is not None and args.layout == "paper":
+        raise UserError(
+            "applies to {layout} endless only (the paper's island is built whole)",
+            setting="lod",
+            related=("layout",),
+        )
+    return args.layout or DEFAULT_LAYOUT
+
+
+def _endless_geometry(args, pose, sensor, biome: str, vegetation: str, lod: str):
+    """The tiles a scan from `pose` reaches, and the metadata its files carry."""
+    from ..app.geometry import GEOMETRY_BACKENDS
+    from ..app.scan import endless_scan_geometry
+    from ..app.tiles import process_memory
+    from .output import Progress, say
+
+    if args.backend not in GEOMETRY_BACKENDS:
+        raise UserError(
+            f"{args.backend} needs a Blender scene; the endless world is scanned from its tiles with "
+            f"{', '.join(GEOMETRY_BACKENDS)} (or build a region with `wildscan world` and scan the .blend)",
+            setting="backend",
+            allowed=GEOMETRY_BACKENDS,
+        )
+    cache = options.cache_of(args, "wildscan scan")
+    say(args, f"the endless world of seed {args.seed} around ({pose.x:g}, {pose.y:g}), level of detail {lod}")
+    geometry, counts = endless_scan_geometry(
+        args.seed,
+        pose,
+        sensor,
+        lod == "on",
+        biome,
+        vegetation,
+        cache=cache,
+        memory=process_memory(),
+        progress=Progress("tiles", args.quiet),
+    )
+    say(args, counts.text())
+    return geometry, {"layout": "endless", "biome": biome, "vegetation": vegetation, "lod": lod}
+
+
 def run(args: argparse.Namespace, in_blender: bool) -> int:
     from ..app.geometry import load_scan_geometry
     from ..app.scan import check_range_image, check_scan, open_scan_world, scan_current_scene, write_scan
@@ -89,14 +145,16 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
     from .output import Progress, StageProgress, print_class_counts, print_echo_summary, say
 
     pose, sensor, vegetation = Pose(*args.pose), options.sensor_of(args), options.vegetation_of(args)
-    biome = options.biome_of(args)
+    biome, layout, lod = options.biome_of(args), _layout_of(args), args.lod or "on"
     out = check_scan(pose, sensor, args.z_start, args.out, args.format, args.ascii)
     range_image = check_range_image(args.range_image, out, args.format)
     geometry, provenance = None, {}
     if args.geometry is not None:
         geometry, provenance = load_scan_geometry(args.geometry, args.backend)
+    elif layout == "endless":
+        geometry, provenance = _endless_geometry(args, pose, sensor, biome, vegetation, lod)
     elif args.seed is not None:
-        say(args, f"building the world of seed {args.seed}")
+        say(args, f"building the world of seed {args.seed} (paper layout)")
     if geometry is None:
         open_scan_world(
             args.world,
@@ -106,7 +164,9 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
             quiet=args.quiet,
             biome=biome,
         )
-    if geometry is not None:
+    if layout == "endless":
+        seed, blend, extra = args.seed, None, provenance
+    elif geometry is not None:
         seed, blend = provenance.get("seed"), provenance.get("world")
         extra = {"geometry": provenance["geometry"]}
     else:

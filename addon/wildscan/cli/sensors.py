@@ -53,19 +53,42 @@ def rows() -> list[tuple[str, ...]]:
                 str(d.beams.count),
                 _field_of_view(d),
                 f"{d.ranges.min_m:g}-{d.ranges.max_m:g} m (at most {d.ranges.max_dark_m:g})",
-                f"{d.mount.sweep_deg:g} deg in {d.sweep_period_s:.4g} s ({1 / d.sweep_period_s:.3g} Hz)",
+                _sweep(d),
                 d.source,
             )
         )
     return out
 
 
+def _sweep(d) -> str:
+    if d.head is not None:  # a 3D scan is the head's turn: K device sweeps
+        seconds = d.head.steps * d.sweep_period_s
+        return f"{d.head.sweep_deg:g} deg head turn in {seconds:.4g} s ({d.head.steps} device sweeps)"
+    return f"{d.mount.sweep_deg:g} deg in {d.sweep_period_s:.4g} s ({1 / d.sweep_period_s:.3g} Hz)"
+
+
 def _field_of_view(d) -> str:
+    if d.head is not None:
+        return _head_field_of_view(d)
     if d.beams.fan is not None:
         first, step = d.beams.fan
         return f"{d.beams.count * step:g} deg fan, {step:g} deg apart x {d.mount.sweep_deg:g} deg turn"
     low, high = d.vertical_fov_deg
     return f"{low:+.2f} to {high:+.2f} deg x {d.mount.sweep_deg:g} deg, {d.mount.step_deg:.7g} deg columns"
+
+
+def _head_field_of_view(d) -> str:
+    """A device on a head: the elevations its beams reach over the head's turn (sensor frame)."""
+    import numpy as np
+
+    from ..core.sensors import beam_directions
+
+    z = beam_directions(d.mount.step_deg, d)[0][:, 2]
+    low, high = np.degrees(np.arcsin(np.clip([z.min(), z.max()], -1.0, 1.0)))
+    return (
+        f"tilted {d.head.tilt_deg:g} deg on a head turning {d.head.sweep_deg:g} deg: elevations {low:+.2f} "
+        f"to {high:+.2f} deg, {d.mount.step_deg:.7g} deg columns"
+    )
 
 
 HEADERS = ("preset", "device", "beams", "field of view", "range", "sweep", "source")

@@ -9,9 +9,11 @@ from .options import ArgumentParser
 
 HELP = "build a world from a seed and save it"
 DESCRIPTION = (
-    "Build the natural world of a seed (hills, forest, park with power line, trail, lake, cave), tagged "
-    "for the scanner, save it as a .blend with a JSON sidecar listing zones and valid scan poses, and "
-    "optionally an aerial map."
+    "Build the natural world of a seed, tagged for the scanner, and save it as a .blend with a JSON sidecar "
+    "listing valid scan poses, and optionally an aerial map. Endless layout (the default): a --region of a "
+    "landscape without edges (forest, meadow, scrub, wetland, rock, trails, clearings), its poses per land "
+    "cover. Paper layout: the paper's 150 m island of six zones (hills, forest, park with power line, "
+    "trail, lake, cave), its poses per zone."
 )
 
 
@@ -20,7 +22,11 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         p,
         "seed",
         required=True,
-        help=f"{options.SEED_HELP}; every seed gives another world with all six zones",
+        help=f"{options.SEED_HELP}; every seed gives another world",
+    )
+    options.add(p, "layout")
+    options.add(
+        p, "region", help=f"{options.REGION_HELP}; the paper layout's world is always the whole island"
     )
     options.add(
         p,
@@ -42,14 +48,26 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
     )
     options.add(p, "vegetation")
     options.add(p, "biome")
-    options.add(p, "poses")
+    options.add(p, "poses", help="valid scan poses listed per zone (endless: per land cover) in the sidecar")
     p.add_argument("--quiet", action="store_true", help="print only the files written")
+    options.add_cache_arguments(p, "the endless world's tiles (for the poses)")
 
 
 def run(args: argparse.Namespace, in_blender: bool = False) -> int:
     from ..app.world import make_world
+    from ..core.errors import UserError
+    from ..core.world.region import DEFAULT_REGION
     from .output import StageProgress
 
+    region = options.region_of(args)
+    if args.layout == "paper" and region != DEFAULT_REGION:
+        raise UserError(
+            "applies to {layout} endless: the paper layout's world is the whole island (extract and "
+            "poses take a region of it)",
+            setting="region",
+            related=("layout",),
+        )
+    cache = options.cache_of(args, "wildscan world") if args.layout == "endless" else None
     saved = make_world(
         args.seed,
         args.detail,
@@ -60,18 +78,26 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         fresh=not in_blender,
         vegetation=args.vegetation,
         biome=args.biome,
+        layout=args.layout,
+        region=region,
+        cache=cache,
     )
-    print_saved_world(saved, args.quiet)
+    print_saved_world(saved, args.quiet, region if args.layout == "endless" else None)
     return 0
 
 
-def print_saved_world(saved, quiet: bool = False) -> None:
-    """What `wildscan world` (and the demo) say about a world built and saved."""
+def print_saved_world(saved, quiet: bool = False, region=None) -> None:
+    """What `wildscan world` (and the demo) say about a world built and saved (`region`: of
+    the endless layout; None: the paper's island)."""
     if not quiet:
         counts = saved.plan.counts()
+        where = (
+            "the paper layout's island" if region is None else f"the endless layout, region {region.text()}"
+        )
+        plan = saved.plan
         print(
-            f"world of seed {saved.plan.seed} ({saved.plan.detail.name} detail, {saved.plan.vegetation} "
-            f"vegetation, {saved.plan.biome} biome): {counts['objects']:,} "
+            f"world of seed {plan.seed}, {where} ({plan.detail.name} detail, {plan.vegetation} "
+            f"vegetation, {plan.biome} biome): {counts['objects']:,} "
             f"objects sharing {counts['meshes']} meshes, {counts['triangles']:,} triangles, "
             f"built and saved in {saved.seconds:.1f} s"
         )

@@ -1,5 +1,5 @@
 """What the label ids of a dataset mean: WildScan's own ids, or those of SemanticKITTI,
-RELLIS-3D or GOOSE, so a model trained on one of those datasets reads our scans directly.
+RELLIS-3D, GOOSE or WildScenes, so a model trained on one of those datasets reads our scans directly.
 Numpy only.
 
 Every WildScan class (classes.py, plus water, which appears only in the bird's-eye
@@ -9,7 +9,8 @@ no class) stops the import with a message naming the scheme and the class. A cla
 counterpart maps to OTHER, the scheme's "other" id, and the table says so. The label
 lists and learning maps follow each dataset's published label configuration
 (semantic-kitti-api's `semantic-kitti-all.yaml`, RELLIS-3D's `rellis.yaml`, GOOSE's
-64-class `goose_label_mapping.csv` order); colours are BGR as in those files (GOOSE's
+64-class `goose_label_mapping.csv` order, WildScenes' `wildscenes/tools/utils3d.py` and the
+3D benchmark's `configs3d/_base_/datasets/wildscenes.py`); colours are BGR as in those files (GOOSE's
 colours are WildScan's own, which the GOOSE files do not fix here).
 """
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from .classes import ALL_ELEMENTS, BY_ID, CLASSES, GROUND_IDS, OPTIONAL_CLASSES, PARTICLE_ID, WATER_ID
 
-SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
+SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose", "wildscenes")
 OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
 
 
@@ -330,7 +331,64 @@ _GOOSE = LabelScheme(
     learning_ignore={i: i == 0 for i in range(len(_GOOSE_NAMES))},
 )
 
-SCHEMES: dict[str, LabelScheme] = {s.name: s for s in (_WILDSCAN, _SEMANTICKITTI, _RELLIS3D, _GOOSE)}
+# -- WildScenes (csiro-robotics/WildScenes at 9eb4e10b) -----------------------------------------
+# wildscenes/tools/utils3d.py METAINFO: the classes with their label ids (`cidx`) and RGB palette;
+# 255 unlabelled. Its 3D benchmark (wildscenes/configs3d/_base_/datasets/wildscenes.py
+# `labels_map`) learns 13 classes, ids 0-9 as they are and 11-13 as 10-12, and ignores (255)
+# unlabelled, sky (10) and water (14).
+
+_WS_NAMES = {
+    0: "bush", 1: "dirt", 2: "fence", 3: "grass", 4: "gravel", 5: "log", 6: "mud", 7: "other-object",
+    8: "other-terrain", 9: "rock", 10: "sky", 11: "structure", 12: "tree-foliage", 13: "tree-trunk",
+    14: "water", 255: "unlabelled",
+}  # fmt: skip
+_WS_RGB = {
+    0: (230, 25, 75), 1: (60, 180, 75), 2: (0, 128, 128), 3: (128, 128, 128), 4: (145, 30, 180),
+    5: (128, 128, 0), 6: (255, 225, 25), 7: (250, 190, 190), 8: (70, 240, 240), 9: (170, 255, 195),
+    10: (0, 0, 128), 11: (170, 110, 40), 12: (210, 245, 60), 13: (240, 50, 230), 14: (0, 130, 200),
+    255: (0, 0, 0),
+}  # fmt: skip
+WILDSCENES_IGNORED = (255, 10, 14)  # unlabelled, sky, water: left out of its benchmark
+_WS_LEARNING_MAP = {raw: (255 if raw in WILDSCENES_IGNORED else raw - (raw > 10)) for raw in _WS_NAMES}
+# The ground materials of the endless landscape (classes 16-21, issue 33), mapped as soon as
+# core/classes.py has them: WildScenes has gravel and mud of its own; soil is its dirt, a
+# rock slab its rock, paving and leaf litter its other-terrain. (Its config always lists all
+# 15 ids: no WildScenes config from before them to keep.)
+_WS_GROUNDS = {"soil": 1, "gravel": 4, "mud": 6, "paved": 8, "leaf litter": 8, "rock slab": 9}
+
+_WILDSCENES = LabelScheme(
+    name="wildscenes",
+    title="WildScenes",
+    labels=_WS_NAMES,
+    colors_bgr={raw: _bgr(rgb) for raw, rgb in _WS_RGB.items()},
+    by_class={
+        "unlabeled": 255,  # unlabelled
+        "terrain": 1,  # dirt
+        "trunk": 13,  # tree-trunk
+        "treetop": 12,  # tree-foliage
+        "table": OTHER,
+        "bush": 0,  # bush
+        "fence": 2,  # fence
+        "bench": OTHER,
+        "low grass": 3,  # grass
+        "rock": 9,  # rock
+        "high grass": 3,  # grass
+        "wire": 11,  # structure: a power line is a man-made structure
+        "pole": 11,  # structure
+        "water": 14,  # water (ignored by the benchmark)
+        "log": 5,  # log
+        "particle": 255,  # unlabelled: WildScenes has no class for returns from the air
+        **{name: raw for name, raw in _WS_GROUNDS.items() if name in {c.name for c in ALL_ELEMENTS}},
+    },
+    other=7,  # other-object
+    learning_map=_WS_LEARNING_MAP,
+    learning_map_inv={xid: raw for raw, xid in _WS_LEARNING_MAP.items() if raw not in WILDSCENES_IGNORED[1:]},
+    learning_ignore={xid: xid == 255 for xid in sorted(set(_WS_LEARNING_MAP.values()))},
+)
+
+SCHEMES: dict[str, LabelScheme] = {
+    s.name: s for s in (_WILDSCAN, _SEMANTICKITTI, _RELLIS3D, _GOOSE, _WILDSCENES)
+}
 
 
 def scheme(name: str) -> LabelScheme:

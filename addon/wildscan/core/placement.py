@@ -40,9 +40,9 @@ from . import detmath as dm
 from .backend import RayBackend
 from .classes import BY_ID, GROUND_CLASS_IDS, WATER_ID
 from .errors import PoseRejected, UserError
+from .sensors.load import COLUMN_HEIGHT  # m, the optical centre above the ground (paper section II)
 from .spatial.leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
 
-COLUMN_HEIGHT = 0.723  # m, optical centre above the ground (paper section II)
 ARM_X = 0.335  # m, half-length of the X arm (half of Andabata's ~0.67 m length)
 ARM_Y = 0.27  # m, half-length of the Y arm (half of Andabata's ~0.54 m width)
 MAX_TILT_DEG = 25.0  # steeper than this, a skid-steer robot like Andabata slips or tips over
@@ -132,6 +132,7 @@ class Placement:
     roll_rad: float
     pitch_rad: float
     lasers: tuple[LaserHit, ...] = field(default=())
+    column_height: float = COLUMN_HEIGHT  # m, the optical centre above the ground centre
 
     @property
     def yaw_rad(self) -> float:
@@ -163,7 +164,7 @@ class Placement:
             "roll_deg": self.roll_deg,
             "pitch_deg": self.pitch_deg,
             "tilt_deg": self.tilt_deg,
-            "column_height": COLUMN_HEIGHT,
+            "column_height": self.column_height,
             "arm_half_lengths": [ARM_X, ARM_Y],
             "lasers": [laser.to_dict() for laser in self.lasers],
         }
@@ -263,8 +264,12 @@ def enclosing_element(backend: RayBackend, centre: np.ndarray, yaw_deg: float) -
     return None
 
 
-def place(backend: RayBackend, pose: Pose, z_start: float | None = None) -> Placement:
-    """Stand the structure at `pose`; raise PoseRejected naming each laser that says no."""
+def place(
+    backend: RayBackend, pose: Pose, z_start: float | None = None, height: float = COLUMN_HEIGHT
+) -> Placement:
+    """Stand the structure at `pose` with the optical centre `height` up its column (the
+    paper's 0.723 m unless the sensor is mounted higher); raise PoseRejected naming each
+    laser that says no."""
     pose.validate()
     if z_start is None:
         ground = probe_ground_z(backend, pose.x, pose.y)
@@ -273,7 +278,7 @@ def place(backend: RayBackend, pose: Pose, z_start: float | None = None) -> Plac
         z_start = ground + LASER_CLEARANCE
     else:
         check_z_start(z_start)
-    placement = stand(pose, z_start, cast_lasers(backend, pose, z_start))
+    placement = stand(pose, z_start, cast_lasers(backend, pose, z_start), height)
     enclosing = enclosing_element(backend, placement.optical_centre, pose.yaw_deg)
     if enclosing is not None:
         raise PoseRejected(
@@ -287,7 +292,9 @@ def describe_pose(pose: Pose) -> str:
     return f"pose ({pose.x:g}, {pose.y:g}, yaw {pose.yaw_deg:g})"
 
 
-def stand(pose: Pose, z_start: float, lasers: tuple[LaserHit, ...]) -> Placement:
+def stand(
+    pose: Pose, z_start: float, lasers: tuple[LaserHit, ...], height: float = COLUMN_HEIGHT
+) -> Placement:
     """The placement the four laser hits give (cast from `z_start`), or PoseRejected saying why
     the robot cannot stand there. Many poses share it: `place` casts for one, a drive for all."""
     where = describe_pose(pose)
@@ -318,9 +325,7 @@ def stand(pose: Pose, z_start: float, lasers: tuple[LaserHit, ...]) -> Placement
             f"{dm.degrees(pitch):.1f}); at most {MAX_TILT_DEG:g} deg"
         )
     ground_centre = np.array([pose.x, pose.y, (z_front + z_rear + z_left + z_right) / 4])
-    column = dm.apply(
-        sensor_to_world_matrix(roll, pitch, dm.radians(pose.yaw_deg)), [0.0, 0.0, COLUMN_HEIGHT]
-    )
+    column = dm.apply(sensor_to_world_matrix(roll, pitch, dm.radians(pose.yaw_deg)), [0.0, 0.0, height])
     return Placement(
         pose=pose,
         optical_centre=ground_centre + column,
@@ -328,4 +333,5 @@ def stand(pose: Pose, z_start: float, lasers: tuple[LaserHit, ...]) -> Placement
         roll_rad=roll,
         pitch_rad=pitch,
         lasers=lasers,
+        column_height=height,
     )

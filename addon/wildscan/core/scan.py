@@ -251,7 +251,7 @@ def run_scan(
         from .realism.realistic import check_backend
 
         check_backend(backend)
-    placement = place(backend, pose, z_start)
+    placement = place(backend, pose, z_start, sensor.mount_height)
     check_reach(placement.optical_centre, sensor.max_range, frame, backend.name)
     beam_count = sensor.beam_count
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma

@@ -5,9 +5,15 @@ enable again): every class, property, handler, draw callback and icon they add i
 removed again, and nothing is left holding a reference to an old scene.
 """
 
-from . import draw, legend, operators, panel, properties, status, tag
+from . import draw, legend, operators, panel, properties, region, status, tag
 
-CLASSES: tuple = (*properties.CLASSES, *operators.CLASSES, *tag.CLASSES, *panel.CLASSES)
+CLASSES: tuple = (
+    *properties.CLASSES,
+    *operators.CLASSES,
+    *region.CLASSES,
+    *tag.CLASSES,
+    *panel.CLASSES,
+)
 
 # (bpy.app.handlers list name, function)
 _HANDLERS = (

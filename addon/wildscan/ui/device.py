@@ -14,6 +14,7 @@ import bpy
 
 from ..core.errors import UserError
 from ..core.sensors import DEFAULT_DEVICE, Device, device_named, load_device, preset_names
+from ..core.sensors.config import device_mount_height
 
 DEFAULT_DEVICE_ID = DEFAULT_DEVICE.id
 FILE_CHOICE = "FILE"  # the menu's "sensor file" entry (preset names are lower case)
@@ -51,6 +52,7 @@ def take_device_defaults(settings, context=None) -> None:
     settings.max_range = device.ranges.max_m
     settings.noise = device.noise.sigma_m
     settings.divergence = device.optics.divergence_mrad
+    settings.mount_height = device_mount_height(device)
 
 
 def take_file_defaults(settings, context=None) -> None:

@@ -10,6 +10,14 @@ PROGRESS_STEPS = 1000
 STAGE_HALF = 4  # world-building stages after which the bar shows half way
 
 
+def tag_view3d_redraw(context) -> None:
+    for window in context.window_manager.windows:
+        screen = window.screen
+        for area in screen.areas if screen is not None else ():
+            if area.type in {"VIEW_3D", "PROPERTIES"}:
+                area.tag_redraw()
+
+
 def internal_error(operator, what: str, error: BaseException) -> set:
     """Report a bug as one line in Blender (the traceback goes to the system console only,
     for a bug report) and cancel."""

@@ -18,20 +18,12 @@ from bpy.types import Operator
 from bpy_extras.io_utils import ExportHelper
 
 from ..app.settings import panel_message
-from .feedback import Progress, internal_error
+from .feedback import Progress, internal_error, tag_view3d_redraw
 
 AERIAL_MARGIN = 1.15  # the aerial view shows the world with this much room around it
 MARKER_SIZE_OF_WORLD = 0.04  # the marker's cross spans this fraction of the world's extent each way
 MIN_MARKER_SIZE = 0.5  # m
 DEFAULT_EXPORT_STEM = "wildscan_scan"
-
-
-def tag_view3d_redraw(context) -> None:
-    for window in context.window_manager.windows:
-        screen = window.screen
-        for area in screen.areas if screen is not None else ():
-            if area.type in {"VIEW_3D", "PROPERTIES"}:
-                area.tag_redraw()
 
 
 def view3d_area(context):
@@ -71,7 +63,12 @@ class WILDSCAN_OT_generate_world(Operator):
         biome = str(settings.biome)
         try:
             with Progress(context, f"WildScan: building the world of seed {seed}") as progress:
-                build_in_scene(seed, detail, progress.stage, vegetation=vegetation, biome=biome)
+                if settings.world_layout == "endless":
+                    from .region import build_region, panel_region
+
+                    build_region(seed, panel_region(settings), detail, progress.stage, vegetation, biome)
+                else:
+                    build_in_scene(seed, detail, progress.stage, vegetation=vegetation, biome=biome)
         except UserError as e:
             self.report({"ERROR"}, panel_message(e))
             return {"CANCELLED"}
@@ -262,6 +259,11 @@ class WILDSCAN_OT_scan(Operator):
             f"Scanned {len(result.cloud):,} points of {result.beams:,} beams "
             f"({frame} frame) into '{obj.name}'",
         )
+        from .region import reach_warning
+
+        warning = reach_warning(scene, pose, sensor)
+        if warning:
+            self.report({"WARNING"}, warning)
         tag_view3d_redraw(context)
         return {"FINISHED"}
 

@@ -55,6 +55,12 @@ class VIEW3D_PT_wildscan_world(_WildScanPanel, Panel):
         layout.prop(s, "detail")
         layout.prop(s, "vegetation")
         layout.prop(s, "biome")
+        layout.prop(s, "world_layout")
+        if s.world_layout == "endless":
+            col = layout.column(align=True)
+            col.prop(s, "region_x")
+            col.prop(s, "region_y")
+            col.prop(s, "region_size")
         layout.operator("wildscan.generate_world", icon="WORLD")
         info = world_info(context.scene)
         if info is None:
@@ -62,6 +68,10 @@ class VIEW3D_PT_wildscan_world(_WildScanPanel, Panel):
         else:
             seed = f"seed {info['seed']}" if info["seed"] is not None else "world"
             layout.label(text=f"{seed}: {info['objects']} objects", icon="CHECKMARK")
+            if info.get("region") is not None:
+                x0, y0, x1, y1 = info["region"]
+                layout.label(text=f"region {x0:g} {y0:g} {x1:g} {y1:g}")
+                layout.operator("wildscan.extend_region", icon="FULLSCREEN_ENTER")
 
 
 class VIEW3D_PT_wildscan_pose(_WildScanPanel, Panel):
@@ -120,6 +130,7 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         col.prop(s, "rh", text="r_h (deg)")
         col.prop(s, "min_range")
         col.prop(s, "max_range")
+        col.prop(s, "mount_height")
         hint = device_limits_text(s)
         if hint:
             layout.label(text=hint)

@@ -22,6 +22,7 @@ from ..blender.generate import DETAILS
 from ..core.classes import TAG_NAMES
 from ..core.sensors import SensorConfig, device_named, preset_names
 from ..core.world.biomes import BIOME_TABLE, BIOMES, DEFAULT_BIOME
+from ..core.world.region import DEFAULT_LAYOUT, DEFAULT_REGION, MAX_REGION_SIDE
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults, take_file_defaults
@@ -187,6 +188,34 @@ class WildScanSettings(PropertyGroup):
         default=DEFAULT_BIOME,
     )
 
+    world_layout: EnumProperty(
+        name=label("layout"),
+        description="Which world the seed gives",
+        items=[
+            ("endless", "Endless", "A landscape without edges: Generate builds the region below"),
+            (
+                "paper",
+                "Paper",
+                "The paper's 150 m island of six zones (with biome Paper: the paper's worlds)",
+            ),
+        ],
+        default=DEFAULT_LAYOUT,
+    )
+    region_x: FloatProperty(
+        name="Centre X", description="Centre of the region of the endless world to build", unit="LENGTH"
+    )
+    region_y: FloatProperty(
+        name="Centre Y", description="Centre of the region of the endless world to build", unit="LENGTH"
+    )
+    region_size: FloatProperty(
+        name="Size",
+        description=f"Side of the square region of the endless world to build, at most {MAX_REGION_SIDE:g} m",
+        unit="LENGTH",
+        min=10.0,
+        max=MAX_REGION_SIDE,
+        default=DEFAULT_REGION.xmax - DEFAULT_REGION.xmin,
+    )
+
     # Pose
     pose_x: FloatProperty(
         name="X",
@@ -243,6 +272,7 @@ class WildScanSettings(PropertyGroup):
     rh: FloatProperty(**_declared("rh", soft_max=10.0, precision=2, step=25))
     min_range: FloatProperty(**_declared("min_range", unit="LENGTH"))
     max_range: FloatProperty(**_declared("max_range", unit="LENGTH"))
+    mount_height: FloatProperty(**_declared("mount_height", unit="LENGTH", precision=3))
     # the paper model's noise; the realistic model's is the datasheet's unless Datasheet noise is off
     noise: FloatProperty(**_declared("noise", soft_max=0.1, unit="LENGTH", precision=3, step=0.1))
     noise_seed: IntProperty(**_declared("noise_seed"))
@@ -353,6 +383,7 @@ def sensor_from(settings):
         noise_seed=int(settings.noise_seed),
         model=str(settings.model),
         divergence_mrad=typed_value(settings.divergence) if realistic else device.optics.divergence_mrad,
+        mount_height=typed_value(settings.mount_height),
     )
 
 

@@ -89,7 +89,8 @@ def world_objects(scene) -> list:
 
 
 def world_info(scene) -> dict | None:
-    """Seed, detail and object count of the generated world in the scene, if any."""
+    """Seed, detail, object count and (endless layout) region of the generated world in the
+    scene, if any."""
     from ..blender.mesh import world_root
 
     objects = world_objects(scene)
@@ -97,10 +98,13 @@ def world_info(scene) -> dict | None:
         return None
     root = world_root(scene)
     seed = root.get(WORLD_SEED_PROP) if root is not None else None
+    region = root.get("wildscan_region") if root is not None else None
     return {
         "objects": len(objects),
         "seed": int(seed) if seed is not None else None,
         "detail": root.get(WORLD_DETAIL_PROP) if root is not None else None,
+        # the region of the endless world built (app/world.py record_region); None: the paper's island
+        "region": tuple(float(v) for v in region) if region is not None else None,
     }
 
 

@@ -49,11 +49,14 @@ def hillshade(z: np.ndarray, spacing: float) -> np.ndarray:
     return np.clip(dm.dot3(normal, light), 0.0, 1.0)
 
 
-def terrain_image(plan, spacing: float = 0.5) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+def terrain_image(
+    plan, spacing: float = 0.5, extent=None
+) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+    """The hill-shaded terrain over `extent` (xmin, xmax, ymin, ymax; default the island's)."""
     from ..core.world import EXTENT
     from ..core.world.terrain_grid import lattice
 
-    xs, ys = lattice(EXTENT, spacing)
+    xs, ys = lattice(EXTENT if extent is None else extent, spacing)
     gx, gy = np.meshgrid(xs, ys)
     z = plan.ground(gx, gy)
     shade = hillshade(z, spacing)
@@ -92,9 +95,17 @@ def _wire_line(plan, el) -> np.ndarray:
     return np.array([v[:sides, :2].mean(0), v[-sides:, :2].mean(0)])
 
 
-def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = None) -> str:
+def _extent(extent) -> tuple[float, float, float, float]:
+    from ..core.world import EXTENT
+
+    return EXTENT if extent is None else tuple(float(v) for v in extent)
+
+
+def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = None, extent=None) -> str:
     """Write the aerial map PNG of `plan` to `path`; `poses` is an iterable of objects with
-    x, y (and optionally yaw_deg) drawn as crosses."""
+    x, y (and optionally yaw_deg) drawn as crosses. `extent` (xmin, xmax, ymin, ymax): the
+    area drawn, default the paper island's (a region of the endless world gives its own; a
+    plan without zones draws none)."""
     require_matplotlib()
     import matplotlib.patheffects as pe
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -103,12 +114,13 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Polygon, Rectangle
 
-    from ..core.world import EXTENT, ZONES
+    from ..core.world import ZONES
 
+    EXTENT = _extent(extent)
     fig = Figure(figsize=(10.5, 9.0), dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_axes([0.04, 0.05, 0.74, 0.88])
-    img, ext = terrain_image(plan)
+    img, ext = terrain_image(plan, 0.5 * max(1.0, (EXTENT[1] - EXTENT[0]) / 150.0), EXTENT)
     ax.imshow(img, origin="lower", extent=ext, interpolation="bilinear", zorder=0)
 
     # flooring and slabs (the trail, the cave's roof and rock faces): their triangles in their
@@ -173,8 +185,9 @@ def render_map(plan, path: str, poses=None, dpi: int = 110, title: str | None = 
 
     # zones
     halo = [pe.withStroke(linewidth=3, foreground="white")]
-    for name in ZONES:
-        x0, x1, y0, y1 = plan.layout.cells[name]
+    cells = getattr(plan.layout, "cells", None) or {}  # the paper's zones; the endless layout has none
+    for name in (z for z in ZONES if z in cells):
+        x0, x1, y0, y1 = cells[name]
         ax.add_patch(
             Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=1.0, ec=(0.1, 0.1, 0.1), zorder=20)
         )

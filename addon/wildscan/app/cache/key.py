@@ -4,8 +4,9 @@ A world's triangles, planes, padding and settling index follow from its inputs (
 detail, vegetation, biome) and from the code that makes them. `__version__` does not say
 when that code changes (it stays 0.1.0 through many changes), so the key holds a hash of
 the code itself: every file under the package's `core/` and `raycast/` (the world plan, the
-triangles, the padding, the settling, the placement the poses are checked with) and this
-`app/cache/` package (what is stored and how), read once per process. Any edit there, even
+triangles, the padding, the settling, the placement the poses are checked with), this
+`app/cache/` package (what is stored and how) and `app/tiles.py` (what a tile entry of the
+endless world holds), read once per process. Any edit there, even
 a comment, gives new keys: the old entries are never read again and age out of the cache
 (store.py's cap). `FORMAT` rises when the layout of an entry changes without the hashed code
 changing. numpy's version is in the key as well: the worlds are drawn from numpy's
@@ -25,7 +26,7 @@ from ... import __version__
 
 FORMAT = 1
 PACKAGE = Path(__file__).resolve().parents[2]  # addon/wildscan
-SOURCES = ("core", "raycast", "app/cache")
+SOURCES = ("core", "raycast", "app/cache", "app/tiles.py")  # folders, and a file (a tile entry's layout)
 
 
 @functools.lru_cache(maxsize=1)
@@ -33,7 +34,8 @@ def source_hash() -> str:
     """SHA-256 over the path and bytes of every file under SOURCES (no bytecode)."""
     digest = hashlib.sha256()
     for folder in SOURCES:
-        for path in sorted((PACKAGE / folder).rglob("*")):
+        root = PACKAGE / folder
+        for path in [root] if root.is_file() else sorted(root.rglob("*")):
             if not path.is_file() or "__pycache__" in path.parts or path.suffix == ".pyc":
                 continue
             data = path.read_bytes()

@@ -249,13 +249,16 @@ def _height_lines(t: dict) -> list[str]:
 
 
 def _device_words(spec: DatasetSpec) -> str:
-    """ ", device vlp16" for a dataset with another device than the default (whose card reads as
-    before)."""
-    device = spec.sensor.device
+    """ ", device vlp16" for a dataset with another device than the default, " at 1.14 m" for one
+    with a mount height of its own (a card with neither reads as before)."""
+    device, height = spec.sensor.device, spec.sensor.mount_height
+    at = ""
+    if height is not None:
+        at = f" at {height[0]:g}-{height[1]:g} m" if isinstance(height, tuple) else f" at {height:g} m"
     if device == "utm30lx-ew":
-        return ""
+        return f", mounted{at}" if at else ""
     names = device if isinstance(device, tuple) else (device,)
-    return f", device {' / '.join(Path(n).name for n in names)}"
+    return f", device {' / '.join(Path(n).name for n in names)}{at}"
 
 
 def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]]) -> str:

@@ -44,6 +44,7 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> SensorConfig:
         echoes=_draw(spec.echoes, seed, index, "echoes"),
         echo_separation=_draw(spec.echo_separation, seed, index, "echo_separation"),
         returns=spec.returns,
+        **_mount_height(spec, seed, index),
     ).validate()
 
 
@@ -70,7 +71,15 @@ def _device_sensor(spec: SensorSpec, seed: int, index: int, noise_seed: int) -> 
         noise_seed=noise_seed,
         model=spec.model,
         **given,
+        **_mount_height(spec, seed, index),
     ).validate()
+
+
+def _mount_height(spec: SensorSpec, seed: int, index: int) -> dict:
+    """{"mount_height": drawn} when the spec gives one; {} for the device's own."""
+    if spec.mount_height is None:
+        return {}
+    return {"mount_height": _draw(spec.mount_height, seed, index, "mount_height")}
 
 
 def draw_weather(spec: "DatasetSpec", seed: int, index: int) -> dict[str, float]:

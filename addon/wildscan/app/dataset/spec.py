@@ -28,9 +28,11 @@ from ...core.sensors import DEFAULT_DEVICE
 from ...core.sensors.config import DEFAULT_MODEL, REALISTIC_SETTINGS, SENSOR_SETTINGS
 from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
+from ...core.world.region import dataset_layout
 from ..settings import SETTINGS, default, limits
 from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_limits, spec_returns
 from .effects_spec import effects_table, weather_table
+from .like import with_like
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
 # changes no existing spec's files or config hash
@@ -49,7 +51,7 @@ DEFAULT_ZONE_WEIGHTS = (
 )
 Value = float | tuple[float, float]
 TOP_KEYS = ("seeds", "detail", "vegetation", "biome", "scans_per_world", "formats", "label_scheme")
-TOP_KEYS += ("split", "poses", "sensor", "weather", "effects", "intensity")
+TOP_KEYS += ("split", "poses", "sensor", "weather", "effects", "intensity", "layout")  # layout: region.py
 
 
 @dataclass(frozen=True)
@@ -65,6 +67,7 @@ class SensorSpec:
     divergence: Value = default("divergence")
     echoes: int | tuple[int, int] = default("echoes")
     echo_separation: Value = default("echo_separation")
+    mount_height: Value | None = None  # m (or a range); None: the device's own [mount] height
     returns: str | None = None  # the return mode (core/sensors/returns.py); None: the device's own
     # a preset or device file, or a tuple of them drawn per scan (app/dataset/devices.py); with
     # another device than the default, rh, min_range and max_range are None for its own
@@ -104,8 +107,9 @@ class DatasetSpec:
                 del out[key]
         if not self.poses.min_scans_with:  # the same for class-aware poses
             del out["poses"]["min_scans_with"]
-        if out["sensor"]["device"] == SensorSpec.device:  # and one with the default device too
-            del out["sensor"]["device"]
+        for key, unset in (("device", SensorSpec.device), ("mount_height", None)):
+            if out["sensor"][key] == unset:  # and one with the default device, at its height
+                del out["sensor"][key]
         return out
 
     def config_hash(self) -> str:
@@ -157,16 +161,15 @@ class DatasetSpec:
         )
 
 
-# ---------------------------------------------------------------------------------------
-# loading
-
-
-def load_spec(path) -> DatasetSpec:
+def load_spec(path, like: str | None = None) -> DatasetSpec:
+    """SPEC.toml at `path` (None: every default), `like` (--like) in place of its own."""
     try:
         import tomllib
     except ImportError:  # Python 3.10: the same parser as a package (the `dataset` extra)
         import tomli as tomllib
 
+    if path is None:
+        return spec_from_dict({"like": like} if like else {}, "--like")
     path = user_path(path, "spec", "a spec file name")
     try:
         text = path.read_bytes()
@@ -176,14 +179,15 @@ def load_spec(path) -> DatasetSpec:
         data = tomllib.loads(text.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise UserError(f"{path.name}: not valid TOML ({e})") from None
-    return spec_from_dict(data, path.name)
+    return spec_from_dict(data | ({"like": like} if like else {}), path.name)
 
 
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
-    top = Table(data, "", where)
+    top = Table(with_like(data, where), "", where)  # `like`: a real dataset's rig and files
     top.only(*TOP_KEYS)
     d = DatasetSpec()
-    spec = replace(
+    dataset_layout(top.data.get("layout"), where)
+    return replace(
         d,
         seeds=_seeds(top),
         detail=top.choice("detail", tuple(DETAILS), default=d.detail),
@@ -199,7 +203,6 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         effects=effects_table(top.table("effects", {})),
         intensity=top.choice("intensity", INTENSITY_MODES, default=d.intensity),
     )
-    return spec
 
 
 # "A..B" with ASCII digits only: str.isdigit() also takes "²" or "٣", which int() refuses
@@ -299,7 +302,7 @@ def _sensor(t: Table) -> SensorSpec:
     values = {
         key: _sensor_value(t, key, getattr(d, key), device)
         for key in RANGED_SENSOR_KEYS
-        if key not in own and (key != "noise" or t.get(key, None) is not None)
+        if key not in own and (key not in ("noise", "mount_height") or t.get(key, None) is not None)
     }
     if own:
         values.update(device_values(t.data, t.where, device))

@@ -33,6 +33,7 @@ from ...core.classes import class_by_name
 from ...core.errors import PoseRejected, UserError
 from ...core.io.files import atomic_outputs
 from ...core.label_schemes import scheme
+from ...core.placement import COLUMN_HEIGHT
 from ...core.posesampler import NoPose
 from ...core.runtime.cast_clock import CLOCK
 from ...core.scan import run_scan
@@ -364,6 +365,8 @@ def sensor_row(sensor, frame: str) -> dict:
         "noise_seed": sensor.noise_seed,
         "frame": frame,
     }
+    if sensor.mount_height != COLUMN_HEIGHT:  # a row at the paper's column says what it said
+        row["mount_height"] = sensor.mount_height
     if sensor.realistic:
         row.update(
             model=sensor.model,

@@ -13,7 +13,6 @@ from ...core.errors import UserError
 from ...core.io.rosbag import BASE_LINK, IMU, LASER, ODOM, SENSOR, DriveBag, point_records
 from ...core.motion.placements import Motion
 from ...core.motion.sweep import Sweep
-from ...core.placement import COLUMN_HEIGHT
 from ...core.sensors import SensorConfig
 from ...core.sensors.device import Device
 from ...core.spatial.leveling import rot_z
@@ -87,7 +86,7 @@ class BagFeed:
         self.angular = motion.step / timing.column_period_s
 
     def static(self) -> None:
-        transforms = [(BASE_LINK, SENSOR, (0.0, 0.0, COLUMN_HEIGHT), IDENTITY_Q)]
+        transforms = [(BASE_LINK, SENSOR, (0.0, 0.0, self.sensor.mount_height), IDENTITY_Q)]
         if self.imu is not None:
             transforms.append((BASE_LINK, IMU, *self.imu.static_transform()))
         for bag in self.bags:
@@ -105,7 +104,7 @@ class BagFeed:
         translations, rotations = [self.motion.ground[ks]], [self.q_base[ks]]
         if self.geometry is not None:
             frames.append((BASE_LINK, LASER))
-            translations.append(np.broadcast_to((0.0, 0.0, COLUMN_HEIGHT), (len(ks), 3)))
+            translations.append(np.broadcast_to((0.0, 0.0, self.sensor.mount_height), (len(ks), 3)))
             rotations.append(self.q_laser[ks])
         poses = (np.stack(translations, axis=1), np.stack(rotations, axis=1))
         odometry = (self.motion.ground[ks], self.q_base[ks], self.linear[ks], self.angular[ks])

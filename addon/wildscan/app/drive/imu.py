@@ -27,6 +27,7 @@ class DriveImu:
     orientation: np.ndarray  # (n, 4) the IMU frame in odom (x, y, z, w): the ground truth
     gyro: np.ndarray  # (n, 3) rad/s, as measured
     accel: np.ndarray  # (n, 3) m/s^2, as measured
+    sensor_height: float = COLUMN_HEIGHT  # m, the lidar's `sensor` frame up base_link (--mount-height)
 
     def covariances(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """sensor_msgs/Imu's three covariances: the orientation is the ground truth (0, as
@@ -48,9 +49,9 @@ class DriveImu:
         return imu_csv_text(self.stamps, self.gyro, self.accel)
 
     def sensor_from_imu(self) -> np.ndarray:
-        """(4, 4) IMU frame -> the lidar's `sensor` frame (0.723 m up base_link, same axes)."""
+        """(4, 4) IMU frame -> the lidar's `sensor` frame (sensor_height up base_link, same axes)."""
         out = self.mount.matrix.copy()
-        out[2, 3] -= COLUMN_HEIGHT
+        out[2, 3] -= self.sensor_height
         return out
 
     def static_transform(self) -> tuple:
@@ -75,7 +76,14 @@ class DriveImu:
 
 
 def drive_imu(
-    motion: Motion, period_ns: int, scans_2d: int, model_name: str, rate: int, noise: bool, seed: int
+    motion: Motion,
+    period_ns: int,
+    scans_2d: int,
+    model_name: str,
+    rate: int,
+    noise: bool,
+    seed: int,
+    sensor_height: float = COLUMN_HEIGHT,
 ) -> DriveImu | None:
     """The IMU samples of a drive of `scans_2d` 2D scans (None for `--imu none`)."""
     if model_name == "none":
@@ -86,4 +94,5 @@ def drive_imu(
     gyro, accel = truth.gyro, truth.accel
     if noise:
         gyro, accel = with_errors(gyro, accel, rate, model, seed)
-    return DriveImu(model, rate, noise, DEFAULT_MOUNT, stamps, quaternions(truth.rotation), gyro, accel)
+    orientation = quaternions(truth.rotation)
+    return DriveImu(model, rate, noise, DEFAULT_MOUNT, stamps, orientation, gyro, accel, sensor_height)

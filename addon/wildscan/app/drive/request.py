@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from ...core.checks import one_of, whole_number
 from ...core.errors import UserError
 from ...core.motion.imu_models import DEFAULT_IMU, DEFAULT_RATE, check_imu, check_rate
+from ...core.motion.routes import check_route
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
 from ...core.placement import check_z_start
@@ -21,6 +22,7 @@ ROS2_STORAGES = ("mcap", "sqlite3")
 DRIVE_BACKENDS = ("auto", "embree", "bvh")  # they cast against triangles: one crop for the whole path
 MAX_WIND_DEG = 10.0
 MAX_SCANS_3D = 10_000
+MAX_TRAIL_M = 8_000.0  # m: the endless world's tiles reach +-9 km from the origin
 
 
 @dataclass(frozen=True)
@@ -33,7 +35,8 @@ class DriveRequest:
     trail: bool = False  # the path: the world's trail,
     waypoints: str | None = None  # a CSV of x,y,
     start: tuple[float, float, float] | None = None  # or straight ahead from (x, y, yaw)
-    distance: float | None = None  # ... for this many metres
+    distance: float | None = None  # ... for this many metres (with trail: the endless network's)
+    route: str = "out"  # with trail and distance: "out", or "loop" (out and back to the start)
     speed: float = DEFAULT_SPEED
     scans: int | None = None  # 3D scans to take (default: as many as the path allows)
     head: str = "stepped"
@@ -66,8 +69,21 @@ class DriveRequest:
                 "give exactly one path: {trail}, {waypoints} PATH.csv or {from} X Y YAW {distance} M",
                 related=("trail", "waypoints", "from", "distance"),
             )
-        if (self.start is not None) != (self.distance is not None):
+        if self.distance is not None and self.start is None and not self.trail:
+            raise UserError(
+                "goes with {from} X Y YAW or {trail} (the endless world's trail network)",
+                setting="distance",
+                related=("from", "trail"),
+            )
+        if self.start is not None and self.distance is None:
             raise UserError("{from} X Y YAW and {distance} M go together", related=("from", "distance"))
+        check_route(self.route)
+        if self.route != "out" and not self.long_trail:
+            raise UserError(
+                "goes with {trail} {distance} M only", setting="route", related=("trail", "distance")
+            )
+        if self.long_trail:
+            self.check_long_trail()
         check_speed(self.speed)
         check_z_start(self.z_start)
         if self.scans is not None:
@@ -101,6 +117,25 @@ class DriveRequest:
             require_rosbags()
         return self
 
+    @property
+    def long_trail(self) -> bool:
+        """A drive over the endless world's trail network (--trail --distance M)."""
+        return self.trail and self.distance is not None
+
+    def check_long_trail(self) -> None:
+        if self.seed is None:
+            raise UserError(
+                "with {distance} follows the endless world of a {seed}, not a saved world",
+                setting="trail",
+                related=("seed", "distance"),
+            )
+        if not math.isfinite(self.distance) or not 0 < self.distance <= MAX_TRAIL_M:
+            raise UserError(
+                f"must be more than 0 and at most {MAX_TRAIL_M:g} m along the trails, got {self.distance:g}",
+                setting="distance",
+                allowed=(0, MAX_TRAIL_M),
+            )
+
     def to_dict(self) -> dict:
         return {
             "world": self.world,
@@ -111,6 +146,7 @@ class DriveRequest:
             "waypoints": self.waypoints,
             "from": list(self.start) if self.start is not None else None,
             "distance": self.distance,
+            **({"route": self.route} if self.long_trail else {}),
             "speed": self.speed,
             "scans": self.scans,
             "head": self.head,

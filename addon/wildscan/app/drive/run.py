@@ -22,7 +22,7 @@ from ...core.effects import Effects
 from ...core.io.tum import tum_text
 from ...core.io.writer import ScanOutput
 from ...core.label_schemes import scheme
-from ...core.motion.placements import Motion, place_all
+from ...core.motion.placements import Motion, motion_of, place_all
 from ...core.motion.sweep import Sweep, sweep
 from ...core.motion.trajectory import instants, schedule
 from ...core.rng import seeded
@@ -38,6 +38,7 @@ from .bags import BagFeed, open_bags
 from .imu import IMU_CSV, drive_imu
 from .memory import keep_freed_memory
 from .request import DriveRequest
+from .trails import TrailWorld, pieces, trail_world
 from .world import drive_path, drive_world
 
 
@@ -58,44 +59,58 @@ class DriveReport:
         return sum(self.seconds.values())
 
 
-def run_drive(request: DriveRequest, progress=None, say=print) -> DriveReport:
-    """Drive as `request` says and write its files into `request.out` (docs/motion.md).
+def run_drive(request: DriveRequest, progress=None, say=print, cache=None) -> DriveReport:
+    """Drive as `request` says and write its files into `request.out` (docs/motion.md);
+    `cache`: the world cache an endless drive keeps its tiles in (DiskCache or None).
     `progress(done, total)` hears of the rays cast; `say` gets one-line news. SIGTERM ends it
     as Ctrl-C does, with Interrupted (code 143); either way nothing is left in the folder."""
     try:
         with sigterm_raises():
-            return _drive(request, progress, say)
+            return _drive(request, progress, say, cache)
     except Terminated:
         raise Interrupted("terminated; nothing written", 143) from None
 
 
-def _drive(request: DriveRequest, progress, say) -> DriveReport:
+def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
     keep_freed_memory()  # the sweeps' arrays reuse heap pages instead of faulting in new ones
     clock = _Clock()
     request.check()
     files.check_out_dir(request.out)
     path = None if request.trail else drive_path(request, None)  # a bad CSV is found before the world
-    world = drive_world(request)
-    path = path or drive_path(request, world.trail)
+    world = trail_world(request, cache) if request.long_trail else drive_world(request)
+    if path is None:
+        path = (
+            world.route(request.distance, request.route)
+            if request.long_trail
+            else drive_path(request, world.trail)
+        )
     sensor = request.sensor
     period = sensor.device.timing.column_period_s
     plan = schedule(path, request.speed, sensor.sweeps, request.scans, period, sensor.device.columns_named)
     clock.lap("world")
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
-    effects = drive_effects(request.wind, request.wind_seed)
-    from ..scan import scan_effects
-
-    # every ray draws its own particles, its sward depth: the effects table's and the cover
-    effects = Effects(
-        effects.items + scan_effects(request.weather, sensor, world.cover, request.effects).items
-    )
-    backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
-    clock.lap("crop")
-    starts = range(0, plan.scans_2d, plan.sweeps)  # the 3D scans' first 2D scans: their metadata
-    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start, keep=starts)
-    check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
-    clock.lap("placement")
+    runs = pieces(plan.scans_2d, plan.sweeps, request.speed * period, request.long_trail)
+    reach = crop_radius(sensor)
+    motions, backend, backend_name = [], None, None
+    for k0, k1 in runs:  # the robot stood on each piece's own triangles (the sweep's, below)
+        backend, effects = _piece_backend(
+            request, world, xy[k0 : k1 + 1], reach, say if not motions else None, placing=len(runs) > 1
+        )
+        backend_name = backend_name or backend.name
+        clock.lap("crop")
+        span = slice(k0, k1 + 1)
+        distance = request.speed * times[span]
+        keep = [s - k0 for s in range(k0, k1, plan.sweeps)]  # the 3D scans' first 2D scans: their metadata
+        height = sensor.mount_height
+        motions.append(
+            place_all(backend, times[span], xy[span], yaw[span], distance, request.z_start, height, keep, k0)
+        )
+        clock.lap("placement")
+        if len(runs) > 1:
+            backend = None  # built again for its sweeps: the placements of every piece come first (IMU)
+    motion = joined_motion(motions, [k0 for k0, _ in runs])
+    check_reach(motion.centre, sensor.max_range, request.frame, backend_name)
     imu = drive_imu(
         motion,
         sensor.device.timing.column_period_ns,
@@ -104,12 +119,13 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
         request.imu_rate,
         request.imu_noise == "on",
         int(sensor.noise_seed),
+        sensor.mount_height,
     )
     clock.lap("imu")
 
     from ...core.io.files import output_directory
 
-    context = _Context(request, world.provenance, motion, world.instances, backend, effects.classes, imu)
+    context = _Context(request, world.provenance, motion, world.instances, backend_name, effects.classes, imu)
     stage = files.Staging(output_directory(request.out))
     try:
         with ExitStack() as bags:
@@ -118,7 +134,13 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
             feed.static()
             counter = _Rays(progress, plan.scans_2d * sensor.beams_per_column)
             points = []
-            for k0, k1 in _groups(plan.scans_2d, plan.sweeps):
+            for k0, k1, piece in _groups(runs, plan.sweeps):
+                if piece is not None and len(runs) > 1:
+                    backend = None  # the previous piece's triangles go before the next are joined
+                    backend, effects = _piece_backend(
+                        request, world, xy[piece[0] : piece[1] + 1], reach, None
+                    )
+                    clock.lap("crop")
                 noise = context.noise(k1 - k0)
                 result = sweep(
                     backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter, effects
@@ -149,6 +171,26 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     )
 
 
+def _piece_backend(request: DriveRequest, world, xy: np.ndarray, reach: float, say, placing: bool = False):
+    """(the ray caster over the world's triangles within reach of the path `xy`, the drive's
+    effects there: wind, weather, the ground cover: the world's, or an endless piece's own).
+    `placing`: an endless piece's ground only, for the placement (the sweep's comes later)."""
+    cropped = world.ground(xy, reach) if placing else world.crop(xy, reach)
+    cover = cropped.cover if isinstance(world, TrailWorld) else world.cover
+    effects = drive_scan_effects(request, cover)
+    return _backend(request, effects, cropped, say), effects
+
+
+def drive_scan_effects(request: DriveRequest, cover) -> Effects:
+    """Wind, and the rays' own draws: particles of the weather, the sward's depth."""
+    from ..scan import scan_effects
+
+    effects = drive_effects(request.wind, request.wind_seed)
+    # every ray draws its own particles, its sward depth: the effects table's and the cover
+    found = scan_effects(request.weather, request.sensor, cover, request.effects)
+    return Effects(effects.items + found.items)
+
+
 def _backend(request: DriveRequest, effects: Effects, cropped, say) -> RayBackend:
     from ...raycast.select import make_backend
 
@@ -162,10 +204,29 @@ def _backend(request: DriveRequest, effects: Effects, cropped, say) -> RayBacken
     return moving_scene(cropped, effects, make, request.sensor)
 
 
-def _groups(scans_2d: int, sweeps: int) -> list[tuple[int, int]]:
-    """The 3D scans' runs of 2D scans, then the 2D scans after the last whole 3D scan."""
-    edges = list(range(0, scans_2d, sweeps)) + [scans_2d]
-    return [(a, b) for a, b in zip(edges[:-1], edges[1:])]
+def _groups(runs: list[tuple[int, int]], sweeps: int) -> list[tuple[int, int, tuple | None]]:
+    """The 3D scans' runs of 2D scans, then the 2D scans after the last whole 3D scan; each
+    with its piece of the world when it is the piece's first (None otherwise)."""
+    out = []
+    for a, b in runs:
+        edges = list(range(a, b, sweeps)) + [b]
+        out += [(k0, k1, (a, b) if k0 == a else None) for k0, k1 in zip(edges[:-1], edges[1:])]
+    return out
+
+
+def joined_motion(motions: list[Motion], firsts: list[int]) -> Motion:
+    """The motions of consecutive pieces (starting at 2D scans `firsts`) as one: each piece's
+    last instant is the next one's first (placed again there on the next piece's triangles),
+    so it is taken from the next."""
+    if len(motions) == 1:
+        return motions[0]
+
+    def joined(name: str) -> np.ndarray:
+        return np.concatenate([getattr(m, name)[:-1] for m in motions[:-1]] + [getattr(motions[-1], name)])
+
+    kept = {first + k: p for m, first in zip(motions, firsts) for k, p in m.kept.items()}
+    names = ("times", "distance", "centre", "ground", "rotation")
+    return motion_of(*(joined(name) for name in names), kept, joined("attitude"))
 
 
 class _Context:
@@ -177,7 +238,7 @@ class _Context:
         provenance: dict,
         motion: Motion,
         instances,
-        backend: RayBackend,
+        backend_name: str,
         declared: tuple[int, ...],
         imu=None,
     ):
@@ -188,7 +249,7 @@ class _Context:
         self.provenance = provenance
         self.motion = motion
         self.world_instances = np.unique(np.asarray(instances))
-        self.backend_name = backend.name
+        self.backend_name = backend_name
         self.labels = scheme("semantickitti")
         sigma = request.sensor.fixed_noise  # the paper model's 0.015 m unless --noise says otherwise
         # one generator for the drive: the first 3D scan draws what a static scan draws

@@ -13,6 +13,7 @@ file and must end in its suffix; the others go beside it, same name, their own s
     ply            SCAN.ply + SCAN.json (the sidecar)
     las            SCAN.las
     semantickitti  SCAN.bin (velodyne: x y z remission) + SCAN.label (SemanticKITTI ids)
+    wildscenes     SCAN.bin (x y z) + SCAN.label (int32 WildScenes ids)
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ WRITERS: dict[str, Writer] = _table(
     "semantickitti",
     "las",
     "ply",
+    "wildscenes",
 )
 FORMATS: tuple[str, ...] = tuple(WRITERS)
 

@@ -79,13 +79,17 @@ def place_all(
     yaw_deg: np.ndarray,
     distance: np.ndarray,
     z_start: float | None = None,
+    height: float = COLUMN_HEIGHT,
     keep: Iterable[int] = (0,),
+    index0: int = 0,
 ) -> Motion:
-    """Stand the robot at every instant; PoseRejected naming where and when it cannot.
+    """Stand the robot at every instant, its optical centre `height` up the column;
+    PoseRejected naming where and when it cannot.
     `z_start`: the lasers start at this height at every instant, as `place` does for one
     pose (a drive under a roof: the probe from above would stand it on the roof). `keep`:
     the instants whose whole Placement the caller needs (Motion.placement; the first's by
-    default)."""
+    default). `index0`: the drive's index of the first instant (a drive placed piece
+    by piece names the 2D scan it stops at in its own numbering)."""
     count, keep = len(times), set(keep)
     centre, ground, rotation = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3, 3))
     attitude = np.empty((count, 3))
@@ -102,28 +106,39 @@ def place_all(
             off = np.flatnonzero(~np.isfinite(found))
             if len(off):
                 i = int(off[0])
-                _reject(a + i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
+                _reject(a + i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}", index0)
             starts = found + LASER_CLEARANCE
-        placed = _place_from(backend, poses, starts, times, distance, a, {k - a for k in keep if a <= k < b})
+        window = {k - a for k in keep if a <= k < b}
+        placed = _place_from(backend, poses, starts, times, distance, a, window, height, index0)
         centre[a:b], ground[a:b], rotation[a:b], attitude[a:b] = placed[:4]
         kept.update({a + i: p for i, p in placed[4].items()})
     return motion_of(times, distance, centre, ground, rotation, kept, attitude)
 
 
-def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance, first: int, keep: set[int]):
+def _place_from(
+    backend,
+    poses: list[Pose],
+    z_start: np.ndarray,
+    times,
+    distance,
+    first: int,
+    keep: set[int],
+    height: float,
+    index0: int = 0,
+):
     """(centre, ground, rotation, attitude, {i: Placement kept}) of the poses (instants first,
     first + 1, ...) with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
-    stood = stand_all(poses, rows)
+    stood = stand_all(poses, rows, height)
     centre, ground, rotation = stood.optical.copy(), stood.ground.copy(), stood.rotation.copy()
     yaw = np.array([pose.yaw_deg for pose in poses], dtype=np.float64)
     attitude = np.column_stack([yaw, stood.pitch, stood.roll])
     kept = {}
     for i in np.flatnonzero(~stood.fits):
         try:  # `stand` says why, in the words a static scan's placement uses
-            p = stand(poses[i], float(z_start[i]), lasers_of(poses[i], rows[i]))
+            p = stand(poses[i], float(z_start[i]), lasers_of(poses[i], rows[i]), height)
         except PoseRejected as e:
-            _reject(first + int(i), times, distance, e.message)
+            _reject(first + int(i), times, distance, e.message, index0)
         centre[i], ground[i], rotation[i] = p.optical_centre, p.ground_centre, p.rotation
         attitude[i] = (p.pose.yaw_deg, p.pitch_rad, p.roll_rad)
         if i in keep:
@@ -145,6 +160,7 @@ class Stood:
     ground: np.ndarray  # (K, 3) where the column meets the ground
     optical: np.ndarray  # (K, 3) the optical centre
     rotation: np.ndarray  # (K, 3, 3) sensor -> world
+    height: float = COLUMN_HEIGHT  # m, the optical centre up the column
 
     def placement(self, i: int, pose: Pose, lasers) -> Placement:
         return Placement(
@@ -154,10 +170,11 @@ class Stood:
             roll_rad=float(self.roll[i]),
             pitch_rad=float(self.pitch[i]),
             lasers=lasers,
+            column_height=self.height,
         )
 
 
-def stand_all(poses: list[Pose], rows) -> Stood:
+def stand_all(poses: list[Pose], rows, height: float = COLUMN_HEIGHT) -> Stood:
     """`stand` for every pose (rows of `cast_lasers_many`), as arrays; a pose that does not
     fit is left to `stand` to reject."""
     origins = np.stack([row[0] for row in rows]) if rows else np.zeros((0, len(LASERS), 3))
@@ -180,8 +197,8 @@ def stand_all(poses: list[Pose], rows) -> Stood:
     yaw = dm.radians(np.array([pose.yaw_deg for pose in poses], dtype=np.float64))
     rotation = sensor_to_world_matrices(roll, pitch, yaw)
     ground = np.column_stack([xy, (z_front + z_rear + z_left + z_right) / 4])
-    optical = ground + dm.apply(rotation, [0.0, 0.0, COLUMN_HEIGHT])
-    return Stood(fits, roll, pitch, ground, optical, rotation)
+    optical = ground + dm.apply(rotation, [0.0, 0.0, height])
+    return Stood(fits, roll, pitch, ground, optical, rotation, height)
 
 
 def sensor_to_world_matrices(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -238,7 +255,8 @@ def motion_of_placements(placements: list[Placement], times: np.ndarray, distanc
     )
 
 
-def _reject(i: int, times: np.ndarray, distance: np.ndarray, why: str) -> None:
+def _reject(i: int, times: np.ndarray, distance: np.ndarray, why: str, index0: int = 0) -> None:
     raise PoseRejected(
-        f"the drive stops at t = {times[i]:.3f} s (2D scan {i}, {distance[i]:.2f} m along the path): {why}"
+        f"the drive stops at t = {times[i]:.3f} s (2D scan {index0 + i}, {distance[i]:.2f} m along the "
+        f"path): {why}"
     )

@@ -36,6 +36,7 @@ from . import intensity as I
 SPECKLE_KEY = 0xDE7EC7  # the detection's own stream of speckle draws
 RANGE_EDGES = (10.0, 20.0, 40.0, 60.0, 80.0, 100.0)  # m: the card's range bins
 INCIDENCE_EDGES = (30.0, 45.0, 60.0, 75.0)  # deg: the card's incidence bins
+COS_EDGES = np.cos(np.radians(INCIDENCE_EDGES))[::-1].copy()  # their cosines, rising
 RANGE_BINS = len(RANGE_EDGES) + 1
 INCIDENCE_BINS = len(INCIDENCE_EDGES) + 1
 TALLY = NUM_IDS + RANGE_BINS + INCIDENCE_BINS  # columns of a tally: class, range, incidence
@@ -90,8 +91,10 @@ def received_power(reflectance, cover, distance, alpha: float = 0.0) -> np.ndarr
 
 
 def speckle(noise_seed: int, beam: np.ndarray, rank: np.ndarray) -> np.ndarray:
-    """The pulse-to-pulse factor of each echo (beam, its rank within the beam's echoes)."""
-    u = I.hash_unit(np.int64(noise_seed), np.int64(SPECKLE_KEY), beam, rank)
+    """The pulse-to-pulse factor of each echo (beam, its rank within the beam's echoes: at most
+    one a sub-ray, so below 8), hashed as one key a echo."""
+    key = np.asarray(beam, dtype=np.int64) * 8 + np.asarray(rank, dtype=np.int64)
+    u = I.hash_unit(np.int64(noise_seed), np.int64(SPECKLE_KEY), key)
     return 1.0 - I.SPECKLE + 2.0 * I.SPECKLE * u
 
 
@@ -114,17 +117,15 @@ def lost_echoes(
 
 def tally(label: np.ndarray, distance: np.ndarray, cover: np.ndarray, lost: np.ndarray) -> np.ndarray:
     """(2, TALLY) counts: row 0 every echo weighed, row 1 those lost; columns the class ids,
-    then the range bins, then the incidence bins (C read as cos theta)."""
-    angle = np.degrees(np.arccos(np.clip(cover, 0.0, 1.0)))
-    column = np.concatenate(
-        [
-            np.asarray(label, dtype=np.int64),
-            NUM_IDS + np.searchsorted(RANGE_EDGES, distance, side="right"),
-            NUM_IDS + RANGE_BINS + np.searchsorted(INCIDENCE_EDGES, angle, side="right"),
-        ]
+    then the range bins, then the incidence bins (C read as cos theta: an angle bin is the
+    number of edges whose cosine is at least C)."""
+    parts = (
+        (np.asarray(label, dtype=np.intp), NUM_IDS),
+        (np.searchsorted(RANGE_EDGES, distance, side="right"), RANGE_BINS),
+        (len(COS_EDGES) - np.searchsorted(COS_EDGES, cover, side="left"), INCIDENCE_BINS),
     )
-    weighed = np.bincount(column, minlength=TALLY)
-    gone = np.bincount(column[np.tile(lost, 3)], minlength=TALLY)
+    weighed = np.concatenate([np.bincount(c, minlength=k) for c, k in parts])
+    gone = np.concatenate([np.bincount(c[lost], minlength=k) for c, k in parts])
     return np.stack([weighed, gone])[None]
 
 

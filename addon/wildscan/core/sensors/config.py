@@ -26,7 +26,7 @@ from typing import NamedTuple
 from ..checks import one_of
 from ..errors import UserError
 from .device import Device, Mount
-from .load import DEFAULT_DEVICE
+from .load import COLUMN_HEIGHT, DEFAULT_DEVICE, MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
 from .returns import RETURN_MODES, kept_echoes
 
 MODELS = ("paper", "realistic")
@@ -37,7 +37,16 @@ MAX_ECHO_SEPARATION = 10.0  # m
 # the settings of the realistic model alone: giving one with the paper model is a mistake
 REALISTIC_SETTINGS = ("divergence", "echoes", "echo_separation", "returns")
 # every setting of the sensor, as `wildscan scan` and a dataset spec's [sensor] name them
-SENSOR_SETTINGS = ("rh", "min_range", "max_range", "noise", "noise_seed", "model", *REALISTIC_SETTINGS)
+SENSOR_SETTINGS = (
+    "rh",
+    "min_range",
+    "max_range",
+    "noise",
+    "noise_seed",
+    "model",
+    *REALISTIC_SETTINGS,
+    "mount_height",
+)
 
 _D = DEFAULT_DEVICE
 
@@ -64,6 +73,7 @@ def setting_limits(device: Device) -> dict[str, Limits]:
         "divergence": Limits(0.0, MAX_DIVERGENCE_MRAD),
         "echoes": Limits(1, device.optics.echoes),  # a return mode may fix it (check_returns)
         "echo_separation": Limits(0.0, MAX_ECHO_SEPARATION, low_open=True),
+        "mount_height": Limits(MIN_MOUNT_HEIGHT, MAX_MOUNT_HEIGHT),
     }
 
 
@@ -80,6 +90,7 @@ def setting_defaults(device: Device) -> dict[str, object]:
         "divergence": device.optics.divergence_mrad,
         "echoes": device.optics.echoes,
         "echo_separation": device.optics.echo_separation_m,
+        "mount_height": device_mount_height(device),
     }
 
 
@@ -97,6 +108,8 @@ class SensorConfig:
     echoes: int = _D.optics.echoes
     echo_separation: float = _D.optics.echo_separation_m
     device: Device = _D
+    # m, the optical centre above the ground the robot stands on (placement.py's column)
+    mount_height: float = COLUMN_HEIGHT
     # the realistic model drops returns below the device's detection limit (core/realism/lost_returns.py);
     # False only to measure what the step costs (`wildscan bench --suite detection`)
     detection: bool = True
@@ -117,6 +130,7 @@ class SensorConfig:
             if mode in RETURN_MODES
             else device.optics.echoes,
             "echo_separation": device.optics.echo_separation_m,
+            "mount_height": device_mount_height(device),
         }
         return cls(device=device, **{**defaults, **settings})
 
@@ -196,6 +210,14 @@ class SensorConfig:
                 allowed=(0, 2**63 - 1),
             )
         self._validate_realistic(lim)
+        _check_finite("mount_height", self.mount_height, "m")
+        low, high, _ = lim["mount_height"]
+        if not low <= self.mount_height <= high:
+            raise UserError(
+                f"must be from {low:g} to {high:g} m, got {self.mount_height:g}",
+                setting="mount_height",
+                allowed=(low, high),
+            )
         return self
 
     def _validate_realistic(self, lim: dict[str, Limits]) -> None:
@@ -262,6 +284,8 @@ class SensorConfig:
         d.update(beams_per_2d_scan=beams.count, sweeps=self.sweeps)
         if self.device != DEFAULT_DEVICE:
             d["device"] = self.device.id
+        if self.mount_height != COLUMN_HEIGHT:  # the paper's column says nothing (today's bytes)
+            d["mount_height"] = self.mount_height
         if self.realistic:
             d.update(
                 scan_model=self.model,
@@ -275,6 +299,12 @@ class SensorConfig:
             if self.device.detection is not None and self.detection:
                 d["detection"] = self.device.detection.describe()
         return d
+
+
+def device_mount_height(device: Device) -> float:
+    """The height a device stands at unless a scan says otherwise: its [mount] height, or the
+    paper robot's column."""
+    return COLUMN_HEIGHT if device.mount.height_m is None else device.mount.height_m
 
 
 def _check_finite(setting: str, value: float, unit: str) -> None:

@@ -136,6 +136,9 @@ class Mount:
     sweep_deg: float  # the turn of one 3D scan
     heads: tuple[str, ...] = HEAD_MODES  # how the head may turn: stepped, continuous
     direction: str = "ccw"  # TURN_DIRECTIONS, seen from +Z: ccw (ψ = +φ, Eq. 1) or cw (ψ = −φ)
+    # m, the optical centre above the ground the robot stands on, as the device is usually
+    # carried (a mast); None: the paper robot's column (placement.COLUMN_HEIGHT)
+    height_m: float | None = None
 
 
 HEAD_TURNS = ("stepped", "continuous")

@@ -12,7 +12,8 @@ silently as a default).
               return modes, returns.py; default ["multi"]), return_mode (the default mode),
               dual (what the dual mode pairs)
     [mount]   kind, axis, tilt_deg, step_deg, min_step_deg, sweep_deg, heads, direction (optional:
-              "ccw", the default, or "cw")
+              "ccw", the default, or "cw"), height (optional: metres of the optical centre above
+              the ground; the paper robot's 0.723 m column when absent)
     [head]    (optional) axis, tilt_deg, step_deg, sweep_deg, turn: a rotating head carrying
               the device (device.py)
     [detection] (optional) pairs = [[reflectance, range_m], ...], estimate = [reflectance, ...]:
@@ -51,6 +52,11 @@ DEFAULT_DEVICE_ID = "utm30lx-ew"
 MAX_BEAMS = 4096  # beams a column: far past any lidar made (the largest have 128)
 MAX_STEPS_PER_COLUMN = 1_000_000
 MAX_HEAD_STEPS = 3600  # device sweeps a 3D scan on a head (0.05 deg steps over 180 deg)
+# m, the optical centre above the ground: from a sensor on a short stand to one on a truck's
+# mast (the paper robot's column is 0.723 m, a car roof about 1.7 m)
+MIN_MOUNT_HEIGHT = 0.1
+MAX_MOUNT_HEIGHT = 10.0
+COLUMN_HEIGHT = 0.723  # m, the paper robot's optical centre above the ground (paper section II)
 
 
 def preset_names() -> tuple[str, ...]:
@@ -241,7 +247,9 @@ def _optics(t: "Table") -> Optics:
 
 
 def _mount(t: "Table") -> Mount:
-    t.only("kind", "axis", "tilt_deg", "step_deg", "min_step_deg", "sweep_deg", "heads", "direction")
+    t.only(
+        "kind", "axis", "tilt_deg", "step_deg", "min_step_deg", "sweep_deg", "heads", "direction", "height"
+    )
     axis = t.numbers("axis", -1.0, 1.0, 3, 3)
     if abs(math.fsum(a * a for a in axis) - 1.0) > 1e-9:
         raise t.fail("axis", "a unit vector [x, y, z]", list(axis))
@@ -259,6 +267,7 @@ def _mount(t: "Table") -> Mount:
         sweep_deg=sweep,
         heads=tuple(heads),
         direction=t.choice("direction", TURN_DIRECTIONS) if "direction" in t.data else "ccw",
+        height_m=t.number("height", MIN_MOUNT_HEIGHT, MAX_MOUNT_HEIGHT) if "height" in t.data else None,
     )
 
 

@@ -67,6 +67,18 @@ def add_clearings(tile, land: F.Landscape, lib) -> None:
         if not c.clearing:
             continue
         for cls, proto, x, y, yaw in furniture(land.seed, c.ci, c.cj, c.node[0], c.node[1], c.clearing):
-            if x0 <= x < x1 and y0 <= y < y1:
+            if x0 <= x < x1 and y0 <= y < y1 and not _on_a_tread(land, x, y, lib.radius[proto]):
                 z = float(tile.grid.height_at(np.array([x]), np.array([y]))[0])
                 tile.add("clearing", cls, proto, location=(x, y, z), yaw=yaw, radius=lib.radius[proto])
+
+
+TREAD_CLEARANCE_M = 0.5  # m between a piece and a trail's tread: a robot drives node to node (drive --trail)
+
+
+def _on_a_tread(land: F.Landscape, x: float, y: float, radius: float) -> bool:
+    """Whether a piece of `radius` at (x, y) would reach onto a trail's tread (with
+    TREAD_CLEARANCE_M to spare): the trails run through the clearing's node, and a bench on
+    one stops a robot driving the network (seed 1, (131.2, -175.8))."""
+    px, py = np.array([x]), np.array([y])
+    a = land.anchors
+    return bool(a.trail_distance(px, py)[0] < a.trail_half_width(px, py)[0] + radius + TREAD_CLEARANCE_M)

@@ -1,0 +1,408 @@
+"""The endless world's geometry, tile by tile, through the world cache (numpy only, no bpy).
+
+The endless layout (core/world/endless/) is a pure function of (seed, biome, detail,
+vegetation, tile, level): a tile's triangles never depend on which tiles were built before
+or in what order. So a tile is the unit kept: one world-cache entry per tile and level
+(`tile-<key>.npz`, keyed by those inputs and the code, app/cache/key.py), and in memory a
+least-recently-used set of tiles bounded in bytes (`TileMemory`), so a process that scans
+poses kilometres apart holds only the tiles of its last scans.
+
+Any set of tiles is joined the one way, in sorted tile order (`join`): their triangles one
+after the other, object indices moved past the previous tiles' objects, the ground cover
+merged. Two regions that share tiles therefore give the shared tiles' triangles bit for
+bit, whichever was built first or came from the cache.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.world.region import Region
+from ..raycast.geometry import SceneGeometry, concatenate, local_origin
+from .cache.key import entry_key
+from .cache.store import DiskCache
+
+TILE = "tile"  # the cache entry's kind
+GEOMETRY_ARRAYS = ("vertices", "faces", "class_id", "instance", "object_index", "reflectivity")
+# Tiles kept in memory: five full-detail tiles (~150 MB each at the default detail), more
+# than the four a Hokuyo's disc can touch, so that scans near each other rebuild nothing,
+# while with a scan's own work a process stays under the 1.5 GB issue 33 allows one that
+# scans kilometres apart (bench/lod.py scan_spread measures it).
+DEFAULT_MEMORY_BYTES = 800_000_000
+
+
+def endless():
+    """The endless layout's module (imported when first needed: it is the world's half)."""
+    from ..core.world import endless as module
+
+    return module
+
+
+@dataclass(frozen=True)
+class TiledWorld:
+    """What a tile is a function of, besides its coordinates and level."""
+
+    seed: int
+    biome: str
+    detail: str
+    vegetation: str
+
+    def inputs(self, tile, level) -> dict:
+        return {
+            "layout": "endless",
+            "seed": int(self.seed),
+            "biome": self.biome,
+            "detail": self.detail,
+            "vegetation": self.vegetation,
+            "tile": [int(tile[0]), int(tile[1])],
+            "level": int(level),
+        }
+
+
+@dataclass
+class TilePart:
+    """One tile at one level: its triangles (object indices into its own names) and cover,
+    and each object's xy bounding box (what a scan's crop tests first: object_bounds)."""
+
+    geometry: SceneGeometry
+    cover: object  # CoverGrid or None
+    object_lo: np.ndarray | None = None  # (objects, 2) float64; None: computed when first asked
+    object_hi: np.ndarray | None = None
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.object_lo is None:
+            self.object_lo, self.object_hi = object_bounds(self.geometry)
+        return self.object_lo, self.object_hi
+
+    def nbytes(self) -> int:
+        g = self.geometry
+        arrays = (g.vertices, g.faces, g.class_id, g.instance, g.object_index, g.reflectivity)
+        size = sum(a.nbytes for a in arrays) + 64 * len(g.object_names) + 32 * len(g.object_names)
+        return size + (self.cover.nbytes() if self.cover is not None else 0)
+
+
+def object_bounds(geometry: SceneGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi), (objects, 2): the xy bounding box of each object's triangles (an object with
+    none: an empty box at the origin, never asked for). A triangle's box lies inside its
+    object's, so an object whose box is farther than a crop's radius has no triangle in it."""
+    n = len(geometry.object_names)
+    lo, hi = np.zeros((n, 2)), np.zeros((n, 2))
+    if not geometry.triangle_count:
+        return lo, hi
+    xy, f = geometry.vertices[:, :2], geometry.faces
+    a, b, c = xy[f[:, 0]], xy[f[:, 1]], xy[f[:, 2]]
+    t_lo, t_hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+    order = np.argsort(geometry.object_index, kind="stable")  # plan_geometry's are sorted already
+    objects = geometry.object_index[order]
+    starts = np.flatnonzero(np.r_[True, objects[1:] != objects[:-1]])
+    lo[objects[starts]] = np.minimum.reduceat(t_lo[order], starts, axis=0)
+    hi[objects[starts]] = np.maximum.reduceat(t_hi[order], starts, axis=0)
+    return lo, hi
+
+
+def objects_near(lo: np.ndarray, hi: np.ndarray, centre, radius: float) -> np.ndarray:
+    """Whether each box comes within `radius` of `centre` in xy (triangles_near_xy's test)."""
+    c = np.asarray(centre, dtype=np.float64)[:2]
+    gap = np.clip(c, lo, hi) - c
+    return gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= radius * radius
+
+
+@dataclass
+class TileMemory:
+    """Tiles a process keeps between scans, least recently used dropped past `max_bytes`."""
+
+    max_bytes: int = DEFAULT_MEMORY_BYTES
+    parts: OrderedDict = field(default_factory=OrderedDict)
+    held: int = 0
+
+    def get(self, key: str) -> TilePart | None:
+        part = self.parts.get(key)
+        if part is not None:
+            self.parts.move_to_end(key)
+        return part
+
+    def put(self, key: str, part: TilePart) -> None:
+        if key in self.parts:
+            return
+        self.parts[key] = part
+        self.held += part.nbytes()
+        while self.held > self.max_bytes and len(self.parts) > 1:
+            _, dropped = self.parts.popitem(last=False)
+            self.held -= dropped.nbytes()
+
+
+@dataclass
+class TileCounts:
+    """Where the tiles of a request came from, and the seconds spent making them."""
+
+    built: int = 0
+    cache: int = 0
+    memory: int = 0
+    seconds: float = 0.0
+
+    def text(self) -> str:
+        return (
+            f"{self.built + self.cache + self.memory} tiles: {self.built} built, {self.cache} from the "
+            f"cache, {self.memory} in memory ({self.seconds:.2f} s)"
+        )
+
+
+_MEMORY = TileMemory()
+
+
+def process_memory() -> TileMemory:
+    """The tiles this process keeps (one set per process: every command shares it)."""
+    return _MEMORY
+
+
+def tile_part(
+    world: TiledWorld,
+    tile,
+    level: int,
+    cache: DiskCache | None = None,
+    memory: TileMemory | None = None,
+    counts: TileCounts | None = None,
+) -> TilePart:
+    """The tile at `level`: from memory, else the world cache, else built (and kept in both)."""
+    key = entry_key(TILE, world.inputs(tile, level))
+    counts = TileCounts() if counts is None else counts
+    part = memory.get(key) if memory is not None else None
+    if part is not None:
+        counts.memory += 1
+        return part
+    entry = cache.get(TILE, key) if cache is not None else None
+    if entry is not None:
+        part = part_from_entry(entry.meta, entry.arrays)
+        counts.cache += 1
+    else:
+        ready_library(world, cache)
+        part = build_tile(world, tile, level)
+        counts.built += 1
+        if cache is not None:
+            cache.put(TILE, key, *part_to_entry(part))
+    if memory is not None:
+        memory.put(key, part)
+    return part
+
+
+LIBRARY = "library"  # the cache entry of the meshes every tile of a world shares
+_LIBRARIES_READY: set[tuple] = set()
+
+
+def ready_library(world: TiledWorld, cache: DiskCache | None) -> None:
+    """The shared meshes of the world's tiles (core/world/endless/library.py, about a second of
+    porous crowns to draw) in this process before its first tile is built: from the world
+    cache when it holds them (a pure function of seed, detail, vegetation and the code),
+    else drawn and kept there, so a fresh process's first tile does not draw them again."""
+    from ..core.world.endless import library as L
+
+    inputs = {"seed": int(world.seed), "detail": world.detail, "vegetation": world.vegetation}
+    ready = tuple(inputs.values())
+    if ready in _LIBRARIES_READY or cache is None:
+        return
+    key = entry_key(LIBRARY, inputs)
+    entry = cache.get(LIBRARY, key)
+    if entry is not None:
+        names = entry.meta["names"]
+        L.provide_library(
+            world.seed,
+            world.detail,
+            world.vegetation,
+            {n: entry.arrays[f"a{k}"] for k, n in enumerate(names)},
+        )
+    else:
+        arrays = L.library_arrays(L.library(world.seed, world.detail, world.vegetation))
+        names = sorted(arrays)
+        cache.put(LIBRARY, key, {"names": names}, {f"a{k}": arrays[n] for k, n in enumerate(names)})
+    _LIBRARIES_READY.add(ready)
+
+
+def build_tile(world: TiledWorld, tile, level: int) -> TilePart:
+    """Plan one tile (core/world/endless) and make its triangles as Blender would hold them."""
+    from ..raycast.from_plan import plan_geometry
+
+    tile = (int(tile[0]), int(tile[1]))
+    plan = endless().plan_region(
+        world.seed, world.biome, world.detail, world.vegetation, [tile], {tile: int(level)}
+    )
+    geometry = plan_geometry(plan)
+    part = TilePart(geometry, geometry.cover)
+    part.bounds()
+    return part
+
+
+def part_to_entry(part: TilePart) -> tuple[dict, dict[str, np.ndarray]]:
+    g = part.geometry
+    arrays = {name: getattr(g, name) for name in GEOMETRY_ARRAYS}
+    arrays["object_lo"], arrays["object_hi"] = part.bounds()
+    if part.cover is not None:
+        arrays.update(part.cover.to_arrays())
+    meta = {
+        "object_names": list(g.object_names),
+        "cover": part.cover is not None,
+        "offset": g.offset.tolist(),
+    }
+    return meta, arrays
+
+
+def part_from_entry(meta: dict, arrays: dict[str, np.ndarray]) -> TilePart:
+    from ..core.world.cover import CoverGrid
+
+    geometry = SceneGeometry(
+        **{name: arrays[name] for name in GEOMETRY_ARRAYS},
+        object_names=tuple(meta["object_names"]),
+        offset=np.array(meta["offset"], dtype=np.float64),
+    )
+    cover = CoverGrid.from_arrays(arrays) if meta.get("cover") else None
+    geometry.cover = cover
+    return TilePart(geometry, cover, arrays["object_lo"], arrays["object_hi"])
+
+
+def join(parts: list[TilePart], centre=None, radius: float | None = None) -> SceneGeometry:
+    """The tiles as one SceneGeometry (in the order given: callers sort by tile), object
+    indices moved past the previous tiles' objects, covers merged; `offset` at `centre`
+    (x, y) when given (a scan's pose), else the middle of the triangles. With `radius`, each
+    tile keeps only the triangles SceneGeometry.cropped(centre, radius) keeps, before the
+    join: the triangles of the objects whose box comes that near (object_bounds), a set
+    that holds every triangle the crop keeps, in the same order, so the scan's own crop of
+    the join keeps the same triangles in the same order as a crop of the whole; the rest is
+    never copied."""
+    names: list[str] = []
+    moved = []
+    for part in parts:
+        g = part.geometry
+        if radius is not None:
+            keep = objects_near(*part.bounds(), centre, float(radius))[g.object_index]
+            g = g if keep.all() else g.subset(keep)
+        shifted = SceneGeometry(
+            g.vertices,
+            g.faces,
+            g.class_id,
+            g.instance,
+            g.object_index + len(names),
+            (),
+            g.offset,
+            g.reflectivity,
+        )
+        names.extend(g.object_names)
+        moved.append(shifted)
+    geometry = concatenate(moved, object_names=tuple(names))
+    if centre is not None:
+        geometry.offset = local_origin(
+            geometry.vertices, geometry.faces, np.asarray(centre, dtype=np.float64)
+        )
+    covers = [p.cover for p in parts if p.cover is not None]
+    geometry.cover = merge_covers(covers) if covers else None
+    return geometry
+
+
+def merge_covers(covers: list):
+    """One CoverGrid of several tiles' grids (each over its own tile, the same cell and the
+    same terrain lattice spacing; core/world/endless region.py builds a region's the same
+    way): their cells and terrain nodes laid side by side over the tiles' bounding box. A
+    place no given tile covers has no cover (class 0) and the lowest terrain given (so no
+    layer top there rises above a real one)."""
+    from ..core.world.cover import CoverGrid
+
+    if len(covers) == 1:
+        return covers[0]
+    first = covers[0]
+    cell = first.cell
+    step = float(first.terrain_xs[1] - first.terrain_xs[0])
+    x0 = min(c.x0 for c in covers)
+    y0 = min(c.y0 for c in covers)
+    x1 = max(c.x0 + c.shape[1] * cell for c in covers)
+    y1 = max(c.y0 + c.shape[0] * cell for c in covers)
+    nx, ny = int(round((x1 - x0) / cell)), int(round((y1 - y0) / cell))
+    cls = np.zeros((ny, nx), dtype=np.uint8)
+    height = np.zeros((ny, nx), dtype=np.float32)
+    xs = x0 + step * np.arange(int(round((x1 - x0) / step)) + 1)
+    ys = y0 + step * np.arange(int(round((y1 - y0) / step)) + 1)
+    z = np.full((len(ys), len(xs)), min(float(c.terrain_z.min()) for c in covers))
+    for c in covers:
+        a, b = int(round((c.x0 - x0) / cell)), int(round((c.y0 - y0) / cell))
+        cls[b : b + c.shape[0], a : a + c.shape[1]] = c.class_id
+        height[b : b + c.shape[0], a : a + c.shape[1]] = c.height
+        p, q = int(round((c.terrain_xs[0] - x0) / step)), int(round((c.terrain_ys[0] - y0) / step))
+        z[q : q + len(c.terrain_ys), p : p + len(c.terrain_xs)] = c.terrain_z
+        xs[p : p + len(c.terrain_xs)] = c.terrain_xs  # the tiles' own node coordinates, bit for bit
+        ys[q : q + len(c.terrain_ys)] = c.terrain_ys
+    return CoverGrid(x0, y0, cell, cls, height, xs, ys, z)
+
+
+def tiles_geometry(
+    world: TiledWorld,
+    levels: dict,
+    cache: DiskCache | None = None,
+    memory: TileMemory | None = None,
+    centre=None,
+    progress=None,
+    radius: float | None = None,
+    region: Region | None = None,
+) -> tuple[SceneGeometry, TileCounts]:
+    """The geometry of the tiles `levels` names (tile -> level), joined in sorted tile
+    order, and where they came from: cropped to `radius` around `centre` when given (join),
+    or to the triangles meeting `region` (crop_to_region, tile by tile: only the kept
+    triangles are ever held together). `progress(done, total)` after each tile."""
+    counts = TileCounts()
+    t0 = time.perf_counter()
+    parts = []
+    tiles = sorted(levels)
+    for k, tile in enumerate(tiles):
+        part = tile_part(world, tile, levels[tile], cache, memory, counts)
+        if region is not None:
+            part = TilePart(crop_to_region(part.geometry, region), part.cover)
+        parts.append(part)
+        if progress is not None:
+            progress(k + 1, len(tiles))
+    geometry = join(parts, centre, radius)
+    counts.seconds = time.perf_counter() - t0
+    return geometry, counts
+
+
+def full_detail(tiles) -> dict:
+    """Every tile at level 0, full detail (a region built for a file, poses or `--lod off`)."""
+    return {tuple(int(v) for v in tile): 0 for tile in tiles}
+
+
+# How far an element's triangles may reach past its own tile (a crown over the edge): the
+# tiles this near a region are built too, so a region holds every triangle that meets it
+# whichever tile owns it. Measured: at most 3.2 m over five tiles of seed 1 (object_bounds);
+# endless's tile_levels builds 5 m past a sensor's reach for the same reason (RANGE_MARGIN).
+ELEMENT_OVERHANG_M = 5.0
+
+
+def region_levels(region: Region, m: float = ELEMENT_OVERHANG_M) -> dict:
+    """The tiles whose elements can meet a region (within `m` of it), all at full detail."""
+    return full_detail(
+        endless().tiles_in_region(region.xmin - m, region.ymin - m, region.xmax + m, region.ymax + m)
+    )
+
+
+def scan_levels(sensor, x: float, y: float, reach: float, lod: bool, detail: str = "default") -> dict:
+    """The tiles a scan from (x, y) can reach (`reach`: app/scan.py crop_radius, the sensor's
+    range and what a scan casts past it) and the level of each (core/world/endless
+    tile_levels, from the device's beam spacing; all full detail when `lod` is off)."""
+    levels = endless().tile_levels(sensor, x, y, lod, detail, reach=reach)
+    return {(int(t[0]), int(t[1])): int(level) for t, level in levels.items()}
+
+
+def crop_to_region(geometry: SceneGeometry, region: Region) -> SceneGeometry:
+    """The triangles whose xy bounding box meets the region (a whole triangle or none: cut
+    triangles would differ between two regions that share them)."""
+    xy, f = geometry.vertices[:, :2], geometry.faces
+    a, b, c = xy[f[:, 0]], xy[f[:, 1]], xy[f[:, 2]]
+    low, high = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+    keep = (
+        (high[:, 0] >= region.xmin)
+        & (low[:, 0] <= region.xmax)
+        & (high[:, 1] >= region.ymin)
+        & (low[:, 1] <= region.ymax)
+    )
+    part = geometry.subset(keep)
+    part.cover = geometry.cover
+    return part
