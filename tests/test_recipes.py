@@ -21,6 +21,7 @@ import pytest
 from tests.helpers.scene_helpers import REPO
 
 pytestmark = pytest.mark.slow  # tens of seconds: a world's geometry and eight scans
+PAPER_WORLD = ("--seed", "1", "--detail", "low", "--layout", "paper", "--biome", "paper")
 CLI = "import sys\nfrom wildscan.cli import main\nsys.exit(main(sys.argv[1:]))"  # the copy's `wildscan`
 MARK = re.compile(r"<!-- recipe (\w+): (.*?) -->\n(\s*)```\w*\n(.*?)\n\s*```", re.S)
 
@@ -100,12 +101,11 @@ def python(clone, code: str) -> str:
 
 @pytest.fixture(scope="module")
 def world(clone):
-    """Seed 1's paper world at low detail as a geometry file, and a valid forest pose."""
+    """Seed 1's paper world (layout and biome) at low detail as a geometry file, and a valid
+    forest pose."""
     out = clone[0] / "world.npz"
-    wildscan(
-        clone, "extract", "--seed", "1", "--detail", "low", "--biome", "paper", "--out", str(out), "--quiet"
-    )
-    listed = wildscan(clone, "poses", "--seed", "1", "--detail", "low", "--biome", "paper", "--json")
+    wildscan(clone, "extract", *PAPER_WORLD, "--out", str(out), "--quiet")
+    listed = wildscan(clone, "poses", *PAPER_WORLD, "--zone", "forest", "--count", "1", "--json")
     pose = json.loads(listed.stdout)["poses"]["forest"][0]
     return out, [str(pose["x"]), str(pose["y"]), str(pose["yaw"])]
 
