@@ -173,7 +173,7 @@ def test_published_numbers():
 
 
 def test_every_label_scheme_maps_the_particle_class_and_clear_tables_do_not_list_it():
-    assert {s.from_wildscan[PARTICLE_ID] for s in SCHEMES.values()} == {15, 1, 0, 56}
+    assert {s.from_wildscan[PARTICLE_ID] for s in SCHEMES.values()} == {15, 1, 0, 56, 255}  # 255: wildscenes
     assert [c["id"] for c in class_table_dict()][-1] == 12
     assert [c["id"] for c in class_table_dict(listed_classes(declared=Weather.classes))][-1] == PARTICLE_ID
 
