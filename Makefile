@@ -10,6 +10,7 @@ OUT    ?= out
 .PHONY: setup demo test test-fast bench addon lint docs clean
 
 setup: $(STAMP)
+	@command -v qemu-x86_64 >/dev/null || echo "note: make test also needs Debian's qemu-user (sudo apt-get install qemu-user: scans on emulated older CPUs) and blender, xvfb, xauth, pcl-tools, cloudcompare, python3-rosbag (.ci/run installs them all); make test-fast needs none of them"
 
 $(STAMP): pyproject.toml addon/wildscan/__init__.py
 	$(PYTHON) -m venv $(VENV)

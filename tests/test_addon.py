@@ -22,7 +22,7 @@ from wildscan.app.scan import scan_current_scene
 from wildscan.core.classes import COLOR_BY_ID
 from wildscan.core.io.ply import read_ply
 from wildscan.core.placement import Pose
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 
 from tests.helpers.scene_helpers import CANDIDATE_XY, REPO, WILDSCAN, fresh_scene
 

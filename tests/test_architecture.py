@@ -313,7 +313,6 @@ CORE_TIERS = (
         "backend",
         "pointcloud",
         "sensors",
-        "sensor",
         "spatial",
         "runtime",
     },

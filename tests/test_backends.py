@@ -25,7 +25,8 @@ from wildscan.raycast import select
 from wildscan.raycast.bvh_backend import BVHBackend
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene
-from wildscan.raycast.geometry import from_triangles, pad_triangles
+from wildscan.raycast.geometry import from_triangles
+from wildscan.raycast.padding import pad_triangles
 from wildscan.raycast.reference import check_hits, reference_hits
 
 from tests.helpers.backend_scenes import (
@@ -172,7 +173,7 @@ def _on_cylinder(points):
 def test_backends_agree_on_the_test_world():
     from wildscan.blender.testworld import build_test_world
     from wildscan.core.placement import Pose, place
-    from wildscan.core.sensor import beam_directions
+    from wildscan.core.sensors import beam_directions
 
     empty_scene()
     build_test_world(7)

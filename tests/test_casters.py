@@ -145,7 +145,8 @@ def test_without_open3d_the_open3d_backend_falls_back_and_says_how_to_install(mo
 
 @pytest.mark.slow
 def test_the_casters_suite_measures_every_candidate_side_by_side():
-    from wildscan.bench.casters import CANDIDATES, bench_casters, missing
+    from wildscan.bench.caster_table import CANDIDATES, missing
+    from wildscan.bench.casters import bench_casters
 
     printed = io.StringIO()
     rows = bench_casters(seed=0, quick=True, stream=printed)

@@ -4,7 +4,7 @@ that the ones it computes on their axis's plane are the hits a cast would give."
 import numpy as np
 import pytest
 
-from wildscan.core import sensor as S
+from wildscan.core import sensors as S
 from wildscan.core.hits import RayHits
 from wildscan.core.placement import Pose
 from wildscan.core.realism import coarse_footprint as C

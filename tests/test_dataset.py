@@ -279,12 +279,13 @@ CLEAR_LABEL_CONFIGS = {
 def test_a_clear_label_config_keeps_the_bytes_of_before_the_particle_class(name):
     import hashlib
 
+    from wildscan.core.classes import PARTICLE_ID, listed_classes
     from wildscan.core.io.semantickitti import label_config_yaml
 
     args = (SCHEMES[name], {2: 0.5}, {"train": [0], "valid": [1]}, "WildScan dataset")
     clear = label_config_yaml(*args).encode()
     assert hashlib.sha256(clear).hexdigest() == CLEAR_LABEL_CONFIGS[name]
-    weather = yaml.safe_load(label_config_yaml(*args, particles=True))
+    weather = yaml.safe_load(label_config_yaml(*args, listed_classes(declared=(PARTICLE_ID,))))
     particle = SCHEMES[name].from_wildscan[15]
     assert particle in weather["labels"] and particle in weather["color_map"]
 
@@ -626,7 +627,7 @@ def test_a_full_zone_reports_its_scans_instead_of_dropping_them(world):
 def test_points_of_any_frame_go_back_to_the_world_exactly(world, frame):
     from wildscan.core.placement import Pose
     from wildscan.core.scan import run_scan
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
     from wildscan.core.truth.groundtruth import pose_matrix, world_points
 
     plan, backend = world

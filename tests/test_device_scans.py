@@ -332,7 +332,7 @@ BAD_FILES = [
         "unknown",
         "sigma_m = 0.015",
         "sigma_m = 0.015\nsigma = 2",
-        "unknown key noise.sigma; allowed in [noise]",
+        "unknown key 'noise.sigma'; allowed in [noise]",
     ),
 ]
 

@@ -95,7 +95,7 @@ def preset_text() -> str:
         (
             "sigma_m = 0.015",
             "sigma_m = 0.015\nsigma = 1",
-            "unknown key noise.sigma; allowed in [noise]: sigma_m",
+            "unknown key 'noise.sigma'; allowed in [noise]: sigma_m",
         ),
     ],
 )

@@ -13,7 +13,7 @@ from wildscan.core.io.tum import read_tum
 from wildscan.core.motion import placements, sweep, timing, trajectory
 from wildscan.core.placement import Pose, place
 from wildscan.core.pointcloud import PLY_FIELDS
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 from wildscan.core.spatial.rotations import quaternions
 from wildscan.core.world import plan_world
 from wildscan.raycast.from_plan import plan_geometry

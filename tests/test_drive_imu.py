@@ -14,7 +14,7 @@ from wildscan.app.drive import DriveRequest, run_drive
 from wildscan.core.io.imu_csv import read_imu_csv
 from wildscan.core.io.tum import read_tum
 from wildscan.core.motion.imu import GRAVITY
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 
 from tests.helpers.dataset_helpers import read_kitti_calib
 from tests.helpers.imu_helpers import integrated_yaw, mount_rotation, quaternion_matrices

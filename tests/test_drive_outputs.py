@@ -14,7 +14,7 @@ from wildscan.app.drive import bags as bag_module
 from wildscan.app.interrupts import Terminated
 from wildscan.core.io.imu_csv import read_imu_csv
 from wildscan.core.io.ply import read_ply
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 
 from tests.helpers.processes import started
 from tests.helpers.scene_helpers import WILDSCAN, run, user_error_line

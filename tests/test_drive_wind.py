@@ -8,8 +8,7 @@ import pytest
 
 from wildscan.core.effects import Effects, Wind
 from wildscan.core.motion.timing import head_angles_rad
-from wildscan.core.sensor import SensorConfig
-from wildscan.core.sensors import directions_at
+from wildscan.core.sensors import SensorConfig, directions_at
 from wildscan.core.world import plan_world
 from wildscan.raycast.from_plan import plan_geometry
 from wildscan.raycast.geometry import concatenate

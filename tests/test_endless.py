@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from wildscan.core.classes import ALL_ELEMENTS, BY_ID, GROUND_IDS, class_by_name
+from wildscan.core.classes import ALL_ELEMENTS, BY_ID, GROUND_IDS, class_by_name, listed_classes
 from wildscan.core.world.endless import (
     LAND_COVERS,
     TILE_M,
@@ -212,16 +212,16 @@ def test_every_ground_material_is_mapped_in_every_scheme_and_has_a_reflectance()
         lo, hi = MATERIALS[BY_ID[gid].name]
         assert 0.0 < lo < hi <= 1.0
     wildscan = SCHEMES["wildscan"]
-    assert not set(GROUND_IDS) & set(wildscan.config_tables(particles=False)["labels"])
-    assert set(GROUND_IDS) <= set(wildscan.config_tables(particles=False, grounds=True)["labels"])
+    assert not set(GROUND_IDS) & set(wildscan.config_tables(listed_classes())["labels"])
+    assert set(GROUND_IDS) <= set(wildscan.config_tables(listed_classes(GROUND_IDS))["labels"])
 
 
 def test_class_tables_list_ground_materials_only_when_points_carry_them():
-    from wildscan.core.classes import carries_ground_materials, class_table_lines
+    from wildscan.core.classes import class_table_lines, listed_classes
 
-    assert not carries_ground_materials(np.array([1, 2, 3]))
-    assert carries_ground_materials(np.array([1, 17]))
-    assert len(class_table_lines(grounds=True)) == len(class_table_lines()) + len(GROUND_IDS)
+    assert listed_classes(np.array([1, 2, 3])) == listed_classes()
+    assert [c.id for c in listed_classes(np.array([1, 17]))][-1] == 17
+    assert len(class_table_lines(listed_classes(GROUND_IDS))) == len(class_table_lines()) + len(GROUND_IDS)
 
 
 def test_lod_levels_grow_with_distance_and_off_is_full_detail():

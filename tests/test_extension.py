@@ -107,7 +107,7 @@ s = bpy.context.scene.wildscan
 s.seed, s.detail, s.world_layout = 3, "low", "paper"
 assert bpy.ops.wildscan.generate_world() == {"FINISHED"}
 Pose = module.core.placement.Pose
-SensorConfig = module.core.sensor.SensorConfig
+SensorConfig = module.core.sensors.SensorConfig
 check = module.ui.status.check_pose
 pose = next(Pose(x, y, 0.0) for x, y in CANDIDATES if check(Pose(x, y, 0.0), None).ok)
 scan = importlib.import_module(module.__name__ + ".app.scan")

@@ -12,7 +12,7 @@ from wildscan.bench.far import LARGE_FACE, TOLERANCE, build_far_scene, measure_o
 from wildscan.core.errors import UserError
 from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 from wildscan.core.spatial.reach import FLOAT32_XY_REACH, check_reach
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
 from wildscan.raycast.select import make_backend

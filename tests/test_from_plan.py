@@ -27,7 +27,7 @@ from wildscan.blender.builder import build_world
 from wildscan.blender.scene_io import empty_scene
 from wildscan.core.io.ply import write_scan_files
 from wildscan.core.placement import Pose
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 from wildscan.core.world import ZONES, plan_world
 from wildscan.raycast.extract import extract_scene
 from wildscan.raycast.from_plan import blender_matrices, blender_order, plan_geometry, world_geometry

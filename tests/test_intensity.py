@@ -92,11 +92,12 @@ def test_class_weights_follow_their_formulas_over_the_learning_map():
     import math
 
     from wildscan.core.class_weights import class_weights, learning_counts
+    from wildscan.core.classes import listed_classes
     from wildscan.core.label_schemes import SCHEMES
 
     sk = SCHEMES["semantickitti"]
     # WildScan trunk (71) and treetop + bush (both 70 vegetation) and unlabeled (0, ignored)
-    counts = learning_counts(sk, {71: 100, 70: 300, 0: 50}, particles=False)
+    counts = learning_counts(sk, {71: 100, 70: 300, 0: 50}, listed_classes())
     trunk, vegetation = sk.learning_map[71], sk.learning_map[70]
     assert counts[trunk] == 100 and counts[vegetation] == 300 and counts[sk.learning_map[0]] == 0
     w = class_weights(counts)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from wildscan.core.truth.open_sky import _block_minimum, _NodeIndex, open_sky
-from wildscan.core.world.heightfield import TerrainGrid
+from wildscan.core.world.terrain_grid import TerrainGrid
 
 EXTENT = (-10.0, 10.0, -5.0, 5.0)
 START = 1.1  # m above the ground where the upward rays start

@@ -9,7 +9,7 @@ from wildscan.core import placement as P
 from wildscan.core.classes import WATER_ID
 from wildscan.core.errors import PoseRejected, UserError
 from wildscan.core.scan import run_scan
-from wildscan.core.sensor import SensorConfig, beam_directions, elevation_angles_rad
+from wildscan.core.sensors import DEFAULT_DEVICE, SensorConfig, beam_directions, from_axis_rad
 from wildscan.core.spatial.leveling import leveling_matrix, rot_z, sensor_to_world_matrix
 
 from tests.helpers.analytic import AnalyticBackend, Patch, slope_plane
@@ -97,7 +97,7 @@ def test_sensor_frame_is_the_tilted_structure_frame():
 
 
 def predicted_flat_ground_count(h, min_range, max_range, sweeps):
-    cos_t = np.cos(elevation_angles_rad())
+    cos_t = np.cos(from_axis_rad(DEFAULT_DEVICE.beams))
     with np.errstate(divide="ignore"):
         rho = np.where(cos_t < 0, h / -cos_t, np.inf)
     # The test needs no beam sitting on a range limit, where rounding would decide.

@@ -240,11 +240,16 @@ def test_sidecar_has_metadata_and_file_facts(tmp_path):
     assert text == json.dumps(sidecar, indent=2, sort_keys=True) + "\n"
 
 
-def test_sidecar_keeps_caller_classes_but_computes_file_facts(tmp_path):
-    meta = {"seed": 1, "classes": "custom", "point_count": -1, "ply_file": "wrong.ply"}
-    _, json_path = write_scan_files(tmp_path / "s.ply", make_cloud(7), meta)
+def test_sidecar_lists_the_headers_classes_and_computes_file_facts(tmp_path):
+    """A caller's class table declares classes (it cannot drop one the points carry): the
+    sidecar lists what the header lists (core/classes.py listed_classes)."""
+    declared = [{"id": 15, "name": "particle"}]
+    meta = {"seed": 1, "classes": declared, "point_count": -1, "ply_file": "wrong.ply"}
+    ply_path, json_path = write_scan_files(tmp_path / "s.ply", make_cloud(7), meta)
     sidecar = json.loads(json_path.read_text())
-    assert sidecar["classes"] == "custom"
+    _, comments = read_ply(ply_path)
+    header = [int(c.split()[1]) for c in comments if c.startswith("class ")]
+    assert [c["id"] for c in sidecar["classes"]] == header == [*range(13), 15]
     assert sidecar["point_count"] == 7
     assert sidecar["ply_file"] == "s.ply"
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from wildscan.core import sensor as S
+from wildscan.core import sensors as S
 from wildscan.core.classes import BY_ID, REFLECTIVITY_BY_ID
 from wildscan.core.placement import Pose
 from wildscan.core.realism.echoes import R_REF
@@ -202,7 +202,7 @@ def test_datasheet_sigma_is_documented_2_sigma_of_the_accuracy():
         [0.015, 0.015, 0.025, 0.025]
     )
     assert S.SensorConfig(model="realistic").fixed_noise is None
-    assert S.SensorConfig().fixed_noise == S.DEFAULT_NOISE_SIGMA
+    assert S.SensorConfig().fixed_noise == S.DEFAULT_DEVICE.noise.sigma_m
 
 
 def test_paper_sensor_metadata_is_what_it_always_was():

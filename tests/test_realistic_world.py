@@ -12,7 +12,7 @@ from wildscan.bench.realism import CROWN_TARGET, SKY_TARGET, trunk_behind_crown
 from wildscan.core.classes import class_by_name
 from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 from wildscan.core.world import plan_world
 from wildscan.raycast.from_plan import plan_geometry
 

@@ -10,7 +10,7 @@ from plyfile import PlyData
 from wildscan.core.classes import CLASSES
 from wildscan.core.placement import Pose
 from wildscan.core.scan import run_scan
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 from wildscan.core.world.testworld import plan_test_world
 
 from tests.helpers.scene_helpers import (

@@ -21,7 +21,7 @@ from wildscan.core.classes import NUM_IDS
 from wildscan.core.errors import UserError
 from wildscan.core.io.ply import write_scan_files
 from wildscan.core.placement import Pose
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 from wildscan.raycast import scene_file
 from wildscan.raycast.extract import extract_scene
 from wildscan.raycast.geometry import from_triangles
@@ -85,7 +85,7 @@ def test_a_python_without_blender_loads_and_scans_it_to_the_same_bytes(extracted
         "for m in ('bpy', 'mathutils', 'bmesh'): sys.modules[m] = None\n"
         "from wildscan.core.placement import Pose\n"
         "from wildscan.core.io.ply import write_scan_files\n"
-        "from wildscan.core.sensor import SensorConfig\n"
+        "from wildscan.core.sensors import SensorConfig\n"
         "from wildscan.raycast.scene_file import load_geometry\n"
         "from wildscan.app.scan import scan_current_scene\n"
         f"g = load_geometry({str(path)!r})\n"

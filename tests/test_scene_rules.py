@@ -192,7 +192,7 @@ def test_regenerating_replaces_a_renamed_world_and_keeps_the_users_objects():
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_wildscan_reflectivity_sets_the_intensity_and_keeps_the_label(backend):
     from wildscan.core.scan import measure
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
 
     fresh_scene()
     _box("plain_rock", 0.0, "rock", 1)
@@ -297,7 +297,7 @@ def test_reflectivity_overrides_survive_a_geometry_file(tmp_path):
 def test_a_whole_scan_with_an_overridden_terrain_keeps_its_labels(model):
     from wildscan.core.placement import Pose
     from wildscan.core.scan import run_scan
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
 
     fresh_scene()
     v, f = primitives.box((0.0, 0.0, -0.5), (60.0, 60.0, 1.0))

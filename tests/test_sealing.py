@@ -1,6 +1,6 @@
 """raycast/sealing.py makes a sealed caster's planes, padded triangles and settling bands in
 one pass: the same bits as the separate steps it replaces (geometry._planes,
-geometry.pad_triangles, settle._band), on triangles of every awkward kind and on a world's
+padding.pad_triangles, settle._band), on triangles of every awkward kind and on a world's
 own triangles; settle.stable_order is numpy's stable argsort."""
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ import pytest
 from wildscan.raycast import sealing
 from wildscan.raycast.blocks import BLOCK_ROWS
 from wildscan.raycast.from_plan import world_geometry
-from wildscan.raycast.geometry import edge_pad, from_triangles
+from wildscan.raycast.geometry import from_triangles
+from wildscan.raycast.padding import edge_pad
 from wildscan.raycast.settle import Settler, stable_order
 
 

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from wildscan.core import sensor as S
+from wildscan.core import sensors as S
 from wildscan.core.classes import CLASSES, WATER, label_from_reflectivity, reflectivity_of
 from wildscan.core.errors import UserError
 
@@ -26,7 +26,7 @@ def test_full_scan_at_1_degree_has_194400_beams_as_eq1():
 def test_no_beam_within_45_degrees_of_straight_down():
     dirs, _, _ = S.beam_directions(1.0)
     from_down = np.degrees(np.arccos(np.clip(-dirs[:, 2], -1, 1)))
-    assert from_down.min() >= S.BLIND_CONE_HALF_ANGLE_DEG - 1e-9
+    assert from_down.min() >= S.DEFAULT_DEVICE.beams.blind_cone_half_angle_deg - 1e-9
     # …and the blind cone is exactly that wide: beam n = 0 sits on its edge.
     assert from_down.min() == pytest.approx(45.0, abs=1e-9)
 
@@ -76,7 +76,7 @@ def test_an_error_is_phrased_by_each_front_end_from_one_table():
     assert panel_message(e) == "Min range (5 m) must be below Max range (4 m)"
     with pytest.raises(UserError) as info:
         S.SensorConfig(max_range=31).validate()
-    assert info.value.allowed == (0, S.MAX_RANGE_LIMIT)
+    assert info.value.allowed == (0, S.DEFAULT_DEVICE.ranges.max_dark_m)
     assert command_line_message(info.value).startswith("--max-range must be in (0, 30] m")
     assert panel_message(info.value).startswith("Max range must be in (0, 30] m")
 

@@ -10,8 +10,7 @@ import pytest
 from wildscan.app.scan import scan_effects
 from wildscan.core.placement import Pose, place
 from wildscan.core.scan import NOISE_MARGIN_SIGMAS, run_scan
-from wildscan.core.sensor import SensorConfig
-from wildscan.core.sensors import rotated_beam_directions
+from wildscan.core.sensors import SensorConfig, rotated_beam_directions
 from wildscan.core.world.cover import CoverGrid
 from wildscan.raycast.blender_backend import BlenderRayCastBackend
 from wildscan.raycast.extract import extract_scene

@@ -5,7 +5,7 @@ beside a thin wire and a pole, a pose on a steep slope, and a world moved 10 km
 from the origin. Every backend is measured; where one fails, the test records the
 measured count (so a change in it is noticed) and asserts the default backend
 (`auto`, i.e. sealed Embree) has none. "raw" variants are Embree/BVHTree without
-sealed edges (geometry.pad_triangles): they show why sealing is on.
+sealed edges (padding.pad_triangles): they show why sealing is on.
 
 Ground truth is the float64 geometry as Blender stores it (test_backends.world_geometry)
 judged by brute force (reference.check_hits).
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from wildscan.core.hits import RayHits
-from wildscan.core.sensor import beam_directions
+from wildscan.core.sensors import beam_directions
 from wildscan.raycast.bvh_backend import BVHBackend
 from wildscan.raycast.embree_backend import EmbreeBackend
 from wildscan.raycast.extract import extract_scene

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from wildscan.app.scan import scan_effects
-from wildscan.core.classes import PARTICLE_ID, class_table_dict
+from wildscan.core.classes import PARTICLE_ID, class_table_dict, listed_classes
 from wildscan.core.effects import CLEAR_AIR, Effects, Rays, Weather
 from wildscan.core.effects import particles as P
 from wildscan.core.effects.weather import CODES, parse_settings
@@ -173,9 +173,9 @@ def test_published_numbers():
 
 
 def test_every_label_scheme_maps_the_particle_class_and_clear_tables_do_not_list_it():
-    assert {s.from_wildscan[PARTICLE_ID] for s in SCHEMES.values()} == {15, 1, 0, 56}
+    assert {s.from_wildscan[PARTICLE_ID] for s in SCHEMES.values()} == {15, 1, 0, 56, 255}  # 255: wildscenes
     assert [c["id"] for c in class_table_dict()][-1] == 12
-    assert [c["id"] for c in class_table_dict(particles=True)][-1] == PARTICLE_ID
+    assert [c["id"] for c in class_table_dict(listed_classes(declared=Weather.classes))][-1] == PARTICLE_ID
 
 
 def test_a_scan_in_motion_sees_particles_and_consecutive_2d_scans_see_different_ones():

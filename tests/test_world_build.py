@@ -14,7 +14,7 @@ from wildscan.core.classes import BY_ID, WATER_ID, class_by_name
 from wildscan.core.placement import Pose
 from wildscan.core.rng import stage_rng
 from wildscan.core.scan import run_scan
-from wildscan.core.sensor import SensorConfig
+from wildscan.core.sensors import SensorConfig
 from wildscan.core.spatial.leveling import rot_z
 from wildscan.core.world import ZONES, WorldParams
 from wildscan.raycast.embree_backend import EmbreeBackend

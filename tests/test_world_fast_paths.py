@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 
 from wildscan.core.world.geometry2d import polyline_distance, polyline_near
-from wildscan.core.world.grid_height import cell_index
-from wildscan.core.world.heightfield import interpolate
+from wildscan.core.world.grid_height import cell_index, interpolate
 
 
 def grid(rng):

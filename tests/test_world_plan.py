@@ -29,6 +29,7 @@ from wildscan.core.world import (
     plan_world,
 )
 from wildscan.core.world import heightfield as hf
+from wildscan.core.world import terrain_grid as tg
 from wildscan.core.world.shapes import plants, powerline, primitives, rocks, trees
 
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
@@ -112,18 +113,18 @@ def test_finer_detail_means_finer_terrain():
 
 def test_adaptive_grid_beats_a_uniform_grid_of_the_same_error(plan):
     fit = plan.grid_fit
-    uniform = hf.uniform_grid(plan.heightfield, EXTENT, fit.spacing_min)
+    uniform = tg.uniform_grid(plan.heightfield, EXTENT, fit.spacing_min)
     assert fit.grid.triangle_count < uniform.triangle_count / 3
-    coarse = hf.uniform_grid(plan.heightfield, EXTENT, fit.spacing_max)
-    pts = hf.error_sample_points(EXTENT, 20_000, stage_rng(0, "test"))
-    assert hf.grid_error(plan.heightfield, coarse, pts).max > fit.tolerance
+    coarse = tg.uniform_grid(plan.heightfield, EXTENT, fit.spacing_max)
+    pts = tg.error_sample_points(EXTENT, 20_000, stage_rng(0, "test"))
+    assert tg.grid_error(plan.heightfield, coarse, pts).max > fit.tolerance
 
 
 def test_height_at_matches_the_triangles():
     """height_at interpolates exactly what the terrain mesh's triangles are."""
     xs, ys = np.array([0.0, 1.0, 3.0]), np.array([0.0, 2.0, 2.5])
     z = np.arange(9.0).reshape(3, 3) ** 1.3
-    grid = hf.TerrainGrid(xs, ys, z)
+    grid = tg.TerrainGrid(xs, ys, z)
     v, f = grid.mesh()
     rng = stage_rng(0, "bary")
     for tri in f:

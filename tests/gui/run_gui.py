@@ -321,7 +321,7 @@ def step_showworld():
     """'Show world' off hides the meshes in the viewports, and a scan sees the same world."""
     from wildscan.app.scan import make_scene_backend
     from wildscan.core.placement import Pose
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
 
     s = bpy.context.scene.wildscan
     pose, sensor = Pose(s.pose_x, s.pose_y, 0.0), SensorConfig()

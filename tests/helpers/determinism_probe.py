@@ -54,7 +54,7 @@ def probe(seed: int, detail: str, rh: float, zones: list[str]) -> dict[str, str]
     from wildscan.core.io.ply import write_scan_files
     from wildscan.core.placement import Pose
     from wildscan.core.scan import run_scan
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
     from wildscan.core.world import plan_world
     from wildscan.raycast.embree_backend import EmbreeBackend
     from wildscan.raycast.from_plan import plan_geometry
@@ -93,7 +93,7 @@ def drive_hashes(seed: int, detail: str) -> dict[str, str]:
     from wildscan.app.drive import DriveRequest, run_drive
     from wildscan.app.drive import run as drive_run
     from wildscan.core import world as world_module
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
 
     planner = world_module.plan_world
 

@@ -77,7 +77,7 @@ def zone_scans(directory: Path, vegetation: str) -> dict[str, dict]:
     from wildscan.blender.builder import build_world
     from wildscan.blender.scene_io import empty_scene
     from wildscan.core.placement import Pose
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
     from wildscan.raycast.extract import extract_scene
 
     empty_scene()
@@ -108,7 +108,7 @@ def test_world_scans(directory: Path) -> dict[str, dict]:
     from wildscan.blender.scene_io import empty_scene
     from wildscan.blender.testworld import build_test_world
     from wildscan.core.placement import Pose
-    from wildscan.core.sensor import SensorConfig
+    from wildscan.core.sensors import SensorConfig
 
     empty_scene()
     build_test_world(TEST_WORLD_SEED)

@@ -50,26 +50,29 @@ def scan_current_scene(
     notify: Callable[[str], None] = print,
     geometry=None,
     weather: dict[str, float] | None = None,
+    effects: dict[str, float] | None = None,
     world_seed: int = 0,
 ) -> ScanResult:
-    """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air.
+    """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air;
+    `effects`: the other effects of the effects table (core/effects/table.py), name -> value.
     `world_seed`: the world's seed (its surfaces' reflectances: core/realism/lost_returns.py)."""
     sensor.validate()
     pose.validate()
-    effects = scan_effects(weather, sensor, scene_cover(geometry))
+    effects = scan_effects(weather, sensor, scene_cover(geometry), effects)
     backend_ = make_scene_backend(backend, pose, sensor, notify, geometry)
     return run_scan(backend_, pose, sensor, frame, z_start, progress, effects, world_seed=world_seed)
 
 
-def scan_effects(weather: dict[str, float] | None, sensor: SensorConfig, cover=None):
+def scan_effects(weather: dict[str, float] | None, sensor: SensorConfig, cover=None, others=None):
     """The effects of a scan in `weather` with `sensor`: its device's numbers, its noise seed
     (the same seed, the same particles); the world's ground cover first (a CoverGrid: the
-    sward a beam stops in, core/effects/cover.py); clear air when there is neither."""
-    from ..core.effects import CLEAR_AIR, Effects, Weather
+    sward a beam stops in, core/effects/cover.py); then the effects table's (weather and
+    `others`: name -> value, core/effects/table.py) in its order; clear air when none is on."""
+    from ..core.effects import CLEAR_AIR, Effects
+    from ..core.effects.table import user_effects
 
-    found = Weather.of(weather or {}, sensor.noise_seed, sensor.device)
     items = () if cover is None else (_ground_cover(cover, sensor.noise_seed),)
-    items += () if found is None else (found,)
+    items += user_effects({"weather": weather, **(others or {})}, sensor)
     return Effects(items) if items else CLEAR_AIR
 
 

@@ -7,25 +7,36 @@ Errors name a setting by its library name (core/errors.py); the command line say
 this one table. The command-line options (cli/options.py), the panel's fields
 (ui/properties.py) and a dataset spec's [sensor] checks (app/dataset/spec.py) take their
 names, defaults, limits and help from it, so an error always names the field the user sees
-and every front end allows the same values. The limits are core/sensor.py's constants, read
-by name; the core's SensorConfig.validate is what finally decides a sensor.
+and every front end allows the same values. A sensor setting's limits and default are the
+device's (`limits(setting, device)`, `default(setting, device)`: core/sensors setting_limits,
+which SensorConfig.validate checks too), so no help text states one device's rules as everyone's.
 """
 
 from __future__ import annotations
 
 from typing import Any, NamedTuple
 
-from ..core import sensor as S
 from ..core.errors import UserError
+from ..core.sensors import DEFAULT_DEVICE, Device, Limits, device_named, preset_names
+from ..core.sensors.config import (
+    DEFAULT_MODEL,
+    MAX_DIVERGENCE_MRAD,
+    MAX_ECHO_SEPARATION,
+    MAX_NOISE_SIGMA,
+    MODELS,
+    setting_defaults,
+    setting_limits,
+)
+from ..core.sensors.load import COLUMN_HEIGHT, MAX_MOUNT_HEIGHT, MIN_MOUNT_HEIGHT
 from ..core.sensors.returns import RETURN_MODES
 
+__all__ = ["Limits", "SETTINGS", "Setting", "default", "limits"]
 
-class Limits(NamedTuple):
-    """The closed interval [low, high], or (low, high] when `low_open`."""
 
-    low: float
-    high: float
-    low_open: bool = False
+def _per_device(value) -> str:
+    """`value(device)` of every preset, for a help text that states no one device's numbers as
+    everyone's ("utm30lx-ew 30, vlp16 100, ...")."""
+    return ", ".join(f"{name} {value(device_named(name)):g}" for name in preset_names())
 
 
 class Setting(NamedTuple):
@@ -33,7 +44,7 @@ class Setting(NamedTuple):
     label: str | None = None  # the panel's label (None: not in the panel)
     # declared in full (the sensor's settings); None / "" where a setting does not say
     kind: type | None = None  # float, int or str: what a value is
-    limits: Limits | None = None  # for a number
+    limits: Limits | None = None  # for a number whose limits no device decides (else limits())
     choices: tuple[str, ...] | None = None  # for a name
     default: Any = None  # the value when none is given (None: decided elsewhere, see help)
     unit: str = ""  # of a number, as messages write it ("m", "deg", "mrad")
@@ -65,58 +76,53 @@ SETTINGS: dict[str, Setting] = {
     # the pose
     "pose": Setting("--pose", "Pose"),
     "z_start": Setting("--z-start", "Start height"),
-    # the sensor (declared in full)
+    # the sensor (declared in full; limits and defaults are the device's: limits(), default())
     "rh": Setting(
         "--rh",
         "r_h",
         float,
-        Limits(S.MIN_RH_DEG, S.SWEEP_DEG),
-        default=S.DEFAULT_RH_DEG,
         unit="deg",
         metavar="DEG",
-        help=f"horizontal resolution r_h in degrees, at least {S.MIN_RH_DEG:g}; 180/r_h must be whole",
-        default_help=f"default {S.DEFAULT_RH_DEG:g}: 180 2D scans, 194,400 beams",
-        rule="dividing 180 into whole 2D scans",
+        help="horizontal resolution r_h in degrees: the step between the device's columns, at least its "
+        "finest step, dividing its sweep into whole columns",
+        default_help="default: the device's step; " + _per_device(lambda d: d.mount.step_deg),
+        rule="dividing the device's sweep into whole columns",
     ),
     "min_range": Setting(
         "--min-range",
         "Min range",
         float,
-        Limits(0.0, S.MAX_RANGE_LIMIT),
-        default=S.DEFAULT_MIN_RANGE,
         unit="m",
         metavar="M",
-        help="shortest range kept, metres",
+        help="shortest range kept, metres, from 0 to below the longest",
+        default_help="default: the device's; " + _per_device(lambda d: d.ranges.min_m),
         rule="below max_range",
     ),
     "max_range": Setting(
         "--max-range",
         "Max range",
         float,
-        Limits(0.0, S.MAX_RANGE_LIMIT, low_open=True),
-        default=S.DEFAULT_MAX_RANGE,
         unit="m",
         metavar="M",
-        help=f"longest range kept, metres, at most {S.MAX_RANGE_LIMIT:g}",
-        default_help=f"default {S.DEFAULT_MAX_RANGE:g}, the UTM-30LX-EW under sunlight",
+        help="longest range kept, metres, at most the device's longest: "
+        + _per_device(lambda d: d.ranges.max_dark_m),
+        default_help="default: the device's; " + _per_device(lambda d: d.ranges.max_m),
     ),
     "noise": Setting(
         "--noise",
         "Noise",
         float,
-        Limits(0.0, S.MAX_NOISE_SIGMA),
-        default=None,  # the model's own: the paper's DEFAULT_NOISE_SIGMA, the realistic model's datasheet
         unit="m",
         metavar="SIGMA",
-        help=f"standard deviation of the Gaussian range noise, metres, 0 (off) to {S.MAX_NOISE_SIGMA:g}",
-        default_help=f"default {S.DEFAULT_NOISE_SIGMA:g} with the paper model; with the realistic model the "
-        "datasheet's accuracy, +-30 mm to 10 m and +-50 mm beyond, read as 2 sigma: 0.015 and 0.025",
+        help=f"standard deviation of the Gaussian range noise, metres, 0 (off) to {MAX_NOISE_SIGMA:g}",
+        default_help="default: the device's sigma with the paper model ("
+        + _per_device(lambda d: d.noise.sigma_m)
+        + "); with the realistic model its datasheet's accuracy, by range",
     ),
     "noise_seed": Setting(
         "--noise-seed",
         "Noise seed",
         int,
-        Limits(0, 2**63 - 1),
         default=0,
         metavar="N",
         help="seed of the range noise, independent of the world seed",
@@ -125,57 +131,51 @@ SETTINGS: dict[str, Setting] = {
         "--model",
         "Model",
         str,
-        choices=S.MODELS,
-        default=S.DEFAULT_MODEL,
+        choices=MODELS,
+        default=DEFAULT_MODEL,
         help="sensor model: paper (one thin ray a beam, intensity = the class reflectivity, as the "
-        "paper; default) or realistic (the beam's footprint, up to 3 echoes a beam with mixed pixels, "
-        "intensity from reflectivity, incidence and range, datasheet noise; adds the PLY fields echo, "
-        "echoes, label_purity and mixed)",
+        "paper; default) or realistic (the beam's footprint, up to the device's echoes a beam with mixed "
+        "pixels, intensity from reflectivity, incidence and range, datasheet noise; adds the PLY fields "
+        "echo, echoes, label_purity and mixed)",
     ),
     "divergence": Setting(
         "--divergence",
         "Divergence",
         float,
-        Limits(0.0, S.MAX_DIVERGENCE_MRAD),
-        default=S.DEFAULT_DIVERGENCE_MRAD,
         unit="mrad",
         metavar="MRAD",
-        help=f"realistic model: full beam divergence in mrad, 0 (a thin ray) to {S.MAX_DIVERGENCE_MRAD:g}",
-        default_help=f"default {S.DEFAULT_DIVERGENCE_MRAD:g}, an estimate: the datasheet gives none",
+        help=f"realistic model: full beam divergence in mrad, 0 (a thin ray) to {MAX_DIVERGENCE_MRAD:g}",
+        default_help="default: the device's; " + _per_device(lambda d: d.optics.divergence_mrad),
     ),
     "echoes": Setting(
         "--echoes",
         "Echoes",
         int,
-        Limits(1, S.MAX_ECHOES),
-        default=S.MAX_ECHOES,
         metavar="N",
-        help=f"realistic model: most echoes a beam returns, 1 to {S.MAX_ECHOES}",
-        default_help=f"default {S.MAX_ECHOES}, the UTM-30LX-EW's multi-echo",
+        help="realistic model: most echoes a beam returns, 1 to the device's most (its return mode may "
+        "fix it): " + _per_device(lambda d: d.optics.echoes),
+        default_help="default: the device's most",
     ),
     "echo_separation": Setting(
         "--echo-separation",
         "Echo separation",
         float,
-        Limits(0.0, S.MAX_ECHO_SEPARATION, low_open=True),
-        default=S.DEFAULT_ECHO_SEPARATION,
         unit="m",
         metavar="M",
         help="realistic model: surfaces farther apart along a beam than this give separate echoes, closer "
-        "ones merge into one mixed range, metres",
+        f"ones merge into one mixed range, metres, above 0 and at most {MAX_ECHO_SEPARATION:g}",
+        default_help="default: the device's; " + _per_device(lambda d: d.optics.echo_separation_m),
     ),
     "mount_height": Setting(
         "--mount-height",
         "Mount height",
         float,
-        Limits(S.MIN_MOUNT_HEIGHT, S.MAX_MOUNT_HEIGHT),
-        default=S.DEFAULT_MOUNT_HEIGHT,
         unit="m",
         metavar="M",
         help=f"height of the optical centre above the ground the robot stands on, metres, "
-        f"{S.MIN_MOUNT_HEIGHT:g} to {S.MAX_MOUNT_HEIGHT:g}",
-        default_help=f"default {S.DEFAULT_MOUNT_HEIGHT:g}, the paper robot's column; a device file's "
-        "[mount] height for its device",
+        f"{MIN_MOUNT_HEIGHT:g} to {MAX_MOUNT_HEIGHT:g}",
+        default_help=f"default {COLUMN_HEIGHT:g}, the paper robot's column; a device file's [mount] "
+        "height for its device",
     ),
     "returns": Setting(
         "--returns",
@@ -226,6 +226,17 @@ SETTINGS: dict[str, Setting] = {
 }
 
 
+def limits(setting: str, device: Device = DEFAULT_DEVICE) -> Limits:
+    """The limits of a numeric sensor setting with `device` (core/sensors setting_limits: the
+    device's own where the hardware decides)."""
+    return setting_limits(device)[setting]
+
+
+def default(setting: str, device: Device = DEFAULT_DEVICE):
+    """A sensor setting's value with `device` when none is given."""
+    return setting_defaults(device)[setting]
+
+
 def command_line_help(setting: str) -> str:
     """The help of a setting declared in full, with its default, as --help shows it."""
     known = SETTINGS[setting]
@@ -242,9 +253,12 @@ def panel_help(setting: str) -> str:
 
 
 def flag(setting: str) -> str:
-    """The command-line name of `setting` (a name the table lacks is used as it is)."""
+    """The command-line name of `setting` (an effect's: --NAME, core/effects/table.py; a name
+    neither table has is used as it is)."""
+    from ..core.effects.table import ENTRIES
+
     known = SETTINGS.get(setting)
-    return known.flag if known is not None else setting
+    return known.flag if known is not None else f"--{setting}" if setting in ENTRIES else setting
 
 
 def label(setting: str) -> str:

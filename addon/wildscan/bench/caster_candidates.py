@@ -1,6 +1,6 @@
 """Float32 casters measured by `wildscan bench --suite casters` but not shipped as backends
 (their wheels are not in the Makefile's setup, or they are slower): each a
-geometry.RefiningBackend whose `_first_hits` is the candidate's own, so its hits go through
+refine.RefiningBackend whose `_first_hits` is the candidate's own, so its hits go through
 the same float64 settling and refinement as embree's and its scans can be compared byte
 for byte.
 
@@ -25,7 +25,7 @@ import ctypes
 import numpy as np
 
 from ..raycast.embree_backend import EmbreeBackend, sealed
-from ..raycast.geometry import RefiningBackend
+from ..raycast.refine import RefiningBackend
 
 _FAR_SLACK = 1e-3  # as embree_backend
 

@@ -2,7 +2,7 @@
 the same triangles and rays, in one run.
 
 The triangles: the default world of `--seed` (porous vegetation, the default biome), whole,
-as a dataset worker holds it, sealed (geometry.pad_triangles) once and shared by every
+as a dataset worker holds it, sealed (padding.pad_triangles) once and shared by every
 candidate: so "build" is each caster's own cost, the upload of the padded triangles and its
 BVH (built on the first cast where the caster builds lazily). The rays: a full r_h = 1 deg
 Hokuyo scan and an os1-64 frame from the world's first valid pose.
@@ -12,7 +12,7 @@ float32 in, triangle, t, u, v out) as ms and rays per second on one thread and, 
 binding lets two threads cast at once, on two; the peak memory the build adds (the kernel's
 high-water mark, reset before the build on Linux; each build measured in a Python process of
 its own, where an earlier build's freed memory cannot hide its peak); and whether both scans, fed through the
-float64 settling and refinement (geometry.RefiningBackend, settle.py), are the same PLY bytes
+float64 settling and refinement (refine.RefiningBackend, settle.py), are the same PLY bytes
 as with the reference, embreex's item-by-item upload (the metadata's backend name set to
 embree for all). A candidate whose module is missing gets a row saying so and how to install
 it; one that fails gets a row with its error.
@@ -27,7 +27,6 @@ import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -35,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .caster_table import CANDIDATES, REFERENCE, missing
 from .measure import timed
 from .report import text_table
 
@@ -43,157 +43,7 @@ BUILD_ROUNDS = 3  # each caster built this many times, in turns, each in a proce
 FRAME = "leveled"
 HOKUYO_RH = 1.0
 DEVICES = (("hokuyo", "utm30lx-ew", HOKUYO_RH), ("os1-64", "os1-64", None))
-REFERENCE = "embreex"
 REALISTIC, REALISTIC_RH = "realistic", 2.0  # a realistic Hokuyo scan, compared for bytes only
-
-
-@dataclass(frozen=True)
-class Candidate:
-    name: str
-    what: str
-    modules: tuple[str, ...]  # imported to tell whether it can run
-    hint: str  # how to get it where it is missing
-    make: Callable  # (geometry, settler) -> RefiningBackend
-    two_threads: str  # "split": two Python threads each cast half (GIL released); "own": its pool
-
-
-def _embreex(geometry, settler):
-    from ..raycast.embree_backend import EmbreeBackend
-
-    return EmbreeBackend(geometry, upload="embreex", settler=settler)
-
-
-def _embree(geometry, settler):
-    from ..raycast.embree_backend import EmbreeBackend
-
-    return EmbreeBackend(geometry, settler=settler)
-
-
-def _embree_low(geometry, settler):
-    from .caster_candidates import EmbreeLowQualityBackend
-
-    return EmbreeLowQualityBackend(geometry, settler=settler)
-
-
-def _packets(geometry, settler):
-    from .caster_candidates import EmbreePacketBackend
-
-    return EmbreePacketBackend(geometry, settler=settler)
-
-
-def _open3d(geometry, settler):
-    from ..raycast.open3d_backend import Open3DBackend
-
-    return Open3DBackend(geometry, settler=settler, threads=1)
-
-
-def _warp(geometry, settler):
-    from .caster_candidates import WarpBackend
-
-    return WarpBackend(geometry, settler=settler)
-
-
-def _warp_cuda(geometry, settler):
-    from .caster_candidates import WarpBackend
-
-    return WarpBackend(geometry, settler=settler, device="cuda:0")
-
-
-def _mitsuba(geometry, settler):
-    from .caster_candidates import MitsubaBackend
-
-    return MitsubaBackend(geometry, settler=settler)
-
-
-CANDIDATES = (
-    Candidate(
-        REFERENCE,
-        "embreex TriangleMesh (item-by-item upload), scene.run",
-        ("embreex",),
-        "pip install embreex",
-        _embreex,
-        "split",
-    ),
-    Candidate(
-        "embree",
-        "embreex scene, buffers filled by numpy (embree_buffers.py), scene.run",
-        ("embreex",),
-        "pip install embreex",
-        _embree,
-        "split",
-    ),
-    Candidate(
-        "embree-low",
-        "the same, its BVH built at RTC_BUILD_QUALITY_LOW",
-        ("embreex",),
-        "pip install embreex",
-        _embree_low,
-        "split",
-    ),
-    Candidate(
-        "embree-packets",
-        "the same scene, rtcIntersect16 through ctypes",
-        ("embreex",),
-        "pip install embreex",
-        _packets,
-        "split",
-    ),
-    Candidate(
-        "open3d",
-        "Open3D RaycastingScene.cast_rays",
-        ("open3d",),
-        "pip install open3d",
-        _open3d,
-        "own",
-    ),
-    Candidate(
-        "warp",
-        "NVIDIA Warp wp.Mesh + mesh_query_ray (CPU)",
-        ("warp",),
-        "pip install warp-lang",
-        _warp,
-        "",
-    ),
-    Candidate(
-        "warp-cuda",
-        "the same on the first CUDA device, where there is one",
-        ("warp",),
-        "pip install warp-lang, and a CUDA GPU",
-        _warp_cuda,
-        "",
-    ),
-    Candidate(
-        "mitsuba",
-        "Mitsuba 3 llvm_ad_rgb ray_intersect_preliminary",
-        ("mitsuba", "drjit"),
-        "pip install mitsuba (and a libLLVM)",
-        _mitsuba,
-        "own",
-    ),
-)
-
-
-def missing(candidate: Candidate) -> str | None:
-    import importlib
-
-    for module in candidate.modules:
-        try:
-            importlib.import_module(module)
-        except ImportError as exc:
-            return f"not installed ({candidate.hint}): {exc}"
-    if candidate.name == "warp-cuda" and not _cuda_devices():
-        return f"no CUDA device here ({candidate.hint})"
-    return None
-
-
-def _cuda_devices() -> int:
-    import warp as wp
-
-    wp.config.quiet = True
-    if hasattr(wp, "LOG_ERROR"):
-        wp.config.log_level = wp.LOG_ERROR
-    wp.init()
-    return wp.get_cuda_device_count()
 
 
 # -- memory ---------------------------------------------------------------------------------
@@ -242,7 +92,7 @@ def ray_sets(geometry, pose, z_start, reference) -> list[RaySet]:
     """Each device's full-frame rays from the pose, as run_scan casts them."""
     from ..core.scan import NOISE_MARGIN_SIGMAS, run_scan
     from ..core.sensors import SensorConfig, device_named, rotated_beam_directions
-    from ..raycast.geometry import prepare_rays
+    from ..raycast.refine import prepare_rays
 
     out = []
     for name, preset, rh in DEVICES:
@@ -429,7 +279,8 @@ def bench_casters(seed: int = 0, quick: bool = False, stream=None) -> list[dict]
     (_, prepared), shared_s = timed(sealed, geometry)
     with tempfile.TemporaryDirectory(prefix="wildscan-casters-") as tmp:
         apart = builds_apart(prepared, Path(tmp), BUILD_ROUNDS if not quick else 1)
-        sets = ray_sets(geometry, pose, z_start, _embreex(geometry, prepared))
+        reference = next(c for c in CANDIDATES if c.name == REFERENCE).make(geometry, prepared)
+        sets = ray_sets(geometry, pose, z_start, reference)
         built, rows = [], []
         for candidate in CANDIDATES:  # the reference first: the others' scans are compared with its
             backend, row = build(candidate, geometry, prepared)

@@ -37,7 +37,7 @@ class BenchRow:
     peak_rss: list[int]
     cache: str = "cold"  # cold: an empty world cache; warm: the one the cold run filled
     worlds: dict[str, int] = field(default_factory=dict)  # "cache" / "built" -> worlds
-    scan_seconds: float = 0.0  # summed over workers (core/cast_clock.py)
+    scan_seconds: float = 0.0  # summed over workers (core/runtime/cast_clock.py)
     cast_seconds: float = 0.0
     idle: Idle | None = None  # worker time without a task (app/dataset/timeline.py)
 

@@ -5,7 +5,7 @@ labels, leveling, the cloud) beside Embree's own time for the very same rays (em
 `scene.run` as the backend calls it, with the rays' float32 conversion, and nothing of the
 float64 refinement, settling or labels around it), and their ratio: what WildScan adds to
 the caster. The goal: at most TARGET_RATIO. The scan is timed as a user's runs, its large
-casts split over the cores (core/threads.py), and again on one thread, as a dataset
+casts split over the cores (core/runtime/threads.py), and again on one thread, as a dataset
 worker's runs; Embree's own cast is one thread's. Between them, the backend's whole
 cast of the same rays (`backend.cast`: Embree, then every ambiguous hit settled and every
 distance refined in float64) says how much of the rest is the caster's exactness and how
@@ -47,7 +47,7 @@ def embree_backend(geometry, pose, sensor):
 
 def embree_cast(backend, origin, dirs, max_range):
     """Embree's own first hits of the rays (float32, as embreex takes them): the caster alone."""
-    from ..raycast.geometry import prepare_rays
+    from ..raycast.refine import prepare_rays
 
     local, directions = prepare_rays(origin, dirs, backend.geometry.offset)
     return lambda: backend._first_hits(local, directions, max_range)

@@ -1,4 +1,4 @@
-"""The realistic model's coarse-to-fine footprint (core/coarse_footprint.py) against casting every
+"""The realistic model's coarse-to-fine footprint (core/realism/coarse_footprint.py) against casting every
 sub-ray, on the realism suite's poses (part of suite "realism").
 
 Both scans of a pose are taken in clear air without the ground cover's medium: the sward

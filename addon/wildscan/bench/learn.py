@@ -30,8 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ..app.dataset.classes import dataset_classes
 from ..core.errors import UserError
 from ..core.rng import stage_rng
+from ..core.world.biomes import DEFAULT_BIOME
 from .learn_features import feature_names, scan_features
 
 TRAIN_BUDGET = 120_000  # training points at most, about (see train_per_class)
@@ -124,7 +126,7 @@ def open_dataset(root: Path) -> LearnDataset:
             f'{", ".join(spec["formats"])}: add "semantickitti" to formats'
         )
     s = scheme(spec["label_scheme"])
-    tables = s.config_tables(bool(spec.get("weather")))
+    tables = s.config_tables(dataset_classes(spec.get("weather"), spec.get("biome", DEFAULT_BIOME)))
     ignored = frozenset(x for x, ign in tables["learning_ignore"].items() if ign)
     names = {xid: s.labels[raw] for xid, raw in tables["learning_map_inv"].items()}
     rows = tuple(r for r in Manifest.load(root).ok_rows())

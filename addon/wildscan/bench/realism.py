@@ -11,7 +11,7 @@ porous vegetation give, and what they cost, beside the paper model and the solid
              median of RUNS; Blender-free plan geometry, the default backend), with the share
              of the realistic scan spent in the backend's cast; every zone against
              SPEED_TARGET_S
-  footprint  the coarse-to-fine footprint (core/coarse_footprint.py) against every sub-ray
+  footprint  the coarse-to-fine footprint (core/realism/coarse_footprint.py) against every sub-ray
              cast, per beam, at the same poses (bench/footprint_accuracy.py)
   build      the world of the seed built in Blender at default detail, porous beside solid
              (the worlds before porous vegetation): seconds, peak memory, objects,
@@ -85,7 +85,7 @@ def trunk_behind_crown(cloud) -> int:
 class CastTimer:
     """A backend that adds up the seconds during which its `cast` runs (the rest of a scan is
     ours): wall-clock time with at least one cast under way, so casts on parallel threads
-    (core/threads.py) are counted once."""
+    (core/runtime/threads.py) are counted once."""
 
     def __init__(self, backend, clock=time.perf_counter):
         self.backend = backend

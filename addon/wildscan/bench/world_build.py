@@ -17,7 +17,7 @@ def terrain_error_table(plan: WorldPlan, spacings=(0.25, 0.5, 1.0, 2.0, 4.0)) ->
     error against the analytic field at the same 100,000 random points, and triangle counts."""
     from ..core.rng import stage_rng
     from ..core.world import EXTENT
-    from ..core.world.heightfield import error_sample_points, grid_error, uniform_grid
+    from ..core.world.terrain_grid import error_sample_points, grid_error, uniform_grid
 
     points = error_sample_points(EXTENT, 100_000, stage_rng(plan.seed, "world.bench.error"))
     rows = []

@@ -252,7 +252,7 @@ SEED_AND_QUICK_SUITES = {
 
 
 def _run_suite(args: argparse.Namespace) -> int:
-    """The suite, then how much of its scans' time was the ray caster's own (core/cast_clock.py)."""
+    """The suite, then how much of its scans' time was the ray caster's own (core/runtime/cast_clock.py)."""
     from ..core.runtime.cast_clock import CLOCK, cast_share_line
 
     before = CLOCK.reading()

@@ -163,7 +163,12 @@ def _verify(folder: str) -> int:
 def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
     p.add_argument("--worlds", type=lambda t: _positive(t, "worlds", 10_000), default=20, metavar="N")
     p.add_argument("--scans", type=lambda t: _positive(t, "scans", 10**7), default=1000, metavar="N")
-    options.add(p, options.OPTIONS["rh"]._replace(check=options.rh_alone))
+    options.add(
+        p,
+        options.OPTIONS["rh"]._replace(check=options.rh_alone),
+        default=options.DEFAULT_RH,
+        help=f"horizontal resolution r_h in degrees of the default device (default {options.DEFAULT_RH:g})",
+    )
     p.add_argument(
         "--workers",
         type=lambda t: _positive(t, "workers", 1024),

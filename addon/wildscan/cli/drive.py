@@ -13,6 +13,7 @@ from ..core.motion.routes import ROUTES
 from ..core.motion.timing import HEAD_MODES
 from ..core.motion.trajectory import DEFAULT_SPEED, MAX_SPEED
 from . import options
+from .effects import effect_values
 from .options import ArgumentParser, finite_float, non_negative_int
 
 HELP = (
@@ -151,12 +152,12 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         help="stepped: the head stands still during each 2D scan and steps r_h between them, as Eq. 1 "
         "(default); continuous: it turns steadily, each beam at the head angle of its own time",
     )
-    from .sensors import add_sensor, device_default
+    from .sensors import add_sensor
 
     add_sensor(p)
     for name in options.SENSOR_OPTIONS:
         if name not in options.REALISTIC_ONLY:
-            options.add(p, name, **{**device_default(name), **DRIVE_OVERRIDES.get(name, {})})
+            options.add(p, name, **DRIVE_OVERRIDES.get(name, {}))
     options.add(
         p,
         "frame",
@@ -174,9 +175,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         "default, is still air)",
     )
     p.add_argument("--wind-seed", type=non_negative_int, default=0, metavar="N", help="seed of the sway (0)")
-    from .weather import add_weather
+    from .effects import add_effects
 
-    add_weather(p)
+    add_effects(p)
     options.add(p, "out", metavar="DIR", help="folder to write into (created if missing)")
     p.add_argument(
         "--bag",
@@ -207,6 +208,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         start=tuple(args.start) if args.start is not None else None,
         sensor=options.sensor_of(args),
         vegetation=options.vegetation_of(args),
+        effects=effect_values(args),
     )
     try:
         cache = options.cache_of(args, "wildscan drive") if request.long_trail else None

@@ -17,10 +17,11 @@ from typing import Any, NamedTuple
 
 from ..app.poses import DEFAULT_POSES_PER_ZONE, MAX_POSE_COUNT
 from ..app.settings import SETTINGS, command_line_help, flag
-from ..core import sensor as S
 from ..core.checks import DECIMAL, decimal, whole_number
 from ..core.errors import UserError
 from ..core.io.files import check_input_file, check_output_path
+from ..core.sensors import SensorConfig, sweep_count
+from ..core.sensors.config import DEFAULT_MODEL, REALISTIC_SETTINGS, SENSOR_SETTINGS
 from ..core.spatial.frames import FRAMES
 from ..core.world import (
     BIOMES,
@@ -156,17 +157,16 @@ LOD_HELP = (
 
 def _declared(setting: str) -> Option:
     """The option of a setting declared in full in app/settings.py: its type, default,
-    allowed names, placeholder and help from there. A realistic-model setting defaults to
-    None, so that giving one with the paper model can be told apart (sensor_of)."""
+    allowed names, placeholder and help from there. A setting the device decides defaults to
+    None (sensor_of gives the --sensor device's own), and its limits are the device's, so
+    they are checked once the device is known (SensorConfig.validate), not here."""
     known = SETTINGS[setting]
-    default = None if setting in S.REALISTIC_SETTINGS else known.default
-    kwargs: dict[str, Any] = dict(default=default, help=command_line_help(setting))
+    kwargs: dict[str, Any] = dict(default=known.default, help=command_line_help(setting))
     if known.choices is not None:
         return Option(setting, dict(kwargs, choices=known.choices))
     kwargs["metavar"] = known.metavar
     if known.kind is int:
-        low, high, _ = known.limits
-        return Option(setting, kwargs, lambda text: whole_number(text, setting, low, high))
+        return Option(setting, kwargs, lambda text: whole_number(text, setting, 0, 2**63 - 1))
     return Option(setting, dict(kwargs, type=finite_float))
 
 
@@ -218,7 +218,7 @@ _SHARED = (
             "surface)",
         ),
     ),
-    *(_declared(setting) for setting in S.SENSOR_SETTINGS),
+    *(_declared(setting) for setting in SENSOR_SETTINGS),
     Option(
         "frame",
         dict(
@@ -245,14 +245,17 @@ _SHARED = (
     Option("map", dict(metavar="MAP.png"), output_file("map", ".png")),
 )
 OPTIONS: dict[str, Option] = {option.setting: option for option in _SHARED}
-SENSOR_OPTIONS = S.SENSOR_SETTINGS
-REALISTIC_ONLY = S.REALISTIC_SETTINGS
+SENSOR_OPTIONS = SENSOR_SETTINGS
+REALISTIC_ONLY = REALISTIC_SETTINGS
+
+
+DEFAULT_RH = SensorConfig().rh_deg  # the default device's (a command that takes no --sensor)
 
 
 def rh_alone(value: float) -> float:
-    """r_h checked as the sensor checks it, for a command that takes no other sensor option
-    (SensorConfig.validate checks it for the others)."""
-    S.sweep_count(value)
+    """r_h checked as the default device checks it, for a command that takes no other sensor
+    option (SensorConfig.validate checks it for the others)."""
+    sweep_count(value)
     return value
 
 
@@ -375,11 +378,11 @@ _CONFIG_NAMES = {
 }
 
 
-def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
+def sensor_of(args: argparse.Namespace) -> SensorConfig:
     """The sensor the sensor options describe (validated where it is used): the --sensor
     device (default the UTM-30LX-EW) with its own defaults where an option is not given; the
     realistic model's own options are a mistake with the paper model."""
-    model = getattr(args, "model", S.DEFAULT_MODEL)
+    model = getattr(args, "model", DEFAULT_MODEL)
     given = {}
     for setting in REALISTIC_ONLY:
         value = getattr(args, setting, None)
@@ -391,7 +394,7 @@ def sensor_of(args: argparse.Namespace) -> S.SensorConfig:
     for setting in ("rh", "min_range", "max_range", "mount_height"):
         if getattr(args, setting, None) is not None:
             given[_CONFIG_NAMES[setting]] = getattr(args, setting)
-    device = getattr(args, "device", None) or S.SensorConfig().device
-    return S.SensorConfig.for_device(
+    device = getattr(args, "device", None) or SensorConfig().device
+    return SensorConfig.for_device(
         device, noise_sigma=args.noise, noise_seed=args.noise_seed, model=model, **given
     )

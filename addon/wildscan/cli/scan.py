@@ -6,6 +6,7 @@ import argparse
 
 from ..core.errors import UserError
 from . import options
+from .effects import effect_values
 from .options import ArgumentParser
 
 HELP = "scan a world from a pose and write a labeled PLY (or LAS, SemanticKITTI)"
@@ -56,16 +57,16 @@ def add_arguments(p: ArgumentParser, in_blender: bool) -> None:
     options.add(p, "layout", default=None, help=f"with --seed: {options.LAYOUT_HELP}")
     options.add(p, "lod", default=None, help=f"with --seed on the endless layout: {options.LOD_HELP}")
     options.add_cache_arguments(p, "the endless world's tiles")
-    from .sensors import add_sensor, device_default
+    from .sensors import add_sensor
 
     for name in ("pose", "z_start"):
         options.add(p, name)
     add_sensor(p)
     for name in (*options.SENSOR_OPTIONS, "frame", "backend"):
-        options.add(p, name, **device_default(name))
-    from .weather import add_weather
+        options.add(p, name)
+    from .effects import add_effects
 
-    add_weather(p)
+    add_effects(p)
     from ..core.io.formats import DEFAULT_FORMAT, FORMATS
 
     p.add_argument("--format", choices=FORMATS, default=DEFAULT_FORMAT, help=_format_help())
@@ -182,6 +183,7 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
         geometry=geometry,
         weather=args.weather,
+        effects=effect_values(args),
         world_seed=seed or 0,  # the surfaces' reflectances the detection step weighs
     )
     first, *beside = write_scan(

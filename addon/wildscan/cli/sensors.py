@@ -15,11 +15,9 @@ DESCRIPTION = (
 )
 SENSOR_HELP = (
     "the scanner: a preset name (utm30lx-ew, the default: the paper's rotating Hokuyo; `wildscan sensors` "
-    "lists the others) or a device file FILE.toml (docs/sensors.md). --rh, --min-range and --max-range "
-    "default to the device's own"
+    "lists the others) or a device file FILE.toml (docs/sensors.md). The sensor options' limits and "
+    "defaults are the device's own"
 )
-# settings whose default is the device's own (SensorConfig.for_device)
-DEVICE_DEFAULTS = ("rh", "min_range", "max_range", "mount_height")
 
 
 def _device(text: str):
@@ -35,15 +33,6 @@ def add_sensor(p: ArgumentParser) -> None:
         Option("device", dict(default=None, dest="device", metavar="NAME|FILE.toml"), _device),
         help=SENSOR_HELP,
     )
-
-
-def device_default(name: str) -> dict:
-    """add() overrides for a sensor setting whose default is the --sensor device's."""
-    if name not in DEVICE_DEFAULTS:
-        return {}
-    from ..app.settings import command_line_help
-
-    return {"default": None, "help": command_line_help(name) + "; another --sensor: the device's own"}
 
 
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:

@@ -5,7 +5,7 @@ Grouped by meaning (docs/architecture.md "Layers"; tests/test_architecture.py ke
     root        the contracts everything reads: classes, errors, checks, rng, hits, backend,
                 placement, pointcloud, posesampler, scan, label schemes and class weights
     detmath/    deterministic elementwise math
-    sensors/    devices as data, scan settings, beams, noise
+    sensors/    devices as data, scan settings and their per-device limits, beams, noise
     spatial/    frames, Eq. 2 leveling, rotation vectors, reach far from the origin
     runtime/    how a command runs: cast threads, freed memory, signals, cast clock, test pauses
     world/      the world planner

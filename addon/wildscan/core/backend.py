@@ -11,9 +11,9 @@ set, never the object's attributes:
 NORMALS     `cast(..., normals=True)` fills `RayHits.normal` (the realistic sensor model
             needs each hit's incidence angle): the embree and bvh backends.
 SCAN_TIMES  `cast_scans(..., ks)` casts the rays of 2D scans `ks` (1080 each, in order),
-            each at its own 2D scan's time: a scene that moves (app/drive/wind.py).
+            each at its own 2D scan's time: a scene that moves (raycast/wind.py).
 THREADS     `cast` may be called from several threads at once and releases the GIL while it
-            traces, each ray's answer its own (core/threads.py): the embree backend.
+            traces, each ray's answer its own (core/runtime/threads.py): the embree backend.
 """
 
 from __future__ import annotations

@@ -22,10 +22,10 @@ from .label_schemes import LabelScheme
 ENET_C = 1.02  # ENet's constant (Paszke et al. 2016, Sec. 5.2)
 
 
-def learning_counts(scheme: LabelScheme, raw_counts: dict[int, int], particles: bool) -> dict[int, int]:
+def learning_counts(scheme: LabelScheme, raw_counts: dict[int, int], classes) -> dict[int, int]:
     """Points per learning-map class (every class the map has, 0 where none) from points per
-    raw label id of the scheme."""
-    tables = scheme.config_tables(particles)
+    raw label id of the scheme; `classes`: those the data lists (classes.listed_classes)."""
+    tables = scheme.config_tables(classes)
     learning_map, ignore = tables["learning_map"], tables["learning_ignore"]
     out = {xid: 0 for xid in sorted(set(learning_map.values()))}
     for raw, n in raw_counts.items():
@@ -49,9 +49,9 @@ def class_weights(counts: dict[int, int]) -> dict[str, dict[int, float]]:
     return {"inverse_frequency": inverse, "enet": enet}
 
 
-def weights_json(scheme: LabelScheme, counts: dict[int, int], particles: bool) -> str:
+def weights_json(scheme: LabelScheme, counts: dict[int, int], classes) -> str:
     """weights.json: per learning class its name, points, share and both weights."""
-    tables = scheme.config_tables(particles)
+    tables = scheme.config_tables(classes)
     weights = class_weights(counts)
     total = max(1, sum(counts.values()))
     names = {xid: scheme.labels.get(raw, str(raw)) for xid, raw in tables["learning_map_inv"].items()}

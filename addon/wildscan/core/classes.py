@@ -15,10 +15,15 @@ from .errors import UserError
 
 @dataclass(frozen=True)
 class ElementClass:
+    """One class. `optional`: not one of the paper's, so a file lists it only where its scan could
+    make it (an effect declares it, `Effect.classes`) or a point carries it (`listed_classes`):
+    files of scans that cannot make it keep the bytes they had before the class existed."""
+
     id: int
     name: str
     reflectivity: float
     color: tuple[int, int, int]
+    optional: bool = False
 
 
 # The custom properties that tag an object (docs/architecture.md: all a user adds to scan a scene).
@@ -49,20 +54,21 @@ WATER = ElementClass(13, "water", 120.0, (0, 0, 0))
 WATER_ID = WATER.id
 
 # Weather's returns (core/effects/weather.py): a beam returned by a raindrop, a snowflake, fog or
-# dust before any surface. A label like any other, but only weather makes it, so the class tables
-# of files list it only when weather is on (a clear-air file keeps its bytes). Its reflectivity
+# dust before any surface. A label like any other, but only weather makes it: optional, so the
+# class tables of files list it only when weather is on (a clear-air file keeps its bytes). Its reflectivity
 # is the intensity the paper model reports for such a return; like every class's it must be
 # unique (labels are read back from intensities).
-PARTICLE = ElementClass(15, "particle", 2.0, (150, 200, 255))
+PARTICLE = ElementClass(15, "particle", 2.0, (150, 200, 255), optional=True)
 PARTICLE_ID = PARTICLE.id
 
 # Fallen deadwood and stumps (docs/ground.md): the class RELLIS-3D calls `log` (rellis.yaml id 15).
-# Not one of the paper's Table I, so like the particle class the tables of files list it only
-# where a world can hold it (a biome with ground cover, core/world/biomes.py) or a point is one:
+# Not one of the paper's Table I: optional like the particle class, the tables of files list it
+# only where a world can hold it (a biome with ground cover, core/world/biomes.py, whose cover
+# effect declares it) or a point is one:
 # a `paper` world's files keep their bytes. Its reflectivity is a tag as Table I's are (the paper
 # gives each class an arbitrary, unique value, section IV-C); 85 is free and sits beside trunk's
 # 90 because a log is bark and wood like a trunk. Colour: dark brown, apart from terrain's brown.
-LOG = ElementClass(14, "log", 85.0, (92, 51, 23))
+LOG = ElementClass(14, "log", 85.0, (92, 51, 23), optional=True)
 LOG_ID = LOG.id
 
 # The ground's surface materials of the endless landscape (core/world/endless/ground.py): what the
@@ -72,18 +78,26 @@ LOG_ID = LOG.id
 # (unique, as Table I's: the paper labels a return by its intensity); each material's reflectance
 # at 905 nm, with its source, is in core/intensity.py MATERIALS.
 GROUND_MATERIALS: tuple[ElementClass, ...] = (
-    ElementClass(16, "soil", 95.0, (176, 122, 70)),
-    ElementClass(17, "gravel", 65.0, (190, 182, 160)),
-    ElementClass(18, "mud", 35.0, (84, 62, 40)),
-    ElementClass(19, "paved", 45.0, (64, 64, 72)),
-    ElementClass(20, "leaf litter", 25.0, (196, 136, 40)),
-    ElementClass(21, "rock slab", 10.0, (104, 104, 116)),
+    ElementClass(16, "soil", 95.0, (176, 122, 70), optional=True),
+    ElementClass(17, "gravel", 65.0, (190, 182, 160), optional=True),
+    ElementClass(18, "mud", 35.0, (84, 62, 40), optional=True),
+    ElementClass(19, "paved", 45.0, (64, 64, 72), optional=True),
+    ElementClass(20, "leaf litter", 25.0, (196, 136, 40), optional=True),
+    ElementClass(21, "rock slab", 10.0, (104, 104, 116), optional=True),
 )
 GROUND_IDS: tuple[int, ...] = tuple(c.id for c in GROUND_MATERIALS)
 # Every class that is the ground itself: the paper's terrain and the materials.
 GROUND_CLASS_IDS: tuple[int, ...] = (1, *GROUND_IDS)
 
-ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, LOG, PARTICLE, *GROUND_MATERIALS)
+# The classes beyond the paper's Table I and water, one a line in id order: each optional, so a
+# file lists it only where its scan could make it (docs/extending.md "Add a class").
+OPTIONAL_CLASSES: tuple[ElementClass, ...] = (
+    LOG,
+    PARTICLE,
+    *GROUND_MATERIALS,
+)
+
+ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, *OPTIONAL_CLASSES)
 
 
 def _check_table(elements: tuple[ElementClass, ...]) -> None:
@@ -110,9 +124,9 @@ COLOR_BY_ID = np.array(
 
 # Class names as users write them in the `wildscan_class` custom property;
 # "low grass", "low_grass" and "Low-Grass" all mean the same class.
-_TAGGABLE = (*CLASSES, WATER, LOG, *GROUND_MATERIALS)  # a tag names no particle
-_BY_NAME: dict[str, ElementClass] = {c.name: c for c in _TAGGABLE}
-TAG_NAMES: tuple[str, ...] = tuple(c.name for c in _TAGGABLE)
+_TAGGED = tuple(c for c in ALL_ELEMENTS if c not in (UNLABELED, PARTICLE))  # a tag names no particle
+_BY_NAME: dict[str, ElementClass] = {c.name: c for c in _TAGGED}
+TAG_NAMES: tuple[str, ...] = tuple(c.name for c in _TAGGED)
 
 
 def normalize_name(name: str) -> str:
@@ -232,7 +246,8 @@ def label_from_reflectivity(intensity: np.ndarray) -> np.ndarray:
 # The label each class's reflectivity reads back as (label_from_reflectivity of every class,
 # taken once here): a scan labels its beams by class id through it, one gather a beam where
 # reading each beam's intensity back took a sorted search, with the same labels.
-LABEL_BY_ID = label_from_reflectivity(REFLECTIVITY_BY_ID)
+LABEL_BY_ID = np.zeros(NUM_IDS, dtype=np.uint16)  # an id no class has (a gap in the ids) reads 0
+LABEL_BY_ID[sorted(BY_ID)] = label_from_reflectivity(REFLECTIVITY_BY_ID[sorted(BY_ID)])
 
 
 def counts_by_class(label: np.ndarray, bins: np.ndarray, bin_count: int) -> dict[str, list[int]]:
@@ -252,34 +267,39 @@ def colors_of(labels: np.ndarray) -> np.ndarray:
     return COLOR_BY_ID[np.asarray(labels, dtype=np.intp)]
 
 
-def _labels(particles: bool, logs: bool = False, grounds: bool = False) -> tuple[ElementClass, ...]:
-    return (
-        UNLABELED,
-        *CLASSES,
-        *((LOG,) if logs else ()),
-        *((PARTICLE,) if particles else ()),
-        *(GROUND_MATERIALS if grounds else ()),
-    )
+# The classes a point can carry, in id order: every class but water (never a label).
+LABELS: tuple[ElementClass, ...] = tuple(
+    sorted((c for c in ALL_ELEMENTS if c is not WATER), key=lambda c: c.id)
+)
 
 
-def carries_ground_materials(labels: np.ndarray) -> bool:
-    """Whether any label is one of the ground materials (the class tables then list them)."""
-    return bool(np.isin(np.asarray(labels), GROUND_IDS).any())
+def listed_classes(labels: np.ndarray = (), declared=()) -> tuple[ElementClass, ...]:
+    """The classes a scan's files list (PLY header and sidecar, labels.yaml, class weights, LAS):
+    every class that is not optional, and each optional one that `declared` names (the ids the
+    scan's effects can produce, `Effects.classes`, or a table the scan already carries) or a
+    point carries (`labels`). In id order. The one answer every writer reads, so a file's
+    tables agree with each other and with its points."""
+    present = set(np.unique(np.asarray(labels, dtype=np.int64)).tolist()) | {int(i) for i in declared}
+    return tuple(c for c in LABELS if not c.optional or c.id in present)
 
 
-def class_table_lines(particles: bool = False, logs: bool = False, grounds: bool = False) -> list[str]:
-    """One line per PLY label, for file headers and sidecars; `particles`: weather is on (or a
-    point is a particle), so the table lists the particle class too; `logs`: the world has
-    ground cover and deadwood (or a point is a log), so it lists the log class; `grounds`: a
-    point is a ground material (GROUND_MATERIALS), so it lists them."""
+def table_ids(table) -> tuple[int, ...]:
+    """The ids of a class table as `class_table_dict` writes it (a scan's metadata "classes")."""
+    return tuple(int(row["id"]) for row in table or ())
+
+
+def class_table_lines(classes: tuple[ElementClass, ...] | None = None) -> list[str]:
+    """One line per class a file lists (`listed_classes`; None: the classes that are not
+    optional), for PLY headers."""
     return [
         f"{c.id} {c.name.replace(' ', '_')} reflectivity={c.reflectivity:g} rgb={','.join(map(str, c.color))}"
-        for c in _labels(particles, logs, grounds)
+        for c in (listed_classes() if classes is None else classes)
     ]
 
 
-def class_table_dict(particles: bool = False, logs: bool = False, grounds: bool = False) -> list[dict]:
+def class_table_dict(classes: tuple[ElementClass, ...] | None = None) -> list[dict]:
+    """The same table for sidecars and metadata."""
     return [
         {"id": c.id, "name": c.name, "reflectivity": c.reflectivity, "color": list(c.color)}
-        for c in _labels(particles, logs, grounds)
+        for c in (listed_classes() if classes is None else classes)
     ]

@@ -48,6 +48,17 @@ class RayHits:
             reflectivity=None if self.reflectivity is None else self.reflectivity[index],
         )
 
+    def missing(self, gone: np.ndarray) -> "RayHits":
+        """These hits with misses where `gone` (bool (N,)): a medium that takes the beam."""
+        return RayHits(
+            distance=np.where(gone, np.inf, self.distance),
+            class_id=np.where(gone, MISS_CLASS, self.class_id).astype(np.int16),
+            instance=np.where(gone, MISS_INSTANCE, self.instance).astype(np.int32),
+            untagged_objects=self.untagged_objects,
+            normal=self.normal,
+            reflectivity=None if self.reflectivity is None else np.where(gone, np.nan, self.reflectivity),
+        )
+
     @property
     def hit(self) -> np.ndarray:
         return np.isfinite(self.distance)

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .classes import ALL_ELEMENTS, BY_ID, CLASSES, GROUND_IDS, LOG_ID, PARTICLE_ID, WATER_ID
+from .classes import ALL_ELEMENTS, BY_ID, CLASSES, GROUND_IDS, OPTIONAL_CLASSES, PARTICLE_ID, WATER_ID
 
 SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose", "wildscenes")
 OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
@@ -61,13 +61,11 @@ class LabelScheme:
     learning_map_inv: dict[int, int]
     learning_ignore: dict[int, bool]
     from_wildscan: dict[int, int] = field(init=False, repr=False)  # WildScan id -> raw id, from by_class
-    # What a label config without weather lists (the bytes it had before the particle class):
-    # not the raw ids only weather's particles use, and these colours where theirs differ.
-    weather_ids: tuple[int, ...] = ()
-    clear_colors_bgr: dict[int, tuple[int, int, int]] | None = None
-    # What a label config lists only when the ground materials (classes.GROUND_MATERIALS, the
-    # endless landscape's) may occur: the raw ids only they use (a paper config keeps its bytes).
-    ground_ids: tuple[int, ...] = ()
+    # What a label config lists for data without an optional class (classes.listed_classes; the
+    # bytes it had before that class): not the raw ids only that class uses (`only_for`, by
+    # WildScan id), and the colours of `colors_without` where that class's differ.
+    only_for: dict[int, tuple[int, ...]] = field(default_factory=dict)
+    colors_without: dict[int, dict[int, tuple[int, int, int]]] = field(default_factory=dict)
 
     def __post_init__(self):
         from_wildscan = ids_by_class_id(self.name, self.by_class, self.other)
@@ -86,19 +84,24 @@ class LabelScheme:
     def map(self, wildscan_ids: np.ndarray) -> np.ndarray:
         return self.lookup()[np.asarray(wildscan_ids, dtype=np.intp)]
 
-    def config_tables(self, particles: bool, grounds: bool = False) -> dict[str, dict]:
-        """The tables of a label config (labels.yaml): as they are with weather's particles,
-        without them (`particles` False) as they were before the particle class; the ground
-        materials' own ids only with `grounds` (a world with ground materials: endless)."""
+    def config_tables(self, classes) -> dict[str, dict]:
+        """The tables of a label config (labels.yaml) for data that lists `classes`
+        (classes.listed_classes): without the raw ids and colours of the optional classes it
+        does not list (`only_for`, `colors_without`)."""
+        listed = {c.id for c in classes}
+        absent = [i for i in (*self.only_for, *self.colors_without) if i not in listed]
+        dropped = {raw for i in absent for raw in self.only_for.get(i, ())}
+        colors = dict(self.colors_bgr)
+        for i in absent:
+            colors.update(self.colors_without.get(i, {}))
         tables = dict(
             labels=self.labels,
-            color_map=self.colors_bgr if particles else self.clear_colors_bgr or self.colors_bgr,
+            color_map=colors,
             learning_map=self.learning_map,
             learning_map_inv=self.learning_map_inv,
             learning_ignore=self.learning_ignore,
         )
-        left_out = (() if particles else self.weather_ids) + (() if grounds else self.ground_ids)
-        return {name: {k: v for k, v in t.items() if k not in left_out} for name, t in tables.items()}
+        return {name: {k: v for k, v in t.items() if k not in dropped} for name, t in tables.items()}
 
     def is_other(self, wildscan_id: int) -> bool:
         """Whether this class has no counterpart in the scheme (it got the "other" id)."""
@@ -127,26 +130,12 @@ _WILDSCAN = LabelScheme(
         **_identity(c.id for c in CLASSES),
         0: 0,
         WATER_ID: 0,
-        LOG_ID: LOG_ID,
-        PARTICLE_ID: PARTICLE_ID,
-        **_identity(GROUND_IDS),
+        **_identity(c.id for c in OPTIONAL_CLASSES),
     },
-    learning_map_inv={
-        0: 0,
-        **_identity(c.id for c in CLASSES),
-        LOG_ID: LOG_ID,
-        PARTICLE_ID: PARTICLE_ID,
-        **_identity(GROUND_IDS),
-    },
-    learning_ignore={
-        0: True,
-        **{c.id: False for c in CLASSES},
-        LOG_ID: False,
-        PARTICLE_ID: False,
-        **{i: False for i in GROUND_IDS},
-    },
-    weather_ids=(PARTICLE_ID,),
-    ground_ids=GROUND_IDS,
+    learning_map_inv={0: 0, **_identity(c.id for c in (*CLASSES, *OPTIONAL_CLASSES))},
+    learning_ignore={0: True, **{c.id: False for c in (*CLASSES, *OPTIONAL_CLASSES)}},
+    # the raw ids 15 and 16-21 are weather's and the ground materials' alone
+    only_for={PARTICLE_ID: (PARTICLE_ID,), **{i: (i,) for i in GROUND_IDS}},
 )
 
 # -- SemanticKITTI (semantic-kitti-api, config/semantic-kitti-all.yaml) ------------------------
@@ -333,7 +322,8 @@ _GOOSE = LabelScheme(
     title="GOOSE",
     labels=dict(enumerate(_GOOSE_NAMES)),
     colors_bgr=_goose_colors(),
-    clear_colors_bgr=_goose_colors(particles=False),  # outlier (56) grey, as before weather
+    # outlier (56) grey without weather, as before it
+    colors_without={PARTICLE_ID: {_GOOSE_BY_CLASS["particle"]: _goose_colors(particles=False)[56]}},
     by_class=_GOOSE_BY_CLASS,
     other=_GOOSE_OTHER,
     learning_map=_identity(range(len(_GOOSE_NAMES))),

@@ -31,14 +31,14 @@ PLY_FIELDS: tuple[tuple[str, str], ...] = (
 # has in `PointCloud.extra`; without any, files are exactly the PLY_FIELDS contract.
 OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
     ("hag", "<f4"),  # height above the ground the robot stands on under the point, metres (datasets)
-    ("support", "u1"),  # 1 on the surface the robot would rest on (core/traversability.py; datasets)
+    ("support", "u1"),  # 1 on the surface the robot would rest on (core/truth/traversability.py; datasets)
     # a device other than the default's (core/sensors): the firing (or 2D scan) of the point,
     # counted on over a head's device sweeps; `sweep` is that firing within one device sweep
     ("column", "<u4"),
     # when the point was measured, seconds after its 3D scan's first beam (drives; scans by a
     # device other than the default, from its firing timing)
     ("time", "<f8"),
-    # the realistic sensor model's (core/echoes.py); a paper-model scan has none of them
+    # the realistic sensor model's (core/realism/echoes.py); a paper-model scan has none of them
     ("echo", "u1"),  # which echo of its beam the point is, 1 = nearest
     ("echoes", "u1"),  # how many echoes its beam returned, 1..3
     ("label_purity", "<f4"),  # share of the echo's energy from the labeled class, 0..1

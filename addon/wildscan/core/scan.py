@@ -19,8 +19,8 @@ from .classes import (
     LABEL_BY_ID,
     REFLECTIVITY_BY_ID,
     WATER_ID,
-    carries_ground_materials,
     class_table_dict,
+    listed_classes,
     reflectivity_of,
 )
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
@@ -80,7 +80,7 @@ def cast_in_chunks(
 ):
     """Cast all rays, reporting progress between chunks when asked (with each hit's surface
     normal when `normals`: the realistic model's), in parallel threads where the backend
-    allows it (core/threads.py: the same bytes)."""
+    allows it (core/runtime/threads.py: the same bytes)."""
     pause_here("casting")
     cast = _caster(backend, normals)
     chunk = None if progress is None else PROGRESS_CHUNK
@@ -278,11 +278,7 @@ def run_scan(
         **{k: v for k, v in facts.items() if k != "hits"},
         "points": int(len(cloud)),
         "untagged_objects_hit": sorted(untagged),
-        "classes": class_table_dict(
-            particles=weather_of(effects) is not None,
-            logs=any(e.name == "cover" for e in effects.items),
-            grounds=carries_ground_materials(cloud.label),
-        ),
+        "classes": class_table_dict(listed_classes(cloud.label, effects.classes)),
     }
     if effects:  # clear air says nothing, so scans without effects keep their bytes
         metadata["effects"] = effects.describe()
@@ -379,7 +375,7 @@ def _realistic_cloud(
     effects: Effects,
     world_seed: int = 0,
 ):
-    """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
+    """The realistic model's scan (core/realism/realistic.py): a point per echo, with its echo fields."""
     from .realism.realistic import realistic_points
 
     _, ring, sweep = beam_directions(sensor.rh_deg, sensor.device)

@@ -16,7 +16,8 @@ import gc
 import numpy as np
 
 from ..core.runtime.cast_clock import CLOCK
-from .geometry import RefiningBackend, SceneGeometry
+from .geometry import SceneGeometry
+from .refine import RefiningBackend
 from .settle import Settler
 
 _FAR_SLACK = 1e-3  # see embree_backend: cast a little long, cut in float64

@@ -3,14 +3,14 @@
 Embree works in float32. The scene is uploaded relative to `geometry.offset`
 (a local origin near the scan, see geometry.py), rays are shifted the same way,
 and each hit distance is then recomputed in float64 against the plane of the
-hit triangle (`geometry.refine_distances`), so ranges match the float64
+hit triangle (`refine.refine_distances`), so ranges match the float64
 geometry to far better than 1e-4 m even in a world 10 km from the origin.
 
 Cracks: even in Embree's robust mode (RTC_SCENE_FLAG_ROBUST, kept on: it costs
 nothing measurable here) rays aimed at shared edges and vertices slip through
 (3 of 10,703 in tests/test_stability.py; 1,288 without robust mode). So by
 default (`seal=True`) every triangle is uploaded grown in its own plane by a few
-float32 ulps (geometry.pad_triangles), which closes them all. Tests build the
+float32 ulps (padding.pad_triangles), which closes them all. Tests build the
 unsealed variants to keep measuring why.
 
 The upload: the padded (T,3,3) soup goes into Embree's own vertex and index buffers in one
@@ -25,7 +25,7 @@ soup or (V,3) + (T,3)), and `scene.run(origins f32 (N,3), dirs f32 (N,3), dists=
 tfar, output=1)` -> dict with primID/geomID (-1 on a miss), tfar, u, v, Ng. `run` commits
 the scene (builds the BVH) on its first call, then casts one ray after another
 (rtcIntersect1), with the GIL released (two threads can cast at once): a command's large
-casts are split over its cores (core/threads.py), while a dataset runs one single-threaded
+casts are split over its cores (core/runtime/threads.py), while a dataset runs one single-threaded
 worker per core.
 """
 
@@ -35,7 +35,8 @@ import numpy as np
 
 from ..core.backend import THREADS
 from ..core.runtime.cast_clock import CLOCK
-from .geometry import RefiningBackend, SceneGeometry
+from .geometry import SceneGeometry
+from .refine import RefiningBackend
 from .sealing import sealed_settler
 from .settle import Settler
 
@@ -57,7 +58,7 @@ class EmbreeBackend(RefiningBackend):
     """First hits against one Embree scene of the extracted triangles."""
 
     name = "embree"
-    # its `run` traces with the GIL released, one ray after another (core/threads.py)
+    # its `run` traces with the GIL released, one ray after another (core/runtime/threads.py)
     capabilities = RefiningBackend.capabilities | {THREADS}
 
     def __init__(

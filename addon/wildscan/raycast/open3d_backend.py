@@ -1,8 +1,8 @@
 """Ray casting through Open3D's `RaycastingScene` (Embree inside Open3D), batched from numpy.
 
-The same triangles as EmbreeBackend (offset-local, sealed by geometry.pad_triangles,
+The same triangles as EmbreeBackend (offset-local, sealed by padding.pad_triangles,
 float32), the same float64 settling of every ambiguous hit (settle.py) and the same
-float64 refinement of every distance (geometry.RefiningBackend), so its scans are the
+float64 refinement of every distance (refine.RefiningBackend), so its scans are the
 same bytes as embree's (tests/test_backends.py); only the float32 caster differs.
 
 Open3D 0.20's API used here: `o3d.t.geometry.RaycastingScene()`,
@@ -22,7 +22,8 @@ import numpy as np
 
 from ..core.runtime.threads import cast_threads
 from .embree_backend import sealed
-from .geometry import RefiningBackend, SceneGeometry
+from .geometry import SceneGeometry
+from .refine import RefiningBackend
 from .settle import Settler
 
 _FAR_SLACK = 1e-3  # see embree_backend: cast a little long, cut in float64

@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.hits import RayHits
-from .geometry import SceneGeometry, prepare_rays
+from .geometry import SceneGeometry
+from .refine import prepare_rays
 
 _REFERENCE_CHUNK = 512  # rays per block: keeps the (rays x triangles) arrays small
 

@@ -1,7 +1,7 @@
 """What a sealed float32 caster and its float64 settling read of a geometry, made in one pass
 (numpy only): each triangle's plane, its padded copy and its settling band.
 
-The same bits as the three separate steps (geometry._planes, geometry.pad_triangles,
+The same bits as the three separate steps (geometry._planes, padding.pad_triangles,
 settle._band: tests/test_sealing.py compares them on worlds and on degenerate triangles),
 about 3x faster on a porous world's million triangles (~0.8 s of a 4 s world build):
 
@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .blocks import BLOCK_ROWS
-from .geometry import _MAX_PAD_STRETCH, MIN_EDGE_PAD, PAD_ULPS
+from .padding import _MAX_PAD_STRETCH, MIN_EDGE_PAD, PAD_ULPS
 from .settle import BAND_MARGIN, Settler
 
 
@@ -50,7 +50,7 @@ def local_corners(geometry) -> np.ndarray:
 
 
 def edge_pad(corners: np.ndarray) -> float:
-    """geometry.edge_pad(corners) without the |corners| temporary: max |x| is the larger of
+    """padding.edge_pad(corners) without the |corners| temporary: max |x| is the larger of
     max x and -min x (the same value)."""
     if not corners.size:
         return MIN_EDGE_PAD
@@ -95,7 +95,7 @@ def _block(tri, pad, normal_out, d_out, padded_out, band_out) -> None:
     nx, ny, nz = cx / unit, cy / unit, cz / unit
     normal_out[:, 0], normal_out[:, 1], normal_out[:, 2] = nx, ny, nz
     d_out[:] = nx * x0 + ny * y0 + nz * z0
-    # the padding (geometry.pad_triangles): side lengths opposite each corner
+    # the padding (padding.pad_triangles): side lengths opposite each corner
     a = _length(x1 - x2, y1 - y2, z1 - z2)
     b = _length(qx, qy, qz)  # |v2 - v0|
     c = _length(px, py, pz)  # |v0 - v1| = |v1 - v0|: the same squares

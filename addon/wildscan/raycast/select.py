@@ -13,7 +13,7 @@ Why embree is the default. Against scene.ray_cast and the BVH: it casts a whole 
 in one batch from numpy, so it is by far the fastest of the three and its time stays nearly
 flat in the number of objects, while scene.ray_cast's cost a ray grows with them (`wildscan
 bench` measures both); its labels and ranges agree with scene.ray_cast's; and with sealed
-edges (geometry.pad_triangles) it has no leaks in the stability suite
+edges (padding.pad_triangles) it has no leaks in the stability suite
 (tests/test_stability.py), where scene.ray_cast lets some rays aimed at shared edges and
 vertices through. Against the other float32 casters (`wildscan bench --suite casters`: all
 fed the same sealed triangles and the same scans' rays, docs/benchmarks.md#casters): every

@@ -1,7 +1,7 @@
 """Which triangle a ray hits, settled in float64 wherever the float32 caster could go either way.
 
 Why: the fast backends find first hits in float32 against triangles grown a little in their
-own plane (geometry.pad_triangles: neighbours overlap, so no ray slips between them). Where
+own plane (padding.pad_triangles: neighbours overlap, so no ray slips between them). Where
 a ray lands in that overlap, two triangles are hit at (nearly) the same distance, and which
 one the caster reports depends on its arithmetic: Embree picks its code by CPU at run time
 (SSE2, AVX, AVX2, AVX-512; BVH4 or BVH8, with or without FMA). Measured on 79 scans of
@@ -37,7 +37,7 @@ BAND_MARGIN = 1e-4
 EDGE_TOLERANCE = 1e-9  # m: the float64 test's unpadded triangles are grown by this
 RECAST_STEP = 1e-4  # m beyond a triangle's plane where a ray passing beside it restarts
 MAX_RECASTS = 4
-_PARALLEL_COS = 1e-9  # as geometry.refine_distances: a ray in a triangle's plane misses it
+_PARALLEL_COS = 1e-9  # as refine.refine_distances: a ray in a triangle's plane misses it
 
 
 class Settler:
@@ -326,7 +326,7 @@ def _barycentrics(tris: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.
 
 
 class FirstHits(Protocol):
-    """What settle needs of a backend over extracted triangles (geometry.RefiningBackend):
+    """What settle needs of a backend over extracted triangles (refine.RefiningBackend):
     its own first hits, before any are settled."""
 
     def _first_hits(self, local: np.ndarray, dirs: np.ndarray, max_range: float): ...

@@ -27,8 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.hits import RayHits
-from .geometry import RefiningBackend, prepare_rays, refine_distances
 from .reference import _edge_frames, _plane_hits
+from .refine import RefiningBackend, prepare_rays, refine_distances
 from .settle import EDGE_TOLERANCE
 
 # Two answers agree when they name the same class and instance at distances this close: far

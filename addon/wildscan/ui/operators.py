@@ -209,7 +209,7 @@ class WILDSCAN_OT_scan(Operator):
         from . import status
         from .properties import pose_from, sensor_from, z_start_from
         from .scene import add_cloud, pose_marker
-        from .weather import weather_from
+        from .weather import effects_from, weather_from
 
         scene = context.scene
         settings = scene.wildscan
@@ -221,6 +221,7 @@ class WILDSCAN_OT_scan(Operator):
             frame = check_frame(settings.frame)
             backend = check_backend_name(settings.backend)
             weather = weather_from(settings)
+            effects = effects_from(settings)
             with Progress(context, "WildScan: scanning") as progress:
                 result = scan_current_scene(
                     pose,
@@ -231,6 +232,7 @@ class WILDSCAN_OT_scan(Operator):
                     progress=progress.scan,
                     notify=notes.append,
                     weather=weather,
+                    effects=effects,
                 )
             metadata = dict(result.metadata, seed=_world_seed(scene), world=bpy.data.filepath or None)
             obj = add_cloud(scene, result.cloud, metadata, keep_previous=settings.keep_previous)

@@ -116,8 +116,8 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         from ..app.settings import panel_message
         from ..core.errors import UserError
         from .device import FILE_CHOICE
-        from .properties import sensor_from
-        from .weather import draw_weather, weather_from
+        from .properties import device_limits_text, sensor_from
+        from .weather import draw_effects, draw_weather, effects_from, weather_from
 
         s = context.scene.wildscan
         layout = self.layout
@@ -131,6 +131,9 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         col.prop(s, "min_range")
         col.prop(s, "max_range")
         col.prop(s, "mount_height")
+        hint = device_limits_text(s)
+        if hint:
+            layout.label(text=hint)
         layout.prop(s, "model")
         realistic = s.model == "realistic"
         if realistic:
@@ -144,8 +147,10 @@ class VIEW3D_PT_wildscan_sensor(_WildScanPanel, Panel):
         col.prop(s, "noise_seed")
         layout.prop(s, "frame")
         draw_weather(layout, s)
+        draw_effects(layout, s)
         try:
             weather_from(s)
+            effects_from(s)
             sensor = sensor_from(s).validate()
         except UserError as e:
             box = layout.box()

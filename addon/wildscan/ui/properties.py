@@ -5,9 +5,10 @@ The pose (x, y, yaw) is the pose marker's: while the marker exists the three
 properties read and move it, so dragging the marker and typing numbers are the
 same thing. Without a marker they are plain stored values.
 
-Sensor limits are deliberately loose: a value the sensor does not allow (an r_h
-that does not divide 180, a min range above the max range) is accepted here and
-named by the Scan operator's report, as `wildscan scan` names it.
+Sensor limits are the chosen device's (`field_limits`, app/settings.py `limits`): the
+fields' sliders span every preset's (`slider_limits`), and a value the device does not allow
+(an r_h that does not divide its sweep, a range past its longest, a min range above the max)
+is accepted here and named by the Scan operator's report, as `wildscan scan` names it.
 """
 
 import math
@@ -16,17 +17,17 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
 from bpy.types import PropertyGroup
 
-from ..app.settings import SETTINGS, label, panel_help
+from ..app.settings import SETTINGS, Limits, default, label, limits, panel_help
 from ..blender.generate import DETAILS
-from ..core import sensor as S
 from ..core.classes import TAG_NAMES
+from ..core.sensors import SensorConfig, device_named, preset_names
 from ..core.world.biomes import BIOME_TABLE, BIOMES, DEFAULT_BIOME
 from ..core.world.region import DEFAULT_LAYOUT, DEFAULT_REGION, MAX_REGION_SIDE
 from ..raycast.select import BACKEND_NAMES
 from . import scene as wscene
 from .device import DEFAULT_DEVICE_ID, device_from, device_items, take_device_defaults, take_file_defaults
 from .weather import CLASSES as WEATHER_CLASSES
-from .weather import WildScanWeather
+from .weather import WildScanEffects, WildScanWeather
 
 _MODEL_TEXT = {
     "paper": "One thin ray a beam; intensity is the class reflectivity (as the paper)",
@@ -40,12 +41,38 @@ def _declared(setting: str, **display) -> dict:
     slider's range is soft: a value outside it may still be typed, and the Scan operator
     names it as `wildscan scan` does (module docstring). A whole number's lowest is hard."""
     known = SETTINGS[setting]
-    fields = dict(name=label(setting), description=panel_help(setting), default=known.default)
+    fields = dict(name=label(setting), description=panel_help(setting), default=default(setting))
+    widest = slider_limits(setting)
     if known.kind is float:
-        fields.update(soft_min=known.limits.low, soft_max=known.limits.high)
+        fields.update(soft_min=widest.low, soft_max=widest.high)
     elif known.kind is int:
-        fields.update(min=known.limits.low)  # the highest (2^63 - 1) is past a Blender int's
+        fields.update(min=widest.low)  # the highest (2^63 - 1) is past a Blender int's
     return {**fields, **display}
+
+
+def slider_limits(setting: str) -> Limits:
+    """A sensor field's slider range: every preset's limits (the device menu may choose any)."""
+    each = [limits(setting, device_named(name)) for name in preset_names()]
+    return Limits(min(x.low for x in each), max(x.high for x in each))
+
+
+def field_limits(settings) -> dict[str, Limits]:
+    """The limits of the numeric sensor fields with the device the settings choose: what the
+    Scan operator's check allows (SensorConfig.validate), shown by the panel."""
+    device = device_from(settings)
+    return {name: limits(name, device) for name in ("rh", "min_range", "max_range", "noise", "divergence")}
+
+
+def device_limits_text(settings) -> str:
+    """One line under the sensor fields: the chosen device's limits ("" while its file cannot
+    be read: the panel names why)."""
+    from ..core.errors import UserError
+
+    try:
+        lim = field_limits(settings)
+    except UserError:
+        return ""
+    return f"r_h {lim['rh'].low:g} to {lim['rh'].high:g} deg, ranges up to {lim['max_range'].high:g} m"
 
 
 _DETAIL_TEXT = {
@@ -247,11 +274,7 @@ class WildScanSettings(PropertyGroup):
     max_range: FloatProperty(**_declared("max_range", unit="LENGTH"))
     mount_height: FloatProperty(**_declared("mount_height", unit="LENGTH", precision=3))
     # the paper model's noise; the realistic model's is the datasheet's unless Datasheet noise is off
-    noise: FloatProperty(
-        **_declared(
-            "noise", default=S.DEFAULT_NOISE_SIGMA, soft_max=0.1, unit="LENGTH", precision=3, step=0.1
-        )
-    )
+    noise: FloatProperty(**_declared("noise", soft_max=0.1, unit="LENGTH", precision=3, step=0.1))
     noise_seed: IntProperty(**_declared("noise_seed"))
     model: EnumProperty(
         name=label("model"),
@@ -262,8 +285,8 @@ class WildScanSettings(PropertyGroup):
     divergence: FloatProperty(
         **_declared(
             "divergence",
-            min=SETTINGS["divergence"].limits.low,
-            max=SETTINGS["divergence"].limits.high,
+            min=slider_limits("divergence").low,
+            max=slider_limits("divergence").high,
             precision=1,
         )
     )
@@ -274,6 +297,7 @@ class WildScanSettings(PropertyGroup):
         default=True,
     )
     weather: PointerProperty(type=WildScanWeather, name=label("weather"))  # ui/weather.py
+    effects: PointerProperty(type=WildScanEffects, name="Effects")  # ui/weather.py, from the effects table
     frame: EnumProperty(
         name=label("frame"),
         description="Coordinate frame of the exported points",
@@ -350,7 +374,7 @@ def sensor_from(settings):
     sensor file that cannot be used is a UserError already)."""
     realistic = settings.model == "realistic"
     device = device_from(settings)
-    return S.SensorConfig.for_device(
+    return SensorConfig.for_device(
         device,
         rh_deg=typed_value(settings.rh),
         min_range=typed_value(settings.min_range),

@@ -1,4 +1,5 @@
-"""The Sensor panel's weather: rain, fog, dust and snow, as `scene.wildscan.weather`.
+"""The Sensor panel's effects (core/effects/table.py): weather's rain, fog, dust and snow, as
+`scene.wildscan.weather`, and a field for every effect of one setting, as `scene.wildscan.effects`.
 
 The fields take their units and slider ranges from core/effects/weather.py's KEYS, the one
 declaration of the limits; the Scan operator writes them as the text `wildscan scan
@@ -13,6 +14,7 @@ from __future__ import annotations
 from bpy.props import FloatProperty
 from bpy.types import PropertyGroup
 
+from ..core.effects.table import simple_entries
 from ..core.effects.weather import KEYS, parse_settings
 
 _WHAT = {
@@ -45,7 +47,37 @@ class WildScanWeather(PropertyGroup):
     snow: _field("snow")
 
 
-CLASSES = (WildScanWeather,)
+def _effect_field(entry) -> FloatProperty:
+    """The field of an effect of one setting: its title, help and slider range from the table."""
+    s = entry.settings[0]
+    text = f"{s.help}; {s.low:g} to {s.high:g} {s.unit} (0: off)"
+    return FloatProperty(name=entry.title, description=text, default=0.0, soft_min=s.low, soft_max=s.high)
+
+
+# one field per effect of one setting in the table, so an effect added there is in the panel too
+WildScanEffects = type(
+    "WildScanEffects",
+    (PropertyGroup,),
+    {"__annotations__": {e.name: _effect_field(e) for e in simple_entries()}},
+)
+
+CLASSES = (WildScanWeather, WildScanEffects)
+
+
+def effects_from(settings) -> dict[str, float]:
+    """The effects of one setting the panel turns on (name -> checked value; {}: none), or the
+    command line's UserError for a value out of range."""
+    values = {e.name: (e, getattr(settings.effects, e.name)) for e in simple_entries()}
+    return {name: e.settings[0].check(float(_number(v)), name) for name, (e, v) in values.items() if v}
+
+
+def draw_effects(layout, settings) -> None:
+    """The Sensor panel's effects box (nothing while the table has no effect of one setting)."""
+    entries = simple_entries()
+    if entries:
+        col = layout.box().column(align=True)
+        for entry in entries:
+            col.prop(settings.effects, entry.name)
 
 
 def _number(value: float) -> str:

@@ -54,7 +54,7 @@ def terrain_image(
 ) -> tuple[np.ndarray, tuple[float, float, float, float]]:
     """The hill-shaded terrain over `extent` (xmin, xmax, ymin, ymax; default the island's)."""
     from ..core.world import EXTENT
-    from ..core.world.heightfield import lattice
+    from ..core.world.terrain_grid import lattice
 
     xs, ys = lattice(EXTENT if extent is None else extent, spacing)
     gx, gy = np.meshgrid(xs, ys)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..core.classes import BY_ID, CLASSES, LOG, PARTICLE
+from ..core.classes import LABELS
 from ..core.io.files import atomic_outputs
 
 _METADATA = {"Software": None}  # no version stamp: the same data gives the same PNG
@@ -36,7 +36,7 @@ def render_card_figures(
     out = []
 
     fig, (ax1, ax2) = _figure((11, 4), 2)
-    shown = [BY_ID[0], *CLASSES, *(c for c in (LOG, PARTICLE) if c.name in t["class_points"])]
+    shown = [c for c in LABELS if not c.optional or c.name in t["class_points"]]  # the card's classes
     names = [c.name for c in shown]
     total = max(1, t["points"])
     colours = [tuple(v / 255 for v in c.color) for c in shown]

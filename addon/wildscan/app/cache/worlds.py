@@ -4,7 +4,7 @@ What a worker needs of a world before its first scan is a pure function of (seed
 vegetation, biome) and the code (key.py): the triangles (`SceneGeometry`), what the sealed
 ray caster and the float64 settling read (each triangle's plane, its padded copy, the
 settling's band and vertex-neighbour index: raycast/settle.py), the instances, the open
-ground and the open sky of the bird's-eye grid (core/open_ground.py, core/open_sky.py: the
+ground and the open sky of the bird's-eye grid (core/truth/open_ground.py, core/truth/open_sky.py: the
 open sky is a pass over every triangle, 0.1-0.3 s of CPU a porous world, that a warm load
 no longer makes), the ground the robot stands on (terrain grid and trail flooring:
 core/world/ground.py) and the ground cover. One entry
@@ -43,7 +43,7 @@ from ...core.truth.traversability import ROBOT_HEIGHT
 from ...core.world import EXTENT, WorldPlan, plan_world
 from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
-from ...core.world.heightfield import TerrainGrid
+from ...core.world.terrain_grid import TerrainGrid
 from ...raycast.geometry import SceneGeometry
 from ...raycast.sealing import local_corners, sealed_settler
 from ...raycast.settle import Settler
@@ -153,13 +153,13 @@ def build_prepared(inputs: dict, timings: dict | None = None) -> PreparedWorld:
 
 def world_open_sky(geometry, ground: StandingGround) -> OpenGround:
     """Where an upward ray from ROBOT_HEIGHT above the standing ground meets nothing (the
-    bird's-eye grid's `overhead`: core/open_sky.py)."""
+    bird's-eye grid's `overhead`: core/truth/open_sky.py)."""
     return open_sky(geometry.vertices, geometry.faces, ground.terrain, ROBOT_HEIGHT, EXTENT)
 
 
 def world_open_ground(plan: WorldPlan, geometry) -> OpenGround:
     """Where only the terrain lies under a bird's-eye cell; none unless the terrain grid
-    covers the extent (what makes an open cell's answer the terrain: core/open_ground.py)."""
+    covers the extent (what makes an open cell's answer the terrain: core/truth/open_ground.py)."""
     xs, ys = plan.grid.xs, plan.grid.ys
     x0, x1, y0, y1 = EXTENT
     if not (xs[0] <= x0 and xs[-1] >= x1 and ys[0] <= y0 and ys[-1] >= y1):

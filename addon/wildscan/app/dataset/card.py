@@ -11,12 +11,14 @@ from importlib import metadata
 from pathlib import Path
 
 from ... import __version__
-from ...core.classes import BY_ID, CLASSES, LOG, PARTICLE
+from ...core.classes import BY_ID, PARTICLE
+from ...core.effects.weather import weather_on
 from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
 from ...core.realism.lost_returns import add_stats
 from ...core.runtime.pause import pause_here
+from .classes import dataset_classes
 from .intensity import intensity_lines, remission_totals
 from .layout import CARD, CARD_FIGURES, DATASET_JSON
 from .manifest import Manifest
@@ -47,11 +49,8 @@ def versions() -> dict[str, str]:
 def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
     rows = list(manifest.rows.values())
     ok = [r for r in rows if r["status"] == "ok"]
-    class_points = {c.name: 0 for c in (BY_ID[0], *CLASSES)}
-    if spec.biome != "paper":  # deadwood (a paper dataset's card keeps its bytes)
-        class_points[LOG.name] = 0
-    if spec.weather:  # weather's particles, a class of their own (a clear dataset's card keeps its bytes)
-        class_points[PARTICLE.name] = 0
+    # the classes the scans' effects declare (a paper, clear dataset's card keeps its bytes)
+    class_points = {c.name: 0 for c in dataset_classes(spec.weather, spec.biome)}
     class_scans = dict.fromkeys(class_points, 0)
     ranges = [0] * RANGE_BINS
     zones: dict[str, dict[str, int]] = {}
@@ -82,7 +81,7 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
 
 
 def _height_totals(ok: list[dict]) -> dict:
-    """Points of each class per height above the ground (core/traversability.py HEIGHT_BINS)."""
+    """Points of each class per height above the ground (core/truth/traversability.py HEIGHT_BINS)."""
     heights: dict[str, list[int]] = {}
     for r in ok:
         for cid, counts in r.get("class_heights", {}).items():
@@ -93,7 +92,7 @@ def _height_totals(ok: list[dict]) -> dict:
 
 def _particle_totals(spec: DatasetSpec, ok: list[dict], class_points: dict) -> dict:
     """The share of the points that are weather's particles (a dataset with [weather] only)."""
-    if not spec.weather:
+    if not weather_on(spec.weather):
         return {}
     points = sum(r["points"] for r in ok)
     return {"particle_share": class_points[PARTICLE.name] / points if points else 0.0}

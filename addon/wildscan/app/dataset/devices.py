@@ -36,6 +36,15 @@ def spec_device(value, where: str) -> str | tuple[str, ...]:
     return out[0] if not isinstance(value, list) else tuple(out)
 
 
+def spec_limits(key: str, device: str | tuple[str, ...]):
+    """The limits of sensor setting `key` that every device a spec may draw allows (each the
+    device's own, app/settings.py `limits`)."""
+    from ..settings import limits
+
+    each = [limits(key, device_choice(name)) for name in (device if isinstance(device, tuple) else (device,))]
+    return max(x.low for x in each), min(x.high for x in each), each[0].low_open
+
+
 def device_files(device: str | tuple[str, ...]) -> dict[str, str]:
     """Path -> SHA-256 of the contents of every device file the spec names (presets are part
     of the WildScan version); a file that cannot be read any more is a UserError."""

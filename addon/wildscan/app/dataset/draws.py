@@ -4,8 +4,8 @@ key and scan index), so adding a key never shifts another's draws."""
 
 from __future__ import annotations
 
-from ...core import sensor as S
 from ...core.rng import stage_rng, stage_seed
+from ...core.sensors import SensorConfig
 from .devices import CONFIG_NAMES, DEVICE_KEYS, draw_device, is_default
 from .spec import DatasetSpec, SensorSpec, rh_choices
 
@@ -22,7 +22,7 @@ def _draw(value, seed: int, index: int, key: str):
     return float(rng.uniform(value[0], value[1]))
 
 
-def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
+def draw_sensor(spec: SensorSpec, seed: int, index: int) -> SensorConfig:
     """The sensor of scan `index` of world `seed`: fixed values as given, ranges drawn."""
     if spec.noise_seed is None:
         noise_seed = stage_seed(seed, f"dataset.noise.{index}") >> 1  # below 2^63
@@ -33,7 +33,7 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
     rh = spec.rh if not isinstance(spec.rh, tuple) else _draw(spec.rh, seed, index, "rh")
     if not isinstance(spec.rh, tuple):
         rh = next(rh_choices(rh))  # exactly 180/M, as the spec check found it
-    return S.SensorConfig(
+    return SensorConfig(
         rh_deg=rh,
         min_range=_draw(spec.min_range, seed, index, "min_range"),
         max_range=_draw(spec.max_range, seed, index, "max_range"),
@@ -48,7 +48,7 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
     ).validate()
 
 
-def _device_sensor(spec: SensorSpec, seed: int, index: int, noise_seed: int) -> S.SensorConfig:
+def _device_sensor(spec: SensorSpec, seed: int, index: int, noise_seed: int) -> SensorConfig:
     """A scan's sensor with a device other than the default: its own rh and ranges where the
     spec gives none."""
     given = {
@@ -65,7 +65,7 @@ def _device_sensor(spec: SensorSpec, seed: int, index: int, noise_seed: int) -> 
     for key, name in realistic.items():
         if spec.model == "realistic" and getattr(spec, key) is not None:
             given[name] = _draw(getattr(spec, key), seed, index, key)
-    return S.SensorConfig.for_device(
+    return SensorConfig.for_device(
         draw_device(spec.device, seed, index),
         noise_sigma=_draw(spec.noise, seed, index, "noise"),
         noise_seed=noise_seed,
@@ -85,9 +85,18 @@ def _mount_height(spec: SensorSpec, seed: int, index: int) -> dict:
 def draw_weather(spec: "DatasetSpec", seed: int, index: int) -> dict[str, float]:
     """The weather of scan `index` of world `seed`: fixed values as given, ranges drawn from a
     stream of their own (seeded by world seed, key and scan index)."""
+    return _drawn(spec.weather, "weather", seed, index)
+
+
+def draw_effects(spec: "DatasetSpec", seed: int, index: int) -> dict[str, float]:
+    """The [effects] of scan `index` of world `seed`, drawn as the weather is."""
+    return _drawn(spec.effects, "effects", seed, index)
+
+
+def _drawn(pairs, table: str, seed: int, index: int) -> dict[str, float]:
     out = {}
-    for key, value in spec.weather:
+    for key, value in pairs:
         if isinstance(value, tuple):
-            value = float(stage_rng(seed, f"dataset.weather.{key}.{index}").uniform(value[0], value[1]))
+            value = float(stage_rng(seed, f"dataset.{table}.{key}.{index}").uniform(value[0], value[1]))
         out[key] = value
     return out

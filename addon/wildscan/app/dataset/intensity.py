@@ -1,4 +1,4 @@
-"""A dataset scan's intensity (SPEC.toml `intensity`, core/intensity.py): set on the cloud
+"""A dataset scan's intensity (SPEC.toml `intensity`, core/realism/intensity.py): set on the cloud
 before any format encodes it, so PLY, LAS and SemanticKITTI carry the same number.
 
 `physical` needs each point's incidence: a paper scan run with `incidence=True` has it, from
@@ -49,7 +49,7 @@ def _physical(seed: int, scan: int, result, world=None) -> np.ndarray:
 
 
 def _realistic_coverage(energy: np.ndarray, label: np.ndarray, distance: np.ndarray) -> np.ndarray:
-    """Σ w_k cos θ_k of a realistic echo (core/echoes.py: e = Σ w ρ cos θ (R_REF/R)², ρ its
+    """Σ w_k cos θ_k of a realistic echo (core/realism/echoes.py: e = Σ w ρ cos θ (R_REF/R)², ρ its
     class's Table I value): the energy without its class reflectivity and range law."""
     table = I.class_percent(label)
     with np.errstate(divide="ignore", invalid="ignore"):

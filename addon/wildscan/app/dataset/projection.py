@@ -1,4 +1,4 @@
-"""The projection a dataset's labels.yaml ships for semantic-kitti-api (core/projection.py):
+"""The projection a dataset's labels.yaml ships for semantic-kitti-api (core/io/projection.py):
 one for every scan the spec may draw, so the finest r_h it allows decides the columns and
 every device it may draw the field of view."""
 

@@ -28,6 +28,7 @@ from ...core.runtime.signals import deferred, on_signal, signal_pending
 from ..cache.config import count_worlds
 from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
+from .classes import dataset_classes
 from .cluster import RunFailed, probe_scheduler
 from .engine import Batch, Engine, make_batches
 from .layout import LABELS_YAML, WEIGHTS_JSON, remove_temp_files, sequence_files
@@ -427,7 +428,7 @@ def finalize(state: _State, report: RunReport) -> None:
     totals = card.totals(spec, state.manifest)
     counts = _learning_counts(spec, totals)
     state.write_text(LABELS_YAML, _labels_yaml(spec, totals, class_weights(counts)))
-    state.write_text(WEIGHTS_JSON, weights_json(scheme(spec.label_scheme), counts, bool(spec.weather)))
+    state.write_text(WEIGHTS_JSON, weights_json(scheme(spec.label_scheme), counts, _classes(spec, totals)))
     state.save(complete=False)  # every file above listed, should the card never come
     data = state.dataset_json(complete)
     # The card before dataset.json: a run stopped between them leaves `complete: false`
@@ -451,7 +452,11 @@ def _raw_counts(spec: DatasetSpec, totals: dict) -> dict[int, int]:
 
 
 def _learning_counts(spec: DatasetSpec, totals: dict) -> dict[int, int]:
-    return learning_counts(scheme(spec.label_scheme), _raw_counts(spec, totals), bool(spec.weather))
+    return learning_counts(scheme(spec.label_scheme), _raw_counts(spec, totals), _classes(spec, totals))
+
+
+def _classes(spec: DatasetSpec, totals: dict):
+    return dataset_classes(spec.weather, spec.biome, totals["class_points"])
 
 
 def _labels_yaml(spec: DatasetSpec, totals: dict, weights: dict) -> str:
@@ -466,4 +471,4 @@ def _labels_yaml(spec: DatasetSpec, totals: dict, weights: dict) -> str:
         by_split[{"val": "valid"}.get(splits[seed], splits[seed])].append(int(spec.sequence_of(seed)))
     title = f"WildScan dataset, config {spec.config_hash()[:16]}"
     projection = dataset_projection(spec)
-    return sk.label_config_yaml(s, content, by_split, title, bool(spec.weather), projection, weights)
+    return sk.label_config_yaml(s, content, by_split, title, _classes(spec, totals), projection, weights)

@@ -15,19 +15,23 @@ import re
 from dataclasses import asdict, dataclass, field, replace
 
 from ... import __version__
-from ...core import sensor as S
+from ...core.checks import Table, is_int, is_number, show
 from ...core.classes import TAG_NAMES
-from ...core.errors import UserError, shortened
+from ...core.errors import UserError
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
 from ...core.posesampler import STRATEGIES
 from ...core.realism.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.rng import stage_seed
+from ...core.sensors import DEFAULT_DEVICE
+from ...core.sensors.config import DEFAULT_MODEL, REALISTIC_SETTINGS, SENSOR_SETTINGS
 from ...core.spatial.frames import FRAMES
 from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
 from ...core.world.region import dataset_layout
-from ..settings import SETTINGS
+from ..settings import SETTINGS, default, limits
+from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_limits, spec_returns
+from .effects_spec import effects_table, weather_table
 from .like import with_like
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
@@ -47,22 +51,22 @@ DEFAULT_ZONE_WEIGHTS = (
 )
 Value = float | tuple[float, float]
 TOP_KEYS = ("seeds", "detail", "vegetation", "biome", "scans_per_world", "formats", "label_scheme")
-TOP_KEYS += ("split", "poses", "sensor", "weather", "intensity", "layout")  # layout: region.py dataset_layout
+TOP_KEYS += ("split", "poses", "sensor", "weather", "effects", "intensity", "layout")  # layout: region.py
 
 
 @dataclass(frozen=True)
 class SensorSpec:
-    rh: Value = S.DEFAULT_RH_DEG
-    min_range: Value = S.DEFAULT_MIN_RANGE
-    max_range: Value = S.DEFAULT_MAX_RANGE
+    rh: Value = default("rh")  # the default device's
+    min_range: Value = default("min_range")
+    max_range: Value = default("max_range")
     noise: Value | None = None  # None: the model's own (paper 0.015 m; realistic the datasheet's)
     noise_seed: int | tuple[int, int] | None = None  # None: a seed of its own per scan
     frame: str = "leveled"
-    model: str = S.DEFAULT_MODEL
+    model: str = DEFAULT_MODEL
     # the realistic model's own settings (as `wildscan scan`: a mistake with model "paper")
-    divergence: Value = S.DEFAULT_DIVERGENCE_MRAD
-    echoes: int | tuple[int, int] = S.MAX_ECHOES
-    echo_separation: Value = S.DEFAULT_ECHO_SEPARATION
+    divergence: Value = default("divergence")
+    echoes: int | tuple[int, int] = default("echoes")
+    echo_separation: Value = default("echo_separation")
     mount_height: Value | None = None  # m (or a range); None: the device's own [mount] height
     returns: str | None = None  # the return mode (core/sensors/returns.py); None: the device's own
     # a preset or device file, or a tuple of them drawn per scan (app/dataset/devices.py); with
@@ -93,16 +97,18 @@ class DatasetSpec:
     sensor: SensorSpec = field(default_factory=SensorSpec)
     # [weather]: key (core/effects/weather.py KEYS) -> a value or a range [lo, hi] drawn per scan
     weather: tuple[tuple[str, Value], ...] = ()
-    intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/intensity.py)
+    effects: tuple[tuple[str, Value], ...] = ()  # [effects]: name (core/effects/table.py) -> value or range
+    intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/realism/intensity.py)
 
     def to_dict(self) -> dict:
         out = json.loads(json.dumps(asdict(self)))
-        if not self.weather:  # a spec without weather keeps its dict, so its config hash
-            del out["weather"]
+        for key in ("weather", "effects"):  # a spec without them keeps its dict, so its config hash
+            if not getattr(self, key):
+                del out[key]
         if not self.poses.min_scans_with:  # the same for class-aware poses
             del out["poses"]["min_scans_with"]
-        for key, default in (("device", SensorSpec.device), ("mount_height", None)):
-            if out["sensor"][key] == default:  # and one with the default device, at its height
+        for key, unset in (("device", SensorSpec.device), ("mount_height", None)):
+            if out["sensor"][key] == unset:  # and one with the default device, at its height
                 del out["sensor"][key]
         return out
 
@@ -177,117 +183,33 @@ def load_spec(path, like: str | None = None) -> DatasetSpec:
 
 
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
-    top = _Table(with_like(data, where), "", where)  # `like`: a real dataset's rig and files
+    top = Table(with_like(data, where), "", where)  # `like`: a real dataset's rig and files
     top.only(*TOP_KEYS)
     d = DatasetSpec()
     dataset_layout(top.data.get("layout"), where)
     return replace(
         d,
         seeds=_seeds(top),
-        detail=top.choice("detail", d.detail, tuple(DETAILS)),
-        vegetation=top.choice("vegetation", d.vegetation, VEGETATION),
-        biome=top.choice("biome", d.biome, BIOMES),
-        scans_per_world=top.integer("scans_per_world", d.scans_per_world, 1, MAX_SCANS_PER_WORLD),
+        detail=top.choice("detail", tuple(DETAILS), default=d.detail),
+        vegetation=top.choice("vegetation", VEGETATION, default=d.vegetation),
+        biome=top.choice("biome", BIOMES, default=d.biome),
+        scans_per_world=top.integer("scans_per_world", 1, MAX_SCANS_PER_WORLD, default=d.scans_per_world),
         formats=_formats(top),
-        label_scheme=top.choice("label_scheme", d.label_scheme, SCHEME_NAMES),
+        label_scheme=top.choice("label_scheme", SCHEME_NAMES, default=d.label_scheme),
         split=_split(top.table("split", dict(d.split))),
         poses=_poses(top.table("poses", {})),
         sensor=_sensor(top.table("sensor", {})),
-        weather=_weather(top.table("weather", {})),
-        intensity=top.choice("intensity", d.intensity, INTENSITY_MODES),
+        weather=weather_table(top.table("weather", {})),
+        effects=effects_table(top.table("effects", {})),
+        intensity=top.choice("intensity", INTENSITY_MODES, default=d.intensity),
     )
-
-
-def _weather(t: "_Table") -> tuple[tuple[str, Value], ...]:
-    """[weather]: each key of core/effects/weather.py a value or a range [lo, hi] of values."""
-    from ...core.effects.weather import KEYS, check_value
-
-    t.only(*KEYS)
-    out = []
-    for key in KEYS:
-        value = t.get(key, None)
-        if value is None:
-            continue
-        bounds = value if isinstance(value, list) else [value]
-        try:
-            if len(bounds) not in (1, 2) or any(isinstance(v, (list, dict, str)) for v in bounds):
-                raise UserError("a number or a range [lo, hi]")
-            checked = [check_value(key, v) for v in bounds]
-        except UserError as e:
-            raise UserError(f"{t.where}: {t.name(key)}: {e.message}") from None
-        if len(checked) == 2 and checked[0] > checked[1]:
-            raise t.fail(key, "a range [lo, hi] with lo <= hi", value)
-        out.append((key, (checked[0], checked[1]) if len(checked) == 2 else checked[0]))
-    return tuple(out)
-
-
-class _Table:
-    """One TOML table with its dotted name, for messages that say which key is wrong."""
-
-    def __init__(self, data, prefix: str, where: str):
-        self.data, self.prefix, self.where = data, prefix, where
-
-    def name(self, key: str) -> str:
-        return f"{self.prefix}{key}"
-
-    def fail(self, key: str, allowed: str, value) -> UserError:
-        return UserError(f"{self.where}: {self.name(key)} must be {allowed}, got {_show(value)}")
-
-    def only(self, *keys: str) -> None:
-        for key in self.data:
-            if key not in keys:
-                where = f"[{self.prefix[:-1]}]" if self.prefix else "the top level"
-                raise UserError(
-                    f"{self.where}: unknown key {self.name(key)!r}; allowed in {where}: {', '.join(keys)}"
-                )
-
-    def get(self, key: str, default):
-        return self.data.get(key, default)
-
-    def table(self, key: str, default: dict) -> "_Table":
-        value = self.data.get(key, default)
-        if not isinstance(value, dict):
-            raise self.fail(key, "a table", value)
-        return _Table(value, f"{self.name(key)}.", self.where)
-
-    def choice(self, key: str, default: str, allowed: tuple[str, ...]) -> str:
-        value = self.data.get(key, default)
-        if value not in allowed:
-            raise self.fail(key, "one of " + ", ".join(f'"{a}"' for a in allowed), value)
-        return value
-
-    def integer(self, key: str, default: int, low: int, high: int) -> int:
-        value = self.data.get(key, default)
-        if not _is_int(value) or not low <= value <= high:
-            raise self.fail(key, f"a whole number from {low} to {high}", value)
-        return value
-
-    def number(self, key: str, default: float, low: float, high: float) -> float:
-        value = self.data.get(key, default)
-        if not _is_number(value) or not low <= value <= high:
-            raise self.fail(key, f"a number from {low:g} to {high:g}", value)
-        return float(value)
-
-
-def _show(value) -> str:
-    if isinstance(value, (str, list, dict, bool)):  # "²..³" as written, not escaped
-        return shortened(json.dumps(value, ensure_ascii=False))
-    return shortened(repr(value))
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
-
-
-def _is_number(v) -> bool:
-    return (isinstance(v, (int, float)) and not isinstance(v, bool)) and math.isfinite(v)
 
 
 # "A..B" with ASCII digits only: str.isdigit() also takes "²" or "٣", which int() refuses
 _SEED_RANGE = re.compile(r"\s*([0-9]+)\s*\.\.\s*([0-9]+)\s*")
 
 
-def _seeds(t: _Table) -> tuple[int, ...]:
+def _seeds(t: Table) -> tuple[int, ...]:
     value = t.get("seeds", list(DatasetSpec().seeds))
     allowed = f'a list of world seeds (whole numbers from 0 to {MAX_SEED}) or a range "A..B"'
     seeds: list = []
@@ -295,14 +217,14 @@ def _seeds(t: _Table) -> tuple[int, ...]:
         seeds = _seed_range(t, value, allowed)
     elif isinstance(value, list):
         seeds = value
-    ok = seeds and all(_is_int(s) and 0 <= s <= MAX_SEED for s in seeds) and len(seeds) <= MAX_WORLDS
+    ok = seeds and all(is_int(s) and 0 <= s <= MAX_SEED for s in seeds) and len(seeds) <= MAX_WORLDS
     if not ok or len(set(seeds)) != len(seeds):
         extra = " without repeats" if ok else ""
         raise t.fail("seeds", f"{allowed}{extra}, at most {MAX_WORLDS:,} worlds", value)
     return tuple(seeds)
 
 
-def _seed_range(t: _Table, value: str, allowed: str) -> list[int]:
+def _seed_range(t: Table, value: str, allowed: str) -> list[int]:
     """The seeds of "A..B" (inclusive), its size checked before a list is made of it (a
     range of millions would take seconds and gigabytes only to be refused)."""
     match = _SEED_RANGE.fullmatch(value)
@@ -312,12 +234,12 @@ def _seed_range(t: _Table, value: str, allowed: str) -> list[int]:
     if b > MAX_SEED or b - a + 1 > MAX_WORLDS:
         raise UserError(
             f"{t.where}: seeds must be {allowed} of at most {MAX_WORLDS:,} worlds from 0 to {MAX_SEED}, "
-            f"got {_show(value)} ({b - a + 1:,} worlds)"
+            f"got {show(value)} ({b - a + 1:,} worlds)"
         )
     return list(range(a, b + 1))
 
 
-def _formats(t: _Table) -> tuple[str, ...]:
+def _formats(t: Table) -> tuple[str, ...]:
     value = t.get("formats", list(DEFAULT_FORMATS))
     if (
         not isinstance(value, list)
@@ -330,9 +252,9 @@ def _formats(t: _Table) -> tuple[str, ...]:
     return tuple(f for f in FORMATS if f in value)
 
 
-def _split(t: _Table) -> tuple[tuple[str, float], ...]:
+def _split(t: Table) -> tuple[tuple[str, float], ...]:
     t.only(*SPLITS)
-    shares = {s: t.number(s, 0.0, 0.0, 1.0) for s in SPLITS}
+    shares = {s: t.number(s, 0.0, 1.0, default=0.0) for s in SPLITS}
     if abs(sum(shares.values()) - 1.0) > 1e-9:
         raise UserError(
             f"{t.where}: split shares must add up to 1 (train + val + test), got {sum(shares.values()):g}"
@@ -340,45 +262,45 @@ def _split(t: _Table) -> tuple[tuple[str, float], ...]:
     return tuple(shares.items())
 
 
-def _poses(t: _Table) -> PoseSpec:
+def _poses(t: Table) -> PoseSpec:
     t.only("strategy", "zones", "min_distance", "min_scans_with")
     d = PoseSpec()
     zones = t.table("zones", dict(d.zones))
     zones.only(*ZONES)
-    weights = tuple((z, zones.number(z, 0.0, 0.0, 1e9)) for z in ZONES if z in zones.data)
+    weights = tuple((z, zones.number(z, 0.0, 1e9, default=0.0)) for z in ZONES if z in zones.data)
     if not any(w > 0 for _, w in weights):
         raise UserError(f"{t.where}: poses.zones must give at least one zone a weight above 0")
     shares = t.table("min_scans_with", {})  # class -> share 0..1 of the scans
     shares.only(*POSE_CLASSES)
     return PoseSpec(
-        strategy=t.choice("strategy", d.strategy, STRATEGIES),
+        strategy=t.choice("strategy", STRATEGIES, default=d.strategy),
         zones=weights,
-        min_distance=t.number("min_distance", d.min_distance, 0.0, 50.0),
-        min_scans_with=tuple((c, shares.number(c, 0.0, 0.0, 1.0)) for c in POSE_CLASSES if c in shares.data),
+        min_distance=t.number("min_distance", 0.0, 50.0, default=d.min_distance),
+        min_scans_with=tuple(
+            (c, shares.number(c, 0.0, 1.0, default=0.0)) for c in POSE_CLASSES if c in shares.data
+        ),
     )
 
 
-# the sensor values that may be numbers or ranges of numbers, with their limits in app/settings.py
-RANGED_SENSOR_KEYS = tuple(k for k in S.SENSOR_SETTINGS if SETTINGS[k].kind is float)
+# the sensor values that may be numbers or ranges of numbers, with their limits the device's
+RANGED_SENSOR_KEYS = tuple(k for k in SENSOR_SETTINGS if SETTINGS[k].kind is float)
 # the keys of [sensor]: the sensor settings of `wildscan scan` and the frame
-SENSOR_KEYS = (*S.SENSOR_SETTINGS, "frame")
+SENSOR_KEYS = (*SENSOR_SETTINGS, "frame")
 
 
-def _sensor(t: _Table) -> SensorSpec:
-    from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_returns
-
+def _sensor(t: Table) -> SensorSpec:
     t.only(*SENSOR_KEYS, "device")
     device = spec_device(t.get("device", SensorSpec.device), t.where)
     own = () if is_default(device) else DEVICE_KEYS  # the settings the device decides
     d = SensorSpec()
-    model = t.choice("model", d.model, SETTINGS["model"].choices)
-    for key in S.REALISTIC_SETTINGS:
+    model = t.choice("model", SETTINGS["model"].choices, default=d.model)
+    for key in REALISTIC_SETTINGS:
         if key in t.data and model != "realistic":
             raise UserError(
                 f'{t.where}: {t.name(key)} applies to model = "realistic" only (sensor.model is "{model}")'
             )
     values = {
-        key: _sensor_value(t, key, getattr(d, key))
+        key: _sensor_value(t, key, getattr(d, key), device)
         for key in RANGED_SENSOR_KEYS
         if key not in own and (key not in ("noise", "mount_height") or t.get(key, None) is not None)
     }
@@ -395,21 +317,24 @@ def _sensor(t: _Table) -> SensorSpec:
     for key, value in values.items():
         if key not in own:
             _check_open_low(t, key, value)
-    values.update(echoes=_whole_value(t, "echoes", d.echoes), returns=spec_returns(t.data, t.where, device))
+    values.update(
+        echoes=_whole_value(t, "echoes", None if own else d.echoes, device),
+        returns=spec_returns(t.data, t.where, device),
+    )
     if own:  # the realistic model's settings not given are the device's own too
-        values.update({key: None for key in S.REALISTIC_SETTINGS if key not in t.data})
+        values.update({key: None for key in REALISTIC_SETTINGS if key not in t.data})
     return SensorSpec(
         **values,
         device=device,
-        noise_seed=_whole_value(t, "noise_seed", None),
-        frame=t.choice("frame", d.frame, FRAMES),
+        noise_seed=_whole_value(t, "noise_seed", None, device),
+        frame=t.choice("frame", FRAMES, default=d.frame),
         model=model,
     )
 
 
-def _check_open_low(t: _Table, key: str, value: Value) -> None:
+def _check_open_low(t: Table, key: str, value: Value) -> None:
     """A setting whose lowest value is excluded ((0, 30] m): not there, nor in a range."""
-    low, high, low_open = SETTINGS[key].limits
+    low, high, low_open = limits(key, DEFAULT_DEVICE)  # another device: devices.py checks its own
     if low_open and _lo(value) <= low:
         raise t.fail(
             key,
@@ -426,48 +351,48 @@ def _hi(v: Value) -> float:
     return v[1] if isinstance(v, tuple) else v
 
 
-def _sensor_value(t: _Table, key: str, default: float) -> Value:
+def _sensor_value(t: Table, key: str, default: float, device) -> Value:
     setting = SETTINGS[key]
-    low, high, _ = setting.limits
+    low, high, _ = spec_limits(key, device)
     unit = f"{setting.unit} {setting.rule}" if key == "rh" else setting.unit
     value = t.get(key, default)
     allowed = f"a number from {low:g} to {high:g} {unit}, or a range [lo, hi] of such numbers"
     if isinstance(value, list):
         if (
             len(value) != 2
-            or not all(_is_number(v) and low <= v <= high for v in value)
+            or not all(is_number(v) and low <= v <= high for v in value)
             or value[0] > value[1]
         ):
             raise t.fail(key, allowed + " with lo <= hi", value)
         return (float(value[0]), float(value[1]))
-    if not _is_number(value) or not low <= value <= high:
+    if not is_number(value) or not low <= value <= high:
         raise t.fail(key, allowed, value)
     return float(value)
 
 
-def _whole_value(t: _Table, key: str, default):
+def _whole_value(t: Table, key: str, default, device):
     """A whole number within the setting's limits, or a range [lo, hi] of such (drawn per scan)."""
-    low, high, _ = SETTINGS[key].limits
+    low, high, _ = spec_limits(key, device)
     value = t.get(key, default)
     if value is None:
         return None
     allowed = f"a whole number from {low} to {high}, or a range [lo, hi] of such"
     if isinstance(value, list):
-        if len(value) != 2 or not all(_is_int(v) and low <= v <= high for v in value) or value[0] > value[1]:
+        if len(value) != 2 or not all(is_int(v) and low <= v <= high for v in value) or value[0] > value[1]:
             raise t.fail(key, allowed, value)
         return (value[0], value[1])
-    if not _is_int(value) or not low <= value <= high:
+    if not is_int(value) or not low <= value <= high:
         raise t.fail(key, allowed, value)
     return value
 
 
-def rh_choices(rh: Value):
-    """The r_h values allowed by a fixed value or range: 180/M for whole M."""
-    lo, hi = _lo(rh), _hi(rh)
+def rh_choices(rh: Value, mount=DEFAULT_DEVICE.mount):
+    """The r_h values allowed by a fixed value or range: the mount's sweep / M for whole M."""
+    lo, hi, sweep = _lo(rh), _hi(rh), mount.sweep_deg
     for m in range(
-        max(1, math.ceil(S.SWEEP_DEG / hi - 1e-9)), math.floor(S.SWEEP_DEG / max(lo, S.MIN_RH_DEG) + 1e-9) + 1
+        max(1, math.ceil(sweep / hi - 1e-9)), math.floor(sweep / max(lo, mount.min_step_deg) + 1e-9) + 1
     ):
-        value = S.SWEEP_DEG / m
+        value = sweep / m
         if lo - 1e-9 <= value <= hi + 1e-9:
             yield value
 
@@ -491,5 +416,6 @@ def spec_from_json(data: dict) -> DatasetSpec:
         poses=PoseSpec(**{k: value(v) for k, v in poses.items()}),
         sensor=SensorSpec(**{k: value(v) for k, v in sensor.items()}),
         weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
+        effects=tuple((k, value(v)) for k, v in data.get("effects", [])),
         intensity=data.get("intensity", DEFAULT_DATASET_INTENSITY),
     )

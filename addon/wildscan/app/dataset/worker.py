@@ -6,7 +6,7 @@ turned straight into triangles (the Blender-free path: no bpy), which
 one Embree scene holds for every scan of that world: placement, the sweep and the
 bird's-eye rays all cast against it, so nothing is cropped or rebuilt per pose (a
 bird's-eye cell on open ground, where the terrain is the only surface, is not cast:
-core/open_ground.py). Every
+core/truth/open_ground.py). Every
 file of a scan is written under a temporary name and renamed with the others only when
 all of them are complete; the rows returned say what was written, with sizes and SHA-256.
 
@@ -58,7 +58,7 @@ from ...core.world.cover import CoverGrid
 from ...core.world.ground import StandingGround
 from ..cache.config import open_cache, world_facts
 from ..cache.store import DiskCache
-from .draws import draw_sensor, draw_weather
+from .draws import draw_effects, draw_sensor, draw_weather
 from .intensity import scan_intensity_facts, with_dataset_intensity
 from .layout import scan_paths
 from .spec import DatasetSpec, spec_from_json
@@ -96,14 +96,14 @@ class WorldContext:
         return [int(n) - 1 for n in kept]
 
     def traversability(self, x: np.ndarray, y: np.ndarray, z=None) -> dict[str, np.ndarray]:
-        """The bird's-eye traversability fields at world points (core/traversability.py); `z`:
+        """The bird's-eye traversability fields at world points (core/truth/traversability.py); `z`:
         the ground's height there, when known."""
         cover = None if self.cover is None else (lambda px, py: self.cover.at(px, py)[1])
         return traversability_fields(x, y, self.ground, cover, self.cast_up, z)
 
     @functools.cached_property
     def open_sky(self) -> OpenGround:
-        """Where an upward ray from the robot's height meets nothing (core/open_sky.py)."""
+        """Where an upward ray from the robot's height meets nothing (core/truth/open_sky.py)."""
         if self.sky is not None:
             return self.sky
         g = self.backend.geometry
@@ -111,7 +111,7 @@ class WorldContext:
 
     def cast_up(self, origins: np.ndarray, reach: float) -> np.ndarray:
         """Distance to the first surface straight up from each origin (inf for none): cast,
-        but under open sky, where the cast would meet nothing (core/open_sky.py)."""
+        but under open sky, where the cast would meet nothing (core/truth/open_sky.py)."""
         distance = np.full(len(origins), np.inf)
         cast = np.flatnonzero(~self.open_sky.contains(origins[:, 0], origins[:, 1]))
         up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (len(cast), 3))
@@ -120,7 +120,7 @@ class WorldContext:
 
     def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
         """Class of the first surface straight below each origin (0 for none): the terrain
-        on open ground (core/open_ground.py), elsewhere cast like every other ray, so the
+        on open ground (core/truth/open_ground.py), elsewhere cast like every other ray, so the
         float64 settling decides edge hits the same on every CPU."""
         classes = np.full(len(origins), TERRAIN_ID, dtype=np.int16)
         cast = np.flatnonzero(~self.open_ground.contains(origins[:, 0], origins[:, 1]))
@@ -197,7 +197,7 @@ def _embree(geometry, settler=None):
         backend = EmbreeBackend(geometry, settler=settler)
     except ImportError as e:
         raise UserError(f"a dataset worker needs the embreex wheel (pip install embreex): {e}") from None
-    backend.threads = 1  # one worker a core: its casts on its own thread (core/threads.py)
+    backend.threads = 1  # one worker a core: its casts on its own thread (core/runtime/threads.py)
     return backend
 
 
@@ -237,7 +237,7 @@ def scan_batch(
     before = CLOCK.reading()
     for index in indices:
         try:
-            with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
+            with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/runtime/cast_clock.py)
                 rows.append(scan_one(spec, context, root, index))
         except UserError as e:  # a full disk: the scans written before it are whole, so recorded
             if not rows:
@@ -294,10 +294,10 @@ def base_row(spec: DatasetSpec, seed: int, index: int) -> dict:
     }
 
 
-def _effects(weather: dict, sensor, cover=None):
+def _effects(weather: dict, sensor, cover=None, others=None):
     from ..scan import scan_effects
 
-    return scan_effects(weather, sensor, cover)
+    return scan_effects(weather, sensor, cover, others)
 
 
 def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -> dict:
@@ -310,9 +310,8 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
     sensor = draw_sensor(spec.sensor, context.seed, index)
     frame = spec.sensor.frame
     row["sensor"] = sensor_row(sensor, frame)
-    weather = draw_weather(spec, context.seed, index)
-    if weather:
-        row["weather"] = weather
+    weather, others = draw_weather(spec, context.seed, index), draw_effects(spec, context.seed, index)
+    row.update({k: v for k, v in (("weather", weather), ("effects", others)) if v})
     try:
         result = run_scan(
             context.backend,
@@ -321,7 +320,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             frame,
             choice.z_start,
             None,
-            _effects(weather, sensor, context.cover),
+            _effects(weather, sensor, context.cover, others),
             incidence=spec.intensity == "physical",  # the physical intensity's cos θ, from the sweep
             world_seed=context.seed,  # the surfaces' reflectances, as the physical intensity's
         )

@@ -12,7 +12,7 @@ from ...core.motion.routes import check_route
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
 from ...core.placement import check_z_start
-from ...core.sensor import SensorConfig
+from ...core.sensors import SensorConfig
 from ...core.spatial.frames import check_frame
 from ...core.world import DEFAULT_VEGETATION, check_vegetation
 
@@ -48,6 +48,7 @@ class DriveRequest:
     wind: float = 0.0  # peak sway of the treetops, degrees (0: no wind)
     wind_seed: int = 0
     weather: dict | None = None  # key -> value (core/effects/weather.py); None or {}: clear air
+    effects: dict = field(default_factory=dict)  # the effects table's others, name -> value (0: off)
     z_start: float | None = None  # where the placement lasers start (under a roof), or probed
     imu: str = DEFAULT_IMU  # an IMU model (core/motion/imu_models.py) or "none"
     imu_rate: int = DEFAULT_RATE  # Hz
@@ -160,6 +161,7 @@ class DriveRequest:
             "imu_rate": self.imu_rate,
             "imu_noise": self.imu_noise,
             **({"weather": dict(self.weather)} if self.weather else {}),  # clear air: the same dict
+            **({"effects": dict(self.effects)} if self.effects else {}),
         }
 
 

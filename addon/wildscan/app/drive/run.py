@@ -17,7 +17,7 @@ import numpy as np
 
 from ... import __version__
 from ...core.backend import RayBackend
-from ...core.classes import class_table_dict
+from ...core.classes import class_table_dict, listed_classes
 from ...core.effects import Effects
 from ...core.io.tum import tum_text
 from ...core.io.writer import ScanOutput
@@ -125,7 +125,7 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
 
     from ...core.io.files import output_directory
 
-    context = _Context(request, world.provenance, motion, world.instances, backend_name, imu)
+    context = _Context(request, world.provenance, motion, world.instances, backend_name, effects.classes, imu)
     stage = files.Staging(output_directory(request.out))
     try:
         with ExitStack() as bags:
@@ -183,12 +183,12 @@ def _piece_backend(request: DriveRequest, world, xy: np.ndarray, reach: float, s
 
 def drive_scan_effects(request: DriveRequest, cover) -> Effects:
     """Wind, and the rays' own draws: particles of the weather, the sward's depth."""
-    effects = drive_effects(request.wind, request.wind_seed)
-    if request.weather or cover is not None:  # every ray draws its own particles, its sward depth
-        from ..scan import scan_effects
+    from ..scan import scan_effects
 
-        effects = Effects(effects.items + scan_effects(request.weather, request.sensor, cover).items)
-    return effects
+    effects = drive_effects(request.wind, request.wind_seed)
+    # every ray draws its own particles, its sward depth: the effects table's and the cover
+    found = scan_effects(request.weather, request.sensor, cover, request.effects)
+    return Effects(effects.items + found.items)
 
 
 def _backend(request: DriveRequest, effects: Effects, cropped, say) -> RayBackend:
@@ -239,9 +239,12 @@ class _Context:
         motion: Motion,
         instances,
         backend_name: str,
+        declared: tuple[int, ...],
         imu=None,
     ):
         self.request = request
+        self.declared = declared  # the optional classes the drive's effects can produce (Effect.classes)
+        self.carried: set[int] = set()  # the classes the drive's points carry, for labels.yaml
         self.imu = imu
         self.provenance = provenance
         self.motion = motion
@@ -263,7 +266,7 @@ class _Context:
             return np.zeros(count)
         return self.request.sensor.fixed_noise * self._rng.standard_normal(count)
 
-    def metadata(self, index: int, result: Sweep, cloud: str) -> dict:
+    def metadata(self, index: int, result: Sweep, cloud: str, labels: np.ndarray) -> dict:
         start = self.motion.placement(result.k0)
         request = self.request
         return {
@@ -285,7 +288,7 @@ class _Context:
                 "head": request.head,
                 "wind": request.wind,
             },
-            "classes": class_table_dict(particles=bool(request.weather)),
+            "classes": class_table_dict(listed_classes(labels, self.declared)),
         }
 
     def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:
@@ -297,7 +300,7 @@ class _Context:
         clouds = {}
         for kind, cloud in (("raw", result.raw), ("deskewed", result.deskewed)):
             clouds[kind] = replace(cloud, xyz=points_in_frame(cloud.xyz, start, frame), frame=frame)
-            scan = ScanOutput(clouds[kind], self.metadata(index, result, kind), self.labels)
+            scan = ScanOutput(clouds[kind], self.metadata(index, result, kind, cloud.label), self.labels)
             ply = {"ply": paths[kind], "ply_sidecar": paths[f"{kind}_sidecar"]}
             files.stage_format(stage, "ply", scan, ply)
         deskewed = clouds["deskewed"]
@@ -305,6 +308,7 @@ class _Context:
         kitti = {"velodyne": paths["velodyne"], "labels": paths["labels"]}
         files.stage_format(stage, "semantickitti", scan, kitti)
         self.class_points += np.bincount(self.labels.map(deskewed.label), minlength=len(self.class_points))
+        self.carried.update(np.unique(deskewed.label).tolist())
         self.pose_matrices.append(pose_matrix(start, frame))
         self.start_times.append(float(self.motion.times[result.k0]))
         self.start_centres.append(self.motion.centre[result.k0])
@@ -339,8 +343,8 @@ class _Context:
         total = self.class_points.sum()
         content = {k: float(self.class_points[k] / total) if total else 0.0 for k in self.labels.labels}
         splits = {"train": [0], "valid": [], "test": []}
-        weather = bool(self.request.weather)
-        config = label_config_yaml(self.labels, content, splits, "WildScan drive", particles=weather)
+        classes = listed_classes(sorted(self.carried), self.declared)
+        config = label_config_yaml(self.labels, content, splits, "WildScan drive", classes)
         stage.write("labels.yaml", config.encode())
         listed = stage.files() + [files.DRIVE_JSON]
         summary = {

@@ -8,11 +8,11 @@ An effect changes what the sensor measures through one or both of two hooks:
                particle's range with class `particle`). Same rows, same fields. In the
                realistic model the rays are the beams' sub-rays, so a particle met by part
                of a footprint becomes an extra echo. Every scan path calls it once, on its
-               first hits, before ranges are measured: core/scan.py (paper), core/realistic.py,
+               first hits, before ranges are measured: core/scan.py (paper), core/realism/realistic.py,
                core/motion/sweep.py.
   the scene    `moving_classes` and `motion(class_ids, pivots)`: which objects move with
   at a time    time and where they are at time t (the drive's wind). Posing triangles needs a
-               ray caster, so the caster lives with the backends (app/drive/wind.py
+               ray caster, so the caster lives with the backends (raycast/wind.py
                `moving_scene`) and asks the effect; the scan paths see a backend whose
                `cast_scans` answers for each column's time.
 
@@ -23,7 +23,7 @@ An effect changes what the sensor measures through one or both of two hooks:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Callable, Protocol
 
 import numpy as np
 
@@ -37,13 +37,23 @@ class Rays:
     world frame, cast to `max_range`; `times` (N,) each ray's time, seconds since the run's
     first column (a drive's start), where the path has them (the motion sweep; a static
     scan gives None); `index0` the number of the first ray in its run (a drive's rays are
-    numbered from its start), so an effect's random draws can be keyed on each ray."""
+    numbered from its start), so an effect's random draws can be keyed on each ray;
+    `beam_count`: the rays are the sub-rays of that many beams, sub-ray-major (the realistic
+    model's footprint: sub-ray k of beam j is ray k * beam_count + j), None: a ray a beam."""
 
     origins: np.ndarray
     directions: np.ndarray
     max_range: float
     times: np.ndarray | None = None
     index0: int = 0
+    beam_count: int | None = None
+
+    @property
+    def beams(self) -> np.ndarray:
+        """int64 (N,) each ray's beam: its number in the run (a drive's from its start), shared by
+        a beam's sub-rays, so a per-beam effect treats a beam's whole footprint alike."""
+        ray = np.arange(len(self.directions), dtype=np.int64)
+        return self.index0 + (ray if self.beam_count is None else ray % self.beam_count)
 
 
 class ObjectMotion(Protocol):
@@ -61,15 +71,63 @@ class ObjectMotion(Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class EffectSetting:
+    """One setting of an effect a user sets (core/effects/table.py): its key, unit, limits and
+    help, from which the command line, SPEC.toml and the panel are built. 0 is "off"."""
+
+    key: str
+    unit: str
+    low: float
+    high: float
+    help: str
+
+    def check(self, value: object, setting: str) -> float:
+        """`value` as a number within the limits, or UserError naming `setting` and the limits."""
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value)
+        if not ok or not self.low <= float(value) <= self.high:
+            raise UserError(
+                f"must be a number from {self.low:g} to {self.high:g} {self.unit}, got {value!r}",
+                setting=setting,
+                allowed=(self.low, self.high),
+            )
+        return float(value)
+
+
+@dataclass(frozen=True)
+class EffectEntry:
+    """An effect a user sets, as the effects table lists it: `name` (the command line's
+    --NAME, SPEC.toml's key, the panel's field), `title` (the panel's label), `settings`,
+    `make(values, sensor) -> Effect | None` (values: the settings' values, by key for several
+    settings, the one number for one; None: off, clear air), and for an effect of several
+    settings `parse(text) -> values`, its command-line text (weather's "rain=10,fog=200")."""
+
+    name: str
+    title: str
+    settings: tuple[EffectSetting, ...]
+    make: Callable
+    parse: Callable[[str], dict] | None = None
+    text: str = ""  # the command line's help when the settings' own do not say enough
+
+    @property
+    def help(self) -> str:
+        """The command line's help: `text`, or each setting's help, limits and unit (0: off)."""
+        own = "; ".join(f"{s.help}, {s.low:g} to {s.high:g} {s.unit}" for s in self.settings)
+        return self.text or f"{own} (default 0: off)"
+
+
 class Effect:
     """The base of every effect: no hook until a subclass sets its flag and method.
 
     name            what files and messages call it ("wind", "fog")
     changes_medium  True when `medium` is overridden
     moves_scene     True when `moving_classes` and `motion` are
+    classes         the optional class ids (core/classes.py) its scans can carry: the files of
+                    a scan with this effect list them (classes.listed_classes)
     """
 
     name = "effect"
+    classes: tuple[int, ...] = ()
     changes_medium = False
     moves_scene = False
     moving_classes: tuple[int, ...] = ()
@@ -117,6 +175,11 @@ class Effects:
 
     def describe(self) -> dict:
         return {e.name: e.describe() for e in self.items}
+
+    @property
+    def classes(self) -> tuple[int, ...]:
+        """The class ids the effects declare they can produce (Effect.classes), each once."""
+        return tuple(dict.fromkeys(i for e in self.items for i in e.classes))
 
 
 CLEAR_AIR = Effects()

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..classes import LOG_ID
 from ..hits import RayHits
 from ..rng import hash_unit
 from ..runtime.threads import in_parts
@@ -59,7 +60,7 @@ from .cover_cells import (
 LONGEST_RUN = 30.0  # m of one run at most (a beam running level inside a tall sward)
 BEFORE_HIT = 1e-4  # m before a hit, where the hit's cell and layer are read
 SETTLE = 4  # times a stop outside its own cell's sward goes on along its run (_settle)
-# rays a part of the medium, on the cast's threads (core/threads.py in_parts); fixed, so a scan's
+# rays a part of the medium, on the cast's threads (core/runtime/threads.py in_parts); fixed, so a scan's
 # bytes do not depend on the threads
 PART = 49_152
 
@@ -81,6 +82,9 @@ class GroundCover(Effect):
     changes along one run (the run's end cell decides its length)."""
 
     name = "cover"
+    # The cover goes with a world whose biome has a ground layer, and those worlds have deadwood
+    # (core/world/biomes.py): its scans can carry `log` points, so their files list the class.
+    classes = (LOG_ID,)
     changes_medium = True
 
     def __init__(self, grid: CoverGrid, seed: int = 0):

@@ -41,7 +41,7 @@ from ..errors import UserError
 from ..hits import MISS_CLASS, MISS_INSTANCE, RayHits
 from ..rng import stage_rng
 from . import particles as P
-from .base import Effect, Effects, Rays
+from .base import Effect, EffectEntry, Effects, EffectSetting, Rays
 from .dust_cloud import Cylinder, first_events, optical_depth, parse_region, surface_lost
 
 # key -> (code in the `weather` field, unit, lowest, highest). 0 is "off" for every key.
@@ -182,6 +182,7 @@ class Weather(Effect):
     min_range: float = 0.1
 
     name = "weather"
+    classes = (PARTICLE_ID,)  # a return from the air
     changes_medium = True
 
     @staticmethod
@@ -374,3 +375,37 @@ def weather_fields(label: np.ndarray, instance: np.ndarray) -> tuple[np.ndarray,
     particle = np.asarray(label) == PARTICLE_ID
     code = np.where(particle, instance, 0).astype(np.uint8)
     return np.where(particle, 0, instance).astype(instance.dtype), code
+
+
+def weather_on(settings) -> bool:
+    """Whether weather `settings` (key -> value, a range, or pairs of them: a dataset's
+    [weather]) make any weather: the one answer to "is there weather?" before the effects are
+    built (after: `weather_of(effects) is not None`). 0 everywhere, or none, is clear air."""
+    pairs = settings.items() if isinstance(settings, dict) else (settings or ())
+    return any(k in KEYS and (any(v) if isinstance(v, (tuple, list)) else v) for k, v in pairs)
+
+
+HELP = (
+    "weather between the sensor and the scene, KEY=VALUE[,KEY=VALUE...]: fog=VISIBILITY_M (5..100000), "
+    "rain=MM_PER_H (0..500, Marshall-Palmer drops), dust=G_PER_M3 (0..10), snow=MM_PER_H melted (0..100); "
+    "e.g. rain=10,fog=200. A dust cloud instead of dust everywhere: dust=G_PER_M3@X,Y,RADIUS[,TOP], a "
+    "vertical cylinder around world (X, Y) up to world height TOP (default: all heights), clear air "
+    "outside, e.g. dust=0.5@12,-3,8. Returns from the air are points of class particle (15) with a `weather` "
+    "field; 0 (or none) is clear air. docs/weather.md"
+)
+_WHAT = {
+    "fog": "visibility (0: no fog)",
+    "rain": "rain rate, Marshall-Palmer drops",
+    "dust": "dust's mass concentration filling the air",
+    "snow": "snow rate, melted",
+}
+
+# The effects table's entry (core/effects/table.py): --weather, SPEC.toml's [weather], the panel's box.
+ENTRY = EffectEntry(
+    name="weather",
+    title="Weather",
+    settings=tuple(EffectSetting(k, unit, low, high, _WHAT[k]) for k, (_, unit, low, high) in KEYS.items()),
+    make=lambda values, sensor: Weather.of(values or {}, sensor.noise_seed, sensor.device),
+    parse=parse_settings,
+    text=HELP,
+)

@@ -7,7 +7,7 @@ at its own seeded frequency and phase, with a weaker crosswind component. Grass 
 most and fastest, crowns least and slowest. Everything else stands still, and every
 triangle keeps its class and instance, so labels stay exact. The sway is detmath's (the
 posed foliage decides hits: the same bits on every CPU). The caster that casts each
-column's rays at the foliage as it is at the column's time is app/drive/wind.py
+column's rays at the foliage as it is at the column's time is raycast/wind.py
 `moving_scene`, which asks the effect (`moving_classes`, `motion`) as base.py describes.
 """
 

@@ -1,10 +1,11 @@
 """The one table of output formats (numpy only): name -> Writer (writer.py), used by
 `wildscan scan --format`, a dataset's `formats`, `wildscan drive` and the add-on's export.
 
-Adding a format: a module in core/io/ with an `encode(scan, paths) -> {kind: bytes}` function
-and its `WRITER = Writer(...)` record (ply.py, las.py, semantickitti.py are the examples),
-and one line in WRITERS below. The order of WRITERS is the order a dataset lists its
-formats in (its config hash depends on it): add new formats at the end.
+Adding a format (docs/extending.md "Add a format"): a module in core/io/ with an
+`encode(scan, paths) -> {kind: bytes}` function and its `WRITER = Writer(...)` record (ply.py,
+las.py, semantickitti.py are the examples), and its name as one line in WRITERS below. The
+order of WRITERS is the order a dataset lists its formats in (its config hash depends on it):
+add new formats at the end.
 
 A single scan (`wildscan scan --format NAME --out FILE`): --out names the format's first
 file and must end in its suffix; the others go beside it, same name, their own suffix:
@@ -18,21 +19,23 @@ file and must end in its suffix; the others go beside it, same name, their own s
 from __future__ import annotations
 
 import os
+from importlib import import_module
 from pathlib import Path
 
 from ..errors import UserError
 from ..label_schemes import scheme
-from . import las, ply, semantickitti, wildscenes
+from . import semantickitti
 from .files import atomic_outputs, check_output_path, write_durably, writing_to
 from .writer import ScanOutput, Writer
 
 DEFAULT_FORMAT = "ply"
 
 
-def _table(*writers: Writer) -> dict[str, Writer]:
-    """name -> writer; a single scan's files must differ in suffix (they share --out's name)."""
+def _table(*modules: str) -> dict[str, Writer]:
+    """name -> the WRITER of each module of core/io named (adding a format is its module and its
+    name here); a single scan's files must differ in suffix (they share --out's name)."""
     table = {}
-    for writer in writers:
+    for writer in (import_module(f"{__package__}.{module}").WRITER for module in modules):
         suffixes = [f.suffix for f in writer.scan_files]
         if writer.name in table or len(set(suffixes)) != len(suffixes):
             raise ValueError(f"format {writer.name!r}: listed twice, or two files of a scan share a suffix")
@@ -41,10 +44,10 @@ def _table(*writers: Writer) -> dict[str, Writer]:
 
 
 WRITERS: dict[str, Writer] = _table(
-    semantickitti.WRITER,
-    las.WRITER,
-    ply.WRITER,
-    wildscenes.WRITER,
+    "semantickitti",
+    "las",
+    "ply",
+    "wildscenes",
 )
 FORMATS: tuple[str, ...] = tuple(WRITERS)
 
@@ -89,7 +92,7 @@ def single_scan(w: Writer, cloud, metadata: dict, ascii: bool = False, lost_cell
 
 
 def range_image_bytes(w: Writer, scan: ScanOutput) -> bytes:
-    """A single scan's range image (core/rangeimage.py), its labels and instances as the label
+    """A single scan's range image (core/io/rangeimage.py), its labels and instances as the label
     file of format `w` has them (SemanticKITTI's .label: instances ranked; PLY and LAS: as is)."""
     cloud = scan.cloud
     instances = cloud.instance

@@ -4,15 +4,15 @@ mmdetection3d) load unchanged.
     sequences/NN/velodyne/NNNNNN.bin   float32 x y z remission per point
     sequences/NN/echo/NNNNNN.npy       a realistic dataset scan's echo, echoes, label_purity, mixed
     sequences/NN/labels/NNNNNN.label   uint32 per point: class in the low 16 bits, instance in the high 16
-    sequences/NN/rangeimage/NNNNNN.npz the scan on its native grid (core/rangeimage.py; datasets)
+    sequences/NN/rangeimage/NNNNNN.npz the scan on its native grid (core/io/rangeimage.py; datasets)
     sequences/NN/poses.txt             one line per scan: the 3x4 matrix taking its points to the world
     sequences/NN/calib.txt             P0..P3 and Tr (no cameras here: identities)
     labels.yaml                        label config in semantic-kitti-api's form
 
 Remission is the point's intensity divided by 100, clipped to [0, 1] (KITTI's range): a
-dataset's intensity is already in 0..100 (core/intensity.py: `physical`, or `class`, Table I's
+dataset's intensity is already in 0..100 (core/realism/intensity.py: `physical`, or `class`, Table I's
 15..100 becoming 0.15..1); a single realistic-model scan's echo energy exceeds 100 on bright
-surfaces nearer than 10 m (core/echoes.py), whose remission saturates at 1 as a receiver
+surfaces nearer than 10 m (core/realism/echoes.py), whose remission saturates at 1 as a receiver
 does (docs/formats.md "Intensity"). The instance is the element's rank among its world's
 instance ids (1-based), so it fits 16 bits and is the same object across one sequence.
 """
@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..classes import listed_classes
 from ..label_schemes import LabelScheme
 from .projection import Projection
 from .rangeimage import npz_bytes, scan_range_image
@@ -96,7 +97,7 @@ def encode(scan: ScanOutput, paths: dict[str, Path]) -> dict[str, bytes]:
 
 
 def range_image_bytes(scan: ScanOutput, labels: np.ndarray, instances: np.ndarray) -> bytes:
-    """The scan's range image (core/rangeimage.py) as an .npz: the .bin's remission, and the
+    """The scan's range image (core/io/rangeimage.py) as an .npz: the .bin's remission, and the
     `labels` and `instances` (per point) of its label file."""
     cloud = scan.cloud
     image = scan_range_image(
@@ -166,17 +167,17 @@ def label_config_yaml(
     content: dict[int, float],
     splits: dict[str, list[int]],
     title: str,
-    particles: bool = False,
+    classes=None,
     projection: Projection | None = None,
     weights: dict[str, dict[int, float]] | None = None,
 ) -> str:
     """The label configuration in semantic-kitti-api's form (labels, color_map (BGR), content,
-    learning_map, learning_map_inv, learning_ignore, split by sequence number); `particles`:
-    the data has weather, so weather's particle class is listed (without: the bytes of before it);
+    learning_map, learning_map_inv, learning_ignore, split by sequence number) for data that
+    lists `classes` (classes.listed_classes; None: the classes that are not optional);
     `weights` (core/class_weights.py, by learning-map id): `class_weights_<name>` tables after
     the split (without: the bytes of before them); `projection`: LaserScan's H, W, fov_up and
-    fov_down for these scans (core/projection.py)."""
-    t = scheme.config_tables(particles)
+    fov_down for these scans (core/io/projection.py)."""
+    t = scheme.config_tables(listed_classes() if classes is None else classes)
     lines = [f"# {title}", f"# label ids: {scheme.title}", f"name: {json.dumps(scheme.name)}"]
     lines += _yaml_map("labels", t["labels"], json.dumps)
     lines += _yaml_map("color_map", t["color_map"], lambda c: f"[{c[0]}, {c[1]}, {c[2]}]")

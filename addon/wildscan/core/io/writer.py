@@ -40,7 +40,7 @@ class ScanOutput:
     world_instances: np.ndarray | None = None
     hag: np.ndarray | None = None  # height above the standing ground per point, where known (datasets)
     ascii: bool = False  # PLY only: ASCII instead of binary little-endian
-    # uint8 per point: on the surface the robot rests on (core/traversability.py), where known
+    # uint8 per point: on the surface the robot rests on (core/truth/traversability.py), where known
     # (datasets; PLY writes it, other formats carry label and hag it follows from)
     support: np.ndarray | None = None
     # (rows, columns) of the range-image cells whose return the realistic model's detection step

@@ -100,9 +100,9 @@ def sweep(
 
 def cast_in_chunks(backend: RayBackend, origins, dirs, max_range, ks, progress):
     """All rays, in chunks of whole 2D scans (columns: `dirs` holds len(ks) of them), on the
-    cast's threads where the backend allows it (core/threads.py: each ray's answer is its own,
+    cast's threads where the backend allows it (core/runtime/threads.py: each ray's answer is its own,
     so the joined answer is the same bytes however many threads). A backend that casts at
-    scan times (a scene that moves with time: an effect's, app/drive/wind.py) is told which 2D
+    scan times (a scene that moves with time: an effect's, raycast/wind.py) is told which 2D
     scan each chunk's rows belong to."""
     from ..hits import RayHits
     from ..runtime.threads import backend_threads, in_parts

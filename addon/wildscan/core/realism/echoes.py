@@ -1,6 +1,6 @@
 """From sub-ray hits to echoes: what the UTM-30LX-EW's receiver makes of one beam (numpy only).
 
-Each sub-ray of a beam (core/footprint.py) carries an equal share of the pulse to the
+Each sub-ray of a beam (core/realism/footprint.py) carries an equal share of the pulse to the
 first surface it meets; leaves, blades and branches are opaque, so a beam reaches
 several surfaces only through the gaps of its footprint. What comes back:
 
@@ -27,7 +27,7 @@ class holding most of its energy, `purity` that share, its instance the stronges
 sub-ray's of that class. A beam keeps its `max_echoes` strongest echoes.
 
 Whether an echo's point lies on its labeled surface (`mixed` false) is decided in
-core/realistic.py against the surfaces along the beam axis.
+core/realism/realistic.py against the surfaces along the beam axis.
 """
 
 from __future__ import annotations

@@ -170,7 +170,7 @@ def echo_points(
         clear, fine = cast(origin, rays, cast_range, True), None
     else:
         clear, fine = footprint_hits(cast, origin, sub_world, cast_range, *grid, threads)
-    hits = effects.medium(Rays(origin, rays, cast_range), clear)
+    hits = effects.medium(Rays(origin, rays, cast_range, beam_count=n), clear)  # sub-ray k of beam j: k·n + j
     draws = noise()
     axis = AxisHits(clear.rows(slice(0, n)), sub_world[0], origin, cast_range)
     weights = subray_weights(s)

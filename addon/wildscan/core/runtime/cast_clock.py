@@ -9,7 +9,7 @@ The backends over extracted triangles time their caster's call (Embree's `scene.
 BVHTree loop) with `CLOCK.casting()`; a whole scan (core/scan.py run_scan, a drive's sweep)
 is timed with `@scanning`, which also notes how much of the cast happened inside scans.
 Seconds are wall-clock (time.perf_counter), summed per process; the cast's are the time
-with at least one cast under way, so casts on parallel threads (core/threads.py) count once.
+with at least one cast under way, so casts on parallel threads (core/runtime/threads.py) count once.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Freed memory kept for the next scan, where the C library allows it (glibc; numpy only).
 
 A realistic scan allocates and frees a few hundred MB of arrays, a block of beams at a time
-on the cast's threads (core/threads.py). glibc gives each thread's freed memory back to the
+on the cast's threads (core/runtime/threads.py). glibc gives each thread's freed memory back to the
 kernel once its heap's free top passes the trim threshold, and a large array past the mmap
 threshold is mapped afresh each time, so the next block's arrays fault their pages in again
 and the kernel zeroes them: 8,500 page faults and 36 ms of kernel time in a full r_h = 1 deg

@@ -45,7 +45,7 @@ T = TypeVar("T")
 
 def in_worker() -> bool:
     """Whether this thread is one of the pool's: a part run there (a realistic scan's block
-    of beams, core/realistic.py) splits nothing further, it casts and computes inline (a
+    of beams, core/realism/realistic.py) splits nothing further, it casts and computes inline (a
     worker waiting on parts queued behind it could wait for ever)."""
     return getattr(_worker, "busy", False)
 

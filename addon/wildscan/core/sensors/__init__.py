@@ -7,7 +7,7 @@ a separate choice, `SensorConfig.model`.
 """
 
 from .beams import beam_directions, directions_at, from_axis_rad, rotated_beam_directions, rotated_beams
-from .config import MODELS, SensorConfig, sweep_count
+from .config import MODELS, Limits, SensorConfig, setting_defaults, setting_limits, sweep_count
 from .device import BeamTable, Device, Mount, Noise, Optics, RangeLimits, Timing
 from .load import DEFAULT_DEVICE, device_choice, device_from_dict, device_named, load_device, preset_names
 from .noise import datasheet_sigma, noise_draws, range_noise, range_sigma
@@ -17,6 +17,7 @@ __all__ = [
     "MODELS",
     "BeamTable",
     "Device",
+    "Limits",
     "Mount",
     "Noise",
     "Optics",
@@ -37,5 +38,7 @@ __all__ = [
     "range_sigma",
     "rotated_beam_directions",
     "rotated_beams",
+    "setting_defaults",
+    "setting_limits",
     "sweep_count",
 ]

@@ -8,7 +8,7 @@ Two physics models share the device's beams (`SensorConfig.model`):
               point, intensity is the element's Table I reflectivity (which carries the
               label), Gaussian range noise of the device's fixed σ. The default; its files
               never change.
-  realistic   the beam as the device sends it (core/footprint.py, core/echoes.py): a
+  realistic   the beam as the device sends it (core/realism/footprint.py, core/realism/echoes.py): a
               footprint of `divergence_mrad` sampled by sub-rays, up to `echoes` echoes
               split `echo_separation` apart (closer surfaces merge into one mixed pixel),
               intensity from reflectivity, incidence and range, and the datasheet's range
@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from ..checks import one_of
 from ..errors import UserError
@@ -48,6 +49,49 @@ SENSOR_SETTINGS = (
 )
 
 _D = DEFAULT_DEVICE
+
+
+class Limits(NamedTuple):
+    """The closed interval [low, high], or (low, high] when `low_open`."""
+
+    low: float
+    high: float
+    low_open: bool = False
+
+
+def setting_limits(device: Device) -> dict[str, Limits]:
+    """Each numeric sensor setting's limits with `device`: the one source every front end (the
+    command line, the panel, a dataset spec's [sensor]) and `SensorConfig.validate` read. The
+    device's own numbers where the hardware decides (its mount's finest step and sweep, its
+    longest range, its echoes), the models' where it does not."""
+    return {
+        "rh": Limits(device.mount.min_step_deg, device.mount.sweep_deg),
+        "min_range": Limits(0.0, device.ranges.max_dark_m),
+        "max_range": Limits(0.0, device.ranges.max_dark_m, low_open=True),
+        "noise": Limits(0.0, MAX_NOISE_SIGMA),
+        "noise_seed": Limits(0, 2**63 - 1),
+        "divergence": Limits(0.0, MAX_DIVERGENCE_MRAD),
+        "echoes": Limits(1, device.optics.echoes),  # a return mode may fix it (check_returns)
+        "echo_separation": Limits(0.0, MAX_ECHO_SEPARATION, low_open=True),
+        "mount_height": Limits(MIN_MOUNT_HEIGHT, MAX_MOUNT_HEIGHT),
+    }
+
+
+def setting_defaults(device: Device) -> dict[str, object]:
+    """Each sensor setting's value with `device` when a user gives none (`noise`: the paper
+    model's; the realistic model's is the datasheet's, by range)."""
+    return {
+        "rh": device.mount.step_deg,
+        "min_range": device.ranges.min_m,
+        "max_range": device.ranges.max_m,
+        "noise": device.noise.sigma_m,
+        "noise_seed": 0,
+        "model": DEFAULT_MODEL,
+        "divergence": device.optics.divergence_mrad,
+        "echoes": device.optics.echoes,
+        "echo_separation": device.optics.echo_separation_m,
+        "mount_height": device_mount_height(device),
+    }
 
 
 @dataclass(frozen=True)
@@ -136,9 +180,10 @@ class SensorConfig:
         _check_finite("max_range", self.max_range, "m")
         if self.noise_sigma is not None:
             _check_finite("noise", self.noise_sigma, "m")
+        lim = setting_limits(self.device)  # the one source of every limit below
         if self.min_range < 0:
             raise UserError(f"must be >= 0 m, got {self.min_range:g}", setting="min_range", allowed=(0, None))
-        limit = self.device.ranges.max_dark_m
+        limit = lim["max_range"].high
         if self.max_range <= 0 or self.max_range > limit:
             raise UserError(
                 f"must be in (0, {limit:g}] m (the {self.device.model}'s limit), got {self.max_range:g}",
@@ -151,11 +196,12 @@ class SensorConfig:
                 setting="min_range",
                 related=("max_range",),
             )
-        if self.noise_sigma is not None and not 0 <= self.noise_sigma <= MAX_NOISE_SIGMA:
+        most = lim["noise"].high
+        if self.noise_sigma is not None and not 0 <= self.noise_sigma <= most:
             raise UserError(
-                f"must be from 0 (off) to {MAX_NOISE_SIGMA:g} m, got {self.noise_sigma:g}",
+                f"must be from 0 (off) to {most:g} m, got {self.noise_sigma:g}",
                 setting="noise",
-                allowed=(0, MAX_NOISE_SIGMA),
+                allowed=(0, most),
             )
         if not (0 <= int(self.noise_seed) < 2**63):
             raise UserError(
@@ -163,25 +209,27 @@ class SensorConfig:
                 setting="noise_seed",
                 allowed=(0, 2**63 - 1),
             )
-        self._validate_realistic()
+        self._validate_realistic(lim)
         _check_finite("mount_height", self.mount_height, "m")
-        if not MIN_MOUNT_HEIGHT <= self.mount_height <= MAX_MOUNT_HEIGHT:
+        low, high, _ = lim["mount_height"]
+        if not low <= self.mount_height <= high:
             raise UserError(
-                f"must be from {MIN_MOUNT_HEIGHT:g} to {MAX_MOUNT_HEIGHT:g} m, got {self.mount_height:g}",
+                f"must be from {low:g} to {high:g} m, got {self.mount_height:g}",
                 setting="mount_height",
-                allowed=(MIN_MOUNT_HEIGHT, MAX_MOUNT_HEIGHT),
+                allowed=(low, high),
             )
         return self
 
-    def _validate_realistic(self) -> None:
+    def _validate_realistic(self, lim: dict[str, Limits]) -> None:
         _check_finite("divergence", self.divergence_mrad, "mrad")
-        if not 0 <= self.divergence_mrad <= MAX_DIVERGENCE_MRAD:
+        widest = lim["divergence"].high
+        if not 0 <= self.divergence_mrad <= widest:
             raise UserError(
-                f"must be from 0 (a thin ray) to {MAX_DIVERGENCE_MRAD:g} mrad, got {self.divergence_mrad:g}",
+                f"must be from 0 (a thin ray) to {widest:g} mrad, got {self.divergence_mrad:g}",
                 setting="divergence",
-                allowed=(0, MAX_DIVERGENCE_MRAD),
+                allowed=(0, widest),
             )
-        most = self.device.optics.echoes
+        most = lim["echoes"].high
         if isinstance(self.echoes, bool) or not isinstance(self.echoes, int) or not 1 <= self.echoes <= most:
             raise UserError(
                 f"must be a whole number from 1 to {most}, got {self.echoes!r}",
@@ -190,11 +238,12 @@ class SensorConfig:
             )
         self.check_returns()
         _check_finite("echo_separation", self.echo_separation, "m")
-        if not 0 < self.echo_separation <= MAX_ECHO_SEPARATION:
+        farthest = lim["echo_separation"].high
+        if not 0 < self.echo_separation <= farthest:
             raise UserError(
-                f"must be in (0, {MAX_ECHO_SEPARATION:g}] m, got {self.echo_separation:g}",
+                f"must be in (0, {farthest:g}] m, got {self.echo_separation:g}",
                 setting="echo_separation",
-                allowed=(0, MAX_ECHO_SEPARATION),
+                allowed=(0, farthest),
             )
 
     def check_returns(self) -> None:

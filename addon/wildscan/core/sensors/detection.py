@@ -93,7 +93,7 @@ class Detection:
 
 
 def detection_from_table(t) -> Detection:
-    """A `[detection]` table (load.py's _Table) -> Detection, or the loader's UserError."""
+    """A `[detection]` table (core/checks.py Table) -> Detection, or the loader's UserError."""
     t.only("pairs", "estimate")
     rows = t.get("pairs")
     shape = (

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..checks import Table, is_number
 from ..errors import UserError, shortened
 from .detection import detection_from_table
 from .device import (
@@ -116,7 +117,7 @@ def toml_reader():
 
 
 def device_from_dict(data: dict, where: str = "device.toml") -> Device:
-    top = _Table(data, "", where)
+    top = Table(data, "", where)
     top.only(
         "id",
         "vendor",
@@ -149,7 +150,7 @@ def device_from_dict(data: dict, where: str = "device.toml") -> Device:
     )
 
 
-def _beams(t: "_Table") -> BeamTable:
+def _beams(t: "Table") -> BeamTable:
     kind = t.choice("kind", ("fan", "table"))
     if kind == "fan":
         t.only("kind", "count", "first_deg", "step_deg")
@@ -172,7 +173,7 @@ def _beams(t: "_Table") -> BeamTable:
     return BeamTable(tuple(90.0 - e for e in elevation), tuple(azimuth), tuple(int(r) for r in ring))
 
 
-def _timing(t: "_Table", beams: BeamTable) -> Timing:
+def _timing(t: "Table", beams: BeamTable) -> Timing:
     t.only("column_period_s", "steps_per_column", "beam_step")
     period = t.number("column_period_s", 0.0, 10.0, low_open=True)
     if abs(round(period * 1e9) * 1e-9 - period) > 1e-15:
@@ -189,7 +190,7 @@ def _timing(t: "_Table", beams: BeamTable) -> Timing:
     return Timing(period, steps, beam_step)
 
 
-def _ranges(t: "_Table") -> RangeLimits:
+def _ranges(t: "Table") -> RangeLimits:
     t.only("min_m", "max_m", "max_dark_m")
     dark = t.number("max_dark_m", 0.0, 10_000.0, low_open=True)
     low = t.number("min_m", 0.0, dark)
@@ -197,7 +198,7 @@ def _ranges(t: "_Table") -> RangeLimits:
     return RangeLimits(low, high, dark)
 
 
-def _noise(t: "_Table", ranges: RangeLimits) -> Noise:
+def _noise(t: "Table", ranges: RangeLimits) -> Noise:
     t.only("sigma_m", "accuracy", "accuracy_sigmas")
     sigma = t.number("sigma_m", 0.0, 1.0)
     rows = t.get("accuracy")
@@ -206,7 +207,7 @@ def _noise(t: "_Table", ranges: RangeLimits) -> Noise:
         raise t.fail("accuracy", shape, rows)
     table = []
     for row in rows:
-        if not (isinstance(row, list) and len(row) == 2 and all(_is_number(v) for v in row)):
+        if not (isinstance(row, list) and len(row) == 2 and all(is_number(v) for v in row)):
             raise t.fail("accuracy", shape, rows)
         up_to, pm = float(row[0]), float(row[1])
         if not (0 <= pm <= 1) or (table and up_to <= table[-1][0]) or up_to <= 0:
@@ -219,7 +220,7 @@ def _noise(t: "_Table", ranges: RangeLimits) -> Noise:
     return Noise(sigma, tuple(table), t.number("accuracy_sigmas", 0.0, 10.0, low_open=True))
 
 
-def _optics(t: "_Table") -> Optics:
+def _optics(t: "Table") -> Optics:
     t.only("divergence_mrad", "echoes", "echo_separation_m", "returns", "return_mode", "dual")
     echoes = t.integer("echoes", 1, 3)  # the realistic model forms at most three echoes
     modes = t.get("returns", ["multi"])
@@ -245,7 +246,7 @@ def _optics(t: "_Table") -> Optics:
     )
 
 
-def _mount(t: "_Table") -> Mount:
+def _mount(t: "Table") -> Mount:
     t.only(
         "kind", "axis", "tilt_deg", "step_deg", "min_step_deg", "sweep_deg", "heads", "direction", "height"
     )
@@ -270,7 +271,7 @@ def _mount(t: "_Table") -> Mount:
     )
 
 
-def _head(t: "_Table") -> Head:
+def _head(t: "Table") -> Head:
     t.only("axis", "tilt_deg", "step_deg", "sweep_deg", "turn")
     axis = t.numbers("axis", -1.0, 1.0, 3, 3)
     if abs(math.fsum(a * a for a in axis) - 1.0) > 1e-9:
@@ -288,90 +289,6 @@ def _head(t: "_Table") -> Head:
         sweep_deg=sweep,
         turn=t.choice("turn", HEAD_TURNS),
     )
-
-
-def _is_number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _show(value) -> str:
-    if value is None:
-        return "nothing"
-    return f'"{shortened(value)}"' if isinstance(value, str) else shortened(value)
-
-
-class _Table:
-    """One TOML table with its dotted name, for messages that say which key is wrong."""
-
-    def __init__(self, data: dict, prefix: str, where: str):
-        self.data, self.prefix, self.where = data, prefix, where
-
-    def fail(self, key: str, allowed: str, value) -> UserError:
-        return UserError(f"{self.where}: {self.prefix}{key} must be {allowed}, got {_show(value)}")
-
-    def only(self, *keys: str) -> None:
-        for key in self.data:
-            if key not in keys:
-                table = f"[{self.prefix[:-1]}]" if self.prefix else "the top level"
-                raise UserError(
-                    f"{self.where}: unknown key {self.prefix}{key!s}; allowed in {table}: {', '.join(keys)}"
-                )
-
-    def get(self, key: str, default=None):
-        return self.data.get(key, default)
-
-    def table(self, key: str) -> "_Table":
-        value = self.data.get(key)
-        if not isinstance(value, dict):
-            raise self.fail(key, "a table", value)
-        return _Table(value, f"{self.prefix}{key}.", self.where)
-
-    def text(self, key: str) -> str:
-        value = self.data.get(key)
-        if not isinstance(value, str) or not value.strip():
-            raise self.fail(key, "a name in quotes", value)
-        return value
-
-    def choice(self, key: str, allowed: tuple[str, ...]) -> str:
-        value = self.data.get(key)
-        if value not in allowed:
-            raise self.fail(key, "one of " + ", ".join(f'"{a}"' for a in allowed), value)
-        return value
-
-    def integer(self, key: str, low: int, high: int) -> int:
-        value = self.data.get(key)
-        if not (isinstance(value, int) and not isinstance(value, bool) and low <= value <= high):
-            raise self.fail(key, f"a whole number from {low} to {high}", value)
-        return value
-
-    def number(self, key: str, low: float, high: float, low_open: bool = False) -> float:
-        value = self.data.get(key)
-        if not _is_number(value) or not (low < value if low_open else low <= value) or value > high:
-            bound = "above" if low_open else "from"
-            raise self.fail(
-                key, f"a number {bound} {low:g} {'and at most' if low_open else 'to'} {high:g}", value
-            )
-        return float(value)
-
-    def numbers(self, key: str, low: float, high: float, least: int, most: int) -> tuple[float, ...]:
-        value = self.data.get(key)
-        count = f"{least}" if least == most else f"{least} to {most}"
-        if (
-            not isinstance(value, list)
-            or not least <= len(value) <= most
-            or not all(_is_number(v) and low <= v <= high for v in value)
-        ):
-            raise self.fail(key, f"a list of {count} numbers from {low:g} to {high:g}", value)
-        return tuple(float(v) for v in value)
-
-    def integers(self, key: str, low: int, high: int, least: int, most: int) -> tuple[int, ...]:
-        value = self.data.get(key)
-        if not isinstance(value, list) or not least <= len(value) <= most:
-            raise self.fail(key, f"a list of {least} whole numbers from {low} to {high}", value)
-        for v in value:
-            if not (isinstance(v, int) and not isinstance(v, bool) and low <= v <= high):
-                raise self.fail(key, f"a list of {least} whole numbers from {low} to {high}", value)
-        return tuple(value)
 
 
 DEFAULT_DEVICE = device_named(DEFAULT_DEVICE_ID)

@@ -30,7 +30,7 @@ from ..spatial.leveling import rot_z
 BEV_CELL = 0.1  # m
 BEV_SIZE = 30.0  # m, side of the square
 BEV_CELLS = round(BEV_SIZE / BEV_CELL)
-# terrain_z and top_class; the traversability fields (core/traversability.py) after them
+# terrain_z and top_class; the traversability fields (core/truth/traversability.py) after them
 BEV_DTYPE = np.dtype(
     [
         ("terrain_z", "<f4"),

@@ -10,7 +10,7 @@ The answer is the cast's, not an estimate. The raster has square cells over the 
 extent; a cell is open when no triangle of any other class has its xy bounding box, grown
 by MARGIN, reaching into it. Then, for a point whose cell is open:
   - no other surface lies anywhere on its vertical line: MARGIN is hundreds of times the
-    growth the ray casters give triangles (geometry.pad_triangles) and the float32 rounding
+    growth the ray casters give triangles (padding.pad_triangles) and the float32 rounding
     of a ray's origin, so not even a grown copy of another triangle reaches it;
   - the terrain is there: it is a heightfield grid covering the whole extent (the caller
     checks), and the downward rays start above every surface and reach below them;

@@ -3,7 +3,7 @@ above the ground can meet nothing.
 
 Why: every dataset scan's bird's-eye grid casts 90,000 rays straight up, one from
 ROBOT_HEIGHT above the standing ground at each cell, for the clearance over it (`overhead`,
-core/traversability.py). Most meet nothing (open ground, lawns, the sky between crowns): a
+core/truth/traversability.py). Most meet nothing (open ground, lawns, the sky between crowns): a
 lookup in this raster answers those (nothing above) for a fraction of a cast, and only the
 rest are cast.
 
@@ -15,7 +15,7 @@ its nodes. So a triangle is harmless, out of reach of every upward ray from its 
 highest corner lies more than Z_MARGIN below the lowest grid node around its box plus
 ROBOT_HEIGHT: the grid's own triangles (unless a cell rises more than that), grass, low
 shrubs, logs. Every other triangle marks the raster cells its box, grown by MARGIN, reaches
-(core/open_ground.py's raster, with the same guarantees: MARGIN and Z_MARGIN are hundreds of
+(core/truth/open_ground.py's raster, with the same guarantees: MARGIN and Z_MARGIN are hundreds of
 times the growth the casters give triangles and the float32 rounding of a ray's origin);
 the cells none reaches are open sky. A triangle whose box (grown) spans more than three grid cells
 either way is counted as reaching its whole box, whatever its height (conservative, rare).
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..world.heightfield import TerrainGrid
+from ..world.terrain_grid import TerrainGrid
 from .open_ground import BLOCK, MARGIN, OpenGround, corner_boxes, no_open_ground, open_outside_blocks
 
 Z_MARGIN = 1e-3  # m by which a harmless triangle stays below the lowest upward ray's start

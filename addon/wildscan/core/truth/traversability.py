@@ -1,7 +1,7 @@
 """Traversability ground truth (numpy only): what a robot needs to know about the ground that
 the class labels alone do not say (docs/ground.md).
 
-Per bird's-eye cell (core/groundtruth.py's grid gains three fields):
+Per bird's-eye cell (core/truth/groundtruth.py's grid gains three fields):
 
   cover_height  m of vegetation over the terrain in the cell: the sward layer's height
                 (core/world/cover.py), 0 on bare ground and in the paper biome. A robot drives

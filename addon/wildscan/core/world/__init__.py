@@ -15,7 +15,8 @@ map, pose lists and fast ray casting read it directly.
     shapes/         the meshes, one module per family (primitives, trees, plants, rocks,
                     furniture, powerline)
     elements.py     Element and Prototype, shared by both worlds
-    heightfield.py  the analytic terrain and the adaptive grid approximating it
+    heightfield.py  the analytic terrain h(x, y)
+    terrain_grid.py the adaptive grid approximating it (the terrain mesh)
     detail.py       detail levels
     geometry2d.py   polylines, rectangles, scattering
     testworld.py    the small fixed test world

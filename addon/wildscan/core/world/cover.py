@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..classes import BY_ID, class_by_name
-from .heightfield import interpolate
+from .grid_height import interpolate
 
 BOTTOM_SLACK = 0.05  # m the layer reaches below its node-sampled terrain (the mesh's own wiggle)
 CELL = 0.5  # m, the cover grid's cell: about a tussock's or a fern's spread

@@ -16,7 +16,7 @@ import functools
 
 import numpy as np
 
-from .heightfield import TerrainGrid
+from .terrain_grid import TerrainGrid
 
 _BIN = 1.0  # m, side of the lattice the flooring's triangles are binned on
 _AREA_MIN = 1e-9  # m^2: a triangle with less plan area is vertical (a skirt)

@@ -25,7 +25,8 @@ from .detail import DetailLevel
 from .elements import Element, ElementSet, Prototype
 from .geometry2d import cell_area, darts
 from .ground import StandingGround
-from .heightfield import GridFit, Heightfield
+from .heightfield import Heightfield
+from .terrain_grid import GridFit
 
 HALF = 75.0
 EXTENT = (-HALF, HALF, -HALF, HALF)

@@ -16,9 +16,9 @@ import numpy as np
 from .. import detmath as dm
 from ..rng import stage_rng
 from .elements import Element, ElementSet, Prototype
-from .heightfield import TerrainGrid
 from .shapes.powerline import catenary_points
 from .shapes.primitives import Mesh, beam, box, cone, disc, merge, rotate_z, tube, uv_sphere
+from .terrain_grid import TerrainGrid
 
 # ---------------------------------------------------------------------------
 # the plan

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..biomes import biome_of
-from ..heightfield import TerrainGrid
 from ..shapes.primitives import box, faces_subset, grid_heightfield
+from ..terrain_grid import TerrainGrid
 from . import anchors as A
 from . import fields as F
 from .clearing import add_clearings

@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import cover as C
 from ..biomes import biome_of
-from ..heightfield import TerrainGrid
+from ..terrain_grid import TerrainGrid
 from . import anchors as A
 from . import fields as F
 from .raster import Raster

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..heightfield import TerrainGrid
+from ..terrain_grid import TerrainGrid
 from . import anchors as A
 from . import fields as F
 

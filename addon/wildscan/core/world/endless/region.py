@@ -21,8 +21,8 @@ from ... import detmath as dm
 from ..biomes import biome_of
 from ..cover import CELL, CoverGrid
 from ..detail import detail_level
-from ..heightfield import GridError, GridFit, TerrainGrid
 from ..plan import Clearance, WorldPlan, ZoneShape, check_seed, check_vegetation, plan_hash
+from ..terrain_grid import GridError, GridFit, TerrainGrid
 from . import anchors as A
 from . import fields as F
 from .build import build_tile

@@ -13,7 +13,7 @@ import numpy as np
 
 from ... import detmath as dm
 from ..elements import Element, Prototype
-from ..heightfield import TerrainGrid
+from ..terrain_grid import TerrainGrid
 from .tiles import MAX_TILE_INDEX, TILE_M, tile_rect
 
 TILE_BLOCK = 8_192  # instance ids a tile may hand out

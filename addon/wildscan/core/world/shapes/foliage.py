@@ -2,7 +2,7 @@
 grass blades (numpy only).
 
 Modelled no finer than the sensor resolves. Its beams are 0.25 deg apart along a scan
-line (4.4 cm at 10 m, 2.2 cm at 5 m) and its footprint about as wide (core/footprint.py,
+line (4.4 cm at 10 m, 2.2 cm at 5 m) and its footprint about as wide (core/realism/footprint.py,
 4.4 mrad), so:
 
   * a leaf cluster is one triangle LEAF_SIZE across (0.16-0.22 m): at the 5-15 m a

@@ -3,7 +3,7 @@
 Fractal noise, the hills' bumps, then each zone's shape on the terrain (the
 park's plateau, the lake's basin, the cave's plateau and pit), scaled to at most
 MAX_RELIEF; the terrain mesh is the adaptive grid that stays within the detail
-level's tolerance of it (heightfield.fit_grid, its own stream "world.terrain.error"). Where
+level's tolerance of it (terrain_grid.fit_grid, its own stream "world.terrain.error"). Where
 the biome covers the ground, the grid's triangles that are the cave's rock faces (its steep
 walls: cave.Cave.rock_faces) are an element of their own, class rock; the rest is terrain.
 """
@@ -17,9 +17,10 @@ import numpy as np
 from ...rng import stage_rng
 from ..biomes import biome_of
 from ..geometry2d import Rect, inset
-from ..heightfield import Bumps, FractalNoise, Heightfield, RectWindow, fit_grid
+from ..heightfield import Bumps, FractalNoise, Heightfield, RectWindow
 from ..plan import EXTENT, HALF, MAX_RELIEF, WORLD_ZONE, WorldPlan
 from ..shapes.primitives import faces_subset
+from ..terrain_grid import fit_grid
 from . import cave, lake, park
 
 STAGE = "terrain"
