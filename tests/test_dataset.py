@@ -9,6 +9,7 @@ module with the real command on a local Dask cluster of 2 workers.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import subprocess
 
@@ -393,6 +394,35 @@ def test_a_sequence_with_a_failed_scan_reads_back_as_semantic_kitti_api_reads_it
         np.testing.assert_allclose(height_above_ground(world, ground), hag, atol=1e-3, err_msg=scan.name)
     last = manifest_rows(out)[5]
     assert {f["path"] for f in last["files"]} >= {"sequences/00/velodyne/000004.bin"}
+
+
+@pytest.mark.slow
+def test_revisits_json_pairs_what_poses_txt_puts_within_3_m_and_verify_knows_it(gap_dataset):
+    """revisits.json at finalize: the pairs poses.txt puts within 3 m (none here: the poses
+    keep 40 m apart), each scan's count beyond 25 m, file numbers mapped to manifest scans
+    past the scan without a pose; listed in dataset.json with its checksum, so --verify checks it."""
+    out, _ = gap_dataset
+    doc = json.loads((out / "revisits.json").read_text())
+    seq = doc["sequences"]["00"]
+    poses = read_kitti_poses(out / "sequences" / "00" / "poses.txt")
+    xy = np.array([pose[:2, 3] for pose in poses])
+    distance = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+    assert seq["manifest_scan"] == [0, 1, 2, 3, 5] and seq["scans"] == len(poses) == 5
+    assert {(a, b) for a, b, _ in seq["positives"]} == {
+        (a, b) for a, b in zip(*np.nonzero(distance <= 3)) if a < b
+    }
+    assert (
+        seq["negatives_per_scan"] == (distance > 25).sum(axis=1).tolist()
+        and sum(seq["negatives_per_scan"]) > 0
+    )
+    assert (
+        doc["positive_radius_m"] == 3.0
+        and doc["negative_radius_m"] == 25.0
+        and "Wild-Places" in doc["source"]
+    )
+    listed = json.loads((out / "dataset.json").read_text())["files"]["revisits.json"]
+    data = (out / "revisits.json").read_bytes()
+    assert listed["bytes"] == len(data) and listed["sha256"] == hashlib.sha256(data).hexdigest()
 
 
 @pytest.mark.slow

@@ -176,6 +176,7 @@ def test_limit_runs_part_of_the_job_and_the_next_run_finishes_it(spec, clean, tm
     assert second.returncode == 0 and "wrote 7 scans" in second.stdout
     assert "5 were there from before, re-checked" in second.stdout  # the final line says it all
     assert_same_dataset(clean, out)
+    assert (out / "revisits.json").read_bytes() == (clean / "revisits.json").read_bytes()  # from the rows
     third = wildscan("dataset", str(spec), "--out", str(out), "--quiet")
     assert "wrote 0 scans" in third.stdout  # nothing left: every scan verified and skipped
 

@@ -12,6 +12,7 @@ import pytest
 from wildscan.app.drive import DriveRequest, Interrupted, run_drive
 from wildscan.app.drive import bags as bag_module
 from wildscan.app.interrupts import Terminated
+from wildscan.core.io.imu_csv import read_imu_csv
 from wildscan.core.io.ply import read_ply
 from wildscan.core.sensor import SensorConfig
 
@@ -24,6 +25,7 @@ SEED = 1
 RH = 6.0  # 30 2D scans a 3D scan
 COMMON = ["--seed", str(SEED), "--detail", "low", "--rh", str(RH), "--trail"]
 TOPICS = {"/tf_static": 1, "/tf": 66, "/odom": 66, "/laser2D": 66, "/points": 2, "/points_deskewed": 2}
+TOPICS["/imu"] = 330  # 1.65 s at 200 Hz
 
 
 @pytest.fixture(scope="module")
@@ -67,10 +69,15 @@ def test_ros2_bag_reads_back_with_rosbags(drive_dir):
         assert types["/laser2D"] == "sensor_msgs/msg/LaserScan"
         assert types["/points"] == "sensor_msgs/msg/PointCloud2"
         assert types["/tf"] == "tf2_msgs/msg/TFMessage" and types["/odom"] == "nav_msgs/msg/Odometry"
-        last = {}
+        assert types["/imu"] == "sensor_msgs/msg/Imu"
+        last, imu, stamps = {}, [], []
         for conn, stamp, data in reader.messages():
             counts[conn.topic] = counts.get(conn.topic, 0) + 1
+            stamps.append(stamp)
             msg = reader.deserialize(data, conn.msgtype)
+            if conn.topic == "/imu":
+                assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == stamp
+                imu.append((stamp, msg.angular_velocity.z, msg.linear_acceleration.z, msg.orientation.w))
             if conn.topic == "/laser2D":
                 k = counts["/laser2D"] - 1
                 assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == k * 25_000_000 == stamp
@@ -96,6 +103,17 @@ def test_ros2_bag_reads_back_with_rosbags(drive_dir):
         ("base_link", "laser"),
     ]
     assert last["/odom"].child_frame_id == "base_link" and 0.9 < last["/odom"].twist.twist.linear.x < 1.1
+    assert stamps == sorted(stamps)  # every topic in time order, the IMU's 200 Hz among them
+    assert [s for s, *_ in imu] == [i * 5_000_000 for i in range(330)] and last[
+        "/imu"
+    ].header.frame_id == "imu"
+    _, gyro, accel = read_imu_csv((drive_dir / "imu.csv").read_text())  # the same samples as the CSV
+    assert np.allclose([g for _, g, _, _ in imu], gyro[:, 2], atol=1e-11)
+    assert np.allclose([a for _, _, a, _ in imu], accel[:, 2], atol=1e-8)
+    covariance = np.asarray(last["/imu"].angular_velocity_covariance).reshape(3, 3)
+    assert np.isclose(covariance[0, 0], (np.radians(0.014) * np.sqrt(200)) ** 2)  # BMI088's white noise
+    static = [(t.header.frame_id, t.child_frame_id) for t in last["/tf_static"].transforms]
+    assert static == [("base_link", "sensor"), ("base_link", "imu")]
 
 
 ROS1_READER = r"""
@@ -119,6 +137,9 @@ for topic, msg, t in bag.read_messages():
                          for x in msg.transforms]
     if topic == "/odom":
         out["odom"] = [msg.header.frame_id, msg.child_frame_id, msg.twist.twist.linear.x]
+    if topic == "/imu":
+        out["imu"] = [msg.header.frame_id, msg.header.stamp.to_sec(), msg.linear_acceleration.z,
+                      msg.orientation.w, len(msg.angular_velocity_covariance)]
 out["counts"] = dict(counts)
 out["types"] = {k: v.msg_type for k, v in bag.get_type_and_topic_info().topics.items()}
 print(json.dumps(out))
@@ -146,7 +167,13 @@ def test_ros1_bag_reads_back_with_debians_rosbag(drive_dir):
         abs(stamp - 0.75) < 1e-9 and abs(recorded - 1.5) < 1e-9
     )  # stamped at its start, recorded at its end
     assert got["tf"] == [["odom", "base_link"], ["base_link", "laser"]]
-    assert got["static"] == [["base_link", "sensor", 0.723]]
+    assert got["static"] == [["base_link", "sensor", 0.723], ["base_link", "imu", 0.35]]
+    frame, stamp, accel_z, w, covariance = got["imu"]
+    _, _, accel = read_imu_csv((drive_dir / "imu.csv").read_text())
+    assert (
+        (frame, covariance) == ("imu", 9) and abs(stamp - 1.645) < 1e-9 and abs(accel_z - accel[-1, 2]) < 1e-8
+    )
+    assert got["types"]["/imu"] == "sensor_msgs/Imu" and 0 < w <= 1
     assert got["odom"][:2] == ["odom", "base_link"]
 
 
@@ -199,6 +226,11 @@ def test_same_drive_same_bytes(tmp_path):
             "--model must be paper: a drive emulates the paper sensor model",
         ),
         (["--trail", "--vegetation", "leafy"], "--vegetation must be one of"),
+        (["--trail", "--imu-rate", "5000"], "--imu-rate: must be a whole number from 1 to 2000"),
+        (
+            ["--trail", "--imu", "xsens"],
+            "--imu: invalid choice: 'xsens' (choose from 'bmi088', 'adis16495', 'none')",
+        ),
     ],
 )
 def test_user_mistakes_exit_2_with_one_line(tmp_path, args, says):

@@ -286,3 +286,51 @@ def test_a_ctrl_c_while_the_command_line_imports_exits_130_in_one_line(tmp_path,
     )
     assert (done.returncode, done.stderr) == (130, "wildscan scan: interrupted; nothing written\n")
     assert not any(tmp_path.iterdir())
+
+
+# Debian's Blender takes a Ctrl-C that comes while it starts (before the script's handler is
+# installed) with its own handler, which only sets G.is_break: the run used to go on and
+# write its files, exit 0. The --python-expr before -P is that moment, made certain: it runs
+# under Blender's handler, and signals the process.
+CTRL_C_WHILE_BLENDER_STARTS = "import os, signal; os.kill(os.getpid(), signal.SIGINT)"
+
+
+@pytest.mark.blender_binary
+@pytest.mark.parametrize(
+    "script, args",
+    [
+        ("extract", ["--out", "x.npz"]),  # the factory scene's cube: seconds
+        ("scan", ["--seed", "2", *SCAN, "--backend", "bvh", "--out", "s.ply"]),
+        ("world", ["--seed", "2", "--detail", "low", "--quiet", "--out", "w.blend"]),
+    ],
+)
+def test_a_ctrl_c_while_blender_starts_stops_the_script_with_130(tmp_path, script, args):
+    cmd = [BLENDER, "-b", "--factory-startup", "--python-expr", CTRL_C_WHILE_BLENDER_STARTS]
+    cmd += ["-P", str(REPO / "blender_scripts" / f"{script}.py"), "--", *args]
+    done = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert "Sent an internal break event" in done.stdout  # Blender's own handler took it
+    assert (done.returncode, done.stderr) == (
+        130,
+        f"blender_scripts/{script}.py: interrupted; nothing written\n",
+    )
+    assert not any(tmp_path.iterdir())
+
+
+def test_blenders_break_flag_is_found_from_its_handlers_first_instructions():
+    from wildscan.app.host_break import _flag_address
+
+    # Debian's Blender 3.4.1, sig_handle_blender_esc: lea rax,[rip+0x4af5bc9]; mov byte [rax+0x818],1
+    code = bytes.fromhex("488d05c95baf04c6801808000001")
+    assert _flag_address(0x1000, code) == 0x1000 + 7 + 0x04AF5BC9 + 0x818
+    assert _flag_address(0x1000, bytes(14)) is None  # another build's code: nothing read
+    assert _flag_address(0x1000, code[:10]) is None
+
+
+def test_a_host_break_found_set_is_one_ctrl_c():
+    from wildscan.core.runtime import signals
+
+    flag = [True]
+    with pytest.raises(KeyboardInterrupt):
+        signals.watch_host_break(lambda: flag[0])
+        signals.check_host_break()
+    signals.check_host_break()  # read once: it does not stop the run again

@@ -85,3 +85,41 @@ def test_a_tf_of_the_base_alone_and_odometry_without_laser_scans(tmp_path):
     with DriveBag(folder(tmp_path / "many"), "ros1") as bag:
         bag.scans(stamps, [(ODOM, BASE_LINK)], (translations[:, :1], rotations[:, :1]), odometry, None, None)
     assert bag_bytes(tmp_path / "one") == bag_bytes(tmp_path / "many")
+
+
+@pytest.mark.parametrize("flavour", ["ros1", "ros2"])
+def test_imu_messages_many_at_once_interleaved_in_time_are_the_bytes_of_one_at_a_time(tmp_path, flavour):
+    """sensor_msgs/Imu laid out by rosbag_layout.imu_layout and written among the 2D scans'
+    messages (before a 2D scan those earlier than it, after it those of its stamp or later)
+    are the bytes rosbags writes message by message in that order."""
+    stamps, translations, rotations, odometry, *_ = scan_values(4, 5)
+    rng = np.random.default_rng(3)
+    imu_stamps = np.sort(np.concatenate([stamps[:2], stamps[1:] - 5_000_000, stamps[-1:] + 7_000_000]))
+    n = len(imu_stamps)
+    orientation, gyro, accel = rng.normal(0, 1, (n, 4)), rng.normal(0, 1, (n, 3)), rng.normal(0, 9, (n, 3))
+    covariances = tuple(rng.uniform(0, 1, (n, 9)) for _ in range(3))
+    frames = [(ODOM, BASE_LINK)]
+    with DriveBag(folder(tmp_path / "one"), flavour, imu=True) as bag:
+        done = 0
+        for row, stamp in enumerate(stamps.tolist()):
+            while done < n and imu_stamps[done] < stamp:
+                bag.imu(
+                    int(imu_stamps[done]),
+                    orientation[done],
+                    gyro[done],
+                    accel[done],
+                    [c[done] for c in covariances],
+                )
+                done += 1
+            bag.tf(stamp, [(ODOM, BASE_LINK, translations[row, 0], rotations[row, 0])])
+            bag.odometry(stamp, *(part[row] for part in odometry))
+        for i in range(done, n):
+            bag.imu(int(imu_stamps[i]), orientation[i], gyro[i], accel[i], [c[i] for c in covariances])
+        counts = dict(bag.counts)
+    with DriveBag(folder(tmp_path / "many"), flavour, imu=True) as bag:
+        tf = (translations[:, :1], rotations[:, :1])
+        bag.scans(
+            stamps, frames, tf, odometry, None, None, (imu_stamps, orientation, gyro, accel, covariances)
+        )
+    assert counts["/imu"] == n == 6 and counts["/tf"] == 4
+    assert bag_bytes(tmp_path / "one") == bag_bytes(tmp_path / "many")

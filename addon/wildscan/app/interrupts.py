@@ -10,7 +10,7 @@ second, our user-mistake code, leaving a partial file).
 Some moments must not be cut: while the bpy module loads (an exception inside its
 start-up is swallowed or crashes the interpreter) and while Blender reads or writes a
 file (it swallows exceptions raised in its Python handlers). There `deferred()`
-(core/signals.py) notes the signal and raises it as soon as the moment is over.
+(core/runtime/signals.py) notes the signal and raises it as soon as the moment is over.
 
 A process that runs one command (the `wildscan` script, blender_scripts/*.py) calls
 `defer_until_dispatch()` before its slow imports, so a Ctrl-C in its first second is
@@ -26,12 +26,14 @@ from contextlib import contextmanager
 from ..core.runtime.pause import pause_here
 from ..core.runtime.signals import (
     Terminated,
+    check_host_break,
     deferred,
     enter,
     forget_pending,
     leave,
     on_signal,
     signal_pending,
+    watch_host_break,
 )
 
 __all__ = ["Terminated", "deferred", "defer_until_dispatch", "started", "stopping_on_signals"]
@@ -73,7 +75,7 @@ def _restore(signum: int, previous) -> None:
 
 
 # ---------------------------------------------------------------------------------------
-# every command: both signals raise, except inside deferred() (core/signals.py)
+# every command: both signals raise, except inside deferred() (core/runtime/signals.py)
 
 # The handlers from before defer_until_dispatch(), while it holds; None otherwise.
 _early: dict | None = None
@@ -86,12 +88,20 @@ def defer_until_dispatch() -> None:
     and the parsing ends the run as at any other moment (Python would print a traceback
     from inside an import; Blender's own handler ignores the first Ctrl-C)."""
     global _early, _owns_process
+    host_break = None
+    if signal.getsignal(signal.SIGINT) is None:  # installed from C: Blender's own, read before ours
+        from .host_break import break_flag_reader
+
+        host_break = break_flag_reader()
     try:
         _early = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     except ValueError:  # not the main thread
         return
     _owns_process = True
     enter()
+    if host_break is not None:  # a Ctrl-C while Blender started, which its handler only noted
+        watch_host_break(host_break)
+        check_host_break()
     pause_here("starting", until=signal_pending)
 
 
@@ -99,6 +109,7 @@ def started() -> None:
     """The command has begun under stopping_on_signals: a signal noted since
     defer_until_dispatch() is raised here, inside the command's error handling."""
     global _early
+    check_host_break()
     if _early is not None:
         _early = None
         leave()

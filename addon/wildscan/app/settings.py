@@ -173,6 +173,9 @@ SETTINGS: dict[str, Setting] = {
     "wind_seed": Setting("--wind-seed"),
     "bag": Setting("--bag"),
     "ros2_storage": Setting("--ros2-storage"),
+    "imu": Setting("--imu"),
+    "imu_rate": Setting("--imu-rate"),
+    "imu_noise": Setting("--imu-noise"),
     # outputs
     "out": Setting("--out", "File"),
     "format": Setting("--format", "Format"),

@@ -117,6 +117,7 @@ def open_dataset(root: Path) -> LearnDataset:
             f"{root} is not a WildScan dataset (no dataset.json): make one with `wildscan dataset`"
         )
     spec = data["spec"]
+    _check_finished(root, data)
     if "semantickitti" not in spec["formats"]:
         raise UserError(
             f"{root}: the learn suite reads SemanticKITTI scans, and this dataset's formats are "
@@ -128,6 +129,22 @@ def open_dataset(root: Path) -> LearnDataset:
     names = {xid: s.labels[raw] for xid, raw in tables["learning_map_inv"].items()}
     rows = tuple(r for r in Manifest.load(root).ok_rows())
     return LearnDataset(root, dict(tables["learning_map"]), ignored, names, rows)
+
+
+def _check_finished(root: Path, data: dict) -> None:
+    """A dataset being written, or stopped part-way (`--limit`, Ctrl-C), is refused: its
+    splits would be measured on whatever scans happen to be there."""
+    from ..app.dataset.lock import refuse_while_written
+
+    refuse_while_written(root, "measure")
+    if not data.get("complete"):
+        totals = data.get("totals", {})
+        done = totals.get("scans_ok", 0) + totals.get("scans_failed", 0)
+        have = f" ({done:,} of {totals['scans_planned']:,} scans)" if "scans_planned" in totals else ""
+        raise UserError(
+            f"{root}: the dataset is incomplete{have}: finish it first (the same `wildscan dataset` "
+            "command continues it), then measure it"
+        )
 
 
 def _velodyne(row: dict) -> tuple[str, str]:

@@ -12,24 +12,28 @@ stderr saying which files it had completed (those stay; no temporary or partial 
 
 from __future__ import annotations
 
-import argparse
 import os
-import shlex
 import sys
 
-from ..app import interrupts
-
-# Before the slow imports below (a third of a second): a Ctrl-C from here on ends the run
-# with one line and exit 130, not a traceback from inside an import. Only in the process
-# of the `wildscan` script itself, never in one that imports this module (a test, an IDE).
+# First of all, before any other import (argparse alone takes milliseconds, the rest a third
+# of a second): a Ctrl-C from here on ends the run with one line and exit 130, not a
+# traceback from inside an import. Only in the process of the `wildscan` script itself,
+# never in one that imports this module (a test, an IDE). os and sys are loaded before any
+# script runs; app/interrupts imports only the standard library's signal and contextlib.
 if os.path.splitext(os.path.basename(sys.argv[0]))[0] == "wildscan":
+    from ..app import interrupts
+
     interrupts.defer_until_dispatch()
 
+import argparse  # noqa: E402
+import errno  # noqa: E402
+import shlex  # noqa: E402
 import traceback  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from typing import NamedTuple  # noqa: E402
 
 from .. import __version__  # noqa: E402
+from ..app import interrupts  # noqa: E402
 from ..app.interrupts import EXIT_INTERRUPTED, Interrupted, Terminated, stop_code, stopping_on_signals  # noqa: E402
 from ..app.settings import command_line_message  # noqa: E402
 from ..core.errors import UserError  # noqa: E402
@@ -43,7 +47,8 @@ __all__ = ["EXIT_INTERRUPTED", "blender_main", "build_parser", "main"]
 EPILOG = (
     "Paths: ~ expands in every path option (also in --opt=~/x), names longer than the file system "
     "allows are refused before any work. Exit codes: 0 done, 2 a mistake (one line, nothing written), "
-    "130 Ctrl-C, 143 SIGTERM (one line saying which files were completed; no temporary or partial file)."
+    "130 Ctrl-C, 143 SIGTERM (one line saying which files were completed; no temporary or partial file), "
+    "141 the reader of the output closed the pipe, 1 the output could not be written (e.g. a full disk)."
 )
 
 
@@ -133,6 +138,7 @@ def typed_command(argv: list[str], where: str, in_blender: bool) -> str:
 def stopped_message(stop: BaseException, written: list) -> str:
     """`interrupted; nothing written`, or which files were completed before the signal."""
     what = "terminated" if isinstance(stop, Terminated) else "interrupted"
+    written = list(dict.fromkeys(written))  # a file rewritten (a dataset's bookkeeping) counts once
     if not written:
         return f"{what}; nothing written"
     folders = {p.parent for p in written}
@@ -143,7 +149,47 @@ def stopped_message(stop: BaseException, written: list) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    return dispatch(build_parser(), sys.argv[1:] if argv is None else argv, in_blender=False)
+    argv = sys.argv[1:] if argv is None else argv
+    where = f"wildscan {argv[0]}" if argv and argv[0] in COMMANDS else "wildscan"
+    return with_stdout_checked(lambda: dispatch(build_parser(), argv, in_blender=False), where)
+
+
+EXIT_PIPE_CLOSED = 141  # 128 + SIGPIPE: what a shell reports for a tool the closed pipe stopped
+
+
+def with_stdout_checked(run: Callable[[], int], where: str) -> int:
+    """`run()` with what it printed flushed, for every command in one place: a reader that
+    closed the pipe (`wildscan poses | head -1`) ends the command quietly, as it does a Unix
+    tool; a standard output that cannot take the text (`> /dev/full`) is one line, exit 1."""
+    try:
+        code = run()
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return EXIT_PIPE_CLOSED
+    except OSError as e:
+        if e.errno in (errno.EPIPE, errno.EBADF) or not _is_stdout_error(e):
+            raise
+        _silence_stdout()
+        sys.stderr.write(f"{where}: error: cannot write to standard output: {e.strerror or e}\n")
+        return 1
+
+
+def _is_stdout_error(e: OSError) -> bool:
+    """An error of writing the standard output (Python names no file for it), not of a file."""
+    return e.filename is None and e.errno in (errno.ENOSPC, errno.EIO, errno.EDQUOT, errno.EFBIG)
+
+
+def _silence_stdout() -> None:
+    """Point the standard output at /dev/null, so the interpreter's own flush at exit finds
+    nothing to write into the closed pipe (it would print 'Exception ignored ...')."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
 
 
 def blender_main(command: str) -> int:
@@ -152,8 +198,9 @@ def blender_main(command: str) -> int:
     Blender would print an escaping exception and still exit 0, so a bug ends
     here with its traceback and exit code 1."""
     argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
+    where = f"blender_scripts/{command}.py"
     try:
-        return dispatch(build_blender_parser(command), argv, in_blender=True)
+        return with_stdout_checked(lambda: dispatch(build_blender_parser(command), argv, True), where)
     except Exception:
         traceback.print_exc()
         return 1

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..core.checks import whole_number
+from ..core.checks import decimal, whole_number
 from ..core.errors import UserError
 from . import options
 
@@ -93,7 +93,7 @@ def add_cache_arguments(p: argparse.ArgumentParser) -> None:
 
 def _cache_size(text: str) -> float:
     try:
-        value = float(text)
+        value = decimal(text)
     except ValueError:
         value = float("nan")
     if not 0 < value < float("inf"):
@@ -158,10 +158,12 @@ def _verify(folder: str) -> int:
     for problem in report.problems:
         sys.stderr.write(f"wildscan dataset --verify: {problem}\n")
     state = "complete" if report.complete else f"incomplete ({report.scans:,} of {report.planned:,} scans)"
-    if report.problems:
+    if report.problems:  # never "complete" beside them: the rerun that repairs them says so
         print(
             f"{len(report.problems):,} problems: {report.file_problems:,} of {report.checked:,} files differ "
-            f"from the manifest, {len(report.unlisted):,} files nothing lists; the dataset is {state}"
+            f"from the manifest, {len(report.unlisted):,} files nothing lists; the dataset is incomplete "
+            f"({report.scans:,} of {report.planned:,} scans) until they are repaired (the same "
+            "`wildscan dataset` command repairs them)"
         )
         return 1
     print(

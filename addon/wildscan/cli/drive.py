@@ -8,13 +8,15 @@ import sys
 from ..app.drive.request import MAX_SCANS_3D
 from ..core.checks import whole_number
 from ..core.errors import UserError
+from ..core.motion.imu_models import DEFAULT_IMU, DEFAULT_RATE, IMU_CHOICES, MAX_RATE, MIN_RATE, MODELS
 from ..core.motion.timing import HEAD_MODES
 from ..core.motion.trajectory import DEFAULT_SPEED, MAX_SPEED
 from . import options
 from .options import ArgumentParser, finite_float, non_negative_int
 
 HELP = (
-    "drive the robot along a path while the head turns: timed raw and deskewed clouds, trajectory, ROS bags"
+    "drive the robot along a path while the head turns: timed raw and deskewed clouds, trajectory, IMU, "
+    "ROS bags"
 )
 DESCRIPTION = (
     "Drive the robot at constant speed along the world's trail, through waypoints or straight ahead, "
@@ -22,7 +24,8 @@ DESCRIPTION = (
     "every 25 ms and the head turns r_h per 2D scan. Every beam has its own time and pose. Writes into DIR, "
     "per 3D scan, the raw cloud (as a driver gives it) and the deskewed cloud (every point where it is) as "
     "PLY with a per-point time, a SemanticKITTI sequence of the deskewed scans, the ground-truth trajectory "
-    "(TUM) and ROS 1 / ROS 2 bags (docs/motion.md)."
+    "(TUM), an IMU's samples (imu.csv, /imu), the scans within 3 m of each other (revisits.json) and ROS 1 / "
+    "ROS 2 bags (docs/motion.md)."
 )
 
 
@@ -42,6 +45,38 @@ def scans_count(text: str) -> int:
         return whole_number(text, "", 1, MAX_SCANS_3D)
     except UserError as e:
         raise argparse.ArgumentTypeError(e.message) from None
+
+
+def imu_rate(text: str) -> int:
+    """--imu-rate: the one range the request checks too (core/motion/imu_models.py)."""
+    try:
+        return whole_number(text, "", MIN_RATE, MAX_RATE)
+    except UserError as e:
+        raise argparse.ArgumentTypeError(e.message) from None
+
+
+def add_imu(p: ArgumentParser) -> None:
+    models = ", ".join(f"{name} ({model.title})" for name, model in MODELS.items())
+    p.add_argument(
+        "--imu",
+        choices=IMU_CHOICES,
+        default=DEFAULT_IMU,
+        help=f"the IMU on the robot, its noise and biases from its datasheet: {models}, or none "
+        f"(default {DEFAULT_IMU}): sensor_msgs/Imu on /imu in the bags and DIR/imu.csv",
+    )
+    p.add_argument(
+        "--imu-rate",
+        type=imu_rate,
+        default=DEFAULT_RATE,
+        metavar="HZ",
+        help=f"IMU samples a second, {MIN_RATE} to {MAX_RATE} (default {DEFAULT_RATE})",
+    )
+    p.add_argument(
+        "--imu-noise",
+        choices=("on", "off"),
+        default="on",
+        help="on: the datasheet's white noise and biases (default); off: the exact readings",
+    )
 
 
 def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
@@ -134,6 +169,7 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         default="mcap",
         help="storage of the ROS 2 bag (default mcap)",
     )
+    add_imu(p)
     p.add_argument("--quiet", action="store_true", help="no progress, only the summary")
 
 
@@ -143,6 +179,7 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
 
     same = ("out", "world", "seed", "detail", "trail", "waypoints", "distance", "speed", "scans", "head")
     same += ("frame", "backend", "bag", "ros2_storage", "wind", "wind_seed", "weather", "z_start", "quiet")
+    same += ("imu", "imu_rate", "imu_noise")
     request = DriveRequest(
         **{name: getattr(args, name) for name in same},
         start=tuple(args.start) if args.start is not None else None,
@@ -156,10 +193,13 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
         return e.code
     points = sum(report.points)
     print(
-        f"drove {report.distance:.2f} m in {report.duration:.2f} s: {report.scans_2d:,} 2D scans, "
+        f"drove {report.distance:.2f} m in {report.duration:.2f} s: {report.scans_2d:,} "
+        f"{request.sensor.device.columns_named}, "
         f"{report.scans_3d} 3D scans ({points:,} points); wrote {len(report.files)} files into {report.out} "
         f"in {report.total_seconds:.1f} s"
     )
+    if args.imu != "none":
+        print(f"  imu: {args.imu} at {args.imu_rate} Hz, noise {args.imu_noise} (imu.csv)")
     for flavour, counts in report.bag_counts.items():
         topics = ", ".join(f"{topic} {n:,}" for topic, n in counts.items())
         print(f"  {flavour} bag: {topics}")

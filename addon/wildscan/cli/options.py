@@ -18,7 +18,7 @@ from typing import Any, NamedTuple
 from ..app.poses import DEFAULT_POSES_PER_ZONE, MAX_POSE_COUNT
 from ..app.settings import SETTINGS, command_line_help, flag
 from ..core import sensor as S
-from ..core.checks import whole_number
+from ..core.checks import DECIMAL, decimal, whole_number
 from ..core.errors import UserError
 from ..core.io.files import check_input_file, check_output_path
 from ..core.spatial.frames import FRAMES
@@ -41,9 +41,6 @@ EXIT_USER_ERROR = 2
 # too, ending in "expected 3 arguments" for --pose: anything that starts like a negative
 # number is a value, and its type says what is wrong with it.
 NEGATIVE_NUMBER = re.compile(r"^-(\.?\d|inf(inity)?$|nan$)", re.IGNORECASE)
-# A number as typed on a command line: ASCII digits, a point for decimals. float() alone
-# also takes "1_0", full-width "１.５" and other Unicode digits, which nobody means here.
-DECIMAL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)(e[+-]?\d+)?|[+-]?(inf|infinity|nan)", re.ASCII | re.IGNORECASE)
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -74,7 +71,7 @@ def finite_float(text: str) -> float:
         raise argparse.ArgumentTypeError(
             f"expected a number (digits 0-9, a point for decimals), got {text!r}"
         )
-    value = float(text)
+    value = decimal(text.strip(" "))
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
     return value

@@ -8,6 +8,19 @@ from .errors import UserError
 
 # ASCII digits only: str.isdigit() also accepts "²" and other digits int() refuses.
 _WHOLE = re.compile(r"[0-9]{1,19}")
+# A number as users type it (an option, --weather, a dust region, a waypoints file): ASCII
+# digits, a point for decimals, an optional sign and exponent; inf and nan as words (for the
+# caller to refuse by name). float() alone also takes "1_0", "٣" and full-width "１０".
+DECIMAL = re.compile(r"[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)(e[+-]?[0-9]+)?|[+-]?(inf|infinity|nan)", re.IGNORECASE)
+
+
+def decimal(text) -> float:
+    """User text as a float by the one rule for typed numbers (DECIMAL), surrounding spaces
+    ignored; ValueError for anything else. Every parser of numbers from text uses this."""
+    s = str(text).strip()
+    if not DECIMAL.fullmatch(s):
+        raise ValueError(f"not a number of ASCII digits: {s!r}")
+    return float(s)
 
 
 def whole_number(text, setting: str, low: int, high: int) -> int:

@@ -53,5 +53,19 @@ class UserError(Exception):
         return self.phrase(str)
 
 
+QUOTED_CHARS = 80  # the most of one user value an error message quotes
+
+
+def shortened(value, limit: int = QUOTED_CHARS) -> str:
+    """A user's value as a one-line message quotes it: whole when short, else its start and
+    end around an ellipsis, with its size (a 100,000-beam list is not a line)."""
+    text = str(value)
+    if len(text) <= limit:
+        return text
+    head = limit * 2 // 3
+    size = f"{len(value):,} values" if isinstance(value, (list, tuple)) else f"{len(text):,} characters"
+    return f"{text[:head]}…{text[head - limit + 1 :]} ({size})"
+
+
 class PoseRejected(UserError):
     """The placement lasers say the structure cannot stand at this pose."""

@@ -4,9 +4,10 @@ default to the device's own and are checked against it (its sweep, its longest r
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
-from ...core.errors import UserError
+from ...core.errors import UserError, shortened
 from ...core.rng import stage_rng
 from ...core.sensors import DEFAULT_DEVICE, Device, SensorConfig, device_choice
 
@@ -22,7 +23,7 @@ def spec_device(value, where: str) -> str | tuple[str, ...]:
     allowed = 'a preset name or device file "NAME.toml", or a list of them (one drawn per scan)'
     names = value if isinstance(value, list) else [value]
     if not names or not all(isinstance(n, str) and n.strip() for n in names):
-        raise UserError(f"{where}: sensor.device must be {allowed}, got {value!r}")
+        raise UserError(f"{where}: sensor.device must be {allowed}, got {shortened(repr(value))}")
     out = []
     for name in names:
         if name.lower().endswith(".toml"):
@@ -33,6 +34,27 @@ def spec_device(value, where: str) -> str | tuple[str, ...]:
             raise UserError(f"{where}: sensor.device {e.message if e.setting == 'device' else e}") from None
         out.append(name)
     return out[0] if not isinstance(value, list) else tuple(out)
+
+
+def device_files(device: str | tuple[str, ...]) -> dict[str, str]:
+    """Path -> SHA-256 of the contents of every device file the spec names (presets are part
+    of the WildScan version); a file that cannot be read any more is a UserError."""
+    out = {}
+    for name in device if isinstance(device, tuple) else (device,):
+        if name.lower().endswith(".toml"):
+            try:
+                out[name] = hashlib.sha256(Path(name).read_bytes()).hexdigest()
+            except OSError as e:
+                raise UserError(f"cannot read the device file {name}: {e.strerror or e}") from None
+    return out
+
+
+def with_device_files(config: dict, device: str | tuple[str, ...]) -> dict:
+    """`config` (what a config hash covers) with the device files' contents: an edited file is
+    another sensor, so a run resuming with it is refused as for any other change. A spec of
+    presets only (part of the WildScan version) keeps the hash it had before files counted."""
+    files = device_files(device)
+    return {**config, "device_files": files} if files else config
 
 
 def is_default(device: str | tuple[str, ...]) -> bool:
@@ -51,7 +73,8 @@ def device_values(data: dict, where: str, device: str | tuple[str, ...]) -> dict
         if not ok or (ranged and value[0] > value[1]):
             what = "a number" if key == "rh" else "a number or a range [lo, hi] (lo <= hi)"
             raise UserError(
-                f"{where}: sensor.{key} must be {what} (the device's own when absent), got {value!r}"
+                f"{where}: sensor.{key} must be {what} (the device's own when absent), "
+                f"got {shortened(repr(value))}"
             )
         values[key] = tuple(float(v) for v in value) if ranged else (None if value is None else float(value))
     for name in device if isinstance(device, tuple) else (device,):

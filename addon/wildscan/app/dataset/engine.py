@@ -162,8 +162,11 @@ class Engine:
             except _LOST as e:  # Dask cancels every future when the client loses its scheduler
                 raise self._lost(e) from None
             for f in done:
-                on_batch(futures[f], self._result(f, futures[f]))
+                result = self._result(f, futures[f])
+                on_batch(futures[f], result)  # a batch cut short records its whole scans first
                 f.release()
+                if "failure" in result:
+                    raise UserError(result["failure"])
             on_poll()
 
     def _lost(self, error: BaseException) -> RunFailed:

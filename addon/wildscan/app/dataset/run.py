@@ -10,7 +10,6 @@ the bytes one uninterrupted run would have written.
 
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import os
 import signal
@@ -20,18 +19,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ...core.class_weights import class_weights, learning_counts, weights_json
-from ...core.errors import UserError
+from ...core.errors import UserError, shortened
 from ...core.io import semantickitti as sk
 from ...core.io.files import atomic_outputs, output_directory, write_durably
 from ...core.label_schemes import scheme
+from ...core.runtime.pause import pause_here
+from ...core.runtime.signals import deferred, on_signal, signal_pending
 from ..cache.config import count_worlds
 from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
 from .cluster import RunFailed, probe_scheduler
 from .engine import Batch, Engine, make_batches
-from .layout import LABELS_YAML, LOCK, WEIGHTS_JSON, remove_temp_files, sequence_files
+from .layout import LABELS_YAML, WEIGHTS_JSON, remove_temp_files, sequence_files
+from .lock import lock, unlock
 from .manifest import Manifest, broken_rows
 from .progress import ScanProgress
+from .revisits import REVISITS_JSON, revisits_text
 from .spec import DatasetSpec
 
 
@@ -56,29 +59,11 @@ class RunReport:
     world_sources: dict[int, str] = field(default_factory=dict)  # seed -> "built" / "cache"
     started: float = 0.0  # wall clock when the engine began (timeline.py)
     tasks: list[tuple[int, float, float]] = field(default_factory=list)  # (pid, start, end) per task
+    scans: list[tuple[str, int]] = field(default_factory=list)  # (sequence, scan) this run wrote, in order
 
 
 # ---------------------------------------------------------------------------------------
 # the output folder
-
-
-def lock(root: Path) -> int:
-    """An exclusive lock on the folder for this run (released by the OS if the run dies)."""
-    fd = os.open(root / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        os.close(fd)
-        raise UserError(f"--out {root}: another wildscan dataset run is writing into it") from None
-    return fd
-
-
-def unlock(root: Path, fd: int) -> None:
-    try:
-        os.unlink(root / LOCK)
-    except OSError:
-        pass
-    os.close(fd)
 
 
 def check_same_spec(root: Path, existing: dict | None, manifest: Manifest, spec: DatasetSpec) -> None:
@@ -86,6 +71,13 @@ def check_same_spec(root: Path, existing: dict | None, manifest: Manifest, spec:
     hashes = {r["config_hash"] for r in manifest.rows.values()} | (
         {existing["config_hash"]} if existing else set()
     )
+    changed = _changed_device_files(existing, spec)
+    if hashes - {wanted} and changed:
+        raise UserError(
+            f"--out {root} was begun with other contents of the device file {changed[0]} (edited since "
+            "the dataset's first scans: its scans would mix two sensors); put the file back as it was, "
+            "or give another --out for the new sensor"
+        )
     if hashes - {wanted}:
         raise UserError(
             f"--out {root} holds a dataset of another spec or WildScan version (config hash "
@@ -97,6 +89,21 @@ def check_same_spec(root: Path, existing: dict | None, manifest: Manifest, spec:
             raise UserError(
                 f"--out {root} is not empty and holds no WildScan dataset (it has {strays[0]}, ...)"
             )
+
+
+def spec_device_files(spec: DatasetSpec) -> dict[str, str]:
+    from .devices import device_files
+
+    return device_files(spec.sensor.device)
+
+
+def _changed_device_files(existing: dict | None, spec: DatasetSpec) -> list[str]:
+    """The device files whose contents differ from the run that began the dataset (the same
+    spec otherwise), so the refusal can name the file rather than a hash."""
+    if not existing or existing.get("spec") != spec.to_dict() or "device_files" not in existing:
+        return []
+    was, now = existing["device_files"], spec_device_files(spec)
+    return sorted(path for path in now if was.get(path) != now[path])
 
 
 # ---------------------------------------------------------------------------------------
@@ -142,6 +149,7 @@ class _State:
             "format": card.FORMAT,
             "config_hash": spec.config_hash(),
             "spec": spec.to_dict(),
+            **({"device_files": files} if (files := spec_device_files(spec)) else {}),
             "versions": card.versions(),
             "sequences": [
                 {"sequence": spec.sequence_of(s), "seed": s, "split": splits[s]} for s in spec.seeds
@@ -174,12 +182,22 @@ def run_dataset(
     worlds in (app/cache/config.py cache_config; None: none)."""
     if scheduler:  # before anything is written: a wrong address is the user's to fix
         probe_scheduler(scheduler)
+    _check_finishable(spec)
     root = output_directory(out, "--out")
     fd = lock(root)
     try:
         return _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn or _warn, cache)
     finally:
         unlock(root, fd)
+
+
+def _check_finishable(spec: DatasetSpec) -> None:
+    """What finalize derives from the spec alone (labels.yaml's projection over every device
+    the spec may draw), derived before any scan: a spec it cannot describe fails now, not
+    after its last scan."""
+    from .projection import dataset_projection
+
+    dataset_projection(spec)
 
 
 def _warn(text: str) -> None:
@@ -205,14 +223,17 @@ def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn, cache=N
         state.files = dict(existing.get("files", {}))
         state.runs = list(existing.get("runs", []))
     pending = _pending(spec, manifest, limit)
-    state.save()  # complete: false until finalize has written the card
     report = RunReport(
         root, len(spec.seeds) * spec.scans_per_world, 0, 0, 0, 0.0, False, _engine_name(workers, scheduler)
     )
     report.before = len(manifest.rows)
-    engine = Engine(workers, scheduler, cache=cache)
-    stop = _run_engine(state, pending, engine, quiet, report, warn) if any(pending.values()) else None
-    _finish(state, report, stop)
+    try:
+        state.save()  # complete: false until finalize has written the card
+        engine = Engine(workers, scheduler, cache=cache)
+        stop = _run_engine(state, pending, engine, quiet, report, warn) if any(pending.values()) else None
+        _finish(state, report, stop)
+    except (KeyboardInterrupt, Terminated) as signal_:  # one landing between the steps above
+        raise _stopped(STOPPED[type(signal_)], state, report) from None
     return report
 
 
@@ -243,6 +264,8 @@ def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport
     def on_batch(batch: Batch, result: dict) -> None:
         for row in result["rows"]:
             state.manifest.add(row)
+            if row["status"] == "ok":
+                report.scans.append((row["sequence"], int(row["scan"])))
         state.manifest.write()
         report.written += len(result["rows"])
         report.without_pose += sum(1 for row in result["rows"] if row["status"] != "ok")
@@ -299,31 +322,84 @@ def _finish(state: _State, report: RunReport, stop: tuple[str, int] | None) -> N
         finalize(state, report)
     except (KeyboardInterrupt, Terminated) as signal_:
         stop = stop or STOPPED[type(signal_)]
+    except (UserError, RunFailed):
+        raise
+    except Exception as e:  # a bug: one line saying what is safe (the scans), not a traceback
+        raise RunFailed(
+            f"finishing the dataset (labels.yaml, weights.json, the card) failed: {type(e).__name__}: "
+            f"{shortened(str(e))}; {_written_text(state, report)}, all kept. This is a bug in WildScan: "
+            "please report this line"
+        ) from e
     if stop is not None:
-        raise Interrupted(
-            f"{stop[0]}: {_written_text(state, report)}; the same command finishes the job", stop[1]
-        )
+        raise _stopped(stop, state, report)
+
+
+def _stopped(stop: tuple[str, int], state: _State, report: RunReport) -> Interrupted:
+    """What a stopped run says: the scans it completed (counted and named), never the
+    bookkeeping files it rewrote."""
+    return Interrupted(
+        f"{stop[0]}: {_written_text(state, report)}; the same command finishes the job", stop[1]
+    )
 
 
 def _stop_engine(engine: Engine, progress: ScanProgress, state: _State, previous) -> None:
-    engine.close()
-    progress.close()
-    signal.signal(signal.SIGTERM, previous)
-    # The local workers are gone, and remote ones lost their scheduler: a temporary file is
-    # debris (a remote worker still finishing a scan renames its own or, finding it gone,
-    # drops the scan: atomic_outputs).
-    remove_temp_files(state.root)
+    """Close the cluster and remove debris whatever happens: a second Ctrl-C (a user who
+    pressed twice) is noted and raised once this is done, never left to cut it short."""
+    signal.signal(signal.SIGTERM, on_signal)  # deferred below like SIGINT (cli.dispatch's)
+    try:
+        with deferred():
+            pause_here("stopping", until=signal_pending)
+            engine.close()
+            progress.close()
+            # The local workers are gone, and remote ones lost their scheduler: a temporary
+            # file is debris (a remote worker still finishing a scan renames its own or,
+            # finding it gone, drops the scan: atomic_outputs).
+            remove_temp_files(state.root)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _written_text(state: _State, report: RunReport) -> str:
     """What the manifest holds and where it came from (this run, or runs before it)."""
     rows = len(state.manifest.rows)
-    parts = [f"{report.written - report.without_pose:,} written by this run"]
+    named = f": {scan_names(report.scans)}" if report.scans else ""
+    parts = [f"{report.written - report.without_pose:,} written by this run{named}"]
     if report.without_pose:
         parts.append(f"{report.without_pose:,} more without a valid pose")
     if report.before:
         parts.append(f"{report.before:,} from before")
     return f"{rows:,} of {report.planned:,} scans in the manifest ({', '.join(parts)})"
+
+
+SEQUENCES_NAMED = 3  # in a stop message; the rest are counted
+
+
+def scan_names(keys: list[tuple[str, int]]) -> str:
+    """ "sequence 00 scans 0-3 and 5, sequence 01 scan 2": the scans by sequence, runs of
+    numbers joined, the first SEQUENCES_NAMED sequences named and the rest counted."""
+    by_sequence: dict[str, list[int]] = {}
+    for seq, scan in sorted(set(keys)):
+        by_sequence.setdefault(seq, []).append(scan)
+    parts = [
+        f"sequence {seq} {_numbers(scans)}" for seq, scans in list(by_sequence.items())[:SEQUENCES_NAMED]
+    ]
+    rest = sum(len(s) for s in list(by_sequence.values())[SEQUENCES_NAMED:])
+    if rest:
+        more = len(by_sequence) - SEQUENCES_NAMED
+        parts.append(f"{rest:,} more in {more:,} more sequence{'s' if more > 1 else ''}")
+    return ", ".join(parts)
+
+
+def _numbers(scans: list[int]) -> str:
+    runs: list[list[int]] = []
+    for n in scans:
+        if runs and n == runs[-1][-1] + 1:
+            runs[-1].append(n)
+        else:
+            runs.append([n])
+    words = [f"{r[0]}-{r[-1]}" if len(r) > 1 else f"{r[0]}" for r in runs]
+    joined = ", ".join(words[:-1]) + f" and {words[-1]}" if len(words) > 1 else words[0]
+    return f"scan{'s' if len(scans) > 1 else ''} {joined}"
 
 
 def _run_record(report: RunReport) -> dict:
@@ -345,6 +421,8 @@ def finalize(state: _State, report: RunReport) -> None:
     spec = state.spec
     for seed in spec.seeds:  # written again each time: cheap, and repairs a changed one
         state.write_sequence_files(seed)
+    worlds = {spec.sequence_of(seed): state.world_rows(seed) for seed in spec.seeds}
+    state.write_text(REVISITS_JSON, revisits_text({k: v for k, v in worlds.items() if v is not None}))
     complete = all(state.world_rows(seed) is not None for seed in spec.seeds)
     totals = card.totals(spec, state.manifest)
     counts = _learning_counts(spec, totals)

@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass, field, replace
 from ... import __version__
 from ...core import sensor as S
 from ...core.classes import TAG_NAMES
-from ...core.errors import UserError
+from ...core.errors import UserError, shortened
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
@@ -44,6 +44,8 @@ DEFAULT_ZONE_WEIGHTS = (
     ("trail", 1.0),
 )
 Value = float | tuple[float, float]
+TOP_KEYS = ("seeds", "detail", "vegetation", "biome", "scans_per_world", "formats", "label_scheme")
+TOP_KEYS += ("split", "poses", "sensor", "weather", "intensity")
 
 
 @dataclass(frozen=True)
@@ -100,9 +102,12 @@ class DatasetSpec:
         return out
 
     def config_hash(self) -> str:
-        """SHA-256 of the spec with every default filled in and the WildScan version."""
-        text = json.dumps({"spec": self.to_dict(), "wildscan": __version__}, sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()
+        """SHA-256 of the spec with every default filled in, the WildScan version and the
+        contents of its device files (app/dataset/devices.py with_device_files)."""
+        from .devices import with_device_files
+
+        config = with_device_files({"spec": self.to_dict(), "wildscan": __version__}, self.sensor.device)
+        return hashlib.sha256(json.dumps(config, sort_keys=True).encode()).hexdigest()
 
     def sequence_of(self, seed: int) -> str:
         return f"{self.seeds.index(seed):02d}"
@@ -169,20 +174,7 @@ def load_spec(path) -> DatasetSpec:
 
 def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
     top = _Table(data, "", where)
-    top.only(
-        "seeds",
-        "detail",
-        "vegetation",
-        "biome",
-        "scans_per_world",
-        "formats",
-        "label_scheme",
-        "split",
-        "poses",
-        "sensor",
-        "weather",
-        "intensity",
-    )
+    top.only(*TOP_KEYS)
     d = DatasetSpec()
     spec = replace(
         d,
@@ -274,9 +266,9 @@ class _Table:
 
 
 def _show(value) -> str:
-    if isinstance(value, (str, list, dict, bool)):
-        return json.dumps(value, ensure_ascii=False)  # "²..³" as written, not escaped
-    return repr(value)
+    if isinstance(value, (str, list, dict, bool)):  # "²..³" as written, not escaped
+        return shortened(json.dumps(value, ensure_ascii=False))
+    return shortened(repr(value))
 
 
 def _is_int(v) -> bool:

@@ -17,6 +17,7 @@ from ...core.errors import UserError
 from ...core.io.files import user_path
 from . import card
 from .layout import CARD, CARD_FIGURES, DATASET_JSON, LOCK, MANIFEST, TEMP_NAME
+from .lock import refuse_while_written
 from .manifest import Manifest, check_files
 
 MISSING_SHOWN = 3  # missing scans named in the line that counts them
@@ -36,6 +37,7 @@ class VerifyReport:
 
 def verify_dataset(out) -> VerifyReport:
     root = user_path(out, "verify", "a directory name")
+    refuse_while_written(root, "verify")
     data = card.read_dataset_json(root) if root.is_dir() else None
     if data is None:
         raise UserError(f"--verify {root}: no WildScan dataset there (no dataset.json)")
@@ -54,7 +56,7 @@ def verify_dataset(out) -> VerifyReport:
         file_problems + rows + card_problems + [_unlisted_line(root, rel, says_complete) for rel in unlisted]
     )
     scans = sum(1 for k in manifest.rows if k in planned_keys)
-    complete = says_complete and not missing and not card_problems
+    complete = says_complete and not problems  # a problem of any kind: not a complete dataset
     return VerifyReport(
         root, len(records), problems, scans, len(planned_keys), complete, len(file_problems), unlisted
     )

@@ -232,17 +232,23 @@ def scan_batch(
     disk = open_cache(cache)
     context = world_context(spec, seed, disk)
     build = 0.0 if cached else context.build_seconds
-    rows = []
+    rows, failure = [], None
     before = CLOCK.reading()
     for index in indices:
-        with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
-            rows.append(scan_one(spec, context, root, index))
+        try:
+            with CLOCK.scan():  # a dataset's scan: everything scan_one does (core/cast_clock.py)
+                rows.append(scan_one(spec, context, root, index))
+        except UserError as e:  # a full disk: the scans written before it are whole, so recorded
+            if not rows:
+                raise
+            failure = str(e)
+            break
         _tick(topic, label)
     source = "memory" if cached else "cache" if context.from_cache else "built"
     spent = CLOCK.reading() - before
     facts = _worker_facts(build) | world_facts(source, disk)
     facts |= {"scan_seconds": spent.scans, "cast_seconds": spent.cast, "task": [started, time.time()]}
-    return {"rows": rows, "worker": facts}
+    return {"rows": rows, "worker": facts} | ({"failure": failure} if failure else {})
 
 
 def _tick(topic: str, label: str) -> None:

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...core import detmath as dm
 from ...core.errors import UserError
-from ...core.io.rosbag import BASE_LINK, LASER, ODOM, SENSOR, DriveBag, point_records
+from ...core.io.rosbag import BASE_LINK, IMU, LASER, ODOM, SENSOR, DriveBag, point_records
 from ...core.motion.placements import Motion
 from ...core.motion.sweep import Sweep
 from ...core.placement import COLUMN_HEIGHT
@@ -26,10 +26,10 @@ LASER_AXES = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
 IDENTITY_Q = (0.0, 0.0, 0.0, 1.0)
 
 
-def open_bags(stack: ExitStack, stage, flavours, ros2_storage: str) -> list[DriveBag]:
+def open_bags(stack: ExitStack, stage, flavours, ros2_storage: str, imu: bool = False) -> list[DriveBag]:
     """The bags asked for, open in the staging folder, closed by `stack`."""
     return [
-        stack.enter_context(DriveBag(stage.path(BAG_NAMES[flavour]), flavour, ros2_storage))
+        stack.enter_context(DriveBag(stage.path(BAG_NAMES[flavour]), flavour, ros2_storage, imu))
         for flavour in flavours
     ]
 
@@ -65,10 +65,11 @@ def _fan(device: Device) -> tuple[float, float]:
 class BagFeed:
     """Everything the bags say about a drive, precomputed once for all its 2D scans."""
 
-    def __init__(self, bags: list[DriveBag], motion: Motion, sensor: SensorConfig):
+    def __init__(self, bags: list[DriveBag], motion: Motion, sensor: SensorConfig, imu=None):
         self.bags = bags
         self.motion = motion
         self.sensor = sensor
+        self.imu = imu  # app/drive/imu.py DriveImu, or None
         # a 2D scanner's columns are LaserScans on a turning laser frame; a multi-beam lidar's
         # are not (its bags carry tf, odometry and the PointCloud2s only)
         self.geometry = scan_geometry(sensor) if bags and is_2d_scanner(sensor.device) else None
@@ -86,11 +87,15 @@ class BagFeed:
         self.angular = motion.step / timing.column_period_s
 
     def static(self) -> None:
+        transforms = [(BASE_LINK, SENSOR, (0.0, 0.0, COLUMN_HEIGHT), IDENTITY_Q)]
+        if self.imu is not None:
+            transforms.append((BASE_LINK, IMU, *self.imu.static_transform()))
         for bag in self.bags:
-            bag.tf(0, [(BASE_LINK, SENSOR, (0.0, 0.0, COLUMN_HEIGHT), IDENTITY_Q)], static=True)
+            bag.tf(0, transforms, static=True)
 
-    def scans(self, result: Sweep) -> None:
-        """tf, odometry and LaserScan of each 2D scan of a sweep, in time order."""
+    def scans(self, result: Sweep, last: bool = False) -> None:
+        """tf, odometry and LaserScan of each 2D scan of a sweep, and the IMU's samples of its
+        stretch of time (to the drive's end when `last`), in time order."""
         returns = result.returns
         ranges = np.where(returns.keep, returns.range, np.inf)
         ranges[~returns.keep & np.isfinite(returns.range) & (returns.range < self.sensor.min_range)] = -np.inf
@@ -105,8 +110,11 @@ class BagFeed:
         poses = (np.stack(translations, axis=1), np.stack(rotations, axis=1))
         odometry = (self.motion.ground[ks], self.q_base[ks], self.linear[ks], self.angular[ks])
         laser = (ranges.reshape(len(ks), -1), intensities.reshape(len(ks), -1))
+        imu = None
+        if self.imu is not None:
+            imu = self.imu.window(result.k0 * self.ns_per_scan, result.k1 * self.ns_per_scan, last)
         for bag in self.bags:
-            bag.scans(ks * self.ns_per_scan, frames, poses, odometry, self.geometry, laser)
+            bag.scans(ks * self.ns_per_scan, frames, poses, odometry, self.geometry, laser, imu)
 
     def clouds(self, result: Sweep) -> None:
         """The raw and the deskewed cloud of a 3D scan, stamped at its first beam and recorded

@@ -2,6 +2,8 @@
 
     DIR/drive.json                       what was asked, what came out (every file listed)
     DIR/trajectory.tum                   the sensor's true pose at the start of every 2D scan
+    DIR/imu.csv                          the IMU's samples (EuRoC columns; with an IMU)
+    DIR/revisits.json                    pairs of 3D scans within 3 m, and the rule for negatives
     DIR/raw/NNNNNN.ply, .json            per 3D scan: the raw cloud and its sidecar
     DIR/deskewed/NNNNNN.ply, .json       per 3D scan: the deskewed cloud and its sidecar
     DIR/sequences/00/velodyne/NNNNNN.bin SemanticKITTI: the deskewed scans, their labels,
@@ -35,6 +37,7 @@ from ...core.io.writer import ScanOutput
 
 DRIVE_JSON = "drive.json"
 TRAJECTORY = "trajectory.tum"
+REVISITS_JSON = "revisits.json"
 SEQUENCE = "sequences/00"
 STAGING = re.compile(r"^\.wildscan-drive\.tmp-(\d+)$")
 
@@ -188,9 +191,11 @@ def stage_format(stage: Staging, name: str, scan: ScanOutput, paths: dict[str, s
         stage.write(paths[kind], data)
 
 
-def kitti_sequence(stage: Staging, pose_matrices: list[np.ndarray], start_times: list[float]) -> None:
+def kitti_sequence(
+    stage: Staging, pose_matrices: list[np.ndarray], start_times: list[float], imu_to_velo=None
+) -> None:
     stage.write(f"{SEQUENCE}/poses.txt", sk.poses_text(pose_matrices).encode())
-    stage.write(f"{SEQUENCE}/calib.txt", sk.calib_text().encode())
+    stage.write(f"{SEQUENCE}/calib.txt", sk.calib_text(imu_to_velo).encode())
     stage.write(f"{SEQUENCE}/times.txt", "".join(f"{t:.6e}\n" for t in start_times).encode())
 
 

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 from ...core.checks import one_of, whole_number
 from ...core.errors import UserError
+from ...core.motion.imu_models import DEFAULT_IMU, DEFAULT_RATE, check_imu, check_rate
 from ...core.motion.timing import check_head
 from ...core.motion.trajectory import DEFAULT_SPEED, check_speed
 from ...core.placement import check_z_start
@@ -15,6 +16,7 @@ from ...core.spatial.frames import check_frame
 from ...core.world import DEFAULT_VEGETATION, check_vegetation
 
 BAGS = ("both", "ros1", "ros2", "none")
+IMU_NOISE = ("on", "off")
 ROS2_STORAGES = ("mcap", "sqlite3")
 DRIVE_BACKENDS = ("auto", "embree", "bvh")  # they cast against triangles: one crop for the whole path
 MAX_WIND_DEG = 10.0
@@ -44,6 +46,9 @@ class DriveRequest:
     wind_seed: int = 0
     weather: dict | None = None  # key -> value (core/effects/weather.py); None or {}: clear air
     z_start: float | None = None  # where the placement lasers start (under a roof), or probed
+    imu: str = DEFAULT_IMU  # an IMU model (core/motion/imu_models.py) or "none"
+    imu_rate: int = DEFAULT_RATE  # Hz
+    imu_noise: str = "on"  # "off": the exact readings
     quiet: bool = False  # no progress, nor Blender's "Read blend" line
 
     @property
@@ -80,6 +85,9 @@ class DriveRequest:
         one_of(self.backend, "backend", DRIVE_BACKENDS)
         one_of(self.bag, "bag", BAGS)
         one_of(self.ros2_storage, "ros2_storage", ROS2_STORAGES)
+        check_imu(self.imu)
+        check_rate(self.imu_rate)
+        one_of(self.imu_noise, "imu_noise", IMU_NOISE)
         if not math.isfinite(self.wind) or not 0 <= self.wind <= MAX_WIND_DEG:
             raise UserError(
                 f"must be from 0 (no wind) to {MAX_WIND_DEG:g} degrees, got {self.wind:g}",
@@ -112,6 +120,9 @@ class DriveRequest:
             "ros2_storage": self.ros2_storage,
             "wind": self.wind,
             "wind_seed": self.wind_seed,
+            "imu": self.imu,
+            "imu_rate": self.imu_rate,
+            "imu_noise": self.imu_noise,
             **({"weather": dict(self.weather)} if self.weather else {}),  # clear air: the same dict
         }
 

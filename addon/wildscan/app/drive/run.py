@@ -29,11 +29,13 @@ from ...core.rng import seeded
 from ...core.scan import points_in_frame
 from ...core.spatial.reach import check_reach
 from ...core.truth.groundtruth import pose_matrix
+from ...core.truth.revisits import revisits, revisits_document, revisits_json
 from ...raycast.wind import drive_effects, moving_scene
 from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
 from . import files
 from .bags import BagFeed, open_bags
+from .imu import IMU_CSV, drive_imu
 from .memory import keep_freed_memory
 from .request import DriveRequest
 from .world import drive_path, drive_world
@@ -77,7 +79,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
     path = path or drive_path(request, world.trail)
     sensor = request.sensor
     period = sensor.device.timing.column_period_s
-    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period)
+    plan = schedule(path, request.speed, sensor.sweeps, request.scans, period, sensor.device.columns_named)
     clock.lap("world")
 
     times, xy, yaw = instants(path, request.speed, plan.scans_2d + 1, period)
@@ -88,17 +90,29 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
         effects = Effects(effects.items + scan_effects(request.weather, sensor, world.cover).items)
     backend = _backend(request, effects, world.crop(xy, crop_radius(sensor)), say)
     clock.lap("crop")
-    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start)
+    starts = range(0, plan.scans_2d, plan.sweeps)  # the 3D scans' first 2D scans: their metadata
+    motion = place_all(backend, times, xy, yaw, request.speed * times, request.z_start, keep=starts)
     check_reach(motion.centre, sensor.max_range, request.frame, backend.name)
     clock.lap("placement")
+    imu = drive_imu(
+        motion,
+        sensor.device.timing.column_period_ns,
+        plan.scans_2d,
+        request.imu,
+        request.imu_rate,
+        request.imu_noise == "on",
+        int(sensor.noise_seed),
+    )
+    clock.lap("imu")
 
     from ...core.io.files import output_directory
 
-    context = _Context(request, world.provenance, motion, world.instances, backend)
+    context = _Context(request, world.provenance, motion, world.instances, backend, imu)
     stage = files.Staging(output_directory(request.out))
     try:
         with ExitStack() as bags:
-            feed = BagFeed(open_bags(bags, stage, request.bags, request.ros2_storage), motion, sensor)
+            opened = open_bags(bags, stage, request.bags, request.ros2_storage, imu is not None)
+            feed = BagFeed(opened, motion, sensor, imu)
             feed.static()
             counter = _Rays(progress, plan.scans_2d * sensor.beams_per_column)
             points = []
@@ -111,7 +125,7 @@ def _drive(request: DriveRequest, progress, say) -> DriveReport:
                 whole = k1 - k0 == plan.sweeps
                 if whole:
                     points.append(context.write_scan(stage, k0 // plan.sweeps, result))
-                feed.scans(result)
+                feed.scans(result, last=k1 == plan.scans_2d)
                 if whole:
                     feed.clouds(result)
                 clock.lap("write")
@@ -156,9 +170,16 @@ class _Context:
     """What every file of one drive shares, and writing them."""
 
     def __init__(
-        self, request: DriveRequest, provenance: dict, motion: Motion, instances, backend: RayBackend
+        self,
+        request: DriveRequest,
+        provenance: dict,
+        motion: Motion,
+        instances,
+        backend: RayBackend,
+        imu=None,
     ):
         self.request = request
+        self.imu = imu
         self.provenance = provenance
         self.motion = motion
         self.world_instances = np.unique(np.asarray(instances))
@@ -169,6 +190,7 @@ class _Context:
         self._rng = seeded(int(request.sensor.noise_seed)) if sigma > 0 else None
         self.pose_matrices: list[np.ndarray] = []
         self.start_times: list[float] = []
+        self.start_centres: list[np.ndarray] = []  # each 3D scan's optical centre at its start
         self.scans: list[dict] = []
         self.class_points = np.zeros(max(self.labels.labels) + 1)
 
@@ -179,7 +201,7 @@ class _Context:
         return self.request.sensor.fixed_noise * self._rng.standard_normal(count)
 
     def metadata(self, index: int, result: Sweep, cloud: str) -> dict:
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         request = self.request
         return {
             "wildscan_version": __version__,
@@ -206,7 +228,7 @@ class _Context:
     def write_scan(self, stage: files.Staging, index: int, result: Sweep) -> int:
         """The raw and deskewed PLY files of 3D scan `index` and its SemanticKITTI files
         (the format table's writers, core/io/formats.py)."""
-        start = self.motion.placements[result.k0]
+        start = self.motion.placement(result.k0)
         paths = files.scan_files(index)
         frame = self.request.frame
         clouds = {}
@@ -222,6 +244,7 @@ class _Context:
         self.class_points += np.bincount(self.labels.map(deskewed.label), minlength=len(self.class_points))
         self.pose_matrices.append(pose_matrix(start, frame))
         self.start_times.append(float(self.motion.times[result.k0]))
+        self.start_centres.append(self.motion.centre[result.k0])
         self.scans.append(
             {
                 "scan": index,
@@ -242,7 +265,14 @@ class _Context:
         comment = "WildScan drive: the sensor (optical centre, sensor frame) in the world frame, per 2D scan"
         tum = tum_text(motion.times[:count], motion.centre[:count], motion.rotation[:count], comment)
         stage.write(files.TRAJECTORY, tum.encode())
-        files.kitti_sequence(stage, self.pose_matrices, self.start_times)
+        # the IMU's extrinsics to the scans' frame: fixed in the sensor frame only
+        imu_to_velo = (
+            self.imu.sensor_from_imu() if self.imu is not None and self.request.frame == "sensor" else None
+        )
+        files.kitti_sequence(stage, self.pose_matrices, self.start_times, imu_to_velo)
+        if self.imu is not None:
+            stage.write(IMU_CSV, self.imu.csv_text().encode())
+        stage.write(files.REVISITS_JSON, revisits_json(self.revisits()).encode())
         total = self.class_points.sum()
         content = {k: float(self.class_points[k] / total) if total else 0.0 for k in self.labels.labels}
         splits = {"train": [0], "valid": [], "test": []}
@@ -263,9 +293,16 @@ class _Context:
             "distance": float(motion.distance[-1]),
             "scans": self.scans,
             "bags": bag_counts,
+            "imu": self.imu.to_dict() if self.imu is not None else None,
             "files": sorted(listed),
         }
         stage.write(files.DRIVE_JSON, files.json_bytes(summary))
+
+    def revisits(self) -> dict:
+        """revisits.json: the 3D scans that see the same place (core/revisits.py)."""
+        xy = np.array(self.start_centres).reshape(-1, 3)[:, :2]
+        ids = "3D scan index: NNNNNN of its files, its line of sequences/00/poses.txt and times.txt"
+        return revisits_document({"00": revisits(xy, self.start_times)}, ids)
 
 
 class _Rays:

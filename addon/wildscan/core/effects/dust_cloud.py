@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..checks import decimal
 from ..errors import UserError
 from . import particles as P
 
@@ -75,7 +76,7 @@ def parse_region(text: str) -> Cylinder:
     parts = [s.strip() for s in str(text).split(",")]
     form = "X,Y,RADIUS[,TOP] in metres (e.g. dust=0.5@12,-3,8)"
     try:
-        numbers = [float(s) for s in parts]
+        numbers = [decimal(s) for s in parts]
     except ValueError:
         numbers = []
     if len(numbers) not in (3, 4) or not all(math.isfinite(v) for v in numbers):

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import detmath as dm
+from ..checks import decimal
 from ..classes import PARTICLE_ID
 from ..errors import UserError
 from ..hits import MISS_CLASS, MISS_INSTANCE, RayHits
@@ -65,12 +66,15 @@ def check_value(key: str, value: object) -> float:
         )
     _, unit, low, high = KEYS[key]
     allowed = f"0 (none) or {low:g} to {high:g} {unit}" if key == "fog" else f"{low:g} to {high:g} {unit}"
-    try:
-        number = float(value)  # type: ignore[arg-type]
+    try:  # typed text by the one rule for numbers (core/checks.py); a spec's TOML numbers as they are
+        number = decimal(value) if isinstance(value, str) else float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         number = math.nan
     if isinstance(value, bool) or not math.isfinite(number):
-        raise UserError(f"{key}={value!r} is not a number; {key} is {allowed}", setting="weather")
+        raise UserError(
+            f"{key}={value!r} is not a number (digits 0-9, a point for decimals); {key} is {allowed}",
+            setting="weather",
+        )
     if number != 0 and not low <= number <= high:
         raise UserError(f"{key}={value!r} is out of range; {key} is {allowed}", setting="weather")
     return number

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..runtime.pause import pause_here
+from ..runtime.signals import check_host_break
 
 DEFAULT_NAME_MAX = 255  # bytes in one file name, where the file system does not say
 # Room kept in a temporary name for what a writer adds to it (Blender saves NAME@, then renames).
@@ -93,10 +94,23 @@ def check_output_path(
     kind of output (a world's, beside a scan named after it) and is not replaced.
     """
     out = user_path(path, setting, f"a file name ending in {suffix}")
+    if _names_a_directory(path):  # resolving drops the slash: "x.npz/" would write x.npz
+        raise UserError(
+            f"{os.fspath(path)}: ends in a slash, which names a directory; "
+            f"give a file name ending in {suffix}",
+            setting=setting,
+        )
     try:
         return _check_output_file(out, suffix, setting, companions, foreign_sidecar_key)
     except OSError as e:  # the OS refuses to even look (a too-long path, a loop): say so, no traceback
         raise UserError(f"{out}: {e.strerror or e}", setting=setting) from None
+
+
+def _names_a_directory(text) -> bool:
+    """Whether a typed path can only be a directory: it ends in a separator (or "/.")."""
+    typed = os.fspath(text)
+    ends = tuple(f"{sep}{dot}" for sep in {"/", os.sep} for dot in ("", ".", ".."))
+    return isinstance(typed, str) and typed.endswith(ends)
 
 
 def _check_output_file(out: Path, suffix, setting, companions, foreign_sidecar_key) -> Path:
@@ -221,6 +235,7 @@ def atomic_outputs(*finals: Path, durable: bool = True):
     try:
         yield temps
         pause_here("writing")
+        check_host_break()  # a Ctrl-C Blender's own handler took: the files are not placed
         with _renaming_in(finals):
             for tmp, final in zip(temps, finals, strict=True):
                 os.replace(tmp, final)
@@ -267,7 +282,17 @@ def _target_of(filename, temps, finals) -> Path:
             return final
     if filename:
         return Path(filename)
-    return finals[0] if len(finals) == 1 else " or ".join(str(f) for f in finals)  # the OS did not say
+    return finals[0] if len(finals) == 1 else group_name(finals)  # the OS did not say which
+
+
+def group_name(finals: tuple[Path, ...]) -> str:
+    """Files written together, named in a few words: "one of the 7 files of 000003 in DIR
+    (velodyne/000003.bin, labels/000003.label, ...)", not seven paths joined by "or"."""
+    folder = Path(os.path.commonpath([str(p.parent) for p in finals]))
+    stems = {p.stem for p in finals}
+    of = f" of {stems.pop()}" if len(stems) == 1 else ""
+    shown = ", ".join(str(p.relative_to(folder)) for p in finals[:2])
+    return f"one of the {len(finals)} files{of} in {folder} ({shown}, ...)"
 
 
 def write_durably(path: Path, write) -> None:

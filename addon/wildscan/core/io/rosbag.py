@@ -9,6 +9,7 @@ Topics (docs/motion.md documents them for users):
     /tf               tf2_msgs/TFMessage      every 2D scan: odom -> base_link, base_link -> laser
     /tf_static        tf2_msgs/TFMessage      once: base_link -> sensor (latched)
     /odom             nav_msgs/Odometry       every 2D scan: base_link in odom, its velocity
+    /imu              sensor_msgs/Imu         every IMU sample (with an IMU), frame `imu`
 
 Every stamp is the simulation clock (the drive starts at 0 s). A cloud is stamped at its
 3D scan's first beam and recorded in the bag when its last 2D scan ends, as a driver
@@ -23,10 +24,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError
-from .rosbag_layout import LASER_SCAN_FIELDS, laser_scan_layout, odometry_layout, tf_layout
+from .rosbag_layout import LASER_SCAN_FIELDS, imu_layout, laser_scan_layout, odometry_layout, tf_layout
 
 ROS2_STORAGES = ("mcap", "sqlite3")
-ODOM, BASE_LINK, SENSOR, LASER = "odom", "base_link", "sensor", "laser"
+ODOM, BASE_LINK, SENSOR, LASER, IMU = "odom", "base_link", "sensor", "laser", "imu"
 
 # sensor_msgs/PointField datatypes
 _UINT8, _UINT16, _UINT32, _FLOAT32 = 2, 4, 6, 7
@@ -93,14 +94,15 @@ def point_records(xyz, intensity, ring, time, label, instance, weather=None) -> 
 
 class DriveBag:
     """One bag being written: `with DriveBag(path, "ros2") as bag: bag.laser_scan(...)`.
-    `path` must not exist yet (a ROS 2 bag is a folder)."""
+    `path` must not exist yet (a ROS 2 bag is a folder). With `imu`, it has the /imu topic."""
 
-    def __init__(self, path: str | os.PathLike, flavour: str, storage: str = "mcap"):
+    def __init__(self, path: str | os.PathLike, flavour: str, storage: str = "mcap", imu: bool = False):
         from rosbags.typesys import Stores, get_typestore
 
         self.path = Path(path)
         self.flavour = flavour
         self.ros1 = flavour == "ros1"
+        self.has_imu = imu
         if self.ros1:
             from rosbags.rosbag1 import Writer
             from rosbags.typesys import get_types_from_msg
@@ -131,6 +133,8 @@ class DriveBag:
             ("/points_deskewed", "sensor_msgs/msg/PointCloud2"),
         ):
             self._connect(topic, msgtype, latched=topic == "/tf_static")
+        if self.has_imu:  # last: a drive without an IMU keeps its connection ids
+            self._connect("/imu", "sensor_msgs/msg/Imu", latched=False)
         return self
 
     def __exit__(self, kind, value, trace) -> None:
@@ -225,12 +229,43 @@ class DriveBag:
         )
         self._write("/laser2D", message, stamp_ns)
 
-    def scans(self, stamps_ns: np.ndarray, frames, poses, odometry, geometry: dict | None, laser) -> None:
+    def imu(self, stamp_ns: int, orientation, gyro, accel, covariances) -> None:
+        """One sensor_msgs/Imu in frame `imu`: orientation (x, y, z, w), angular velocity,
+        linear acceleration; `covariances`: the three 9-element covariance matrices."""
+        t = self.types
+        message = t["sensor_msgs/msg/Imu"](
+            header=self._header("/imu", stamp_ns, IMU),
+            orientation=self._quaternion(orientation),
+            orientation_covariance=np.asarray(covariances[0], dtype=np.float64),
+            angular_velocity=self._vector(gyro),
+            angular_velocity_covariance=np.asarray(covariances[1], dtype=np.float64),
+            linear_acceleration=self._vector(accel),
+            linear_acceleration_covariance=np.asarray(covariances[2], dtype=np.float64),
+        )
+        self._write("/imu", message, stamp_ns)
+
+    def imu_records(self, stamps_ns: np.ndarray, orientation, gyro, accel, covariances) -> np.ndarray:
+        """Many Imu messages serialized as `imu` would, (n, bytes) rows (rosbag_layout.py)."""
+        stamps = np.asarray(stamps_ns, dtype=np.int64)
+        values = {"sec": stamps // 10**9, "nanosec": stamps % 10**9}
+        if self.ros1:  # the seq the next messages get: the caller writes them all, in order
+            values["seq"] = self.counts["/imu"] + np.arange(len(stamps))
+        values.update(orientation=orientation, angular_velocity=gyro, linear_acceleration=accel)
+        names = ("orientation_covariance", "angular_velocity_covariance", "linear_acceleration_covariance")
+        values.update(zip(names, covariances))
+        return imu_layout(not self.ros1, IMU).pack(len(stamps), **values)
+
+    def scans(
+        self, stamps_ns: np.ndarray, frames, poses, odometry, geometry: dict | None, laser, imu=None
+    ) -> None:
         """Many 2D scans' tf, odometry and (with `geometry`) LaserScan messages at once, each
         2D scan's in that order, serialized as `tf`, `odometry` and `laser_scan` would
         (rosbag_layout.py). `frames`: the tf's (parent, child) pairs; `poses`: their
         (translations (R, F, 3), quaternions (R, F, 4)); `odometry`: (position, quaternion,
-        linear, angular), (R, 3 or 4) each; `laser`: (ranges, intensities), (R, beams) each."""
+        linear, angular), (R, 3 or 4) each; `laser`: (ranges, intensities), (R, beams) each.
+        `imu`: (stamps, the arguments of `imu_records` but the stamps) of the IMU samples
+        in this stretch of time, written in time order among them (a sample after the 2D
+        scans' messages of its stamp)."""
         cdr = not self.ros1
         stamps = np.asarray(stamps_ns, dtype=np.int64)
         count = len(stamps)
@@ -261,9 +296,25 @@ class DriveBag:
             values.update(ranges=ranges, intensities=intensities)
             layout = laser_scan_layout(cdr, LASER, np.shape(ranges)[1])
             messages.append(("/laser2D", layout.pack(count, **values)))
+        imu_stamps, imu_raw = self._imu_rows(imu)
+        before = np.searchsorted(imu_stamps, stamps, side="left").tolist() + [len(imu_stamps)]
+        done = 0
         for row, stamp in enumerate(stamps.tolist()):
+            done = self._write_imu(imu_stamps, imu_raw, done, before[row])
             for topic, raw in messages:
                 self._write_bytes(topic, raw[row].tobytes(), stamp)
+        self._write_imu(imu_stamps, imu_raw, done, before[-1])
+
+    def _imu_rows(self, imu):
+        if imu is None:
+            return np.zeros(0, dtype=np.int64), None
+        stamps = np.asarray(imu[0], dtype=np.int64)
+        return stamps, self.imu_records(stamps, *imu[1:])
+
+    def _write_imu(self, stamps: np.ndarray, raw, start: int, end: int) -> int:
+        for i in range(start, end):
+            self._write_bytes("/imu", raw[i].tobytes(), int(stamps[i]))
+        return max(start, end)
 
     def points(self, topic: str, stamp_ns: int, bag_ns: int, records: np.ndarray) -> None:
         """One 3D scan's PointCloud2 (records of POINT_DTYPE or WEATHER_POINT_DTYPE) in frame `sensor`."""

@@ -132,3 +132,18 @@ def laser_scan_layout(cdr: bool, frame: str, beams: int) -> Layout:
     layout.sequence("ranges", "<f4", beams)
     layout.sequence("intensities", "<f4", beams)
     return layout
+
+
+@lru_cache(maxsize=None)
+def imu_layout(cdr: bool, frame: str) -> Layout:
+    """sensor_msgs/Imu: orientation and its covariance, angular velocity and its covariance,
+    linear acceleration and its covariance."""
+    layout = Layout(cdr)
+    layout.header("", frame)
+    layout.value("orientation", "<f8", 4)
+    layout.value("orientation_covariance", "<f8", 9)
+    layout.value("angular_velocity", "<f8", 3)
+    layout.value("angular_velocity_covariance", "<f8", 9)
+    layout.value("linear_acceleration", "<f8", 3)
+    layout.value("linear_acceleration_covariance", "<f8", 9)
+    return layout

@@ -143,11 +143,16 @@ def poses_text(matrices: list[np.ndarray]) -> str:
     return "".join(_matrix_line(m) + "\n" for m in matrices)
 
 
-def calib_text() -> str:
+def calib_text(imu_to_velo: np.ndarray | None = None) -> str:
     """calib.txt: there are no cameras, so every projection is the identity and Tr (velodyne
-    to camera frame) is the identity: poses.txt applies to the points directly."""
+    to camera frame) is the identity: poses.txt applies to the points directly. With an IMU,
+    `Tr_imu_to_velo` (KITTI's name for it) takes IMU-frame coordinates to the scans' frame,
+    in the same `KEY: 12 numbers` form semantic-kitti-api's parse_calibration reads."""
     eye = np.eye(4)
-    return "".join(f"{key}: {_matrix_line(eye)}\n" for key in ("P0", "P1", "P2", "P3", "Tr"))
+    lines = [f"{key}: {_matrix_line(eye)}\n" for key in ("P0", "P1", "P2", "P3", "Tr")]
+    if imu_to_velo is not None:
+        lines.append(f"Tr_imu_to_velo: {_matrix_line(imu_to_velo)}\n")
+    return "".join(lines)
 
 
 def _yaml_map(name: str, mapping: dict, value=lambda v: str(v)) -> list[str]:

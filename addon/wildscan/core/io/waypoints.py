@@ -10,6 +10,7 @@ import re
 
 import numpy as np
 
+from ..checks import decimal
 from ..errors import UserError
 from ..placement import MAX_COORDINATE
 from .files import user_path
@@ -54,7 +55,7 @@ def _point(text: str, number: int, fail) -> tuple[float, float]:
     if len(fields) != 2:
         raise fail(f"line {number}: expected `x,y` (two numbers in metres), got {shown!r}")
     try:
-        x, y = float(fields[0]), float(fields[1])
+        x, y = decimal(fields[0]), decimal(fields[1])
     except ValueError:
         raise fail(f"line {number}: expected `x,y` (two numbers in metres), got {shown!r}") from None
     if not (math.isfinite(x) and math.isfinite(y)) or max(abs(x), abs(y)) > MAX_COORDINATE:

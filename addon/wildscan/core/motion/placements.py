@@ -1,14 +1,19 @@
-"""The robot standing on the ground at every 2D scan of a drive (numpy only).
+"""The robot standing on the ground at every 2D scan (column) of a drive (numpy only).
 
 Each instant is placed exactly as `core.placement.place` places one pose (the probe from
 above, the four downward lasers, the same checks and the same arithmetic, so a drive
-standing still is placed as a static scan is), but the rays of all instants go to the
-ray caster in a few large batches: one per probe layer, one for all the lasers.
+standing still is placed as a static scan is), but the rays of many instants go to the
+ray caster in a few large batches: one per probe layer, one for all the lasers, a chunk of
+PLACE_CHUNK instants at a time. What is kept of every instant is a few arrays (the pose's
+centre, ground point and attitude: part of trajectory.BYTES_PER_COLUMN);
+a whole `Placement` (its pose, lasers and checks, for a scan's metadata) only at the
+instants asked for, the 3D scans' starts.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,18 +41,26 @@ from ..placement import (
 from ..spatial.leveling import roll_pitch_from_slopes
 from ..spatial.rotations import log_map
 
+# Instants placed per batch of casts: bounds the transient arrays of the probe and the lasers
+# (about 2 KB an instant while placed: 32 MB) whatever the drive's length.
+PLACE_CHUNK = 16_384
+
 
 @dataclass
 class Motion:
     """The robot's pose at the start of every 2D scan of a drive and at its very end."""
 
-    placements: list[Placement]  # K + 1: at the start of 2D scans 0 ... K-1, then the end
     times: np.ndarray  # (K + 1,) seconds from the drive's start
     distance: np.ndarray  # (K + 1,) metres driven along the path
     centre: np.ndarray  # (K + 1, 3) optical centre, world metres
     ground: np.ndarray  # (K + 1, 3) where the column meets the ground (base_link)
     rotation: np.ndarray  # (K + 1, 3, 3) sensor frame -> world frame
     step: np.ndarray  # (K, 3) rotation vector from the attitude at k to that at k + 1 (frame at k)
+    kept: dict[int, Placement] = field(default_factory=dict)  # the whole placements asked for
+
+    def placement(self, k: int) -> Placement:
+        """The whole placement at the start of 2D scan `k` (one place_all was asked to keep)."""
+        return self.kept[k]
 
     @property
     def still(self) -> np.ndarray:
@@ -64,35 +77,55 @@ def place_all(
     yaw_deg: np.ndarray,
     distance: np.ndarray,
     z_start: float | None = None,
+    keep: Iterable[int] = (0,),
 ) -> Motion:
     """Stand the robot at every instant; PoseRejected naming where and when it cannot.
     `z_start`: the lasers start at this height at every instant, as `place` does for one
-    pose (a drive under a roof: the probe from above would stand it on the roof)."""
-    poses = [Pose(float(x), float(y), float(yaw)).validate() for (x, y), yaw in zip(xy, yaw_deg)]
-    if z_start is not None:
-        return _place_from(backend, poses, np.full(len(poses), float(z_start)), times, distance)
-    ground = probe_ground_z_many(backend, xy)
-    off = np.flatnonzero(~np.isfinite(ground))
-    if len(off):
-        i = int(off[0])
-        _reject(i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
-    return _place_from(backend, poses, ground + LASER_CLEARANCE, times, distance)
+    pose (a drive under a roof: the probe from above would stand it on the roof). `keep`:
+    the instants whose whole Placement the caller needs (Motion.placement; the first's by
+    default)."""
+    count, keep = len(times), set(keep)
+    centre, ground, rotation = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3, 3))
+    kept: dict[int, Placement] = {}
+    for a in range(0, count, PLACE_CHUNK):
+        b = min(count, a + PLACE_CHUNK)
+        poses = [
+            Pose(float(x), float(y), float(yaw)).validate() for (x, y), yaw in zip(xy[a:b], yaw_deg[a:b])
+        ]
+        if z_start is not None:
+            starts = np.full(len(poses), float(z_start))
+        else:
+            found = probe_ground_z_many(backend, xy[a:b])
+            off = np.flatnonzero(~np.isfinite(found))
+            if len(off):
+                i = int(off[0])
+                _reject(a + i, times, distance, f"{describe_pose(poses[i])} {NO_GROUND}")
+            starts = found + LASER_CLEARANCE
+        placed = _place_from(backend, poses, starts, times, distance, a, {k - a for k in keep if a <= k < b})
+        centre[a:b], ground[a:b], rotation[a:b] = placed[:3]
+        kept.update({a + i: p for i, p in placed[3].items()})
+    return motion_of(times, distance, centre, ground, rotation, kept)
 
 
-def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance) -> Motion:
-    """The placements with each pose's four lasers cast down from its `z_start`."""
+def _place_from(backend, poses: list[Pose], z_start: np.ndarray, times, distance, first: int, keep: set[int]):
+    """(centre, ground, rotation, {i: Placement kept}) of the poses (instants first, first + 1,
+    ...) with each pose's four lasers cast down from its `z_start`."""
     rows = cast_lasers_many(backend, poses, z_start)
     stood = stand_all(poses, rows)
-    placements = []
-    for i, (pose, row) in enumerate(zip(poses, rows)):
-        if stood.fits[i]:
-            placements.append(stood.placement(i, pose, lasers_of(pose, row)))
-            continue
+    centre, ground, rotation = stood.optical.copy(), stood.ground.copy(), stood.rotation.copy()
+    kept = {}
+    for i in np.flatnonzero(~stood.fits):
         try:  # `stand` says why, in the words a static scan's placement uses
-            placements.append(stand(pose, float(z_start[i]), lasers_of(pose, row)))
+            p = stand(poses[i], float(z_start[i]), lasers_of(poses[i], rows[i]))
         except PoseRejected as e:
-            _reject(i, times, distance, e.message)
-    return motion_of(placements, times, distance, np.where(stood.fits[:, None, None], stood.rotation, np.nan))
+            _reject(first + int(i), times, distance, e.message)
+        centre[i], ground[i], rotation[i] = p.optical_centre, p.ground_centre, p.rotation
+        if i in keep:
+            kept[int(i)] = p
+    for i in keep:
+        if stood.fits[i]:
+            kept[i] = stood.placement(i, poses[i], lasers_of(poses[i], rows[i]))
+    return centre, ground, rotation, kept
 
 
 @dataclass
@@ -158,28 +191,26 @@ def sensor_to_world_matrices(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarra
 
 
 def motion_of(
-    placements: list[Placement], times: np.ndarray, distance: np.ndarray, rotation: np.ndarray | None = None
+    times: np.ndarray,
+    distance: np.ndarray,
+    centre: np.ndarray,
+    ground: np.ndarray,
+    rotation: np.ndarray,
+    kept: dict[int, Placement] | None = None,
 ) -> Motion:
-    """The motion of the placements; `rotation` (K, 3, 3): their rotations where known (NaN
-    rows are asked of the placement)."""
-    if rotation is None or np.isnan(rotation).any():
-        known = rotation
-        rotation = np.stack([p.rotation for p in placements])
-        if known is not None:
-            keep = ~np.isnan(known).any(axis=(1, 2))
-            rotation[keep] = known[keep]
+    """The motion of a drive from its poses' arrays (K + 1 each)."""
     relative = dm.matmul(np.swapaxes(rotation[:-1], 1, 2), rotation[1:])  # R_k^T R_{k+1}
     step = log_map(relative)
     same = np.all(rotation[1:] == rotation[:-1], axis=(1, 2))
     step[same] = 0.0  # exactly: a robot standing still does not turn by rounding
     return Motion(
-        placements=placements,
         times=np.asarray(times, dtype=np.float64),
         distance=np.asarray(distance, dtype=np.float64),
-        centre=np.stack([p.optical_centre for p in placements]),
-        ground=np.stack([p.ground_centre for p in placements]),
+        centre=centre,
+        ground=ground,
         rotation=rotation,
         step=step,
+        kept=dict(kept or {}),
     )
 
 

@@ -89,7 +89,7 @@ def sweep(
     times = beam_times(ks, since=k0, timing=device.timing).ravel()
     ring = np.tile(np.asarray(device.beams.ring, dtype=np.uint16), len(ks))
     sweep_index = np.repeat(np.arange(len(ks), dtype=np.uint16), device.beams.count)
-    start = motion.placements[k0]
+    start = motion.placement(k0)
     raw = returns.cloud(points_in_frame(raw_sensor, start, frame), ring, sweep_index, frame, time=times)
     deskewed = returns.cloud(points_in_frame(true_sensor, start, frame), ring, sweep_index, frame, time=times)
     if weather_of(effects) is not None:

@@ -22,7 +22,16 @@ from .timing import SCAN_PERIOD
 
 MAX_SPEED = 10.0  # m/s; a skid-steer robot like Andabata drives about 1 m/s
 DEFAULT_SPEED = 1.0  # m/s
-MAX_SCAN_COUNT = 100_000  # 2D scans a drive may take: 41 minutes of driving
+# What a drive holds per column (a 2D scan of the UTM-30LX-EW, a firing cycle of a spinning
+# lidar) at its peak, for its whole length: Motion's arrays (8 + 8 + 24 + 24 + 72 + 24 B) and
+# their temporaries (the attitude steps' log map), the instants, the bags' attitudes and
+# velocities and the TUM trajectory's text. Measured as the peak RSS's slope between drives of
+# 100 and 400 VLP-16 revolutions (180,900 and 723,600 firing cycles, seed 1, low detail):
+# 980 B (--bag none), 1,180 B (both bags). Every other array a drive makes is bounded: one 3D
+# scan's beams at a time, placements in chunks (placements.PLACE_CHUNK).
+BYTES_PER_COLUMN = 1_200
+MAX_DRIVE_BYTES = 2 << 30  # the most those may take: 2 GiB, 1.79 M columns (99 s of a VLP-16)
+MAX_COLUMNS = MAX_DRIVE_BYTES // BYTES_PER_COLUMN
 _SAME_POINT = 1e-9  # m: consecutive waypoints closer than this are one
 TURN = 0.5  # m: the heading turns from one segment's direction to the next within this of a vertex
 
@@ -141,12 +150,19 @@ class Schedule:
 
 
 def schedule(
-    path: Path, speed: float, sweeps: int, scans_3d: int | None = None, period: float = SCAN_PERIOD
+    path: Path,
+    speed: float,
+    sweeps: int,
+    scans_3d: int | None = None,
+    period: float = SCAN_PERIOD,
+    columns: str = "2D scans of the UTM-30LX-EW",
 ) -> Schedule:
     """The 2D scans of a drive along `path` at `speed`: as many as fit until the robot reaches
     the path's end (all of them, then, whole 3D scans or not), or exactly `scans_3d` 3D scans.
     Standing still (speed 0) takes `scans_3d` (default 1) 3D scans. `period`: the device's
-    time a 2D scan (sensors/device.py Timing.column_period_s)."""
+    time a 2D scan (sensors/device.py Timing.column_period_s); `columns`: what the device's
+    columns are called, for the message when the drive would be too long
+    (Device.columns_named)."""
     speed = check_speed(speed)
     if scans_3d is not None:
         scans_2d = scans_3d * sweeps
@@ -162,10 +178,12 @@ def schedule(
     else:
         # a whisker of slack so a path of exactly K periods' length gives K, not K - 1
         scans_2d = int(math.floor(path.length / (speed * period) * (1 + 1e-12) + 1e-9))
-    if scans_2d > MAX_SCAN_COUNT:
+    if scans_2d > MAX_COLUMNS:
         raise UserError(
-            f"the drive would take {scans_2d:,} 2D scans ({scans_2d * period:.0f} s); at most "
-            f"{MAX_SCAN_COUNT:,}: drive a shorter path or faster",
+            f"the drive would take {scans_2d:,} {columns} ({scans_2d * period:,.0f} s); a drive keeps "
+            f"{BYTES_PER_COLUMN:,} bytes of trajectory for each of them, at most "
+            f"{MAX_DRIVE_BYTES >> 30} GiB: {MAX_COLUMNS:,} ({MAX_COLUMNS * period:,.0f} s of this device); "
+            "drive a shorter path or faster",
             setting="speed",
         )
     if scans_2d < sweeps:

@@ -7,7 +7,8 @@ The moments: `starting` (the first line of the `wildscan` script or a Blender sc
 `bpy-import` (while the bpy module loads), `casting` (rays about to be cast), `writing`
 (an output group's temporary files written, not yet renamed into place), `renamed` (one
 file of a group renamed into place, the others not yet), `card` (a dataset's scans all
-recorded, its card about to be written). With WILDSCAN_TEST_RESUME=PATH too, the wait also
+recorded, its card about to be written), `stopping` (a dataset run closing its cluster after
+a stop). With WILDSCAN_TEST_RESUME=PATH too, the wait also
 ends when that file exists (a test lets the process go on).
 Without the variable `pause_here` costs one dictionary lookup.
 """

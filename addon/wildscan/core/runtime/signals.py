@@ -11,6 +11,7 @@ Outside those blocks `on_signal` raises at once.
 from __future__ import annotations
 
 import signal
+from collections.abc import Callable
 from contextlib import contextmanager
 
 
@@ -20,6 +21,9 @@ class Terminated(BaseException):
 
 _depth = 0  # deferred() blocks entered and not left
 _pending: list[int] = []  # signals received inside them
+# A host's own record of a Ctrl-C that reached its handler before ours was installed (Blender's
+# G.is_break: app/host_break.py), read until it is found set once.
+_host_break: list[Callable[[], bool]] = []
 
 
 def raise_for(signum: int):
@@ -33,6 +37,20 @@ def on_signal(signum, frame):
         _pending.append(signum)
         return
     raise_for(signum)
+
+
+def watch_host_break(reader: Callable[[], bool]) -> None:
+    """Treat `reader()` turning true as a Ctrl-C (check_host_break)."""
+    _host_break[:] = [reader]
+
+
+def check_host_break() -> None:
+    """A Ctrl-C the host's own handler took (before ours) as one that reached ours: noted
+    inside deferred(), raised outside it. Called where a run begins and before files are
+    renamed into place, so it never finishes as if nothing had happened."""
+    if _host_break and _host_break[0]():
+        _host_break.clear()
+        on_signal(signal.SIGINT, None)
 
 
 def signal_pending() -> bool:

@@ -181,6 +181,13 @@ class Device:
         columns = 1 if self.mount.kind == "fixed" else round(self.mount.sweep_deg / self.mount.step_deg)
         return columns * self.timing.column_period_s
 
+    @property
+    def columns_named(self) -> str:
+        """What the device's columns are, in its own terms: the 2D scans of a scanner on a
+        rotating head, the firing cycles of a spinning (or fixed) multi-beam lidar."""
+        what = "2D scans" if self.mount.kind == "rotating" else "firing cycles"
+        return f"{what} of the {self.model}"
+
     def check_scannable(self) -> "Device":
         """The device as the scan paths support it: its columns turn about the sensor's Z
         axis, untilted (a tilt or another axis is a [head]'s)."""

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UserError
+from ..errors import UserError, shortened
 from .device import (
     HEAD_MODES,
     HEAD_TURNS,
@@ -55,7 +55,8 @@ def device_named(name: str) -> Device:
     """The preset `name` (presets/NAME.toml)."""
     if name not in preset_names():
         raise UserError(
-            f"must be one of {', '.join(preset_names())} or a device file NAME.toml, got {name!r}",
+            f"must be one of {', '.join(preset_names())} or a device file NAME.toml, "
+            f"got {shortened(repr(name))}",
             setting="device",
             allowed=preset_names(),
         )
@@ -250,7 +251,9 @@ def _is_number(v) -> bool:
 
 
 def _show(value) -> str:
-    return f'"{value}"' if isinstance(value, str) else "nothing" if value is None else str(value)
+    if value is None:
+        return "nothing"
+    return f'"{shortened(value)}"' if isinstance(value, str) else shortened(value)
 
 
 class _Table:

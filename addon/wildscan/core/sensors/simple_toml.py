@@ -12,6 +12,8 @@ from __future__ import annotations
 import ast
 import re
 
+from ..errors import shortened
+
 _KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
@@ -48,7 +50,7 @@ def _without_comment(line: str) -> str:
 
 def _key(key: str, number: int) -> str:
     if not _KEY.fullmatch(key):
-        raise _error(number, f"a key this reader does not know: {key!r}")
+        raise _error(number, f"a key this reader does not know: {shortened(repr(key))}")
     return key
 
 
@@ -56,9 +58,9 @@ def _value(text: str, number: int):
     try:
         value = ast.literal_eval(text)
     except (ValueError, SyntaxError):
-        raise _error(number, f"a value this reader does not know: {text!r}") from None
+        raise _error(number, f"a value this reader does not know: {shortened(repr(text))}") from None
     if not _plain(value):
-        raise _error(number, f"a value this reader does not know: {text!r}")
+        raise _error(number, f"a value this reader does not know: {shortened(repr(text))}")
     return value
 
 
