@@ -177,3 +177,11 @@ def test_range_image_with_a_trailing_slash_writes_nothing(tmp_path):
     done = run_into(subprocess.PIPE, "scan", *pose, "--range-image", image, "--out", out)
     assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
     assert not any(tmp_path.iterdir())
+
+
+def test_an_error_quoting_a_huge_value_stays_one_short_line(tmp_path):
+    pose = ["--seed", "0", "--pose", "0", "0", "0"]
+    huge = "rain=" + "1" * 100_000 + "x"
+    done = run_into(subprocess.PIPE, "scan", *pose, "--weather", huge, "--out", str(tmp_path / "s.ply"))
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert len(done.stderr) < 2100 and "characters)" in done.stderr, len(done.stderr)

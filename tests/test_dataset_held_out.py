@@ -92,6 +92,14 @@ def test_a_device_file_edited_between_runs_is_refused_on_resume(tmp_path):
     out = tmp_path / "out"
     first = wildscan("dataset", str(spec), "--out", str(out), "--workers", "1", "--limit", "1", "--quiet")
     assert first.returncode == 0, first.stderr
+    # a row written under other contents (a file edited while a run was writing) is named
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    manifest = copy / "manifest.jsonl"
+    manifest.write_text(manifest.read_text().replace('"config_hash":"', '"config_hash":"0', 1))
+    mixed = wildscan("dataset", "--verify", str(copy))
+    assert mixed.returncode == 1
+    assert "1 scans (the first: scan 0 of sequence 00) were made under another config" in mixed.stderr
     device.write_text(device_named_text("vlp16").replace("max_m = 100.0", "max_m = 50.0"))
     again = wildscan("dataset", str(spec), "--out", str(out), "--workers", "1", "--quiet")
     assert again.returncode == 2 and again.stderr.count("\n") == 1, again.stderr

@@ -115,14 +115,14 @@ def test_a_scheme_naming_no_class_raises():
 
 
 def test_a_class_added_to_the_table_but_not_to_the_schemes_stops_the_import():
-    """What adding a class (a hypothetical 16 `moss`) to core/classes.py alone does: the import
+    """What adding a class (a hypothetical 99 `moss`) to core/classes.py alone does: the import
     of the schemes fails and says which scheme lacks which class."""
     code = (
         "import wildscan.core.classes as c\n"
-        "moss = c.ElementClass(16, 'moss', 87.0, (120, 160, 20))\n"
+        "moss = c.ElementClass(99, 'moss', 87.0, (120, 160, 20))\n"
         "c.CLASSES += (moss,)\n"
         "c.ALL_ELEMENTS += (moss,)\n"
-        "c.BY_ID[16] = moss\n"
+        "c.BY_ID[99] = moss\n"
         "import wildscan.core.label_schemes\n"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
@@ -143,6 +143,6 @@ def test_two_classes_with_one_reflectivity_stop_the_import():
     """Labels come from intensities (the paper): a new class needs a reflectivity of its own."""
     from wildscan.core.classes import _check_table
 
-    twin = ElementClass(16, "moss", 90.0, (1, 2, 3))  # trunk's 90
+    twin = ElementClass(99, "moss", 90.0, (1, 2, 3))  # trunk's 90
     with pytest.raises(ValueError, match=r"share the reflectivity \[90.0\]"):
         _check_table((*ALL_ELEMENTS, twin))

@@ -161,7 +161,12 @@ def _doc_table(heading: str) -> list[list[str]]:
 
 @pytest.mark.slow
 def test_the_range_image_arrays_are_the_ones_formats_md_describes(dataset):
-    documented = {name: (dtype, shape) for name, dtype, shape, _ in _doc_table("## Range images")}
+    rows = _doc_table("## Range images")
+    # this dataset is the paper model's: the arrays of the realistic model alone are not in it
+    documented = {
+        name: (dtype, shape) for name, dtype, shape, what in rows if not what.startswith("realistic")
+    }
+    assert any(what.startswith("realistic model only") for *_, what in rows)  # `lost`
     bin_path, _, npz = _scans(dataset)[0]
     points = len(read_kitti_scan(bin_path)[0])
     with np.load(npz) as image:

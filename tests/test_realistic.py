@@ -72,7 +72,10 @@ def test_realistic_with_a_thin_beam_and_one_echo_gives_the_papers_points_and_lab
     thin = run_scan(
         scene,
         Pose(0.3, -0.2, 20),
-        S.SensorConfig(rh_deg=2.0, noise_sigma=0.0, model="realistic", divergence_mrad=0.0, echoes=1),
+        # the detection step off: the paper model returns every surface to its range limit
+        S.SensorConfig(
+            rh_deg=2.0, noise_sigma=0.0, model="realistic", divergence_mrad=0.0, echoes=1, detection=False
+        ),
     )
     a, b = paper.cloud, thin.cloud
     assert len(a) > 10_000 and len(a) == len(b)

@@ -63,7 +63,9 @@ def test_a_measured_share_of_forest_beams_return_two_or_three_echoes(realistic):
 
 def test_realistic_thin_single_echo_scan_of_the_forest_equals_the_paper_scan(forest):
     paper = scan(forest, noise_sigma=0.0).cloud
-    thin = scan(forest, model="realistic", noise_sigma=0.0, divergence_mrad=0.0, echoes=1).cloud
+    thin = scan(
+        forest, model="realistic", noise_sigma=0.0, divergence_mrad=0.0, echoes=1, detection=False
+    ).cloud  # the detection step off: the paper model returns every surface to its range limit
     assert len(paper) == len(thin) > 50_000
     for field in ("xyz", "label", "instance", "ring", "sweep", "range"):
         assert np.array_equal(getattr(paper, field), getattr(thin, field)), field

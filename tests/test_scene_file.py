@@ -121,6 +121,17 @@ def test_an_empty_geometry_round_trips(tmp_path):
     assert loaded.triangle_count == 0 and loaded.object_names == ()
 
 
+def test_an_objects_own_reflectance_is_saved_and_read_back_only_where_one_is_given(tmp_path):
+    g = from_triangles(np.stack([np.eye(3), 2 * np.eye(3)]), class_id=1, instance=2, object_names=("a",))
+    plain = geometry_file_bytes(g)
+    assert json.loads(zipfile.ZipFile(io.BytesIO(plain)).read("header.json"))["version"] == 1
+    g.reflectance = np.array([0.05, np.nan], dtype=np.float32)
+    loaded, header = load_geometry_file(save_geometry(g, tmp_path / "own.npz"))
+    assert header["version"] == 4
+    np.testing.assert_array_equal(loaded.reflectance, g.reflectance)
+    assert np.isnan(loaded.reflectivity).all()
+
+
 def test_a_failed_save_leaves_no_file(tmp_path, monkeypatch):
     g = from_triangles(np.eye(3)[None], class_id=1, instance=2)
 
@@ -167,7 +178,7 @@ def npy(array) -> bytes:
 @pytest.mark.parametrize(
     "change, message",
     [
-        (dict(header_changes={"version": 4, "wildscan_version": "9.0.0"}), "written by a newer WildScan"),
+        (dict(header_changes={"version": 5, "wildscan_version": "9.0.0"}), "written by a newer WildScan"),
         (dict(header_changes={"format": "something else"}), "not a WildScan scene geometry file"),
         (dict(drop="header.json"), r"no header\.json"),
         (dict(drop="faces.npy"), r"faces\.npy is missing"),

@@ -99,6 +99,8 @@ BAD_TAGS = [
     ("wildscan_instance", 1e10),
     ("wildscan_reflectivity", "shiny"),
     ("wildscan_reflectivity", -5.0),
+    ("wildscan_reflectance", 45.0),  # a percent, not 0-1
+    ("wildscan_reflectance", "dark"),
 ]
 
 
@@ -199,6 +201,39 @@ def test_wildscan_reflectivity_sets_the_intensity_and_keeps_the_label(backend):
     returns = measure(hits, np.zeros(2), SensorConfig(noise_sigma=0.0))
     assert returns.label.tolist() == [ROCK, ROCK]
     assert returns.intensity.tolist() == [40.0, 55.5]
+
+
+def test_wildscan_reflectance_decides_what_the_realistic_model_loses():
+    """Two rock walls 60 m off, one white (0.9) and one black (0.02) by `wildscan_reflectance`:
+    the HDL-64E's realistic scan returns the white one and loses the black one (its limit: 10 %
+    at 50 m), both keep their class; the paper model returns both."""
+    from dataclasses import replace
+
+    from wildscan.core.placement import Pose
+    from wildscan.core.realism.lost_returns import object_reflectances
+    from wildscan.core.scan import run_scan
+    from wildscan.core.sensors import SensorConfig, device_named
+
+    fresh_scene()
+    v, f = primitives.box((0.0, 0.0, -0.5), (300.0, 300.0, 1.0))
+    mesh_object("ground", v, f, wildscan_collection(), "terrain", 1)
+    for name, y, instance, rho in (("white", -6.0, 2, 0.9), ("black", 6.0, 3, 0.02)):
+        v, f = primitives.box((60.0, y, 2.0), (1.0, 10.0, 6.0))
+        mesh_object(name, v, f, wildscan_collection(), "rock", instance)["wildscan_reflectance"] = rho
+    backend = make_backend("embree", notify=None)
+    g = backend.geometry
+    found = sorted(object_reflectances(g.class_id, g.instance, g.reflectance))
+    assert [(c, i) for c, i, _ in found] == [(ROCK, 2), (ROCK, 3)]
+    assert [r for _, _, r in found] == pytest.approx([0.9, 0.02])
+    sensor = SensorConfig.for_device(device_named("hdl64e"), model="realistic", rh_deg=0.36)
+    realistic = run_scan(backend, Pose(0.0, 0.0, 0.0), sensor)
+    paper = run_scan(backend, Pose(0.0, 0.0, 0.0), replace(sensor, model="paper"))
+    on = realistic.cloud.instance
+    assert np.count_nonzero(on == 2) > 50 and np.count_nonzero(on == 3) == 0
+    assert set(realistic.cloud.label[np.isin(on, (2, 3))].tolist()) == {ROCK}
+    assert np.count_nonzero(paper.cloud.instance == 3) > 50
+    lost = realistic.metadata["echoes"]["lost_returns"]["by_class"][str(ROCK)]
+    assert lost[1] >= np.count_nonzero(paper.cloud.instance == 3) * 0.9
 
 
 # -- the Tag section -------------------------------------------------------------------------

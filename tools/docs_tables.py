@@ -17,6 +17,8 @@ tests/test_docs.py fails when a page's table differs from what this renders.
 - `label-schemes`, `asprs`: the label-scheme mapping and the LAS classification codes
   (docs/formats.md), from `mapping_table_rows()` and `asprs_table_rows()`.
 - `sensors`: the device presets as `wildscan sensors` lists them (docs/sensors.md).
+- `detection`: each preset's [detection] pairs and return modes, from its device file
+  (docs/sensors.md).
 """
 
 from __future__ import annotations
@@ -86,11 +88,37 @@ def sensors_table() -> str:
     return markdown_table(list(HEADERS), [list(r) for r in rows()], right={2})
 
 
+def detection_table() -> str:
+    """Each preset's [detection] pairs (and the 10 % / 80 % ranges its limit gives) and return
+    modes, read from its device file (docs/sensors.md)."""
+    from wildscan.core.sensors import device_named, preset_names
+    from wildscan.core.sensors.detection import REFERENCE_REFLECTANCES
+
+    rows = []
+    for name in preset_names():
+        d = device_named(name)
+        table, optics = d.detection, d.optics
+        if table is None:
+            pairs = targets = "none"
+        else:
+            pairs = "; ".join(
+                f"{100 * rho:g} %: {r:g} m{' (estimate)' if est else ''}"
+                for rho, r, est in zip(table.reflectance, table.range_m, table.estimate, strict=True)
+            )
+            targets = " / ".join(f"{table.farthest_range(rho):.1f} m" for rho in REFERENCE_REFLECTANCES)
+        dual = f" ({optics.dual})" if optics.dual else ""
+        modes = ", ".join(m + dual if m == "dual" else m for m in optics.returns)
+        rows.append([name, pairs, targets, f"{modes}; default {optics.return_mode}"])
+    headers = ["preset", "[detection] pairs", "10 % / 80 % target to", "return modes"]
+    return markdown_table(headers, rows)
+
+
 TABLES: dict[str, tuple[Path, Callable[[], str]]] = {
     "demo": (REPO / "README.md", demo_table),
     "label-schemes": (REPO / "docs" / "formats.md", label_scheme_table),
     "asprs": (REPO / "docs" / "formats.md", asprs_table),
     "sensors": (REPO / "docs" / "sensors.md", sensors_table),
+    "detection": (REPO / "docs" / "sensors.md", detection_table),
 }
 
 

@@ -50,13 +50,15 @@ def scan_current_scene(
     notify: Callable[[str], None] = print,
     geometry=None,
     weather: dict[str, float] | None = None,
+    world_seed: int = 0,
 ) -> ScanResult:
-    """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air."""
+    """`weather`: key -> value (core/effects/weather.py KEYS); None or all 0: clear air.
+    `world_seed`: the world's seed (its surfaces' reflectances: core/realism/lost_returns.py)."""
     sensor.validate()
     pose.validate()
     effects = scan_effects(weather, sensor, scene_cover(geometry))
     backend_ = make_scene_backend(backend, pose, sensor, notify, geometry)
-    return run_scan(backend_, pose, sensor, frame, z_start, progress, effects)
+    return run_scan(backend_, pose, sensor, frame, z_start, progress, effects, world_seed=world_seed)
 
 
 def scan_effects(weather: dict[str, float] | None, sensor: SensorConfig, cover=None):
@@ -161,5 +163,5 @@ def write_scan(
 
     metadata = dict(result.metadata, seed=seed, world=world, **extra)
     w = formats.writer(fmt)
-    scan = formats.single_scan(w, result.cloud, metadata, ascii)
+    scan = formats.single_scan(w, result.cloud, metadata, ascii, result.lost_cells)
     return formats.write_scan(w, scan, out, range_image)

@@ -156,6 +156,19 @@ SETTINGS: dict[str, Setting] = {
         help="realistic model: surfaces farther apart along a beam than this give separate echoes, closer "
         "ones merge into one mixed range, metres",
     ),
+    "returns": Setting(
+        "--returns",
+        "Returns",  # the panel scans in the device's default mode
+        str,
+        choices=S.RETURN_MODES,
+        default=None,
+        help="realistic model: which returns a beam reports, as the device's manual defines them: "
+        "strongest, last, dual (both, each point's return_type says which; Velodyne: the strongest and "
+        "the last, Ouster: the two strongest) or multi (every echo up to --echoes: the UTM-30LX-EW); a "
+        "mode the device does not have is an error",
+        default_help="default the device's own: strongest for the Velodyne and Ouster presets, multi for "
+        "the UTM-30LX-EW",
+    ),
     "frame": Setting("--frame", "Frame"),
     "backend": Setting("--backend", "Ray caster"),
     "weather": Setting("--weather", "Weather"),

@@ -36,13 +36,15 @@ from .. import __version__  # noqa: E402
 from ..app import interrupts  # noqa: E402
 from ..app.interrupts import EXIT_INTERRUPTED, Interrupted, Terminated, stop_code, stopping_on_signals  # noqa: E402
 from ..app.settings import command_line_message  # noqa: E402
-from ..core.errors import UserError  # noqa: E402
+from ..core.errors import UserError, shortened  # noqa: E402
 from ..core.io.files import recording_written  # noqa: E402
 from . import bench, dataset, demo, drive, extract, options, poses, scan, sensors, world  # noqa: E402
 from .options import EXIT_USER_ERROR, ArgumentParser  # noqa: E402
 
 __all__ = ["EXIT_INTERRUPTED", "blender_main", "build_parser", "main"]
 
+
+MAX_LINE = 2000  # characters of an error line: a message quoting a huge value is cut, not printed whole
 
 EPILOG = (
     "Paths: ~ expands in every path option (also in --opt=~/x), names longer than the file system "
@@ -117,8 +119,8 @@ def dispatch(parser: ArgumentParser, argv: list[str], in_blender: bool) -> int:
             interrupts.started()  # a signal since the process began ends the run here
             options.apply_checks(parser.command_parsers[args.command], args)
             return COMMANDS[args.command].run(args, in_blender)
-        except UserError as e:
-            sys.stderr.write(f"{where}: error: {command_line_message(e)}\n")
+        except UserError as e:  # one line, however long a value it quotes (core/errors.shortened)
+            sys.stderr.write(f"{where}: error: {shortened(command_line_message(e), MAX_LINE)}\n")
             return EXIT_USER_ERROR
         except Interrupted as e:  # a command that says itself what it completed
             sys.stderr.write(f"{where}: {e}\n")

@@ -270,6 +270,7 @@ _CONFIG_NAMES = {
     "divergence": "divergence_mrad",
     "echoes": "echoes",
     "echo_separation": "echo_separation",
+    "returns": "returns",
 }
 
 

@@ -69,3 +69,9 @@ def print_echo_summary(echoes: dict, points: int) -> None:
         f"beams with points: {shares}; mixed pixels {mixed:,} "
         f"({100 * mixed / max(points, 1):.1f} % of points)"
     )
+    lost = echoes.get("lost_returns")
+    if lost and lost["weighed"]:
+        print(
+            f"echoes lost below the detection limit: {lost['lost']:,} of {lost['weighed']:,} "
+            f"({100 * lost['lost'] / lost['weighed']:.1f} %; by class, range and incidence in the sidecar)"
+        )

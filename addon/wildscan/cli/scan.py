@@ -105,6 +105,13 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
             quiet=args.quiet,
             biome=biome,
         )
+    if geometry is not None:
+        seed, blend = provenance.get("seed"), provenance.get("world")
+        extra = {"geometry": provenance["geometry"]}
+    else:
+        seed, blend = scene_provenance()
+        extra = {}
+    seed = seed if args.seed is None else args.seed
     result = scan_current_scene(
         pose,
         sensor,
@@ -115,14 +122,8 @@ def run(args: argparse.Namespace, in_blender: bool) -> int:
         notify=print,  # a backend fallback is news, not an error: stderr stays for the one error line
         geometry=geometry,
         weather=args.weather,
+        world_seed=seed or 0,  # the surfaces' reflectances the detection step weighs
     )
-    if geometry is not None:
-        seed, blend = provenance.get("seed"), provenance.get("world")
-        extra = {"geometry": provenance["geometry"]}
-    else:
-        seed, blend = scene_provenance()
-        extra = {}
-    seed = seed if args.seed is None else args.seed
     first, *beside = write_scan(
         out, result, seed, blend, ascii=args.ascii, fmt=args.format, range_image=range_image, **extra
     )

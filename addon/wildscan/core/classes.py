@@ -65,7 +65,25 @@ PARTICLE_ID = PARTICLE.id
 LOG = ElementClass(14, "log", 85.0, (92, 51, 23))
 LOG_ID = LOG.id
 
-ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, LOG, PARTICLE)
+# The ground's surface materials of the endless landscape (core/world/endless/ground.py): what the
+# ground is where no sward covers it. Appended after 15 (ids never change); like log and particle
+# they are optional: a file's class table lists them only when its points carry one, so every
+# file of the paper's island (whose ground is `terrain`) keeps its bytes. Reflectivities are tags
+# (unique, as Table I's: the paper labels a return by its intensity); each material's reflectance
+# at 905 nm, with its source, is in core/intensity.py MATERIALS.
+GROUND_MATERIALS: tuple[ElementClass, ...] = (
+    ElementClass(16, "soil", 95.0, (176, 122, 70)),
+    ElementClass(17, "gravel", 65.0, (190, 182, 160)),
+    ElementClass(18, "mud", 35.0, (84, 62, 40)),
+    ElementClass(19, "paved", 45.0, (64, 64, 72)),
+    ElementClass(20, "leaf litter", 25.0, (196, 136, 40)),
+    ElementClass(21, "rock slab", 10.0, (104, 104, 116)),
+)
+GROUND_IDS: tuple[int, ...] = tuple(c.id for c in GROUND_MATERIALS)
+# Every class that is the ground itself: the paper's terrain and the materials.
+GROUND_CLASS_IDS: tuple[int, ...] = (1, *GROUND_IDS)
+
+ALL_ELEMENTS: tuple[ElementClass, ...] = (UNLABELED, *CLASSES, WATER, LOG, PARTICLE, *GROUND_MATERIALS)
 
 
 def _check_table(elements: tuple[ElementClass, ...]) -> None:
@@ -92,8 +110,9 @@ COLOR_BY_ID = np.array(
 
 # Class names as users write them in the `wildscan_class` custom property;
 # "low grass", "low_grass" and "Low-Grass" all mean the same class.
-_BY_NAME: dict[str, ElementClass] = {c.name: c for c in (*CLASSES, WATER, LOG)}  # a tag names no particle
-TAG_NAMES: tuple[str, ...] = tuple(c.name for c in (*CLASSES, WATER, LOG))
+_TAGGABLE = (*CLASSES, WATER, LOG, *GROUND_MATERIALS)  # a tag names no particle
+_BY_NAME: dict[str, ElementClass] = {c.name: c for c in _TAGGABLE}
+TAG_NAMES: tuple[str, ...] = tuple(c.name for c in _TAGGABLE)
 
 
 def normalize_name(name: str) -> str:
@@ -124,6 +143,9 @@ def class_id_for_tag(tag: object) -> int:
 MAX_INSTANCE = 2**31 - 1
 # Per-object reflectivity override (intensity only; the label still comes from the class).
 REFLECTIVITY_PROP = "wildscan_reflectivity"
+# An object's diffuse reflectance (0-1) at the laser's wavelength: what the realistic model's
+# detection step weighs in place of its class's material draw (core/realism/lost_returns.py)
+REFLECTANCE_PROP = "wildscan_reflectance"
 MAX_REFLECTIVITY = 1000.0
 
 
@@ -137,6 +159,19 @@ def object_tags(name: str, class_tag: object, instance_tag: object, reflectivity
     instance = 0 if instance_tag is None else _strict_instance(name, instance_tag)
     override = None if reflectivity is None else _strict_reflectivity(name, reflectivity)
     return class_id, instance, override
+
+
+def object_reflectance(name: str, value: object) -> float:
+    """The object `name`'s `wildscan_reflectance` (a number from 0 to 1), or a UserError naming
+    the object, the value and what is allowed."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not 0.0 <= float(value) <= 1.0:
+        raise UserError(
+            f"object {name!r} has {REFLECTANCE_PROP} = {value!r}; it must be a number from 0 to 1 "
+            "(its diffuse reflectance at the laser's wavelength)",
+            allowed=(0.0, 1.0),
+        )
+    return float(value)
 
 
 def _strict_class(name: str, tag: object) -> int:
@@ -217,22 +252,34 @@ def colors_of(labels: np.ndarray) -> np.ndarray:
     return COLOR_BY_ID[np.asarray(labels, dtype=np.intp)]
 
 
-def _labels(particles: bool, logs: bool = False) -> tuple[ElementClass, ...]:
-    return (UNLABELED, *CLASSES, *((LOG,) if logs else ()), *((PARTICLE,) if particles else ()))
+def _labels(particles: bool, logs: bool = False, grounds: bool = False) -> tuple[ElementClass, ...]:
+    return (
+        UNLABELED,
+        *CLASSES,
+        *((LOG,) if logs else ()),
+        *((PARTICLE,) if particles else ()),
+        *(GROUND_MATERIALS if grounds else ()),
+    )
 
 
-def class_table_lines(particles: bool = False, logs: bool = False) -> list[str]:
+def carries_ground_materials(labels: np.ndarray) -> bool:
+    """Whether any label is one of the ground materials (the class tables then list them)."""
+    return bool(np.isin(np.asarray(labels), GROUND_IDS).any())
+
+
+def class_table_lines(particles: bool = False, logs: bool = False, grounds: bool = False) -> list[str]:
     """One line per PLY label, for file headers and sidecars; `particles`: weather is on (or a
     point is a particle), so the table lists the particle class too; `logs`: the world has
-    ground cover and deadwood (or a point is a log), so it lists the log class."""
+    ground cover and deadwood (or a point is a log), so it lists the log class; `grounds`: a
+    point is a ground material (GROUND_MATERIALS), so it lists them."""
     return [
         f"{c.id} {c.name.replace(' ', '_')} reflectivity={c.reflectivity:g} rgb={','.join(map(str, c.color))}"
-        for c in _labels(particles, logs)
+        for c in _labels(particles, logs, grounds)
     ]
 
 
-def class_table_dict(particles: bool = False, logs: bool = False) -> list[dict]:
+def class_table_dict(particles: bool = False, logs: bool = False, grounds: bool = False) -> list[dict]:
     return [
         {"id": c.id, "name": c.name, "reflectivity": c.reflectivity, "color": list(c.color)}
-        for c in _labels(particles, logs)
+        for c in _labels(particles, logs, grounds)
     ]

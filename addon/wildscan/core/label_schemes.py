@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .classes import ALL_ELEMENTS, BY_ID, CLASSES, LOG_ID, PARTICLE_ID, WATER_ID
+from .classes import ALL_ELEMENTS, BY_ID, CLASSES, GROUND_IDS, LOG_ID, PARTICLE_ID, WATER_ID
 
 SCHEME_NAMES = ("wildscan", "semantickitti", "rellis3d", "goose")
 OTHER = "other"  # a class with no counterpart in a scheme: it gets the scheme's "other" id
@@ -64,6 +64,9 @@ class LabelScheme:
     # not the raw ids only weather's particles use, and these colours where theirs differ.
     weather_ids: tuple[int, ...] = ()
     clear_colors_bgr: dict[int, tuple[int, int, int]] | None = None
+    # What a label config lists only when the ground materials (classes.GROUND_MATERIALS, the
+    # endless landscape's) may occur: the raw ids only they use (a paper config keeps its bytes).
+    ground_ids: tuple[int, ...] = ()
 
     def __post_init__(self):
         from_wildscan = ids_by_class_id(self.name, self.by_class, self.other)
@@ -82,9 +85,10 @@ class LabelScheme:
     def map(self, wildscan_ids: np.ndarray) -> np.ndarray:
         return self.lookup()[np.asarray(wildscan_ids, dtype=np.intp)]
 
-    def config_tables(self, particles: bool) -> dict[str, dict]:
+    def config_tables(self, particles: bool, grounds: bool = False) -> dict[str, dict]:
         """The tables of a label config (labels.yaml): as they are with weather's particles,
-        without them (`particles` False) as they were before the particle class."""
+        without them (`particles` False) as they were before the particle class; the ground
+        materials' own ids only with `grounds` (a world with ground materials: endless)."""
         tables = dict(
             labels=self.labels,
             color_map=self.colors_bgr if particles else self.clear_colors_bgr or self.colors_bgr,
@@ -92,9 +96,8 @@ class LabelScheme:
             learning_map_inv=self.learning_map_inv,
             learning_ignore=self.learning_ignore,
         )
-        if particles:
-            return tables
-        return {name: {k: v for k, v in t.items() if k not in self.weather_ids} for name, t in tables.items()}
+        left_out = (() if particles else self.weather_ids) + (() if grounds else self.ground_ids)
+        return {name: {k: v for k, v in t.items() if k not in left_out} for name, t in tables.items()}
 
     def is_other(self, wildscan_id: int) -> bool:
         """Whether this class has no counterpart in the scheme (it got the "other" id)."""
@@ -125,10 +128,24 @@ _WILDSCAN = LabelScheme(
         WATER_ID: 0,
         LOG_ID: LOG_ID,
         PARTICLE_ID: PARTICLE_ID,
+        **_identity(GROUND_IDS),
     },
-    learning_map_inv={0: 0, **_identity(c.id for c in CLASSES), LOG_ID: LOG_ID, PARTICLE_ID: PARTICLE_ID},
-    learning_ignore={0: True, **{c.id: False for c in CLASSES}, LOG_ID: False, PARTICLE_ID: False},
+    learning_map_inv={
+        0: 0,
+        **_identity(c.id for c in CLASSES),
+        LOG_ID: LOG_ID,
+        PARTICLE_ID: PARTICLE_ID,
+        **_identity(GROUND_IDS),
+    },
+    learning_ignore={
+        0: True,
+        **{c.id: False for c in CLASSES},
+        LOG_ID: False,
+        PARTICLE_ID: False,
+        **{i: False for i in GROUND_IDS},
+    },
     weather_ids=(PARTICLE_ID,),
+    ground_ids=GROUND_IDS,
 )
 
 # -- SemanticKITTI (semantic-kitti-api, config/semantic-kitti-all.yaml) ------------------------
@@ -183,6 +200,12 @@ _SEMANTICKITTI = LabelScheme(
         "water": OTHER,
         "log": 71,  # trunk: SemanticKITTI has no deadwood class; a log is a lying trunk
         "particle": 1,  # outlier (SemanticKITTI's label for spurious returns)
+        "soil": 72,  # terrain (SemanticKITTI's terrain: grass and soil)
+        "gravel": 49,  # other-ground (unpaved ground that is neither road nor terrain)
+        "mud": 72,  # terrain
+        "paved": 48,  # sidewalk (a paved path is for walking, not driving)
+        "leaf litter": 72,  # terrain
+        "rock slab": 49,  # other-ground
     },
     other=99,  # other-object
     # the single-scan (19-class) learning map of semantic-kitti.yaml: moving objects as static
@@ -239,6 +262,12 @@ _RELLIS3D = LabelScheme(
         "water": 6,  # water
         "log": 15,  # log
         "particle": 0,  # void: RELLIS-3D has no class for returns from the air
+        "soil": 1,  # dirt
+        "gravel": 1,  # dirt (RELLIS-3D's unpaved trails are dirt; it has no gravel class)
+        "mud": 33,  # mud
+        "paved": 10,  # asphalt
+        "leaf litter": 1,  # dirt (the forest floor)
+        "rock slab": 34,  # rubble (as rock)
     },
     other=9,  # object
     learning_map=_RELLIS_LEARNING_MAP,
@@ -275,6 +304,12 @@ _GOOSE_BY_CLASS: dict[str, int | str] = {
     "water": 54,  # water
     "log": OTHER,  # obstacle: GOOSE's 64 classes have no deadwood class; to a robot a log is an obstacle
     "particle": 56,  # outlier
+    "soil": 31,  # soil
+    "gravel": 24,  # gravel
+    "mud": 31,  # soil (GOOSE has no mud class: wet soil)
+    "paved": 23,  # asphalt
+    "leaf litter": 5,  # leaves
+    "rock slab": 40,  # rock
 }
 _GOOSE_OTHER = 4  # obstacle
 
@@ -282,7 +317,10 @@ _GOOSE_OTHER = 4  # obstacle
 def _goose_colors(particles: bool = True) -> dict[int, tuple[int, int, int]]:
     colors = {i: (160, 160, 160) for i in range(len(_GOOSE_NAMES))}
     elements = ALL_ELEMENTS if particles else [c for c in ALL_ELEMENTS if c.id != PARTICLE_ID]
-    for c in elements:  # in id order: where classes share an id, the last one's colour
+    # the ground materials keep GOOSE's colours as they were (a label config keeps its bytes)
+    for c in (
+        c for c in elements if c.id not in GROUND_IDS
+    ):  # in id order: where classes share an id, the last one's colour
         if _GOOSE_BY_CLASS[c.name] != OTHER:
             colors[_GOOSE_BY_CLASS[c.name]] = _WILDSCAN.colors_bgr[c.id]
     colors[0] = (0, 0, 0)

@@ -38,7 +38,7 @@ import numpy as np
 
 from . import detmath as dm
 from .backend import RayBackend
-from .classes import BY_ID, WATER_ID
+from .classes import BY_ID, GROUND_CLASS_IDS, WATER_ID
 from .errors import PoseRejected, UserError
 from .spatial.leveling import roll_pitch_from_slopes, rot_z, sensor_to_world_matrix, tilt_deg
 
@@ -55,6 +55,8 @@ ENCLOSED_REACH = 1.0  # m: an element met this close in all four arm directions 
 MAX_COORDINATE = 1e6  # m; float64 keeps 0.1 um steps out there, and no world is bigger
 
 TERRAIN_ID = 1
+# what the robot stands on: the terrain, or on the endless landscape its ground's materials
+STANDING_IDS = GROUND_CLASS_IDS
 # why a pose whose probe finds no terrain or water below it is rejected
 NO_GROUND = "is off the world: there is no terrain below it (nor under any rock face it passes)"
 
@@ -204,7 +206,7 @@ def probe_ground_z_many(backend: RayBackend, xy: np.ndarray) -> np.ndarray:
         origins = np.column_stack([xy[probing], z[probing]])
         hits = backend.cast(origins, np.tile([0.0, 0.0, -1.0], (len(probing), 1)), 2 * PROBE_TOP_Z)
         z_hit = z[probing] - hits.distance
-        found = np.isin(hits.class_id, (TERRAIN_ID, WATER_ID)) & np.isfinite(hits.distance)
+        found = np.isin(hits.class_id, (*STANDING_IDS, WATER_ID)) & np.isfinite(hits.distance)
         ground[probing[found]] = z_hit[found]
         go_on = ~found & np.isfinite(hits.distance)
         z[probing[go_on]] = z_hit[go_on] - PROBE_STEP
@@ -289,7 +291,7 @@ def stand(pose: Pose, z_start: float, lasers: tuple[LaserHit, ...]) -> Placement
     """The placement the four laser hits give (cast from `z_start`), or PoseRejected saying why
     the robot cannot stand there. Many poses share it: `place` casts for one, a drive for all."""
     where = describe_pose(pose)
-    bad = [laser for laser in lasers if laser.class_id != TERRAIN_ID]
+    bad = [laser for laser in lasers if laser.class_id not in STANDING_IDS]
     if bad:
         if all(laser.class_id < 0 for laser in lasers):
             raise PoseRejected(

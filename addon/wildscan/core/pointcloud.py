@@ -43,6 +43,9 @@ OPTIONAL_FIELDS: tuple[tuple[str, str], ...] = (
     ("echoes", "u1"),  # how many echoes its beam returned, 1..3
     ("label_purity", "<f4"),  # share of the echo's energy from the labeled class, 0..1
     ("mixed", "u1"),  # 1 where the point lies on no single surface: a mixed pixel
+    # a dual-return scan's (core/sensors/returns.py): 1 strongest, 2 last, 3 both (its beam's
+    # strongest is its last), 4 second strongest
+    ("return_type", "u1"),
     # scans in weather (core/effects/weather.py): the effect that made a particle point,
     # 1 fog, 2 rain, 3 dust, 4 snow; 0 for a surface's
     ("weather", "u1"),

@@ -31,7 +31,7 @@ import numpy as np
 from . import detmath as dm
 from .placement import Pose
 from .rng import stage_rng
-from .world import EXTENT, ZONES, WorldPlan, footprint_ok
+from .world import ZONES, WorldPlan, footprint_ok
 from .world.geometry2d import inset
 
 STRATEGIES = ("zones", "uniform")
@@ -123,7 +123,7 @@ def _class_candidates(plan: WorldPlan, wildscan_class: str) -> Iterator[ScanPose
     if not elements:
         return
     anchors = [_anchor(plan, el) for el in elements]
-    area = inset(EXTENT, 1.0)
+    area = inset(plan.extent, 1.0)
     while True:
         ax, ay = anchors[int(rng.integers(len(elements)))]
         r = float(rng.uniform(NEAR_MIN, NEAR_MAX))
@@ -162,7 +162,7 @@ def class_scan_indices(targets: dict[str, float], count: int) -> dict[int, str]:
 
 def _uniform_candidates(plan: WorldPlan) -> Iterator[ScanPose]:
     rng = stage_rng(plan.seed, "dataset.poses.uniform")
-    area = inset(EXTENT, 1.0)
+    area = inset(plan.extent, 1.0)
     while True:
         x, y, yaw = _rounded(rng, area)
         yield ScanPose(zone_at(plan, x, y), x, y, yaw, "random")

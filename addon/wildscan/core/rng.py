@@ -146,3 +146,23 @@ def _tail(tails: Generator, negative: bool) -> float:
         yy = -dm.log1p(-tails.random())
         if yy + yy > xx * xx:
             return -(ZIGGURAT_R + xx) if negative else ZIGGURAT_R + xx
+
+
+def hash_unit(*keys: np.ndarray) -> np.ndarray:
+    """A uniform number in [0, 1) per row of integer keys (splitmix64 of their mix): the same
+    on every machine, and one surface's number does not depend on which others were seen."""
+    shape = np.broadcast_shapes(*(np.shape(k) for k in keys))
+    # element by element, so mixed while it is still one number for the leading scalar keys
+    # (a scan's seed and number) and broadcast only by the keys that vary: the same bits
+    h = np.zeros((), dtype=np.uint64)
+    with np.errstate(over="ignore"):
+        for k in keys:
+            h = _splitmix(h ^ np.asarray(k).astype(np.int64).astype(np.uint64))
+    return np.array(np.broadcast_to((h >> np.uint64(11)).astype(np.float64) * 2.0**-53, shape))
+
+
+def _splitmix(x: np.ndarray) -> np.ndarray:
+    x = x + np.uint64(0x9E3779B97F4A7C15)
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))

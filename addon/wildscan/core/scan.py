@@ -15,7 +15,14 @@ import numpy as np
 from .. import __version__
 from . import detmath as dm
 from .backend import RayBackend, with_normals
-from .classes import LABEL_BY_ID, REFLECTIVITY_BY_ID, WATER_ID, class_table_dict, reflectivity_of
+from .classes import (
+    LABEL_BY_ID,
+    REFLECTIVITY_BY_ID,
+    WATER_ID,
+    carries_ground_materials,
+    class_table_dict,
+    reflectivity_of,
+)
 from .effects import CLEAR_AIR, Effects, Rays, weather_of
 from .effects.weather import weather_fields
 from .hits import RayHits
@@ -57,6 +64,10 @@ class ScanResult:
     # |cos θ| between each point's beam and the surface along it (behind a sward's or a weather
     # particle's point; 1 where none): a paper scan's, when run_scan was asked for it
     incidence: np.ndarray | None = None
+    # (row, column) range-image cells (core/rangeimage.py) of the beams whose every echo the
+    # realistic model's detection step dropped: no point, though a surface was there
+    # (core/realism/lost_returns.py); None: no detection step
+    lost_cells: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def cast_in_chunks(
@@ -227,10 +238,13 @@ def run_scan(
     progress: Progress | None = None,
     effects: Effects = CLEAR_AIR,
     incidence: bool = False,
+    world_seed: int = 0,
 ) -> ScanResult:
     """One 3D scan from `pose` with `sensor`, through `effects`' medium (none: clear air).
     `incidence`: a paper scan also gives each point's |cos θ| (ScanResult.incidence), from the
-    normals of the sweep's own hits (a dataset's physical intensity: no second cast)."""
+    normals of the sweep's own hits (a dataset's physical intensity: no second cast).
+    `world_seed`: the seed of the world's surface reflectances (core/intensity.py), which the
+    realistic model's detection step weighs (core/realism/lost_returns.py; 0 for a scene of no seed)."""
     sensor.validate()
     check_frame(frame)
     if sensor.realistic:
@@ -242,13 +256,16 @@ def run_scan(
     beam_count = sensor.beam_count
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     if sensor.realistic:
-        cloud, facts = _realistic_cloud(backend, placement, sensor, frame, cast_range, progress, effects)
+        cloud, facts = _realistic_cloud(
+            backend, placement, sensor, frame, cast_range, progress, effects, world_seed
+        )
     else:
         cloud, facts = _paper_cloud(
             backend, placement, sensor, frame, cast_range, progress, effects, incidence
         )
     untagged = facts.pop("untagged")
     cos_incidence = facts.pop("incidence", None)
+    lost_cells = facts.pop("lost_cells", None)
     metadata = {
         "wildscan_version": __version__,
         "pose": pose.to_dict(),
@@ -262,7 +279,9 @@ def run_scan(
         "points": int(len(cloud)),
         "untagged_objects_hit": sorted(untagged),
         "classes": class_table_dict(
-            particles=weather_of(effects) is not None, logs=any(e.name == "cover" for e in effects.items)
+            particles=weather_of(effects) is not None,
+            logs=any(e.name == "cover" for e in effects.items),
+            grounds=carries_ground_materials(cloud.label),
         ),
     }
     if effects:  # clear air says nothing, so scans without effects keep their bytes
@@ -275,6 +294,7 @@ def run_scan(
         beams=beam_count,
         hits=facts["hits"],
         incidence=cos_incidence,
+        lost_cells=lost_cells,
     )
 
 
@@ -357,6 +377,7 @@ def _realistic_cloud(
     cast_range: float,
     progress,
     effects: Effects,
+    world_seed: int = 0,
 ):
     """The realistic model's scan (core/realistic.py): a point per echo, with its echo fields."""
     from .realism.realistic import realistic_points
@@ -377,8 +398,9 @@ def _realistic_cloud(
         return hits
 
     threads = backend_threads(backend)  # the echoes formed on the cast's threads (a dataset worker: 1)
+    detecting = detecting_of(sensor, effects, world_seed, backend)
     pts = realistic_points(
-        cast, placement.optical_centre, placement.rotation, sensor, cast_range, effects, threads
+        cast, placement.optical_centre, placement.rotation, sensor, cast_range, effects, threads, detecting
     )
     cloud = PointCloud(
         xyz=_points(placement, frame, sensor, dirs_world, pts.beam, pts.range),
@@ -394,6 +416,7 @@ def _realistic_cloud(
             "echoes": pts.echoes,
             "label_purity": pts.purity.astype(np.float32),
             "mixed": pts.mixed.astype(np.uint8),
+            **({"return_type": pts.return_type} if sensor.return_mode == "dual" else {}),
             **{name: values[pts.beam] for name, values in device_fields(sensor).items()},
         },
     )
@@ -406,4 +429,36 @@ def _realistic_cloud(
         "echoes": pts.stats,
         "untagged": frozenset(untagged),
     }
+    if detecting is not None:
+        lost = _beams_without_points(pts.lost_beam, pts.beam, sensor.beam_count)
+        columns = device_fields(sensor).get("column", sweep)
+        facts["lost_cells"] = (ring.take(lost).astype(np.uint16), columns.take(lost).astype(np.uint32))
     return cloud, facts
+
+
+def _beams_without_points(lost: np.ndarray, kept: np.ndarray, beams: int) -> np.ndarray:
+    """The beams of `lost` echoes that kept no echo, sorted, each once (masks, not a sort)."""
+    has = np.zeros(beams, dtype=bool)
+    has[lost] = True
+    has[kept] = False
+    return np.flatnonzero(has)
+
+
+def detecting_of(sensor: SensorConfig, effects: Effects, world_seed: int, backend=None):
+    """The detection step of a realistic scan (core/realism/lost_returns.py), or None: a device without
+    a [detection] table, or the step turned off (SensorConfig.detection). The objects of the
+    backend's geometry that carry `wildscan_reflectance` keep their own (raycast/geometry.py)."""
+    from .realism.lost_returns import Detecting, object_reflectances
+
+    table = sensor.device.detection
+    if table is None or not sensor.detection:
+        return None
+    weather = weather_of(effects)
+    alpha = 0.0 if weather is None else float(weather.extinction)
+    geometry = getattr(backend, "geometry", None)
+    own = (
+        ()
+        if getattr(geometry, "reflectance", None) is None
+        else object_reflectances(geometry.class_id, geometry.instance, geometry.reflectance)
+    )
+    return Detecting(table, int(world_seed), int(sensor.noise_seed), alpha, own)

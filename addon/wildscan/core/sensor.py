@@ -19,6 +19,7 @@ from .sensors.config import (
     SENSOR_SETTINGS,
 )
 from .sensors.noise import datasheet_sigma, noise_draws, range_noise, range_sigma
+from .sensors.returns import RETURN_MODES
 
 BEAMS_PER_2D_SCAN = _D.beams.count
 FIRST_BEAM_DEG, R_V_DEG = _D.beams.fan
@@ -63,6 +64,7 @@ __all__ = [
     "MIN_RH_DEG",
     "MODELS",
     "REALISTIC_SETTINGS",
+    "RETURN_MODES",
     "R_V_DEG",
     "SENSOR_SETTINGS",
     "SWEEP_DEG",

@@ -38,6 +38,15 @@ def tags_from(sources) -> tuple[int, int, float]:
     return class_id, instance, float("nan") if reflectivity is None else reflectivity
 
 
+def reflectance_from(sources) -> float:
+    """The `wildscan_reflectance` of the first of `sources` carrying one (an instanced object,
+    then its instancer), checked (a UserError naming the object); nan: none."""
+    from ..core.classes import REFLECTANCE_PROP, object_reflectance
+
+    value, owner = _first_prop(sources, REFLECTANCE_PROP)
+    return float("nan") if value is None else object_reflectance(owner.name, value)
+
+
 def _first_prop(objects, key: str):
     """(value, object carrying it), or (None, None)."""
     for obj in objects:

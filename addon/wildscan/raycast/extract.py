@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import tags_from
+from .base import reflectance_from, tags_from
 from .geometry import SceneGeometry, concatenate, local_origin, triangles_near_xy, world_vertices
 
 # Object types whose evaluated geometry to_mesh() can turn into triangles.
@@ -98,6 +98,7 @@ def _instance_part(inst, view_layer, crop, names: dict[str, int], mesh_cache: di
     if singular(matrix):
         return None
     class_id, instance, reflectivity, name = _tags(inst)
+    reflectance = _reflectance(inst)
     if crop is not None and not _box_within(obj, matrix, *crop):
         return None
     local = _local_mesh(obj, inst.is_instance, mesh_cache)
@@ -111,7 +112,9 @@ def _instance_part(inst, view_layer, crop, names: dict[str, int], mesh_cache: di
         if not keep.any():
             return None
     index = names.setdefault(name, len(names))
-    part = SceneGeometry(vertices, faces, class_id, instance, index, reflectivity=reflectivity)
+    part = SceneGeometry(
+        vertices, faces, class_id, instance, index, reflectivity=reflectivity, reflectance=reflectance
+    )
     # drop the cropped triangles' vertices too: they would widen the float32 extent
     return part if keep is None or keep.all() else part.subset(keep)
 
@@ -139,6 +142,7 @@ def check_scene_tags(depsgraph) -> None:
         obj = inst.object
         if obj is not None and obj.type in MESH_TYPES and scanned(inst, depsgraph.view_layer):
             _tags(inst)
+            _reflectance(inst)
 
 
 def _box_within(obj, matrix: np.ndarray, center_xy: np.ndarray, radius: float) -> bool:
@@ -183,6 +187,14 @@ def _read_evaluated_mesh(obj):
     finally:
         obj.to_mesh_clear()
     return co.reshape(-1, 3).astype(np.float64), tris.reshape(-1, 3)
+
+
+def _reflectance(inst) -> float:
+    """The instance's `wildscan_reflectance` (nan: none), from original objects as _tags."""
+    sources = [inst.object.original]
+    if inst.is_instance and inst.parent is not None:
+        sources.append(inst.parent.original)
+    return reflectance_from(sources)
 
 
 def _tags(inst) -> tuple[int, int, float, str]:

@@ -46,6 +46,9 @@ from ..core.hits import MISS_CLASS, MISS_INSTANCE, RayHits
 from .blocks import by_blocks
 from .settle import settle
 
+# the arrays of one entry a triangle (subset and concatenate carry each along)
+PER_TRIANGLE = ("class_id", "instance", "object_index", "reflectivity", "reflectance")
+
 
 @dataclass
 class SceneGeometry:
@@ -60,6 +63,7 @@ class SceneGeometry:
     offset:       float64 (3,) local origin for float32 copies (see module docstring).
     reflectivity: float32 (T,) the object's `wildscan_reflectivity` override, nan where the
                   class's reflectivity applies (None given: no override anywhere).
+    reflectance:  float32 (T,) `wildscan_reflectance` (0-1, core/realism/lost_returns.py), nan: none.
     cover:        the world's ground cover (core/world/cover.py CoverGrid), not triangles: a
                   layer the scan's medium walks (core/effects/cover.py); None: bare ground.
     """
@@ -73,6 +77,7 @@ class SceneGeometry:
     offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     reflectivity: np.ndarray | None = None
     cover: object = None
+    reflectance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.vertices = np.ascontiguousarray(self.vertices, dtype=np.float64).reshape(-1, 3)
@@ -81,8 +86,8 @@ class SceneGeometry:
         self.class_id = _per_triangle(self.class_id, t, np.int16, "class_id")
         self.instance = _per_triangle(self.instance, t, np.int32, "instance")
         self.object_index = _per_triangle(self.object_index, t, np.int32, "object_index")
-        refl = np.nan if self.reflectivity is None else self.reflectivity
-        self.reflectivity = _per_triangle(refl, t, np.float32, "reflectivity")
+        self.reflectivity = _per_triangle(self.reflectivity, t, np.float32, "reflectivity")  # None: nan
+        self.reflectance = _per_triangle(self.reflectance, t, np.float32, "reflectance")
         self.object_names = tuple(self.object_names)
         self.offset = np.asarray(self.offset, dtype=np.float64).reshape(3)
         if t and (self.faces.min() < 0 or self.faces.max() >= len(self.vertices)):
@@ -149,13 +154,10 @@ class SceneGeometry:
         return SceneGeometry(
             vertices=self.vertices[used],
             faces=remap[faces].astype(np.int32),
-            class_id=self.class_id[keep],
-            instance=self.instance[keep],
-            object_index=self.object_index[keep],
             object_names=self.object_names,
             offset=self.offset.copy(),
-            reflectivity=self.reflectivity[keep],
             cover=self.cover,
+            **{name: getattr(self, name)[keep] for name in PER_TRIANGLE},
         )
 
     # -- turning triangle hits into RayHits ---------------------------------------------
@@ -224,7 +226,7 @@ def _planes(v0: np.ndarray, v1: np.ndarray, v2: np.ndarray) -> tuple[np.ndarray,
 
 
 def _per_triangle(values, count: int, dtype, name: str) -> np.ndarray:
-    arr = np.asarray(values, dtype=dtype).ravel()
+    arr = np.asarray(np.nan if values is None else values, dtype=dtype).ravel()
     if arr.size == 1 and count != 1:
         arr = np.full(count, arr[0], dtype=dtype)
     if len(arr) != count:
@@ -288,11 +290,8 @@ def concatenate(parts: list[SceneGeometry], object_names=None, offset=None) -> S
     geometry = SceneGeometry(
         vertices=np.concatenate([p.vertices for p in parts]),
         faces=np.concatenate([p.faces.astype(np.int64) + s for p, s in zip(parts, starts)]),
-        class_id=np.concatenate([p.class_id for p in parts]),
-        instance=np.concatenate([p.instance for p in parts]),
-        object_index=np.concatenate([p.object_index for p in parts]),
         object_names=object_names if object_names is not None else parts[0].object_names,
-        reflectivity=np.concatenate([p.reflectivity for p in parts]),
+        **{name: np.concatenate([getattr(p, name) for p in parts]) for name in PER_TRIANGLE},
     )
     geometry.offset = local_origin(geometry.vertices, geometry.faces) if offset is None else offset
     return geometry

@@ -23,6 +23,8 @@ temporary name and renamed into place, so a failed save leaves nothing.
 
 Version 3 adds a world's ground cover (core/world/cover.py) as `cover_*.npy` entries after
 the rest, with its grid's shape in the header's `cover_shape`; only a world with cover has them.
+Version 4 adds reflectance.npy (<f4, T: `wildscan_reflectance`, nan where none) after the
+arrays of version 2, written only when some object carries one.
 
 `version` rises when the layout changes; a file from a newer WildScan is refused
 with a message saying so, never misread.
@@ -44,7 +46,7 @@ from ..core.io.files import atomic_outputs, check_input_file, check_output_path,
 from .geometry import SceneGeometry
 
 FORMAT = "wildscan-scene-geometry"
-VERSION = 3  # the newest this reads; a file without reflectivity overrides is written as 1
+VERSION = 4  # the newest this reads; a file without reflectivity overrides is written as 1
 SUFFIX = ".npz"
 HEADER = "header.json"
 # name, stored dtype, number of dimensions
@@ -57,6 +59,7 @@ ARRAYS = (
     ("offset", "<f8", 1),
 )
 OVERRIDES = ("reflectivity", "<f4", 1)  # version 2
+REFLECTANCE = ("reflectance", "<f4", 1)  # version 4
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)  # the zip format's earliest date: no clock in the bytes
 # A file of ours starts with a zip entry (PK\x03\x04) holding header.json, stored
 # uncompressed, so its first bytes name the format even when the rest is lost.
@@ -81,11 +84,12 @@ def save_geometry(geometry: SceneGeometry, path, metadata: dict | None = None, s
 def geometry_file_bytes(geometry: SceneGeometry, metadata: dict | None = None) -> bytes:
     """The bytes `save_geometry` writes."""
     cover = geometry.cover.to_arrays() if geometry.cover is not None else {}
-    overrides = cover or not np.isnan(geometry.reflectivity).all()  # version 3 has every entry of 2
-    arrays = ARRAYS + ((OVERRIDES,) if overrides else ())
+    own = not np.isnan(geometry.reflectance).all()  # version 4 has every entry of 2 and 3
+    overrides = cover or own or not np.isnan(geometry.reflectivity).all()
+    arrays = ARRAYS + ((OVERRIDES,) if overrides else ()) + ((REFLECTANCE,) if own else ())
     header = {
         "format": FORMAT,
-        "version": 3 if cover else 2 if len(arrays) > len(ARRAYS) else 1,
+        "version": 4 if own else 3 if cover else 2 if overrides else 1,
         "wildscan_version": __version__,
         "object_names": list(geometry.object_names),
         "metadata": metadata or {},
@@ -137,6 +141,7 @@ def load_geometry_file(path, setting: str = "geometry") -> tuple[SceneGeometry, 
         with zipfile.ZipFile(path) as zf:
             header = _read_header(zf, fail)
             wanted = ARRAYS + ((OVERRIDES,) if header["version"] >= 2 else ())
+            wanted += (REFLECTANCE,) if header["version"] >= 4 else ()
             arrays = {name: _read_array(zf, name, dtype, ndim, fail) for name, dtype, ndim in wanted}
             cover = _read_cover(zf, header, fail)
     except _DAMAGE as e:

@@ -15,6 +15,7 @@ from ...core.classes import BY_ID, CLASSES, LOG, PARTICLE
 from ...core.errors import UserError
 from ...core.io.files import atomic_outputs, write_durably
 from ...core.label_schemes import RELLIS_POINT_COUNTS
+from ...core.realism.lost_returns import add_stats
 from ...core.runtime.pause import pause_here
 from .intensity import intensity_lines, remission_totals
 from .layout import CARD, CARD_FIGURES, DATASET_JSON
@@ -99,12 +100,18 @@ def _particle_totals(spec: DatasetSpec, ok: list[dict], class_points: dict) -> d
 
 
 def _echo_totals(ok: list[dict]) -> dict:
-    """Points by echo and mixed pixels over the realistic scans (none: no such keys)."""
+    """Points by echo and mixed pixels over the realistic scans (none: no such keys), and the
+    returns their detection step lost (core/realism/lost_returns.py)."""
     realistic = [r for r in ok if "echo_counts" in r]
     if not realistic:
         return {}
     by_echo = [sum(r["echo_counts"][k] for r in realistic) for k in range(3)]
-    return {"echo_counts": by_echo, "mixed_points": sum(r["mixed_points"] for r in realistic)}
+    out = {"echo_counts": by_echo, "mixed_points": sum(r["mixed_points"] for r in realistic)}
+    lost: dict = {}
+    for r in realistic:
+        if "lost_returns" in r:
+            lost = add_stats(lost, r["lost_returns"])
+    return {**out, "lost_returns": lost} if lost else out
 
 
 def category_shares(class_points: dict[str, int]) -> dict[str, tuple[float, float]]:
@@ -173,6 +180,24 @@ def _echo_lines(t: dict) -> list[str]:
         f"Echoes (realistic model): {_pct(first / total)} of points are a beam's first echo, "
         f"{_pct(second / total)} its second, {_pct(third / total)} its third; "
         f"{_pct(t['mixed_points'] / total)} are mixed pixels."
+    ]
+
+
+def _lost_lines(t: dict) -> list[str]:
+    """The card's lost returns: how many, and their share by class, range and incidence."""
+    lost = t.get("lost_returns")
+    if not lost or not lost["weighed"]:
+        return []
+
+    def shares(part: dict, name=lambda k: k) -> str:
+        return ", ".join(f"{name(k)} {_pct(g / w)}" for k, (w, g) in part.items() if w)
+
+    by_class = shares(lost["by_class"], lambda k: BY_ID[int(k)].name)
+    return [
+        f"Lost returns (realistic model: a return below the device's detection limit, docs/sensors.md): "
+        f"{lost['lost']:,} of {lost['weighed']:,} echoes ({_pct(lost['lost'] / lost['weighed'])}); "
+        f"lost share by class: {by_class}; by range: {shares(lost['by_range'])}; "
+        f"by incidence: {shares(lost['by_incidence'])}.",
     ]
 
 
@@ -247,6 +272,7 @@ def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]])
         f"Scans written: {t['scans_ok']:,} of {t['scans_planned']:,} "
         f"({t['scans_failed']:,} without a valid pose); {t['points']:,} points; {t['bytes'] / 1e9:.2f} GB.",
         *_echo_lines(t),
+        *_lost_lines(t),
         *_weather_lines(spec, t),
         *intensity_lines(spec, t),
         "",

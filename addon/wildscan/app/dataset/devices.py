@@ -89,6 +89,20 @@ def device_values(data: dict, where: str, device: str | tuple[str, ...]) -> dict
     return values
 
 
+def spec_returns(data: dict, where: str, device: str | tuple[str, ...]) -> str | None:
+    """A spec's `returns` (None: each device's own), checked against every device the spec may
+    draw (core/sensors/returns.py): a mode one of them lacks is a mistake before any work."""
+    mode = data.get("returns")
+    if mode is None:
+        return None
+    for name in device if isinstance(device, tuple) else (device,):
+        try:
+            SensorConfig.for_device(device_choice(name), model="realistic", returns=mode).check_returns()
+        except UserError as e:
+            raise UserError(f"{where}: with device {Path(name).name}, sensor.{e}") from None
+    return mode
+
+
 def draw_device(device: str | tuple[str, ...], seed: int, index: int) -> Device:
     """The device of scan `index` of world `seed`: the one named, or one of the list drawn
     from a stream of its own."""

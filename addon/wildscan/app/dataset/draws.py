@@ -43,6 +43,7 @@ def draw_sensor(spec: SensorSpec, seed: int, index: int) -> S.SensorConfig:
         divergence_mrad=_draw(spec.divergence, seed, index, "divergence"),
         echoes=_draw(spec.echoes, seed, index, "echoes"),
         echo_separation=_draw(spec.echo_separation, seed, index, "echo_separation"),
+        returns=spec.returns,
     ).validate()
 
 
@@ -54,7 +55,12 @@ def _device_sensor(spec: SensorSpec, seed: int, index: int, noise_seed: int) -> 
         for key in DEVICE_KEYS
         if getattr(spec, key) is not None
     }
-    realistic = {"divergence": "divergence_mrad", "echoes": "echoes", "echo_separation": "echo_separation"}
+    realistic = {
+        "divergence": "divergence_mrad",
+        "echoes": "echoes",
+        "echo_separation": "echo_separation",
+        "returns": "returns",
+    }
     for key, name in realistic.items():
         if spec.model == "realistic" and getattr(spec, key) is not None:
             given[name] = _draw(getattr(spec, key), seed, index, key)

@@ -61,6 +61,7 @@ class SensorSpec:
     divergence: Value = S.DEFAULT_DIVERGENCE_MRAD
     echoes: int | tuple[int, int] = S.MAX_ECHOES
     echo_separation: Value = S.DEFAULT_ECHO_SEPARATION
+    returns: str | None = None  # the return mode (core/sensors/returns.py); None: the device's own
     # a preset or device file, or a tuple of them drawn per scan (app/dataset/devices.py); with
     # another device than the default, rh, min_range and max_range are None for its own
     device: str | tuple[str, ...] = "utm30lx-ew"
@@ -361,7 +362,7 @@ SENSOR_KEYS = (*S.SENSOR_SETTINGS, "frame")
 
 
 def _sensor(t: _Table) -> SensorSpec:
-    from .devices import DEVICE_KEYS, device_values, is_default, spec_device
+    from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_returns
 
     t.only(*SENSOR_KEYS, "device")
     device = spec_device(t.get("device", SensorSpec.device), t.where)
@@ -391,7 +392,7 @@ def _sensor(t: _Table) -> SensorSpec:
     for key, value in values.items():
         if key not in own:
             _check_open_low(t, key, value)
-    values["echoes"] = _whole_value(t, "echoes", d.echoes)
+    values.update(echoes=_whole_value(t, "echoes", d.echoes), returns=spec_returns(t.data, t.where, device))
     if own:  # the realistic model's settings not given are the device's own too
         values.update({key: None for key in S.REALISTIC_SETTINGS if key not in t.data})
     return SensorSpec(

@@ -45,7 +45,7 @@ def verify_dataset(out) -> VerifyReport:
     records = [f for row in manifest.ok_rows() for f in row["files"]] + list(data.get("files", {}).values())
     file_problems = [p for p in check_files(root, records) if p]
     planned_keys = _planned_keys(data["spec"])
-    rows = _row_problems(manifest, planned_keys)
+    rows = _row_problems(manifest, planned_keys) + _hash_problems(manifest, data["config_hash"])
     says_complete = bool(data.get("complete"))
     missing = [k for k in planned_keys if k not in manifest.rows]
     card_problems = _card_problems(root, says_complete)
@@ -72,6 +72,21 @@ def _row_problems(manifest: Manifest, planned: set[tuple[str, int]]) -> list[str
         f"{MANIFEST}: a row for scan {scan} of sequence {seq}, which the spec does not plan"
         for seq, scan in sorted(manifest.rows)
         if (seq, scan) not in planned
+    ]
+
+
+def _hash_problems(manifest: Manifest, wanted: str) -> list[str]:
+    """Rows made under another config (a device file edited while a run was writing): one
+    line counting them, naming the first."""
+    rows = sorted(manifest.rows.items())
+    other = [key for key, row in rows if row["config_hash"] != wanted]
+    if not other:
+        return []
+    seq, scan = other[0]
+    return [
+        f"{MANIFEST}: {len(other):,} scans (the first: scan {scan} of sequence {seq}) were made under "
+        f"another config than {DATASET_JSON}'s (hash {wanted[:12]}): an edited device file? The same "
+        "command refuses to continue until the spec and its files are as the dataset began"
     ]
 
 

@@ -322,6 +322,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
             None,
             _effects(weather, sensor, context.cover),
             incidence=spec.intensity == "physical",  # the physical intensity's cos θ, from the sweep
+            world_seed=context.seed,  # the surfaces' reflectances, as the physical intensity's
         )
     except PoseRejected as e:
         return dict(row, status="failed", reason=str(e), files=[], seconds=time.perf_counter() - t0)
@@ -346,6 +347,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         files=written,
         **_echo_counts(cloud),
         **scan_intensity_facts(cloud),
+        **_lost_returns(result.metadata),
     )
     row["seconds"] = time.perf_counter() - t0
     return row
@@ -370,6 +372,8 @@ def sensor_row(sensor, frame: str) -> dict:
             echoes=sensor.echoes,
             echo_separation=sensor.echo_separation,
         )
+        if sensor.device.optics.returns != ("multi",):
+            row["returns"] = sensor.return_mode
     return row
 
 
@@ -379,6 +383,12 @@ def _echo_counts(cloud) -> dict:
         return {}
     by_echo = np.bincount(cloud.extra["echo"], minlength=4)[1:4]
     return {"echo_counts": by_echo.tolist(), "mixed_points": int(np.count_nonzero(cloud.extra["mixed"]))}
+
+
+def _lost_returns(metadata: dict) -> dict:
+    """A realistic scan's returns lost to the detection step (core/realism/lost_returns.py): the card's."""
+    lost = metadata.get("echoes", {}).get("lost_returns")
+    return {} if lost is None else {"lost_returns": lost}
 
 
 def _class_counts(labels: np.ndarray) -> dict[str, int]:
@@ -410,6 +420,7 @@ def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result, wor
         context.instances,
         hag,
         support=support_flags(cloud.label, hag),
+        lost_cells=result.lost_cells,
     )
     row["class_heights"] = class_height_histogram(cloud.label, hag)
     for name in spec.formats:

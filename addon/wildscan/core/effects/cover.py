@@ -19,14 +19,13 @@ a point surely inside the layer, a ray surely coming down. Only the rest are loo
 closely, with CoverGrid.surface_at's own operations, so every decision is the one the
 interpolated terrain gives (core/effects/cover_cells.py: the cells along the rays).
 
-Determinism: the rays are taken in fixed parts of PART rays (on the cast's threads); each part
-draws from its own PCG64 generator seeded from (the scan's noise seed, "cover.part.K"), in ray
-order: the uniforms of the rays that start in the layer, of those whose hit is in it, then (at
-once, as many as SETTLE redraws could take) of the stops drawn again. The redraws (a few grazing
-beams) are settled after the parts, every part's at once, each pass taking the next uniforms of
-each ray's own part: the numbers a part drawing pass by pass would take. Each optical depth is
--log(1 - u) with detmath's log, so the same scan gives the same bytes on every machine, however
-many threads.
+Determinism: every uniform a ray draws is a hash of (the scan's noise seed, the ray's index in
+the scan, which of its two runs: from the sensor or to its hit, and the draw's number: 0 the
+first stop, 1..SETTLE its redraws) (rng.hash_unit, splitmix64), not the next number of a
+stream. So a ray's stops depend on that ray alone: another ray's hit changing (an element left
+out of a far tile, core/world/endless) moves no other ray's stop, and a scan's bytes do not
+depend on the threads or on the parts (PART rays) the rays are taken in. Each optical depth is
+-log(1 - u) with detmath's log, so the same scan gives the same bytes on every machine.
 """
 
 from __future__ import annotations
@@ -38,7 +37,7 @@ import numpy as np
 
 from .. import detmath as dm
 from ..hits import RayHits
-from ..rng import stage_rng
+from ..rng import hash_unit
 from ..runtime.threads import in_parts
 from ..world.cover import BOTTOM_SLACK, COVER_INSTANCE_BASE, CoverGrid
 from ..world.cover_lookup import CoverLookup, cover_lookup
@@ -115,7 +114,7 @@ class GroundCover(Effect):
 
         found = _Stops.joined(in_parts(stops, n, PART))
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            _redraw(look, CoverRays(o, d, rays.max_range), found)
+            _redraw(look, CoverRays(o, d, rays.max_range), found, self.seed)
         rows, at, cls = found.kept(n)
         if not len(rows):
             return hits
@@ -239,8 +238,7 @@ class _Run:
 class _Stops:
     """The stops drawn in both runs of the rays: of each part (PART rays), the runs from the
     sensor's (`from_sensor`), then the runs to the hit's, each in ray order; where each stops
-    and its class (0: none yet), its run's end and anchor's extinction; each part's generator
-    (None: none drawn)."""
+    and its class (0: none yet), its run's end and anchor's extinction."""
 
     rows: np.ndarray
     from_sensor: np.ndarray
@@ -248,34 +246,27 @@ class _Stops:
     cls: np.ndarray
     end: np.ndarray
     ext: np.ndarray
-    rngs: list
 
     @staticmethod
     def first(a: _Run, b: _Run, seed: int, first: int) -> _Stops:
         """The first stops of the runs of one part (rows in the part), whose first ray is
-        `first`. Each part
-        draws from its own stream, seeded from (seed, "cover.part.K"), in ray order: the
-        uniforms of its runs from the sensor, then of its runs to the hit (the same bytes
-        however many threads share the parts)."""
-        count = len(a.rows) + len(b.rows)
-        rng = stage_rng(seed, f"cover.part.{first // PART}") if count else None
-        u = rng.random(count) if count else np.zeros(0)
+        `first`: draw 0 of each run (ray_uniform)."""
+        rays = np.concatenate([a.rows, b.rows]).astype(np.int64) + first
+        run = np.concatenate([np.zeros(len(a.rows), dtype=np.int64), np.ones(len(b.rows), dtype=np.int64)])
+        u = ray_uniform(seed, 2 * rays + run, 0)
         stop = _depth(np.concatenate([a.begin, b.begin]), np.concatenate([a.ext, b.ext]), u)
         end = np.concatenate([a.end, b.end])
         k = np.flatnonzero(stop < end)
         rows = np.concatenate([a.rows, b.rows]).take(k)
         from_sensor = k < len(a.rows)
         ext = np.concatenate([a.ext, b.ext]).take(k)
-        return _Stops(
-            rows, from_sensor, stop.take(k), np.zeros(len(k), dtype=np.int16), end.take(k), ext, [rng]
-        )
+        return _Stops(rows, from_sensor, stop.take(k), np.zeros(len(k), dtype=np.int16), end.take(k), ext)
 
     @staticmethod
     def joined(parts: list[_Stops]) -> _Stops:
-        """The stops of consecutive parts, in order (each part's generator at its index)."""
+        """The stops of consecutive parts, in order."""
         fields = ("rows", "from_sensor", "stop", "cls", "end", "ext")
-        joined = (np.concatenate([getattr(p, name) for p in parts]) for name in fields)
-        return _Stops(*joined, [r for p in parts for r in p.rngs])
+        return _Stops(*(np.concatenate([getattr(p, name) for p in parts]) for name in fields))
 
     def kept(self, n: int):
         """(rays, where, class) of the stops that hold (of `n` rays): a ray whose run from
@@ -313,7 +304,13 @@ def _settle(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
     stops.cls = cls
 
 
-def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
+def ray_uniform(seed: int, run: np.ndarray, draw: int) -> np.ndarray:
+    """The uniform in [0, 1) of draw `draw` of each run (key 2 x ray + 0 from the sensor, + 1
+    to the hit) of a scan with noise seed `seed`: a pure function of the four."""
+    return hash_unit(np.int64(seed), np.int64(0xC0DE5), np.asarray(run, dtype=np.int64), np.int64(draw))
+
+
+def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops, seed: int) -> None:
     """The stops that came out of the layer at their first try (_settle: cls -1). A run's
     length and medium are its anchor cell's (where it ends, or starts); along a long run (a
     grazing beam over several cells) a stop can come out where this cell's sward is lower, or
@@ -321,25 +318,16 @@ def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
     it comes down into this cell's sward, when it is above it): its depth is drawn again, in
     this cell's sward or, where this cell has none, in the anchor's, until its run's end; at
     most SETTLE times, then it passes. (Dropping such stops instead would let grazing beams
-    through a meadow far more often than Beer-Lambert says.) Each part's stream draws, after
-    its first stops, SETTLE uniforms for each of its stops that came out (in the order of
-    _Stops), and each pass takes the next uniforms of each ray's part in that order."""
+    through a meadow far more often than Beer-Lambert says.) Pass k draws each run's uniform
+    number k + 1 (ray_uniform)."""
     out = np.flatnonzero(stops.cls < 0)
     stops.cls[out] = 0
     if not len(out):
         return
     t = stops.stop.take(out)
     stops.stop[out] = np.inf
-    # part by part (a stable sort keeps each part's stops in their order)
-    part = stops.rows.take(out) // PART
-    order = np.argsort(part, kind="stable")
-    slot, part, t = out.take(order), part.take(order), t.take(order)
-    counts = np.bincount(part, minlength=len(stops.rngs))
-    # the logs of every uniform a pass could take, at once (a log costs ~40 array operations)
-    uniforms = [stops.rngs[k].random(int(c) * SETTLE) for k, c in enumerate(counts.tolist()) if c]
-    log_1_u = dm.log(1.0 - np.concatenate(uniforms))
-    base = np.concatenate([[0], np.cumsum(counts * SETTLE)[:-1]])  # each part's first uniform
-    drawn = np.zeros(len(counts), dtype=np.int64)
+    slot = out
+    part = 2 * stops.rows.take(slot).astype(np.int64) + ~stops.from_sensor.take(slot)  # each run's key
     end, anchor_ext = stops.end.take(slot), stops.ext.take(slot)
     rows = stops.rows.take(slot)
     dx, dy, dz = ray.cols(rows)
@@ -348,7 +336,7 @@ def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
     # every point of a redraw lies before its run's end, within the rays' reach
     contained = ray.single and look.contains(*ray.box)
     c, height, ground, ext, gx, gy = surface(look, x, y, contained=contained)
-    for _ in range(SETTLE):
+    for k in range(SETTLE):
         above = z - ground
         # above a lower sward the ray comes down into: on from where it enters it; over
         # bare ground or rising above this cell's sward: on from where it leaves the cell
@@ -361,11 +349,7 @@ def _redraw(look: CoverLookup, ray: CoverRays, stops: _Stops) -> None:
         on = ~here | (high & (rate >= 0))
         t = np.where(down, t + (above - height) / -rate, t)
         t = np.where(on, cell_exit(look, x, y, dx, dy, t), t)
-        # the next uniform of each ray's part, in the order of the rays
-        count = np.bincount(part, minlength=len(counts))
-        first = np.concatenate([[0], np.cumsum(count)[:-1]])
-        depth = log_1_u.take((base + drawn - first).take(part) + np.arange(len(part)))
-        drawn += count
+        depth = dm.log(1.0 - ray_uniform(seed, part, k + 1))
         t = _stop_at(t, end, np.where(here, ext, anchor_ext), depth)
         going = np.flatnonzero(np.isfinite(t))
         if not len(going):

@@ -77,10 +77,13 @@ def check_ascii(w: Writer, ascii: bool) -> None:
         raise UserError(why, setting="ascii", related=("format",))
 
 
-def single_scan(w: Writer, cloud, metadata: dict, ascii: bool = False) -> ScanOutput:
-    """A scan on its own (no world around it): the label ids of the format's own scheme."""
+def single_scan(w: Writer, cloud, metadata: dict, ascii: bool = False, lost_cells=None) -> ScanOutput:
+    """A scan on its own (no world around it): the label ids of the format's own scheme;
+    `lost_cells`: its range image's `lost` mask (core/scan.py ScanResult.lost_cells)."""
     check_ascii(w, ascii)
-    return ScanOutput(cloud=cloud, metadata=metadata, labels=scheme(w.scan_labels), ascii=ascii)
+    return ScanOutput(
+        cloud=cloud, metadata=metadata, labels=scheme(w.scan_labels), ascii=ascii, lost_cells=lost_cells
+    )
 
 
 def range_image_bytes(w: Writer, scan: ScanOutput) -> bytes:

@@ -49,6 +49,14 @@ ASPRS_BY_CLASS: dict[str, int] = {
     "water": 9,  # water: never written (a beam that hits water returns no point), so not in ASPRS_NAMES
     "log": 69,  # user code: ASPRS has no deadwood class
     "particle": 18,  # high noise (returns from the air: rain, snow, fog, dust)
+    # the endless landscape's ground materials are ground (ASPRS codes what a surface is, not
+    # what it is made of)
+    "soil": 2,
+    "gravel": 2,
+    "mud": 2,
+    "paved": 2,
+    "leaf litter": 2,
+    "rock slab": 2,
 }
 ASPRS_CODES: dict[int, int] = ids_by_class_id("asprs (core/io/las.py)", ASPRS_BY_CLASS, None)  # id -> code
 ASPRS_NAMES: dict[int, str] = {
@@ -88,6 +96,8 @@ REALISTIC_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
     ("label_purity", np.float32, "share of echo energy from label"),
     ("mixed", np.uint8, "1: a mixed pixel on no surface"),
 )
+# a dual-return scan's (core/sensors/returns.py RETURN_TYPES): which return of its beam a point is
+RETURN_TYPE_DIMENSION = ("return_type", np.uint8, "1 strong,2 last,3 both,4 second")
 # extra dimensions of a scan by a device other than the default (core/sensors; the default
 # device's files keep their bytes): the firing's index and time, also the point's GPS time
 DEVICE_DIMENSIONS: tuple[tuple[str, type, str], ...] = (
@@ -139,6 +149,7 @@ def las_bytes(
     dimensions = tuple(d for d in EXTRA_DIMENSIONS if d[0] != "hag" or "hag" in fields)
     dimensions += REALISTIC_DIMENSIONS if realistic else ()
     dimensions += DEVICE_DIMENSIONS if "column" in fields else ()
+    dimensions += (RETURN_TYPE_DIMENSION,) if "return_type" in fields else ()
     las = laspy.LasData(_header(version, np.asarray(offsets), dimensions))
     xyz = np.asarray(xyz, dtype=np.float64)
     las.x, las.y, las.z = xyz[:, 0], xyz[:, 1], xyz[:, 2]

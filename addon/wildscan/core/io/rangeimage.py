@@ -21,6 +21,9 @@ The .npz holds, H x W (rows x columns):
 and, one entry a point in the order of the scan's files:
     row        uint16   the point's row
     column     uint32   the point's column (a head turning a multi-beam lidar fires past 65,535)
+and, for a scan of the realistic model (its detection step: core/realism/lost_returns.py):
+    lost       bool     H x W: the beam met a surface but its return was too weak for the
+                        receiver (no point): the ray-drop mask
 """
 
 from __future__ import annotations
@@ -96,12 +99,24 @@ def _cells(values, index: np.ndarray, held: np.ndarray, dtype, empty) -> np.ndar
 
 
 def scan_range_image(
-    cloud: PointCloud, metadata: dict, remission: np.ndarray, labels: np.ndarray, instances: np.ndarray
+    cloud: PointCloud,
+    metadata: dict,
+    remission: np.ndarray,
+    labels: np.ndarray,
+    instances: np.ndarray,
+    lost_cells: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> dict[str, np.ndarray]:
     """The range image of a scan whose SemanticKITTI files carry `remission`, `labels` and
-    `instances` (per point)."""
+    `instances` (per point); with `lost_cells` ((rows, columns) of the beams the detection
+    step dropped: core/scan.py ScanResult) its `lost` mask too."""
     row, column = cells_of(cloud)
-    return range_image(row, column, grid_shape(metadata), cloud.range, remission, labels, instances)
+    shape = grid_shape(metadata)
+    image = range_image(row, column, shape, cloud.range, remission, labels, instances)
+    if lost_cells is not None:
+        lost = np.zeros(shape, dtype=bool)
+        lost[np.asarray(lost_cells[0], dtype=np.int64), np.asarray(lost_cells[1], dtype=np.int64)] = True
+        image["lost"] = lost
+    return image
 
 
 def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:

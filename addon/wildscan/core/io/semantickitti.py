@@ -99,7 +99,9 @@ def range_image_bytes(scan: ScanOutput, labels: np.ndarray, instances: np.ndarra
     """The scan's range image (core/rangeimage.py) as an .npz: the .bin's remission, and the
     `labels` and `instances` (per point) of its label file."""
     cloud = scan.cloud
-    image = scan_range_image(cloud, scan.metadata, remission(cloud.intensity), labels, instances)
+    image = scan_range_image(
+        cloud, scan.metadata, remission(cloud.intensity), labels, instances, scan.lost_cells
+    )
     return npz_bytes(image)
 
 

@@ -43,6 +43,9 @@ class ScanOutput:
     # uint8 per point: on the surface the robot rests on (core/traversability.py), where known
     # (datasets; PLY writes it, other formats carry label and hag it follows from)
     support: np.ndarray | None = None
+    # (rows, columns) of the range-image cells whose return the realistic model's detection step
+    # dropped (core/scan.py ScanResult.lost_cells): the range image's `lost` mask; None: none
+    lost_cells: tuple[np.ndarray, np.ndarray] | None = None
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from ..placement import (
     MAX_TILT_DEG,
     MAX_UNEVENNESS,
     NO_GROUND,
-    TERRAIN_ID,
+    STANDING_IDS,
     Placement,
     Pose,
     cast_lasers_many,
@@ -166,7 +166,9 @@ def stand_all(poses: list[Pose], rows) -> Stood:
         )
         tilt = dm.degrees(dm.arccos(np.maximum(-1.0, np.minimum(1.0, dm.cos(roll) * dm.cos(pitch)))))
         fits = (
-            np.all(class_id == TERRAIN_ID, axis=1) & (unevenness <= MAX_UNEVENNESS) & (tilt <= MAX_TILT_DEG)
+            np.all(np.isin(class_id, STANDING_IDS), axis=1)
+            & (unevenness <= MAX_UNEVENNESS)
+            & (tilt <= MAX_TILT_DEG)
         )
     xy = np.array([[pose.x, pose.y] for pose in poses]).reshape(-1, 2)
     yaw = dm.radians(np.array([pose.yaw_deg for pose in poses], dtype=np.float64))

@@ -91,6 +91,9 @@ class Echoes:
     label: np.ndarray  # int16 class holding most of the energy
     purity: np.ndarray  # float64 its share of the energy
     instance: np.ndarray  # int32 the strongest sub-ray's of that class
+    # float64 sum of w cos(theta) over its returns: the footprint's share on the surfaces times
+    # their incidence (what the detection step weighs: core/realism/lost_returns.py)
+    cover: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.beam)
@@ -127,6 +130,7 @@ def form_echoes(returns: SubrayReturns, weights: np.ndarray, separation: float, 
         "cls": returns.class_id,
         "inst": returns.instance,
         "energy": np.where(valid, energy, 0.0),
+        "cover": np.where(valid, weights[:, None] * np.maximum(np.abs(cos), COS_FLOOR), 0.0),
     }
     # Most beams land whole on one element: one echo, nothing to sort or group. (Rows are
     # sub-rays: reducing over them is elementwise work on contiguous rows.)
@@ -159,6 +163,7 @@ def _whole_beam_echoes(beams: np.ndarray, columns: dict) -> Echoes:
         label=columns["cls"][0, beams].astype(np.int16),
         purity=np.ones(len(beams)),
         instance=columns["inst"][0, beams].astype(np.int32),
+        cover=np.add.reduce(columns["cover"][:, beams], axis=0),
     )
 
 
@@ -232,6 +237,7 @@ def _no_echoes() -> Echoes:
         label=np.zeros(0, dtype=np.int16),
         purity=np.zeros(0),
         instance=np.zeros(0, dtype=np.int32),
+        cover=np.zeros(0),
     )
 
 
@@ -253,6 +259,7 @@ def _summarise(f: dict, echo: np.ndarray, starts: np.ndarray, beam: np.ndarray) 
         label=label.astype(np.int16),
         purity=np.minimum(purity, 1.0),
         instance=instance.astype(np.int32),
+        cover=np.bincount(echo, f["cover"], count),
     )
 
 

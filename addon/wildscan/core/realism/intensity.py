@@ -29,8 +29,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..classes import NUM_IDS, REFLECTIVITY_BY_ID, WATER_ID, class_by_name, counts_by_class
-from ..world.cover import COVER_INSTANCE_BASE
+from ..classes import GROUND_IDS, NUM_IDS, REFLECTIVITY_BY_ID, WATER_ID, class_by_name, counts_by_class
+from ..rng import hash_unit
+from ..world.cover import is_cover_instance
 
 INTENSITY_MODES = ("physical", "class")
 DEFAULT_DATASET_INTENSITY = "physical"
@@ -62,6 +63,20 @@ MATERIALS: dict[str, tuple[float, float]] = {
     "pole": (0.20, 0.50),
     "log": (0.20, 0.50),
     "particle": (0.02, 0.10),
+    # the endless landscape's ground materials (classes.GROUND_MATERIALS), at 0.9 um: dry soils
+    # 0.2-0.45 (ECOSTRESS soils, above); gravel and crushed stone 0.2-0.45 (USGS splib07,
+    # Kokaly et al. 2017, doi:10.3133/ds1035: limestone and granite chips); wet soil and mud
+    # about half its dry reflectance, 0.05-0.2 (Lobell & Asner 2002, "Moisture effects on soil
+    # reflectance", Soil Sci. Soc. Am. J. 66:722-727); asphalt 0.05-0.2, darker when new
+    # (Herold et al. 2004, "Spectrometry for urban area remote sensing", Remote Sens. Environ.
+    # 91:304-319); dry leaf litter, non-photosynthetic vegetation, 0.3-0.5 (ECOSTRESS
+    # non-photosynthetic vegetation spectra); bare rock 0.1-0.5 (as rock above)
+    "soil": (0.20, 0.45),
+    "gravel": (0.20, 0.45),
+    "mud": (0.05, 0.20),
+    "paved": (0.05, 0.20),
+    "leaf litter": (0.30, 0.50),
+    "rock slab": (0.10, 0.50),
 }
 
 
@@ -80,26 +95,6 @@ def _material_table() -> tuple[np.ndarray, np.ndarray]:
 
 MATERIAL_LOW, MATERIAL_HIGH = _material_table()
 TERRAIN_ID = class_by_name("terrain").id
-
-
-def hash_unit(*keys: np.ndarray) -> np.ndarray:
-    """A uniform number in [0, 1) per row of integer keys (splitmix64 of their mix): the same
-    on every machine, and one surface's number does not depend on which others were seen."""
-    shape = np.broadcast_shapes(*(np.shape(k) for k in keys))
-    # element by element, so mixed while it is still one number for the leading scalar keys
-    # (a scan's seed and number) and broadcast only by the keys that vary: the same bits
-    h = np.zeros((), dtype=np.uint64)
-    with np.errstate(over="ignore"):
-        for k in keys:
-            h = _splitmix(h ^ np.asarray(k).astype(np.int64).astype(np.uint64))
-    return np.array(np.broadcast_to((h >> np.uint64(11)).astype(np.float64) * 2.0**-53, shape))
-
-
-def _splitmix(x: np.ndarray) -> np.ndarray:
-    x = x + np.uint64(0x9E3779B97F4A7C15)
-    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return x ^ (x >> np.uint64(31))
 
 
 def _terrain_field(seed: int, xy: np.ndarray) -> np.ndarray:
@@ -145,7 +140,9 @@ def surface_reflectance(
     u = _hash_per_run(np.int64(seed), label, np.asarray(instance, dtype=np.int64))
     # the terrain, and the ground cover's sward (one instance a class: core/world/cover.py), vary
     # spot by spot rather than one draw for the whole surface
-    terrain = (label == TERRAIN_ID) | (np.asarray(instance) >= COVER_INSTANCE_BASE)
+    terrain = (label == TERRAIN_ID) | is_cover_instance(instance)
+    if len(label) and label.max() >= min(GROUND_IDS):  # the endless landscape's ground materials
+        terrain |= np.isin(label, GROUND_IDS)
     if terrain.any():
         u[terrain] = _terrain_field(seed, np.asarray(world_xy)[terrain])
     return MATERIAL_LOW[label] + (MATERIAL_HIGH[label] - MATERIAL_LOW[label]) * u

@@ -16,7 +16,7 @@ the paper's very rays and keeps their first hits: the same points and labels.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,10 +28,12 @@ from ..errors import UserError
 from ..hits import RayHits
 from ..runtime.threads import in_parts, started
 from ..sensors import SensorConfig, noise_draws, range_sigma, rotated_beam_directions
-from ..world.cover import COVER_INSTANCE_BASE
+from ..sensors.returns import select_returns
+from ..world.cover import is_cover_instance
 from .coarse_footprint import BeamGrid, footprint_hits, scan_grid
 from .echoes import Echoes, SubrayReturns, form_echoes
 from .footprint import ring_columns, subray_directions, subray_weights, turn_rings
+from .lost_returns import TALLY, Detecting, lost_echoes, tally, tally_stats
 
 MIXED_TOLERANCE = 1e-3  # m: a point this close to a surface of its class along the axis is on it
 AXIS_STEP = 1e-4  # m past a surface before following the axis on (far above float32 round-off)
@@ -53,6 +55,13 @@ class RealisticPoints:
     purity: np.ndarray  # float64
     mixed: np.ndarray  # bool
     stats: dict
+    # the beams of the echoes the detection step dropped (lost_returns.py), one entry an echo
+    lost_beam: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    # (blocks, 2, TALLY): the echoes weighed and lost by class, range and incidence, per block
+    lost_tally: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, TALLY), dtype=np.int64))
+    # uint8 which return of its beam each point is in a strongest, last or dual scan
+    # (sensors/returns.py RETURN_TYPES); 0 in a multi-echo scan
+    return_type: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.uint8))
 
     @staticmethod
     def joined(parts: list["RealisticPoints"]) -> "RealisticPoints":
@@ -108,11 +117,13 @@ def realistic_points(
     cast_range: float,
     effects: Effects = CLEAR_AIR,
     threads: int | None = None,
+    detecting: Detecting | None = None,
 ) -> RealisticPoints:
     """Every point of a realistic scan over the beams of sensor.beam_directions (their
     order). `cast(origins, dirs_world, max_range, normals)` is the backend's cast (maybe
     reporting progress); `rotation` turns the sensor frame to the world's; `threads`: those
-    its casts use (threads.backend_threads; None: threads.cast_threads())."""
+    its casts use (threads.backend_threads; None: threads.cast_threads()); `detecting`: the
+    detection step's settings (lost_returns.py; None: every echo in the range window kept)."""
     sub_sensor = subray_directions(sensor.rh_deg, sensor.divergence_mrad, sensor.device)
     sub_world = np.empty(sub_sensor.shape)
 
@@ -127,7 +138,7 @@ def realistic_points(
     in_parts(lambda beams: turn_rings(rotation, columns, ring, beams), ring.shape[1], BEAM_BLOCK, threads)
     axes()
     grid = scan_grid(sensor.device, float(sensor.rh_deg), float(sensor.divergence_mrad))
-    return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads, grid)
+    return echo_points(cast, origin, sub_world, sensor, cast_range, effects, threads, grid, detecting)
 
 
 def echo_points(
@@ -139,6 +150,7 @@ def echo_points(
     effects: Effects = CLEAR_AIR,
     threads: int | None = None,
     grid: tuple[BeamGrid, np.ndarray] | None = None,
+    detecting: Detecting | None = None,
 ):
     """The points of beams whose sub-rays (S, N, 3; sub-ray 0 the axis) leave `origin` in
     world directions `sub_world` (footprint.subrays_around): any beams, not only a scan's.
@@ -150,7 +162,10 @@ def echo_points(
     hold more than one surface (coarse to fine); None: every sub-ray is cast."""
     s, n, _ = sub_world.shape
     rays = sub_world.reshape(-1, 3)
-    noise = started(lambda: noise_draws(sensor, n, sensor.echoes), threads)  # beside the casts
+    # a multi-echo device keeps its strongest `echoes`; a device with return modes chooses among
+    # every echo a beam forms (its last may be the weakest): at most one a sub-ray
+    formed = sensor.echoes if sensor.return_mode == "multi" else s
+    noise = started(lambda: noise_draws(sensor, n, formed), threads)  # beside the casts
     if grid is None or s == 1:
         clear, fine = cast(origin, rays, cast_range, True), None
     else:
@@ -161,7 +176,7 @@ def echo_points(
     weights = subray_weights(s)
 
     def block(beams: slice) -> RealisticPoints:
-        return _block_points(hits, sub_world, sensor, weights, draws, axis, cast, beams)
+        return _block_points(hits, sub_world, sensor, weights, draws, axis, cast, beams, detecting, formed)
 
     # a block of beams at a time, each from its sub-rays' hits to its points in its own thread:
     # a beam's echoes, noise and axis are its own, so the blocks joined are one pass's bytes
@@ -177,26 +192,39 @@ def echo_points(
         pts.stats["ring_subrays_cast"] = int(np.count_nonzero(fine))
     if hits is not clear:
         pts.stats["particle_points"] = int(np.count_nonzero(pts.label == PARTICLE_ID))
+    if detecting is not None:
+        pts.stats["lost_returns"] = tally_stats(pts.lost_tally.sum(axis=0))
     return pts
 
 
-def _block_points(hits, sub_world, sensor, weights, draws, axis: "AxisHits", cast, beams: slice):
+def _block_points(hits, sub_world, sensor, weights, draws, axis: "AxisHits", cast, beams, detecting, formed):
     """The points of the beams `beams` (a block): their echoes (echoes.form_echoes), measured
-    with noise, kept within the range limits, numbered, their labels settled along the axis."""
-    echoes = form_echoes(
-        subray_returns(hits, sub_world, beams), weights, sensor.echo_separation, sensor.echoes
-    )
+    with noise, kept within the range limits and above the detection limit, numbered, their
+    labels settled along the axis."""
+    echoes = form_echoes(subray_returns(hits, sub_world, beams), weights, sensor.echo_separation, formed)
     local = echoes.beam  # the block's own beam indices, from 0
     echoes.beam = local + beams.start
     measured = _measured_ranges(echoes, sensor, draws)
     keep = (measured >= sensor.min_range) & (measured <= sensor.max_range)
     echoes, measured, local = echoes.subset(keep), measured[keep], local[keep]
+    lost_beam, counts = np.zeros(0, dtype=np.int64), np.zeros((0, 2, TALLY), dtype=np.int64)
+    if detecting is not None:
+        xy = axis.origin[:2] + sub_world[0, echoes.beam, :2] * echoes.range[:, None]
+        lost, cover = lost_echoes(detecting, echoes, _rank_in_beam(local), xy)
+        counts = tally(echoes.label, echoes.range, cover, lost)
+        lost_beam = echoes.beam[lost]
+        kept = ~lost
+        echoes, measured, local = echoes.subset(kept), measured[kept], local[kept]
+    kinds = np.zeros(len(local), dtype=np.uint8)
+    if sensor.return_mode != "multi":  # the returns the mode reports, of those detected
+        chosen, kinds = select_returns(local, echoes.intensity, sensor.return_mode, sensor.device.optics.dual)
+        echoes, measured, local = echoes.subset(chosen), measured[chosen], local[chosen]
     number = _rank_in_beam(local) + 1
     count = np.bincount(local, minlength=beams.stop - beams.start)[local]
     on_surface, instance = axis.settle(echoes, lambda o, d, r: cast(o, d, r, False), beams)
     # a pure echo from a medium lies where the medium returned it: a particle (its instance the
     # effect's code) or the ground cover's sward (core/effects/cover.py; its instance the cover's)
-    from_medium = (echoes.label == PARTICLE_ID) | (echoes.instance >= COVER_INSTANCE_BASE)
+    from_medium = (echoes.label == PARTICLE_ID) | is_cover_instance(echoes.instance)
     if from_medium.any():
         on_surface[from_medium] = echoes.purity[from_medium] >= 1.0
         instance[from_medium] = echoes.instance[from_medium]
@@ -211,6 +239,9 @@ def _block_points(hits, sub_world, sensor, weights, draws, axis: "AxisHits", cas
         purity=echoes.purity,
         mixed=~on_surface,
         stats={},
+        lost_beam=lost_beam,
+        lost_tally=counts,
+        return_type=kinds,
     )
 
 

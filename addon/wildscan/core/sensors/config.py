@@ -26,6 +26,7 @@ from ..checks import one_of
 from ..errors import UserError
 from .device import Device, Mount
 from .load import DEFAULT_DEVICE
+from .returns import RETURN_MODES, kept_echoes
 
 MODELS = ("paper", "realistic")
 DEFAULT_MODEL = "paper"
@@ -33,7 +34,7 @@ MAX_NOISE_SIGMA = 1.0  # m; far past any real rangefinder, and rays are cast 6 s
 MAX_DIVERGENCE_MRAD = 50.0  # ~3 deg: far wider than any scanning rangefinder's beam
 MAX_ECHO_SEPARATION = 10.0  # m
 # the settings of the realistic model alone: giving one with the paper model is a mistake
-REALISTIC_SETTINGS = ("divergence", "echoes", "echo_separation")
+REALISTIC_SETTINGS = ("divergence", "echoes", "echo_separation", "returns")
 # every setting of the sensor, as `wildscan scan` and a dataset spec's [sensor] name them
 SENSOR_SETTINGS = ("rh", "min_range", "max_range", "noise", "noise_seed", "model", *REALISTIC_SETTINGS)
 
@@ -54,16 +55,25 @@ class SensorConfig:
     echoes: int = _D.optics.echoes
     echo_separation: float = _D.optics.echo_separation_m
     device: Device = _D
+    # the realistic model drops returns below the device's detection limit (core/realism/lost_returns.py);
+    # False only to measure what the step costs (`wildscan bench --suite detection`)
+    detection: bool = True
+    # the return mode (returns.py: strongest, last, dual, multi); None: the device's default
+    returns: str | None = None
 
     @classmethod
     def for_device(cls, device: Device, **settings) -> "SensorConfig":
         """The settings of a scan with `device`, its own defaults where `settings` are silent."""
+        mode = settings.get("returns") or device.optics.return_mode
         defaults = {
             "rh_deg": device.mount.step_deg,
             "min_range": device.ranges.min_m,
             "max_range": device.ranges.max_m,
             "divergence_mrad": device.optics.divergence_mrad,
-            "echoes": device.optics.echoes,
+            # a device with return modes reports as many echoes as its mode (strongest: 1)
+            "echoes": kept_echoes(mode, device.optics.echoes)
+            if mode in RETURN_MODES
+            else device.optics.echoes,
             "echo_separation": device.optics.echo_separation_m,
         }
         return cls(device=device, **{**defaults, **settings})
@@ -71,6 +81,11 @@ class SensorConfig:
     @property
     def realistic(self) -> bool:
         return self.model == "realistic"
+
+    @property
+    def return_mode(self) -> str:
+        """The return mode of the scan (returns.py): the setting, or the device's default."""
+        return self.returns or self.device.optics.return_mode
 
     @property
     def fixed_noise(self) -> float | None:
@@ -154,12 +169,32 @@ class SensorConfig:
                 setting="echoes",
                 allowed=(1, most),
             )
+        self.check_returns()
         _check_finite("echo_separation", self.echo_separation, "m")
         if not 0 < self.echo_separation <= MAX_ECHO_SEPARATION:
             raise UserError(
                 f"must be in (0, {MAX_ECHO_SEPARATION:g}] m, got {self.echo_separation:g}",
                 setting="echo_separation",
                 allowed=(0, MAX_ECHO_SEPARATION),
+            )
+
+    def check_returns(self) -> None:
+        """The return mode is one the device has; with modes, `echoes` is the mode's count."""
+        optics, mode = self.device.optics, self.return_mode
+        if mode not in optics.returns:
+            raise UserError(
+                f"must be one of {', '.join(optics.returns)} (the {self.device.model}'s return modes), "
+                f"got {mode!r}",
+                setting="returns",
+                allowed=optics.returns,
+            )
+        if mode != "multi" and self.echoes != kept_echoes(mode, self.echoes):
+            raise UserError(
+                f"must be {kept_echoes(mode, 0)} for the {self.device.model} in {mode} mode, got "
+                f"{self.echoes}: its return mode sets how many echoes a beam gives; choose one with "
+                f"{{returns}} ({', '.join(optics.returns)})",
+                setting="echoes",
+                related=("returns",),
             )
 
     def to_dict(self) -> dict:
@@ -189,6 +224,10 @@ class SensorConfig:
                 echo_separation=self.echo_separation,
                 noise_model="fixed" if self.noise_sigma is not None else "datasheet",
             )
+            if self.device.optics.returns != ("multi",):
+                d["returns"] = self.return_mode
+            if self.device.detection is not None and self.detection:
+                d["detection"] = self.device.detection.describe()
         return d
 
 

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UserError
+from .detection import Detection
 
 MOUNT_KINDS = ("rotating", "spinning", "fixed")
 TURN_DIRECTIONS = ("ccw", "cw")
@@ -118,6 +119,11 @@ class Optics:
     divergence_mrad: float  # full angle at 1/e^2, the realistic model's default
     echoes: int  # the most echoes a beam returns (the default, and the limit)
     echo_separation_m: float  # closer surfaces merge into one echo (default)
+    # the return modes the device has (returns.py RETURN_MODES), its default, and what its dual
+    # mode pairs (returns.py DUAL_PAIRS; None without a dual mode)
+    returns: tuple[str, ...] = ("multi",)
+    return_mode: str = "multi"
+    dual: str | None = None
 
 
 @dataclass(frozen=True)
@@ -162,6 +168,9 @@ class Device:
     mount: Mount
     head: Head | None = None  # a rotating head carrying the device (None: none)
     source: str = ""  # where its numbers come from, in one line (`wildscan sensors` shows it)
+    # the datasheet's (reflectance, range) pairs (detection.py); None: every surface returns to
+    # the range limit (a user's device file without a [detection] table)
+    detection: Detection | None = None
 
     @property
     def name(self) -> str:

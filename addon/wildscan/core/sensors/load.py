@@ -8,11 +8,15 @@ silently as a default).
     [timing]  column_period_s, steps_per_column, beam_step = [...] (a fan: beam n at step n)
     [range]   min_m, max_m, max_dark_m
     [noise]   sigma_m, accuracy = [[up_to_m, plus_minus_m], ...], accuracy_sigmas
-    [optics]  divergence_mrad, echoes, echo_separation_m
+    [optics]  divergence_mrad, echoes, echo_separation_m, and (optional) returns = [...] (the
+              return modes, returns.py; default ["multi"]), return_mode (the default mode),
+              dual (what the dual mode pairs)
     [mount]   kind, axis, tilt_deg, step_deg, min_step_deg, sweep_deg, heads, direction (optional:
               "ccw", the default, or "cw")
     [head]    (optional) axis, tilt_deg, step_deg, sweep_deg, turn: a rotating head carrying
               the device (device.py)
+    [detection] (optional) pairs = [[reflectance, range_m], ...], estimate = [reflectance, ...]:
+              the datasheet's detection ranges (detection.py); every preset has one
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UserError, shortened
+from .detection import detection_from_table
 from .device import (
     HEAD_MODES,
     HEAD_TURNS,
@@ -38,6 +43,7 @@ from .device import (
     RangeLimits,
     Timing,
 )
+from .returns import DUAL_PAIRS, KEPT, RETURN_MODES
 
 PRESETS_DIR = Path(__file__).resolve().parent / "presets"
 DEFAULT_DEVICE_ID = "utm30lx-ew"
@@ -106,7 +112,18 @@ def toml_reader():
 def device_from_dict(data: dict, where: str = "device.toml") -> Device:
     top = _Table(data, "", where)
     top.only(
-        "id", "vendor", "model", "source", "beams", "timing", "range", "noise", "optics", "mount", "head"
+        "id",
+        "vendor",
+        "model",
+        "source",
+        "beams",
+        "timing",
+        "range",
+        "noise",
+        "optics",
+        "mount",
+        "head",
+        "detection",
     )
     beams = _beams(top.table("beams"))
     ranges = _ranges(top.table("range"))
@@ -122,6 +139,7 @@ def device_from_dict(data: dict, where: str = "device.toml") -> Device:
         mount=_mount(top.table("mount")),
         head=_head(top.table("head")) if "head" in data else None,
         source=top.text("source") if "source" in data else "",
+        detection=detection_from_table(top.table("detection")) if "detection" in data else None,
     )
 
 
@@ -196,11 +214,28 @@ def _noise(t: "_Table", ranges: RangeLimits) -> Noise:
 
 
 def _optics(t: "_Table") -> Optics:
-    t.only("divergence_mrad", "echoes", "echo_separation_m")
+    t.only("divergence_mrad", "echoes", "echo_separation_m", "returns", "return_mode", "dual")
+    echoes = t.integer("echoes", 1, 3)  # the realistic model forms at most three echoes
+    modes = t.get("returns", ["multi"])
+    listed = ", ".join(f'"{m}"' for m in RETURN_MODES if m != "multi")
+    if not isinstance(modes, list) or not modes or modes != ["multi"] and not set(modes) <= set(KEPT):
+        raise t.fail("returns", f'["multi"] (every echo up to `echoes`) or a list of {listed}', modes)
+    mode = t.choice("return_mode", tuple(modes)) if "return_mode" in t.data else modes[0]
+    dual = t.choice("dual", DUAL_PAIRS) if "dual" in modes else None
+    if "dual" not in modes and "dual" in t.data:
+        raise t.fail("dual", 'given only with "dual" in returns', t.get("dual"))
+    if modes != ["multi"] and echoes != max(KEPT[m] for m in modes):
+        most = max(KEPT[m] for m in modes)
+        raise t.fail(
+            "echoes", f"{most}, the most returns a beam its modes report ({', '.join(modes)})", echoes
+        )
     return Optics(
         divergence_mrad=t.number("divergence_mrad", 0.0, 50.0),
-        echoes=t.integer("echoes", 1, 3),  # the realistic model forms at most three echoes
+        echoes=echoes,
         echo_separation_m=t.number("echo_separation_m", 0.0, 10.0, low_open=True),
+        returns=tuple(modes),
+        return_mode=mode,
+        dual=dual,
     )
 
 

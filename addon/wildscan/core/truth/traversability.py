@@ -24,7 +24,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..classes import class_by_name, counts_by_class
+from ..classes import GROUND_CLASS_IDS, class_by_name, counts_by_class
 from ..placement import COLUMN_HEIGHT
 
 TERRAIN_ID = class_by_name("terrain").id
@@ -40,7 +40,7 @@ def support_flags(labels: np.ndarray, hag: np.ndarray) -> np.ndarray:
     """uint8 per point: 1 on the surface the robot would rest on (module docstring)."""
     labels = np.asarray(labels)
     hag = np.asarray(hag, dtype=np.float64)
-    return ((labels == TERRAIN_ID) & (np.abs(hag) <= SUPPORT_TOLERANCE)).astype(np.uint8)
+    return (np.isin(labels, GROUND_CLASS_IDS) & (np.abs(hag) <= SUPPORT_TOLERANCE)).astype(np.uint8)
 
 
 def traversability_fields(

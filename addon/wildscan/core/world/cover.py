@@ -60,6 +60,14 @@ def extinction(cls: np.ndarray, height: np.ndarray) -> np.ndarray:
 # A cover point's instance: one per class, above every element stage's block (plan.py), so a
 # cover return never shares an instance with an element.
 COVER_INSTANCE_BASE = 900_000
+COVER_INSTANCE_END = COVER_INSTANCE_BASE + 256  # one a class id (the endless tiles' ids lie above)
+
+
+def is_cover_instance(instance) -> np.ndarray:
+    """Whether instance ids are the cover layer's (COVER_INSTANCE_BASE + class id)."""
+    instance = np.asarray(instance)
+    return (instance >= COVER_INSTANCE_BASE) & (instance < COVER_INSTANCE_END)
+
 
 # A Blender world keeps its grid as custom properties of its root collection (to_props).
 PROP_PREFIX = "wildscan_"

@@ -183,6 +183,9 @@ class WorldPlan(ElementSet):
     elements: list[Element] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     cover: CoverGrid | None = None  # the sward layer (stages/cover.py); None: bare ground (paper)
+    # (xmin, xmax, ymin, ymax) m the world covers: the paper's 150 m square, or an endless
+    # region's tiles (core/world/endless)
+    extent: tuple[float, float, float, float] = EXTENT
 
     # -- terrain queries ----------------------------------------------------------------
 
@@ -298,7 +301,10 @@ class WorldPlan(ElementSet):
         return shape.features(self) if shape is not None else {}
 
     def describe(self, poses: dict[str, list[dict]] | None = None) -> dict:
-        """The JSON sidecar: zones with extents, features and scan poses."""
+        """The JSON sidecar: zones with extents, features and scan poses (an endless region's
+        layout describes itself: endless/region.py)."""
+        if getattr(self.layout, "endless", False):
+            return self.layout.describe(self, poses)
         fit = self.grid_fit
         zones = []
         for name in ZONES:

@@ -14,7 +14,7 @@ from ... import detmath as dm
 from ...placement import ARM_X, ARM_Y, MAX_TILT_DEG, MAX_UNEVENNESS, Pose, laser_xy
 from ...rng import stage_rng
 from ..geometry2d import inset
-from ..plan import HALF, Site, SiteOffer, WorldPlan, check_zone
+from ..plan import Site, SiteOffer, WorldPlan, check_zone
 from . import cave, lake, park, powerline, trail
 
 STAGE = "poses"
@@ -28,7 +28,10 @@ def footprint_ok(
     every zone's keep-out for poses, gentle and even enough (with margin) for
     `placement.place` to accept it."""
     tips = laser_xy(Pose(x, y, yaw_deg))
-    if np.any(np.abs(tips) > HALF - 0.5):
+    x0, x1, y0, y1 = plan.extent
+    if np.any(
+        (tips[:, 0] < x0 + 0.5) | (tips[:, 0] > x1 - 0.5) | (tips[:, 1] < y0 + 0.5) | (tips[:, 1] > y1 - 0.5)
+    ):
         return False
     z = plan.ground(tips[:, 0], tips[:, 1])
     for shape in plan.layout.zone_shapes().values():
