@@ -132,6 +132,7 @@ def measure_offset(
     from ..core.placement import Pose
     from ..core.scan import run_scan
     from ..core.sensors import SensorConfig
+    from ..raycast.blender_backend import BlenderRayCastBackend
     from ..raycast.extract import extract_scene
     from ..raycast.select import make_backend
 
@@ -142,7 +143,11 @@ def measure_offset(
     sensor = SensorConfig(rh_deg=rh_deg, noise_sigma=0.0)
     rows = []
     for name in backends:
-        backend = make_backend(name, depsgraph=depsgraph, geometry=geometry, notify=None)
+        if name == "blender":  # scene.ray_cast itself: what float32 world coordinates do far out
+            # (make_backend's blender settles its answers against a fast caster: theirs)
+            backend = BlenderRayCastBackend(depsgraph=depsgraph)
+        else:
+            backend = make_backend(name, depsgraph=depsgraph, geometry=geometry, notify=None)
         for frame in frames:
             refused = None
             try:
