@@ -61,7 +61,9 @@ def apply(root: Path, action: str, code: str, env: dict) -> None:
 def clone(tmp_path_factory):
     """The repository's files as a clone has them (git ls-files), every recipe applied."""
     root = tmp_path_factory.mktemp("clone")
-    files = subprocess.run(["git", "ls-files"], cwd=REPO, capture_output=True, text=True, check=True)
+    files = subprocess.run(
+        ["git", "ls-files"], cwd=REPO, capture_output=True, text=True, check=True, timeout=60
+    )
     for name in files.stdout.splitlines():
         source = REPO / name
         if source.is_file():
@@ -152,7 +154,9 @@ def test_a_new_class_is_a_line_its_schemes_and_docs_follow_and_old_files_keep_th
         "ply, side = write_scan_files(d / 's.ply', c, {'seed': 1})\n"
         "print(hashlib.sha256(ply.read_bytes() + side.read_bytes()).hexdigest())\n"
     )
-    ours = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    ours = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    ).stdout
     assert python(clone, code) == ours
 
 

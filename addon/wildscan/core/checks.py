@@ -66,8 +66,8 @@ def show(value) -> str:
     if value is None or value is REQUIRED:
         return "nothing"
     if isinstance(value, (str, list, dict, bool)):  # "²..³" as written, not escaped
-        return shortened(json.dumps(value, ensure_ascii=False))
-    return shortened(repr(value))
+        return shortened(value, text=json.dumps(value, ensure_ascii=False))
+    return shortened(value, text=repr(value))
 
 
 class Table:

@@ -56,10 +56,11 @@ class UserError(Exception):
 QUOTED_CHARS = 80  # the most of one user value an error message quotes
 
 
-def shortened(value, limit: int = QUOTED_CHARS) -> str:
-    """A user's value as a one-line message quotes it: whole when short, else its start and
-    end around an ellipsis, with its size (a 100,000-beam list is not a line)."""
-    text = str(value)
+def shortened(value, limit: int = QUOTED_CHARS, text: str | None = None) -> str:
+    """A user's value as a one-line message quotes it (`text`, its spelling, default str):
+    whole when short, else its start and end around an ellipsis, with its size (a
+    100,000-beam list is not a line)."""
+    text = str(value) if text is None else text
     if len(text) <= limit:
         return text
     head = limit * 2 // 3
