@@ -233,8 +233,6 @@ def scan_spread(seed: int, count: int) -> tuple[float, int, float]:
     """In a child: scan `count` poses over the spread square (a rejected pose is skipped for the
     next point), tiles kept in the process's bounded memory as `wildscan` keeps them; (peak
     resident GB, poses scanned, seconds)."""
-    import resource
-
     from ..app.scan import endless_scan_geometry, scan_current_scene
     from ..app.tiles import TiledWorld, process_memory
     from ..core.errors import PoseRejected
@@ -259,8 +257,24 @@ def scan_spread(seed: int, count: int) -> tuple[float, int, float]:
         except PoseRejected:
             continue
         scanned += 1
-    peak_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # kilobytes on Linux
-    return peak_kb / 1e6, scanned, time.perf_counter() - t0
+    return peak_resident_kb() / 1e6, scanned, time.perf_counter() - t0
+
+
+def peak_resident_kb() -> int:
+    """This process's own peak resident set (kB): /proc/self/status VmHWM, the high-water mark
+    of its address space since its exec. Not getrusage's ru_maxrss: on Linux that keeps the
+    parent's high-water mark across fork and exec, so a child started by a process that has
+    scanned with the 120 m devices reports the parent's gigabytes, not its own."""
+    import resource
+
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1])
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # kilobytes on Linux
 
 
 def bench_lod(seed: int = 0, quick: bool = False, stream=None) -> dict:
