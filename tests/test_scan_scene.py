@@ -391,9 +391,10 @@ def test_help_explains_every_option_with_unit_and_default():
         "metres",
         "degrees",
         "default 1",
-        "default 0.1",
-        "default 15",
-        "default 0.015",
+        # per-device defaults (issue 32): the Hokuyo's beside every other preset's
+        "utm30lx-ew 0.1,",
+        "utm30lx-ew 15,",
+        "utm30lx-ew 0.015,",
         "default leveled",
     ):
         assert words in " ".join(proc.stdout.split())

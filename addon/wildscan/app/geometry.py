@@ -17,7 +17,7 @@ from ..core.errors import UserError
 from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION
 
 # Backends that cast against SceneGeometry; scene.ray_cast needs the Blender scene itself.
-GEOMETRY_BACKENDS = ("auto", "embree", "bvh")
+GEOMETRY_BACKENDS = ("auto", "embree", "open3d", "bvh")
 
 
 def world_geometry_of(

@@ -84,7 +84,7 @@ def check_output_path(
     suffix: str,
     setting: str = "out",
     companions: tuple[str, ...] = (),
-    foreign_sidecar_key: str | None = None,
+    foreign_sidecar_key: str | tuple[str, ...] | None = None,
 ) -> Path:
     """The resolved output path, or UserError (naming `setting`) saying why it cannot be written.
 
@@ -174,9 +174,16 @@ def fsync_dir(directory: Path) -> None:
         os.close(fd)
 
 
-def _json_has_key(path: Path, key: str) -> bool:
+# The keys that tell a world's sidecar (the paper island's lists its zones, a region of the
+# endless world its region) from a scan's: a scan never replaces one.
+WORLD_SIDECAR_KEYS = ("zones", "region")
+
+
+def _json_has_key(path: Path, keys: str | tuple[str, ...]) -> bool:
+    """Whether the JSON object at `path` has `keys` (one key, or any of several)."""
     try:
-        return key in json.loads(path.read_text())
+        data = json.loads(path.read_text())
+        return any(key in data for key in ((keys,) if isinstance(keys, str) else keys))
     except (OSError, ValueError, TypeError):
         return False
 

@@ -25,7 +25,7 @@ from pathlib import Path
 from ..errors import UserError
 from ..label_schemes import scheme
 from . import semantickitti
-from .files import atomic_outputs, check_output_path, write_durably, writing_to
+from .files import WORLD_SIDECAR_KEYS, atomic_outputs, check_output_path, write_durably, writing_to
 from .writer import ScanOutput, Writer
 
 DEFAULT_FORMAT = "ply"
@@ -70,8 +70,8 @@ def check_scan_output(w: Writer, out: str | os.PathLike, setting: str = "out") -
     """The resolved --out of a single scan in format `w`, or UserError saying why it (or a file
     beside it) cannot be written. For PLY this is ply.check_output_path."""
     companions = tuple(f.suffix for f in w.scan_files[1:])
-    # a world's sidecar (world.json lists its zones) is never replaced by a scan's
-    foreign = "zones" if ".json" in companions else None
+    # a world's sidecar is never replaced by a scan's
+    foreign = WORLD_SIDECAR_KEYS if ".json" in companions else None
     return check_output_path(out, w.suffix, setting, companions=companions, foreign_sidecar_key=foreign)
 
 

@@ -91,8 +91,10 @@ _COUNTED_KEYS = frozenset({"untagged_objects_hit"})
 
 def check_output_path(path: str | os.PathLike) -> Path:
     """The resolved PLY path, or UserError saying why it (or its sidecar) cannot be written."""
-    # A world's sidecar lists its zones; a scan beside it must not replace it.
-    return files.check_output_path(path, ".ply", "out", companions=(".json",), foreign_sidecar_key="zones")
+    # A world's sidecar (files.WORLD_SIDECAR_KEYS); a scan beside it must not replace it.
+    return files.check_output_path(
+        path, ".ply", "out", companions=(".json",), foreign_sidecar_key=files.WORLD_SIDECAR_KEYS
+    )
 
 
 def sidecar_path(ply_path: str | os.PathLike) -> Path:
