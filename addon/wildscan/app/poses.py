@@ -14,7 +14,7 @@ from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION, ZONES, WorldPlan, ca
 DEFAULT_POSES_PER_ZONE = 5
 MAX_POSE_COUNT = 1000
 # A zone's search ends after this many candidates for each pose asked (besides its reserved
-# sites): where placement rejects every pose (a caster that misses every ray, issue 31, kept
+# sites): where placement rejects every pose (a caster that misses every ray, kept
 # `wildscan world` at "valid poses" for good) the zone gets fewer poses instead of a search
 # without end. Seeds 0-3 accept a pose within the first few candidates.
 CANDIDATES_PER_POSE = 100

@@ -30,7 +30,7 @@ TILE = "tile"  # the cache entry's kind
 GEOMETRY_ARRAYS = ("vertices", "faces", "class_id", "instance", "object_index", "reflectivity")
 # Tiles kept in memory: five full-detail tiles (~150 MB each at the default detail), more
 # than the four a Hokuyo's disc can touch, so that scans near each other rebuild nothing,
-# while with a scan's own work a process stays under the 1.5 GB issue 33 allows one that
+# while with a scan's own work a process stays under the 1.5 GB budget of one that
 # scans kilometres apart (bench/lod.py scan_spread measures it).
 DEFAULT_MEMORY_BYTES = 800_000_000
 

@@ -1,5 +1,5 @@
 """Suite "lod" (`wildscan bench --suite lod`): levels of detail against full detail on the
-endless world (issue 33).
+endless world.
 
 Per device preset, at poses spread over the endless world kilometres from the origin, a
 scan with levels of detail (the default, `--lod on`) and one with every tile at full detail
@@ -28,7 +28,7 @@ import numpy as np
 
 from .report import text_table
 
-LABEL_TARGET = 0.995  # labels agreeing, LOD against full detail (issue 33)
+LABEL_TARGET = 0.995  # labels agreeing, LOD against full detail
 RANGE_TARGET = 0.99  # ranges within the device's noise sigma
 SPEEDUP_TARGET = 2.0  # cold LOD scan against cold full detail, devices reaching FAR_DEVICE_M or more
 FAR_DEVICE_M = 100.0
@@ -294,7 +294,7 @@ def bench_lod(seed: int = 0, quick: bool = False, stream=None) -> dict:
     return {"devices": rows, "hokuyo": hokuyo, "horizon": horizon, "memory_gb": peak}
 
 
-# the bar of issue 33: the beams aimed just below the horizon return, far from the origin
+# the bar: the beams aimed just below the horizon return, far from the origin
 HORIZON_BAND_DEG = (-3.0, -0.5)  # elevations of the rings counted (device file), degrees
 HORIZON_TARGET = 0.80  # median share of those beams returning
 HORIZON_REGION = (1000.0, 1000.0, 1300.0, 1300.0)

@@ -350,7 +350,7 @@ _WS_RGB = {
 }  # fmt: skip
 WILDSCENES_IGNORED = (255, 10, 14)  # unlabelled, sky, water: left out of its benchmark
 _WS_LEARNING_MAP = {raw: (255 if raw in WILDSCENES_IGNORED else raw - (raw > 10)) for raw in _WS_NAMES}
-# The ground materials of the endless landscape (classes 16-21, issue 33), mapped as soon as
+# The ground materials of the endless landscape (classes 16-21), mapped as soon as
 # core/classes.py has them: WildScenes has gravel and mud of its own; soil is its dirt, a
 # rock slab its rock, paving and leaf litter its other-terrain. (Its config always lists all
 # 15 ids: no WildScenes config from before them to keep.)

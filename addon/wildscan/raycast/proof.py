@@ -7,7 +7,7 @@ bundled Embree ignores (built without ray masks) but Debian's Embree, built with
 EMBREE_RAY_MASK on, honours: a ray whose mask ANDed with the geometry's (0xFFFFFFFF) is 0
 skips every geometry. Open3D 0.20's wheel bundles its own Embree and hits. The placement's
 four downward lasers are the first rays a scan casts, so such a caster reads as "no terrain
-below the pose" (issue 31). Rather than special-casing one version, every caster is asked a
+below the pose". Rather than special-casing one version, every caster is asked a
 few questions whose answers are known exactly before a scan trusts it.
 
 The scene (metres, a few hundred metres from the world origin as a scan's crop is): a 6 m

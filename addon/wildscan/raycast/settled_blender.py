@@ -1,7 +1,7 @@
 """`--backend blender`: Blender's scene.ray_cast, its float32 answers settled in float64 like
 every other caster's (no bpy here: it wraps the scene.ray_cast backend).
 
-Why (issue 31): on seed 2's default world, pose (-48.869, 65.879, 42.7), r_h = 1, scene.ray_cast
+Why: on seed 2's default world, pose (-48.869, 65.879, 42.7), r_h = 1, scene.ray_cast
 answered 4 of 194,400 rays otherwise than the float64 geometry: twice it missed a leaf that
 the ray enters 1e-6 m inside its edge, once it hit a grass blade the ray passes 1e-6 m beside,
 once it took a face of a crown 4.7 um behind the nearer one. It casts in float32 world

@@ -142,13 +142,13 @@ def extended_region(region: Region, x: float, y: float, reach: float) -> Region:
 def dataset_layout(value, where: str = "SPEC.toml") -> str:
     """A dataset spec's `layout`: "paper", its default. A dataset's poses, zones, open ground
     and world cache are the island's; datasets over the endless layout (a region around each
-    seed's origin, its land covers as pose weights) come with issue 34, so until then
+    seed's origin, its land covers as pose weights) are not built yet, so until then
     `layout = "endless"` is refused saying so, not silently given the island."""
     if value is None or value == "paper":
         return "paper"
     if value == "endless":
         raise UserError(
-            f'{where}: layout = "endless" is not available for datasets yet (issue 34): a dataset scans the '
+            f'{where}: layout = "endless" is not available for datasets yet: a dataset scans the '
             'paper layout\'s island, layout = "paper"; `wildscan scan --seed` scans the endless world'
         )
     raise UserError(f'{where}: layout must be "paper" (the only layout of datasets for now), got {value!r}')
