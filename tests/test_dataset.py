@@ -104,6 +104,41 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"sensor": {"model": "realistic", "echo_separation": 0}}, ["sensor.echo_separation", "above 0"]),
         ({"sensor": {"model": "realistic", "echo-separation": 1}}, ["unknown key", "echo_separation"]),
         ({"layout": "island"}, ["layout must be one of", "'endless'", "'paper'"]),
+        # [poses] of the endless layout (tests/test_dataset_land.py)
+        (
+            {"poses": {"zones": {"forest": 1}}},
+            ['poses.zones applies to layout = "paper"', "poses.cover"],
+        ),
+        ({"poses": {"strategy": "uniform"}}, ['poses.strategy applies to layout = "paper" only']),
+        (
+            {"layout": "paper", "poses": {"region": [0, 0, 50, 50]}},
+            ['poses.region applies to layout = "endless"'],
+        ),
+        (
+            {"layout": "paper", "poses": {"cover": {"forest": 1}}},
+            ['poses.cover applies to layout = "endl'],
+        ),
+        (
+            {"layout": "paper", "poses": {"tall_cover": 0.1}},
+            ["poses.tall_cover applies to layout"],
+        ),
+        (
+            {"poses": {"region": [0, 0, 50]}},
+            ["poses.region must be four", "XMIN < XMAX", "[0, 0, 50]"],
+        ),
+        ({"poses": {"region": [10, 0, 0, 50]}}, ["poses.region must be", "got [10, 0, 0, 50]"]),
+        ({"poses": {"region": [0, 0, 5, 50]}}, ["poses.region must be", "at least 10 m"]),
+        ({"poses": {"region": [0, 0, 9000, 50]}}, ["poses.region must be", "8900 m"]),
+        ({"poses": {"region": [0, 0, "a", 50]}}, ["poses.region must be four numbers"]),
+        ({"poses": {"region": "everywhere"}}, ["poses.region must be four numbers"]),
+        ({"poses": {"cover": {"lake": 1}}}, ["unknown key 'poses.cover.lake'", "wetland", "clearing"]),
+        (
+            {"poses": {"cover": {"forest": 0}}},
+            ["poses.cover must give at least one land cover"],
+        ),
+        ({"poses": {"cover": {"forest": -1}}}, ["poses.cover.forest must be a number from 0"]),
+        ({"poses": {"tall_cover": 1.5}}, ["poses.tall_cover must be a number from 0 to 1", "1.5"]),
+        ({"poses": {"tall_cover": "some"}}, ["poses.tall_cover must be a number"]),
     ],
 )
 def test_a_bad_key_or_value_names_the_key_and_what_is_allowed(data, words):

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from wildscan.app.dataset.spec import spec_from_dict
-from wildscan.core.errors import UserError
 
 from tests.helpers.dataset_helpers import (
     assert_same_dataset,
@@ -22,54 +21,6 @@ from tests.helpers.dataset_helpers import (
     wildscan,
     written_dataset,
 )
-
-
-@pytest.mark.parametrize(
-    "data, words",
-    [
-        (
-            {"poses": {"zones": {"forest": 1}}},
-            ['poses.zones applies to layout = "paper"', "poses.cover"],
-        ),
-        ({"poses": {"strategy": "uniform"}}, ['poses.strategy applies to layout = "paper" only']),
-        (
-            {"layout": "paper", "poses": {"region": [0, 0, 50, 50]}},
-            ['poses.region applies to layout = "endless"'],
-        ),
-        (
-            {"layout": "paper", "poses": {"cover": {"forest": 1}}},
-            ['poses.cover applies to layout = "endl'],
-        ),
-        (
-            {"layout": "paper", "poses": {"tall_cover": 0.1}},
-            ["poses.tall_cover applies to layout"],
-        ),
-        (
-            {"poses": {"region": [0, 0, 50]}},
-            ["poses.region must be four", "XMIN < XMAX", "[0, 0, 50]"],
-        ),
-        ({"poses": {"region": [10, 0, 0, 50]}}, ["poses.region must be", "got [10, 0, 0, 50]"]),
-        ({"poses": {"region": [0, 0, 5, 50]}}, ["poses.region must be", "at least 10 m"]),
-        ({"poses": {"region": [0, 0, 9000, 50]}}, ["poses.region must be", "8900 m"]),
-        ({"poses": {"region": [0, 0, "a", 50]}}, ["poses.region must be four numbers"]),
-        ({"poses": {"region": "everywhere"}}, ["poses.region must be four numbers"]),
-        ({"poses": {"cover": {"lake": 1}}}, ["unknown key 'poses.cover.lake'", "wetland", "clearing"]),
-        (
-            {"poses": {"cover": {"forest": 0}}},
-            ["poses.cover must give at least one land cover"],
-        ),
-        ({"poses": {"cover": {"forest": -1}}}, ["poses.cover.forest must be a number from 0"]),
-        ({"poses": {"tall_cover": 1.5}}, ["poses.tall_cover must be a number from 0 to 1", "1.5"]),
-        ({"poses": {"tall_cover": "some"}}, ["poses.tall_cover must be a number"]),
-    ],
-)
-def test_a_bad_region_cover_or_tall_cover_names_the_key_and_what_is_allowed(data, words):
-    with pytest.raises(UserError) as e:
-        spec_from_dict(data)
-    message = str(e.value)
-    assert "\n" not in message
-    for word in words:
-        assert word in message
 
 
 def test_the_endless_default_spec_and_its_keys_travel_to_the_workers():
@@ -95,6 +46,35 @@ def test_the_endless_default_spec_and_its_keys_travel_to_the_workers():
     assert given.poses.region == (100.0, -50.0, 300.0, 150.0) and given.poses.tall_cover == 0.25
     assert spec_from_json(given.to_dict()) == given and spec_from_json(spec.to_dict()) == spec
     assert "zones" not in spec.to_dict()["poses"] and given.config_hash() != spec.config_hash()
+
+
+def test_anchored_classes_stand_where_the_landscape_places_them():
+    """Class-aware poses near a table, a pole or a paved path are drawn around the places the
+    landscape's anchor cells put them (no tile built): checked against the landscape itself."""
+    from wildscan.app.dataset.land import class_anchors
+    from wildscan.app.tiles import TiledWorld
+    from wildscan.core.world.endless import LAND_COVERS, TRAIL_KINDS, land_cover_at, landscape
+    from wildscan.core.world.region import Region
+
+    world, region = TiledWorld(1, "mixed", "default", "porous"), Region(-500, -500, 500, 500)
+    anchors = landscape(1, "mixed").anchors
+    found = {
+        name: np.array(class_anchors(world, region, name)) for name in ("table", "pole", "paved", "soil")
+    }
+    for name, xy in found.items():
+        assert len(xy) > 0, name
+        assert ((xy >= -500) & (xy <= 500)).all(), name
+    assert anchors.in_clearing(found["table"][:, 0], found["table"][:, 1]).all()
+    lines = anchors.lines_over(-500, 500)
+    assert all(any(abs(y - line) < 1e-9 for line in lines) and x % 40.0 == 0 for x, y in found["pole"])
+    kinds = [k[0] for k in TRAIL_KINDS]
+    for name, kind in (("paved", "paved path"), ("soil", "footpath")):
+        xy = found[name]
+        dist, nearest = anchors.trail_nearest(xy[:, 0], xy[:, 1])
+        assert (dist < 1e-6).all(), name
+        assert np.mean([kinds[k] == kind for k in nearest]) > 0.9, name  # another kind where two meet
+        on = land_cover_at(1, "mixed", xy[:, 0], xy[:, 1])
+        assert (on == LAND_COVERS.index("trail")).mean() > 0.9, name
 
 
 @pytest.mark.slow

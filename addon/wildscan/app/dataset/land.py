@@ -58,7 +58,8 @@ BATCH = 256  # uniform points drawn at once
 # times sqrt 2), plus the optical centre's offset from the pose on tilted ground and slack
 BEV_REACH_M = BEV_SIZE / 2 * math.sqrt(2) + 2.0
 # Where a class grows (core/world/endless/scatter.py, ground.py): a pose drawn near it is drawn
-# over these covers. Park furniture and the power lines' poles and wires are anchored instead.
+# over these covers. Park furniture, the power lines' poles and wires and the trails' treads
+# are anchored instead (class_anchors).
 CLASS_COVERS = {
     "terrain": LAND_COVERS,
     "trunk": ("forest",),
@@ -70,13 +71,14 @@ CLASS_COVERS = {
     "low grass": ("meadow", "clearing"),
     "rock": ("rock",),
     "rock slab": ("rock",),
-    "soil": ("trail",),
-    "gravel": ("trail",),
-    "paved": ("trail",),
     "mud": ("wetland",),
 }
 FURNITURE = ("table", "bench", "fence")  # core/world/endless/clearing.py
 POWER_LINE = ("pole", "wire")  # core/world/endless/powerline.py
+# a tread's material -> the kind of trail laid with it (core/world/endless/anchors.py TRAIL_KINDS)
+TREADS = {"gravel": "track", "soil": "footpath", "paved": "paved path"}
+TREAD_STEP_M = 10.0  # m between the points a trail anchors along its path
+ANCHORED = FURNITURE + POWER_LINE + tuple(TREADS)
 
 
 # ---------------------------------------------------------------------------------------
@@ -107,8 +109,9 @@ def _rounded(x, y, yaw) -> tuple[float, float, float]:
 
 def class_anchors(world: TiledWorld, region: Region, name: str) -> list[tuple[float, float]]:
     """Where the landscape places the elements of an anchored class inside the region (the
-    clearings' furniture, the power lines' poles, their wires' mid-spans), from its anchor
-    cells alone (core/world/endless/anchors.py): no tile is built."""
+    clearings' furniture, the power lines' poles, their wires' mid-spans, points along the
+    trails laid with a tread's material), from its anchor cells alone
+    (core/world/endless/anchors.py): no tile is built."""
     from ...core.world.endless import anchors as A
     from ...core.world.endless.clearing import furniture
 
@@ -124,13 +127,27 @@ def class_anchors(world: TiledWorld, region: Region, name: str) -> list[tuple[fl
         k0, k1 = math.floor(region.xmin / A.POLE_SPACING), math.ceil(region.xmax / A.POLE_SPACING)
         for line in anchors.lines_over(region.ymin, region.ymax):
             out += [(k * A.POLE_SPACING + shift, line) for k in range(k0, k1 + 1)]
+    elif name in TREADS:
+        r = region
+        for path, kind in endless().trail_network(world.seed, world.biome, r.xmin, r.ymin, r.xmax, r.ymax):
+            if kind == TREADS[name]:
+                out += _along(path, TREAD_STEP_M)
     return [(x, y) for x, y in out if region.xmin <= x <= region.xmax and region.ymin <= y <= region.ymax]
+
+
+def _along(path: np.ndarray, step: float) -> list[tuple[float, float]]:
+    """Points every `step` metres along a polyline (K, 2), from its start."""
+    seg = np.hypot(*np.diff(path, axis=0).T)
+    at = np.concatenate([[0.0], np.cumsum(seg)])
+    s = np.arange(0.0, at[-1], step)
+    xs, ys = np.interp(s, at, path[:, 0]), np.interp(s, at, path[:, 1])
+    return list(zip(xs.tolist(), ys.tolist(), strict=True))
 
 
 def _near_candidates(world: TiledWorld, region: Region, name: str) -> Iterator:
     """(x, y, yaw) NEAR_MIN..NEAR_MAX m from an element of the class (core/posesampler.py's
     radii), or uniform over the covers it grows in when the landscape does not anchor it."""
-    if name not in FURNITURE + POWER_LINE:
+    if name not in ANCHORED:
         yield from _cover_candidates(world, region, CLASS_COVERS[name], f"{NEAR}{name}")
         return
     anchors = class_anchors(world, region, name)
