@@ -181,13 +181,61 @@ def endless_scan_geometry(
     cache=None,
     memory=None,
     progress=None,
+    backend: str = "embree",
+    z_start: float | None = None,
 ):
     """(SceneGeometry, TileCounts): the endless world of `seed` as a scan from `pose` sees it,
     the tiles within the sensor's reach (crop_radius), each at the level the device resolves
-    there (full detail with `lod` off), from memory, the world cache or built (app/tiles.py)."""
-    from .tiles import TiledWorld, scan_levels, tiles_geometry
+    there (full detail with `lod` off), from memory, the world cache or built (app/tiles.py).
+    With `lod` on and tiles beyond full detail (a far-reaching device), the triangles no beam
+    of this scan can meet are left out (beam_reach), which changes none of its points; the
+    scan's `backend` and `z_start` place it first, as the scan will."""
+    import time
+
+    from .tiles import TiledWorld, join, scan_levels, tile_parts
 
     world = TiledWorld(seed, biome, detail, vegetation)
     reach = crop_radius(sensor)
     levels = scan_levels(sensor, pose.x, pose.y, reach, lod, detail)
-    return tiles_geometry(world, levels, cache, memory, (pose.x, pose.y), progress, radius=reach)
+    t0 = time.perf_counter()
+    parts, counts = tile_parts(world, levels, cache, memory, progress)
+    keep = beam_reach(parts, pose, sensor, backend, z_start) if lod and any(levels.values()) else None
+    geometry = join(parts, (pose.x, pose.y), reach, keep)
+    counts.seconds = time.perf_counter() - t0
+    return geometry, counts
+
+
+# m: every triangle this near the pose (in xy) is kept, so the rays that place the robot (the
+# ground probe, the lasers at its arms' ends within 0.5 m, the 1 m enclosing test) meet the
+# same triangles in the culled geometry as in the whole, and the scan stands where it was placed
+PLACEMENT_RADIUS_M = 5.0
+
+
+def beam_reach(parts, pose: Pose, sensor: SensorConfig, backend: str, z_start: float | None):
+    """`keep(k, geometry)` for app/tiles.py join: the triangles some beam of the scan may meet
+    (raycast/beam_reach.py) or that lie within PLACEMENT_RADIUS_M of the pose. The beams'
+    directions are the placement's (placed on the tiles' triangles round the pose, as the scan
+    places itself); None when the pose cannot be placed (the scan then says why)."""
+    from ..core.errors import PoseRejected
+    from ..core.placement import place
+    from ..core.sensors.beams import rotated_beam_directions
+    from ..raycast.beam_reach import MARGIN_RAD, BeamGrid
+    from ..raycast.select import make_backend
+    from .tiles import join
+
+    centre = (pose.x, pose.y)
+    near = join(parts, centre, PLACEMENT_RADIUS_M)
+    caster = make_backend(backend, center=centre, radius=PLACEMENT_RADIUS_M, geometry=near, notify=None)
+    try:
+        placement = place(caster, pose, z_start, sensor.mount_height)
+    except PoseRejected:
+        return None
+    # a realistic beam's sub-rays leave its axis by less than its full divergence (core/realism/footprint.py)
+    margin = MARGIN_RAD + (1e-3 * sensor.divergence_mrad if sensor.realistic else 0.0)
+    grid = BeamGrid(rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device), margin)
+    origin = placement.optical_centre
+
+    def keep(_k, geometry):
+        return grid.reachable(geometry.vertices, geometry.faces, origin, (centre, PLACEMENT_RADIUS_M))
+
+    return keep
