@@ -212,7 +212,7 @@ PLACEMENT_RADIUS_M = 5.0
 
 
 def beam_reach(parts, pose: Pose, sensor: SensorConfig, backend: str, z_start: float | None):
-    """`keep(k, geometry)` for app/tiles.py join: the triangles some beam of the scan may meet
+    """`keep(vertices, faces)` for app/tiles.py join: the triangles some beam of the scan may meet
     (raycast/beam_reach.py) or that lie within PLACEMENT_RADIUS_M of the pose. The beams'
     directions are the placement's (placed on the tiles' triangles round the pose, as the scan
     places itself); None when the pose cannot be placed (the scan then says why)."""
@@ -235,7 +235,7 @@ def beam_reach(parts, pose: Pose, sensor: SensorConfig, backend: str, z_start: f
     grid = BeamGrid(rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device), margin)
     origin = placement.optical_centre
 
-    def keep(_k, geometry):
-        return grid.reachable(geometry.vertices, geometry.faces, origin, (centre, PLACEMENT_RADIUS_M))
+    def keep(vertices, faces):
+        return grid.reachable(vertices, faces, origin, (centre, PLACEMENT_RADIUS_M))
 
     return keep

@@ -270,19 +270,23 @@ def join(parts: list[TilePart], centre=None, radius: float | None = None, keep=N
     join: the triangles of the objects whose box comes that near (object_bounds), a set
     that holds every triangle the crop keeps, in the same order, so the scan's own crop of
     the join keeps the same triangles in the same order as a crop of the whole; the rest is
-    never copied. `keep(k, geometry)`: a boolean mask of the k-th part's triangles (after
-    that crop) to keep, the others left out of the join (app/scan.py: the ones no beam of a
-    scan can reach)."""
+    never copied. `keep(vertices, faces)`: a boolean mask of the given triangles of a part
+    (those that crop leaves) to keep, the others left out of the join too (app/scan.py: the
+    ones no beam of a scan can reach)."""
     names: list[str] = []
     moved = []
-    for k, part in enumerate(parts):
+    for part in parts:
         g = part.geometry
+        chosen = None  # indices of the triangles kept, None: all
         if radius is not None:
             near = objects_near(*part.bounds(), centre, float(radius))[g.object_index]
-            g = g if near.all() else g.subset(near)
+            chosen = None if near.all() else np.flatnonzero(near)
         if keep is not None:
-            mask = keep(k, g)
-            g = g if mask.all() else g.subset(mask)
+            faces = g.faces if chosen is None else g.faces[chosen]
+            mask = keep(g.vertices, faces)
+            if not mask.all():
+                chosen = np.flatnonzero(mask) if chosen is None else chosen[mask]
+        g = g if chosen is None else g.subset(chosen)
         shifted = SceneGeometry(
             g.vertices,
             g.faces,

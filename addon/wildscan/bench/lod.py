@@ -6,7 +6,9 @@ scan with levels of detail (the default, `--lod on`) and one with every tile at 
 (`--lod off`) of the same pose, both cold: a fresh tile memory and no world cache, so each
 builds every tile it reaches, as a scan at a place never visited does. The scan's time
 includes its tiles' building (app/scan.py endless_scan_geometry, then scan_current_scene, as
-`wildscan scan --seed` runs). Agreement is per beam, noise off, so only the geometry differs:
+`wildscan scan --seed` runs); both start from the same process state: what a process draws
+once for all its tiles (the landscape's anchor cells round the pose, the shared meshes) is
+drawn before either is timed (prime). Agreement is per beam, noise off, so only the geometry differs:
 labels, the share of beams (returned by either scan) given the same class; ranges, the share
 whose ranges differ by at most the device's range noise sigma (a beam returned by one scan
 only counts as a disagreement in both).
@@ -85,6 +87,20 @@ def cold_scan(world, pose, sensor, lod: bool, memory=None):
     return result, time.perf_counter() - t0, counts
 
 
+def prime(world, pose, sensor) -> None:
+    """What a process draws once for every tile it will build, never a tile: the landscape's
+    fields, the anchor cells round the pose (lakes, caves, clearings, the trails laid on
+    gentle land) and the shared meshes. Drawn before the timing, so neither of two scans of
+    one pose (LOD, then --lod off) pays for the other's start."""
+    from ..app.scan import crop_radius
+    from ..core.world.endless import landscape
+    from ..core.world.endless.library import library
+
+    library(world.seed, world.detail, world.vegetation)
+    r = crop_radius(sensor) + 50.0  # a tile's features are read this far round it at most
+    landscape(world.seed, world.biome).anchors.trails_over(pose.x - r, pose.x + r, pose.y - r, pose.y + r)
+
+
 def beam_keys(cloud) -> np.ndarray:
     """One integer per point naming its beam (ring, firing within the sweep, column)."""
     key = cloud.ring.astype(np.int64) * (1 << 20) + cloud.sweep.astype(np.int64)
@@ -115,6 +131,7 @@ def device_row(name: str, world, poses) -> dict:
     sensor = SensorConfig.for_device(device, noise_sigma=0.0).validate()
     lod_s, off_s, labels, ranges, beams, tiles = [], [], [], [], 0, []
     for pose in poses:
+        prime(world, pose, sensor)
         on, t_on, counts = cold_scan(world, pose, sensor, True)
         off, t_off, _ = cold_scan(world, pose, sensor, False)
         lab, rng, n = agreement(on.cloud, off.cloud, sigma)

@@ -49,7 +49,8 @@ class BeamGrid:
         self.table = occupied.cumsum(axis=0, dtype=np.int32).cumsum(axis=1, dtype=np.int32)
 
     def _row(self, el) -> np.ndarray:
-        return np.clip(np.floor((el - self.el0) / CELL_RAD).astype(np.int64), 0, self.rows - 1)
+        row = np.floor((el - np.float32(self.el0)) / np.float32(CELL_RAD)).astype(np.int64)
+        return np.clip(row, 0, self.rows - 1)
 
     def _column(self, az) -> np.ndarray:
         return np.floor((np.asarray(az) + math.pi) / CELL_RAD).astype(np.int64) % self.columns
@@ -63,25 +64,30 @@ class BeamGrid:
         """(T,) bool: the triangles some beam from `origin` (world metres, as `vertices`) may
         meet; False only where none can. `around` = ((x, y), r): the triangles whose xy box
         comes within r of (x, y) are kept too."""
-        v = np.asarray(vertices, dtype=np.float64) - np.asarray(origin, dtype=np.float64)
+        # float32 (half the memory traffic of float64): its angles are within ~1e-6 rad, far
+        # inside the margin, at every distance a tile reaches
+        v = (np.asarray(vertices, dtype=np.float64) - np.asarray(origin, dtype=np.float64)).astype(np.float32)
         faces = np.asarray(faces)
-        az_v = np.arctan2(v[:, 1], v[:, 0])
+        x, y, z = v[:, 0], v[:, 1], v[:, 2]
+        az_v = np.arctan2(y, x)
         lo, hi = _corner_range(az_v, faces)
-        lo2, hi2 = _corner_range(np.where(az_v < 0, az_v + 2 * math.pi, az_v), faces)  # arcs from -x
-        other = hi2 - lo2 < hi - lo
-        lo, hi = np.where(other, lo2, lo), np.where(other, hi2, hi)
+        over = np.flatnonzero(hi - lo > math.pi)  # the arc crosses -x: measured from there instead
+        if len(over):
+            turned = np.where(az_v < 0, az_v + np.float32(2 * math.pi), az_v)
+            lo[over], hi[over] = _corner_range(turned, faces[over])
         wide = hi - lo > WIDE_RAD
-        x_lo, x_hi = _corner_range(v[:, 0], faces)
-        y_lo, y_hi = _corner_range(v[:, 1], faces)
-        z_lo, z_hi = _corner_range(v[:, 2], faces)
-        rho_far = _corner_range(np.hypot(v[:, 0], v[:, 1]), faces)[1]
-        rho_near = np.hypot(np.clip(0.0, x_lo, x_hi), np.clip(0.0, y_lo, y_hi))
+        x_lo, x_hi = _corner_range(x, faces)
+        y_lo, y_hi = _corner_range(y, faces)
+        z_lo, z_hi = _corner_range(z, faces)
+        rho_far = _corner_range(np.hypot(x, y), faces)[1]
+        zero = np.float32(0.0)
+        rho_near = np.hypot(np.clip(zero, x_lo, x_hi), np.clip(zero, y_lo, y_hi))
         el_hi = np.arctan2(z_hi, np.where(z_hi > 0, rho_near, rho_far))
         el_lo = np.arctan2(z_lo, np.where(z_lo > 0, rho_far, rho_near))
-        m = self.margin
+        m = np.float32(self.margin)
         r0, r1 = self._row(el_lo - m), self._row(el_hi + m)
-        c0 = np.floor((lo - m + math.pi) / CELL_RAD).astype(np.int64)
-        c1 = np.floor((hi + m + math.pi) / CELL_RAD).astype(np.int64)
+        c0 = np.floor((lo - m + np.float32(math.pi)) / np.float32(CELL_RAD)).astype(np.int64)
+        c1 = np.floor((hi + m + np.float32(math.pi)) / np.float32(CELL_RAD)).astype(np.int64)
         shift = np.floor_divide(c0, self.columns) * self.columns  # c0 into 0..columns-1
         c0, c1 = c0 - shift, c1 - shift
         n = self.columns
@@ -92,7 +98,7 @@ class BeamGrid:
         keep = wide | (count > 0)
         if around is not None:
             (px, py), r = around
-            px, py = px - float(origin[0]), py - float(origin[1])
+            px, py = np.float32(px - float(origin[0])), np.float32(py - float(origin[1]))
             gx, gy = np.clip(px, x_lo, x_hi) - px, np.clip(py, y_lo, y_hi) - py
             keep |= gx * gx + gy * gy <= r * r
         return keep
