@@ -181,28 +181,79 @@ def endless_scan_geometry(
     cache=None,
     memory=None,
     progress=None,
+    reach: float | None = None,
     backend: str = "embree",
     z_start: float | None = None,
 ):
     """(SceneGeometry, TileCounts): the endless world of `seed` as a scan from `pose` sees it,
-    the tiles within the sensor's reach (crop_radius), each at the level the device resolves
-    there (full detail with `lod` off), from memory, the world cache or built (app/tiles.py).
-    With `lod` on and tiles beyond full detail (a far-reaching device), the triangles no beam
-    of this scan can meet are left out (beam_reach), which changes none of its points; the
-    scan's `backend` and `z_start` place it first, as the scan will."""
-    import time
-
-    from .tiles import TiledWorld, join, scan_levels, tile_parts
+    the tiles within the sensor's reach (crop_radius; `reach` when given: a dataset's scan also
+    needs its bird's-eye square), each at the level the device resolves there (full detail with
+    `lod` off), from memory, the world cache or built (app/tiles.py). With `lod` on, tiles
+    beyond full detail (a far-reaching device) and the geometry for the scan alone (no
+    `reach`), the triangles no beam of the scan can meet are left out (beam_reach), which
+    changes none of its points; the scan's `backend` and `z_start` place it first, as the
+    scan will."""
+    from .tiles import TiledWorld, scan_levels, tiles_geometry
 
     world = TiledWorld(seed, biome, detail, vegetation)
-    reach = crop_radius(sensor)
+    culled = reach is None and lod
+    reach = crop_radius(sensor) if reach is None else reach
+    if not lod:
+        check_full_detail_reach(reach, sensor)
     levels = scan_levels(sensor, pose.x, pose.y, reach, lod, detail)
-    t0 = time.perf_counter()
-    parts, counts = tile_parts(world, levels, cache, memory, progress)
-    keep = beam_reach(parts, pose, sensor, backend, z_start) if lod and any(levels.values()) else None
-    geometry = join(parts, (pose.x, pose.y), reach, keep)
+    if culled and any(levels.values()):
+        return _reached_geometry(
+            world, levels, pose, sensor, reach, cache, memory, progress, backend, z_start
+        )
+    return tiles_geometry(world, levels, cache, memory, (pose.x, pose.y), progress, radius=reach)
+
+
+def _reached_geometry(world, levels, pose, sensor, reach, cache, memory, progress, backend, z_start):
+    """endless_scan_geometry's LOD scan: the tiles round the pose first (the placement's),
+    then each tile, nearest first, cut to what the scan's beams can meet as soon as it is
+    made: only those triangles are held together (the tile memory keeps whole tiles, bounded
+    in bytes), so a far-reaching device's scan holds a fraction of its tiles' triangles."""
+    import time
+
+    from .tiles import ELEMENT_OVERHANG_M, TileCounts, cut, endless, join, tile_part
+
+    t0, counts = time.perf_counter(), TileCounts()
+    centre = (pose.x, pose.y)
+    order = sorted(levels, key=lambda t: (endless().tile_distance(*t, pose.x, pose.y), t))
+    made = {}
+    for t in order:  # the placement's tiles: every element that can stand within its reach
+        if endless().tile_distance(*t, pose.x, pose.y) <= PLACEMENT_RADIUS_M + ELEMENT_OVERHANG_M:
+            made[t] = tile_part(world, t, levels[t], cache, memory, counts)
+    keep = beam_reach([made[t] for t in sorted(made)], pose, sensor, backend, z_start)
+    kept = {}
+    for k, t in enumerate(order):
+        part = made.pop(t, None) or tile_part(world, t, levels[t], cache, memory, counts)
+        kept[t] = cut(part, centre, reach, keep)
+        if progress is not None:
+            progress(k + 1, len(order))
+    geometry = join([kept[t] for t in sorted(kept)], centre)
     counts.seconds = time.perf_counter() - t0
     return geometry, counts
+
+
+# m: the farthest a `--lod off` scan builds every tile at full detail. A 120 m device's scan
+# reaches ~123 m: ~31 tiles, 4-6 M triangles, 2-3 GB while it is made; a 245 m device's would be
+# ~100 tiles (15 GB resident measured on a 2-core machine before it was killed)
+FULL_DETAIL_REACH_M = 130.0
+
+
+def check_full_detail_reach(reach: float, sensor: SensorConfig) -> None:
+    """A UserError when a `--lod off` scan would build full-detail tiles farther than
+    FULL_DETAIL_REACH_M."""
+    if reach > FULL_DETAIL_REACH_M:
+        limit = FULL_DETAIL_REACH_M - (reach - sensor.max_range)
+        raise UserError(
+            f"off builds every tile within the scan's reach at full detail: {reach:.0f} m for "
+            f"max_range {sensor.max_range:g} m, more than the {FULL_DETAIL_REACH_M:g} m it may (the tiles "
+            f"would take tens of GB); use --lod on, or --max-range {limit:.0f} or less",
+            setting="lod",
+            allowed=("on",),
+        )
 
 
 # m: every triangle this near the pose (in xy) is kept, so the rays that place the robot (the

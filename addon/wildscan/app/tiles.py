@@ -276,17 +276,7 @@ def join(parts: list[TilePart], centre=None, radius: float | None = None, keep=N
     names: list[str] = []
     moved = []
     for part in parts:
-        g = part.geometry
-        chosen = None  # indices of the triangles kept, None: all
-        if radius is not None:
-            near = objects_near(*part.bounds(), centre, float(radius))[g.object_index]
-            chosen = None if near.all() else np.flatnonzero(near)
-        if keep is not None:
-            faces = g.faces if chosen is None else g.faces[chosen]
-            mask = keep(g.vertices, faces)
-            if not mask.all():
-                chosen = np.flatnonzero(mask) if chosen is None else chosen[mask]
-        g = g if chosen is None else g.subset(chosen)
+        g = cut(part, centre, radius, keep).geometry
         shifted = SceneGeometry(
             g.vertices,
             g.faces,
@@ -307,6 +297,22 @@ def join(parts: list[TilePart], centre=None, radius: float | None = None, keep=N
     covers = [p.cover for p in parts if p.cover is not None]
     geometry.cover = merge_covers(covers) if covers else None
     return geometry
+
+
+def cut(part: TilePart, centre=None, radius: float | None = None, keep=None) -> TilePart:
+    """One tile's part as `join` takes it into the whole (its docstring: the objects near
+    `centre`, then `keep`'s triangles); the part itself when nothing is left out."""
+    g = part.geometry
+    chosen = None  # indices of the triangles kept, None: all
+    if radius is not None:
+        near = objects_near(*part.bounds(), centre, float(radius))[g.object_index]
+        chosen = None if near.all() else np.flatnonzero(near)
+    if keep is not None:
+        faces = g.faces if chosen is None else g.faces[chosen]
+        mask = keep(g.vertices, faces)
+        if not mask.all():
+            chosen = np.flatnonzero(mask) if chosen is None else chosen[mask]
+    return part if chosen is None else TilePart(g.subset(chosen), part.cover)
 
 
 def merge_covers(covers: list):
