@@ -101,28 +101,3 @@ def test_lod_off_keeps_every_triangle():
     whole, _ = tiles_geometry(world, levels, None, memory, (pose.x, pose.y), radius=reach)
     off, _ = endless_scan_geometry(0, pose, sensor, False, "mixed", "porous", memory=memory)
     assert off.triangle_count == whole.triangle_count
-
-
-def test_lod_off_past_the_full_detail_reach_is_refused_in_one_line(tmp_path, capsys):
-    from wildscan.cli import main
-
-    out = tmp_path / "s.ply"
-    argv = [
-        "scan",
-        "--seed",
-        "1",
-        "--sensor",
-        "vls128",
-        "--lod",
-        "off",
-        "--pose",
-        "0",
-        "0",
-        "0",
-        "--out",
-        str(out),
-    ]
-    assert main(argv) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--lod off builds every tile" in err[0] and "--max-range" in err[0], err
-    assert not out.exists()
