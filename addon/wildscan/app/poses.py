@@ -93,46 +93,73 @@ ENDLESS_TRIES = 40  # candidates tried per pose asked before giving up (a region
 EDGE_MARGIN = 2.0  # m kept from the region's edge: the placement's lasers reach ~1 m around the pose
 
 
-PLACEMENT_REACH = 3.0  # m around a pose the placement casts in (its lasers, the enclosure check)
-BACKENDS_KEPT = 4  # tile backends a pose search keeps (a region's neighbourhoods, built once each)
+BACKENDS_KEPT = 4  # tile sets a pose search keeps at hand (a region's neighbourhoods, read once each)
 
 
 class TileBackends:
-    """Ray backends over the few full-detail tiles around a pose (a pose's placement reaches a
-    metre or two), built when first asked for and the last BACKENDS_KEPT kept: a region's
-    poses are checked tile by tile, never against the whole region at once."""
+    """The full-detail tiles around a pose and a ray caster over the triangles near it. A
+    pose's placement reaches a metre or two, so each candidate is placed on a caster over only
+    the triangles within the scan's placement radius (app/tiles.py placement_caster: a few
+    thousand, built in milliseconds), the same triangles a scan's placement meets on its own
+    tiles: the pose the search accepts is the one the scan stands at. The tiles come from the
+    process's TileMemory and the world cache (built when first asked for); the last
+    BACKENDS_KEPT sets are kept at hand, so a region's poses are checked tile by tile, never
+    against the whole region at once."""
 
-    def __init__(self, world, cache=None, memory=None):
+    def __init__(self, world, cache=None, memory=None, backend: str = "auto"):
         from collections import OrderedDict
 
         from .tiles import TileCounts
 
-        self.world, self.cache, self.memory = world, cache, memory
+        self.world, self.cache, self.memory, self.backend_name = world, cache, memory, backend
         self.kept: OrderedDict = OrderedDict()
-        self.counts = TileCounts()  # the tiles every backend asked for so far, and their seconds
+        self.counts = TileCounts()  # the tiles asked for so far, and their seconds
 
     def key(self, x: float, y: float) -> tuple:
-        from .tiles import ELEMENT_OVERHANG_M, endless
+        """The tiles whose elements can come within the placement radius of (x, y)."""
+        from .tiles import ELEMENT_OVERHANG_M, PLACEMENT_RADIUS_M, endless
 
-        reach = PLACEMENT_REACH + ELEMENT_OVERHANG_M  # an element of a tile nearby may stand over the pose
+        reach = PLACEMENT_RADIUS_M + ELEMENT_OVERHANG_M  # an element of a tile nearby may stand over the pose
         return tuple(sorted(endless().tiles_in_disc(float(x), float(y), reach)))
 
-    def backend(self, key: tuple) -> RayBackend:
+    def parts(self, key: tuple) -> list:
+        """The full-detail TileParts of the tiles `key` names, in its (sorted) order."""
         if key in self.kept:
             self.kept.move_to_end(key)
             return self.kept[key]
-        from ..raycast.select import make_backend
-        from .tiles import full_detail, tiles_geometry
+        from .tiles import tile_parts
 
-        geometry, counts = tiles_geometry(self.world, full_detail(key), self.cache, self.memory)
+        parts, counts = tile_parts(self.world, {t: 0 for t in key}, self.cache, self.memory)
         self.counts.built += counts.built
         self.counts.cache += counts.cache
         self.counts.memory += counts.memory
         self.counts.seconds += counts.seconds
-        self.kept[key] = make_backend("auto", geometry=geometry, notify=None)
+        self.kept[key] = parts
         while len(self.kept) > BACKENDS_KEPT:
             self.kept.popitem(last=False)
-        return self.kept[key]
+        return parts
+
+    def caster(self, x: float, y: float) -> RayBackend:
+        """A ray caster over the triangles a placement at (x, y) can meet, its local origin at
+        placement_centre (the dataset scan's: the same bits)."""
+        from .tiles import placement_caster
+
+        centre = placement_centre(self.world, x, y)
+        return placement_caster(self.parts(self.key(x, y)), centre, self.backend_name)
+
+
+def placement_centre(world, x: float, y: float) -> tuple[float, float, float]:
+    """The local origin of the casters a pose at (x, y) of the endless `world` is placed on:
+    (x, y) and the landscape's analytic terrain height there (the geometry rounds it to whole
+    metres). A float32 caster's answers are settled in float64 relative to its origin
+    (raycast/refine.py), so two casters over the same triangles near the pose agree to the
+    bit only when their origins do: the pose search's caster (TileBackends.caster) and a
+    dataset scan's world (app/dataset/land.py LandWorld.for_scan) both take this one, so the
+    pose the search accepts is placed by the scan at the same x, y, z, roll and pitch."""
+    from .tiles import endless
+
+    z = endless().height_at(world.seed, world.biome, np.array([float(x)]), np.array([float(y)]))
+    return (float(x), float(y), float(np.asarray(z).ravel()[0]))
 
 
 def endless_poses(
@@ -190,7 +217,8 @@ def endless_poses(
 
 def placed_poses(backends: TileBackends, poses: list[tuple], checked=None) -> list[dict | None]:
     """Each (x, y, yaw) placed (its entry) or rejected (None), checked grouped by the tiles
-    around it so each group's backend is built once. `checked(entry or None)` after each."""
+    around it (each set read once), each on a caster over the triangles near it.
+    `checked(entry or None)` after each."""
     from ..core.placement import Pose, place
 
     keys = [backends.key(x, y) for x, y, _ in poses]
@@ -198,7 +226,7 @@ def placed_poses(backends: TileBackends, poses: list[tuple], checked=None) -> li
     for k in sorted(range(len(poses)), key=lambda k: keys[k]):
         pose = Pose(*poses[k])
         try:
-            placement = place(backends.backend(keys[k]), pose)
+            placement = place(backends.caster(pose.x, pose.y), pose)
         except PoseRejected:
             if checked is not None:
                 checked(None)

@@ -13,6 +13,7 @@ from ..core.placement import Pose, check_z_start
 from ..core.scan import NOISE_MARGIN_SIGMAS, Progress, ScanResult, run_scan
 from ..core.sensors import SensorConfig
 from ..core.world.biomes import DEFAULT_BIOME
+from .tiles import PLACEMENT_RADIUS_M, placement_caster
 
 # Crop margin around the pose beyond max range: the optical centre sits up to a
 # column height off the pose's xy on tilted ground, plus a little slack.
@@ -256,12 +257,6 @@ def check_full_detail_reach(reach: float, sensor: SensorConfig) -> None:
         )
 
 
-# m: every triangle this near the pose (in xy) is kept, so the rays that place the robot (the
-# ground probe, the lasers at its arms' ends within 0.5 m, the 1 m enclosing test) meet the
-# same triangles in the culled geometry as in the whole, and the scan stands where it was placed
-PLACEMENT_RADIUS_M = 5.0
-
-
 def beam_reach(parts, pose: Pose, sensor: SensorConfig, backend: str, z_start: float | None):
     """`keep(vertices, faces)` for app/tiles.py join: the triangles some beam of the scan may meet
     (raycast/beam_reach.py) or that lie within PLACEMENT_RADIUS_M of the pose. The beams'
@@ -271,14 +266,10 @@ def beam_reach(parts, pose: Pose, sensor: SensorConfig, backend: str, z_start: f
     from ..core.placement import place
     from ..core.sensors.beams import rotated_beam_directions
     from ..raycast.beam_reach import MARGIN_RAD, BeamGrid
-    from ..raycast.select import make_backend
-    from .tiles import join
 
     centre = (pose.x, pose.y)
-    near = join(parts, centre, PLACEMENT_RADIUS_M)
-    caster = make_backend(backend, center=centre, radius=PLACEMENT_RADIUS_M, geometry=near, notify=None)
     try:
-        placement = place(caster, pose, z_start, sensor.mount_height)
+        placement = place(placement_caster(parts, centre, backend), pose, z_start, sensor.mount_height)
     except PoseRejected:
         return None
     # a realistic beam's sub-rays leave its axis by less than its full divergence (core/realism/footprint.py)

@@ -441,3 +441,22 @@ def crop_to_region(geometry: SceneGeometry, region: Region) -> SceneGeometry:
     part = geometry.subset(keep)
     part.cover = geometry.cover
     return part
+
+
+# m: every triangle this near the pose (in xy) is kept, so the rays that place the robot (the
+# ground probe, the lasers at its arms' ends within 0.5 m, the 1 m enclosing test) meet the
+# same triangles in the culled geometry as in the whole, and the scan stands where it was placed
+PLACEMENT_RADIUS_M = 5.0
+
+
+def placement_caster(parts, centre, backend: str = "embree"):
+    """A ray caster over the triangles of the tiles `parts` (app/tiles.py TilePart, sorted by
+    tile) within PLACEMENT_RADIUS_M of `centre` (x, y), or (x, y, z) to set its local origin's
+    height too (app/poses.py placement_centre): every triangle a placement there can meet, so
+    a pose placed on it stands where it stands on all of the tiles (the pose search,
+    app/poses.py, and app/scan.py beam_reach place on it; a scan places itself on its whole
+    crop)."""
+    from ..raycast.select import make_backend
+
+    near = join(parts, centre, PLACEMENT_RADIUS_M)
+    return make_backend(backend, center=centre, radius=PLACEMENT_RADIUS_M, geometry=near, notify=None)

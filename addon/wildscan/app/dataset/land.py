@@ -12,9 +12,10 @@ land cover (fields.land_cover_at) is that one; a class's are 2-8 m from one of i
 where the landscape places them (park furniture in the clearings, poles and wires along the
 power lines, points along the trails of a tread's material: the anchors, no tile built) or
 uniform over the covers it grows in. A candidate is kept when it is min_distance from the
-poses kept, the placement accepts it on the full-detail tiles around it (app/poses.py
-placed_poses, TileBackends) and its tall cover is as asked. Every draw comes from a stream of
-(seed, region, cover or class), so the same spec gives the same poses on any worker.
+poses kept, the placement accepts it on the full-detail triangles near it (app/poses.py
+placed_poses, TileBackends: those the scan's own placement meets) and its tall cover is as
+asked. Every draw comes from a stream of (seed, region, cover or class), so the same spec gives
+the same poses on any worker.
 
 Then the poses are numbered by place (PLACE_BLOCK_M squares in a serpentine), so the engine's
 contiguous batches (engine.py make_batches) are neighbourhoods: a worker scans poses near each
@@ -47,7 +48,7 @@ from ...core.truth.open_ground import no_open_ground
 from ...core.world.ground import StandingGround
 from ...core.world.region import Region
 from ...core.world.terrain_grid import TerrainGrid
-from ..poses import EDGE_MARGIN, TileBackends, placed_poses
+from ..poses import BACKENDS_KEPT, EDGE_MARGIN, TileBackends, placed_poses, placement_centre
 from ..tiles import TiledWorld, endless
 from .pose_spec import LAND_COVERS
 
@@ -177,24 +178,36 @@ class LandBackends(TileBackends):
 
     def __init__(self, world, cache=None, memory=None):
         super().__init__(world, cache, memory)
-        self.tall: dict[tuple, np.ndarray] = {}
+        self.tall: dict[tuple, tuple] = {}  # tiles -> (their merged cover grid, tall elements' xy)
 
     def in_tall_cover(self, x: float, y: float) -> bool:
         """Whether the sward at (x, y) is high grass or undergrowth (the tiles' cover grid), or a
         tall element (reeds, tufts of high grass, a bush) stands within TALL_REACH_M of it."""
-        key = self.key(x, y)
-        geometry = self.backend(key).geometry
-        if geometry.cover is not None:
-            cls, _ = geometry.cover.at(np.array([x]), np.array([y]))
+        cover, xy = self._tall(self.key(x, y))
+        if cover is not None:
+            cls, _ = cover.at(np.array([x]), np.array([y]))
             if int(cls[0]) in TALL_CLASSES:
                 return True
-        if key not in self.tall:
-            if len(self.tall) > 4 * len(self.kept):
-                self.tall.clear()
-            faces = geometry.faces[np.isin(geometry.class_id, TALL_CLASSES)]
-            self.tall[key] = geometry.vertices[np.unique(faces), :2]
-        xy = self.tall[key]
         return bool(np.any(dm.hypot(xy[:, 0] - x, xy[:, 1] - y) < TALL_REACH_M))
+
+    def _tall(self, key: tuple) -> tuple:
+        """The tiles' cover grid, merged as their join merges it, and the xy of every vertex
+        of their tall elements' triangles."""
+        if key not in self.tall:
+            from ..tiles import merge_covers
+
+            if len(self.tall) > 4 * BACKENDS_KEPT:
+                self.tall.clear()
+            parts = self.parts(key)
+            covers = [p.cover for p in parts if p.cover is not None]
+            xy = [_tall_xy(p.geometry) for p in parts]
+            self.tall[key] = (merge_covers(covers) if covers else None, np.concatenate(xy))
+        return self.tall[key]
+
+
+def _tall_xy(geometry) -> np.ndarray:
+    faces = geometry.faces[np.isin(geometry.class_id, TALL_CLASSES)]
+    return geometry.vertices[np.unique(faces), :2]
 
 
 def tall_indices(share: float, count: int, free: list[int]) -> set[int]:
@@ -352,7 +365,8 @@ class LandWorld:
         cover = geometry.cover
         return WorldContext(
             seed=self.seed,
-            backend=embree_backend(geometry.cropped((choice.x, choice.y), reach)),
+            # its origin the search's (placement_centre): the scan stands where the search placed it
+            backend=embree_backend(geometry.cropped(placement_centre(w, choice.x, choice.y), reach)),
             poses=self.poses,
             instances=None,  # ranked among the scan's own: a landscape holds more than 16 bits of objects
             z_range=(float(low[2]), float(high[2])),
