@@ -279,8 +279,18 @@ def listed_classes(labels: np.ndarray = (), declared=()) -> tuple[ElementClass, 
     scan's effects can produce, `Effects.classes`, or a table the scan already carries) or a
     point carries (`labels`). In id order. The one answer every writer reads, so a file's
     tables agree with each other and with its points."""
-    present = set(np.unique(np.asarray(labels, dtype=np.int64)).tolist()) | {int(i) for i in declared}
+    present = set(present_ids(labels).tolist()) | {int(i) for i in declared}
     return tuple(c for c in LABELS if not c.optional or c.id in present)
+
+
+def present_ids(labels) -> np.ndarray:
+    """The distinct ids in `labels`, ascending: a scan's unsigned labels by a bincount (a
+    drive lists the classes of each of its clouds several times: sorting them took a sixth
+    of its time), anything else by np.unique."""
+    labels = np.asarray(labels)
+    if labels.dtype.kind == "u" and len(labels):
+        return np.flatnonzero(np.bincount(labels.astype(np.intp)))
+    return np.unique(labels.astype(np.int64))
 
 
 def table_ids(table) -> tuple[int, ...]:

@@ -9,6 +9,8 @@ over 2D scans.
 from __future__ import annotations
 
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as futures_wait
 from contextlib import ExitStack
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -17,7 +19,7 @@ import numpy as np
 
 from ... import __version__
 from ...core.backend import RayBackend
-from ...core.classes import class_table_dict, listed_classes
+from ...core.classes import class_table_dict, listed_classes, present_ids
 from ...core.effects import Effects
 from ...core.io.tum import tum_text
 from ...core.io.writer import ScanOutput
@@ -134,6 +136,7 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
             feed.static()
             counter = _Rays(progress, plan.scans_2d * sensor.beams_per_column)
             points = []
+            behind = bags.enter_context(_Behind())  # closed before the bags: its last writes first
             for k0, k1, piece in _groups(runs, plan.sweeps):
                 if piece is not None and len(runs) > 1:
                     backend = None  # the previous piece's triangles go before the next are joined
@@ -146,13 +149,10 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
                     backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter, effects
                 )
                 clock.lap("sweep")
-                whole = k1 - k0 == plan.sweeps
-                if whole:
-                    points.append(context.write_scan(stage, k0 // plan.sweeps, result))
-                feed.scans(result, last=k1 == plan.scans_2d)
-                if whole:
-                    feed.clouds(result)
-                clock.lap("write")
+                behind(_writes(context, stage, feed, points, result, plan))
+                clock.lap("write")  # the wait for the previous sweep's files
+            behind.wait()
+            clock.lap("write")
         context.finish(stage, plan, path, feed.counts())
         written = stage.commit()
         clock.lap("write")
@@ -202,6 +202,54 @@ def _backend(request: DriveRequest, effects: Effects, cropped, say) -> RayBacken
         return make_backend(name, geometry=geometry, notify=None)
 
     return moving_scene(cropped, effects, make, request.sensor)
+
+
+def _writes(context: _Context, stage: files.Staging, feed: BagFeed, points: list, result: Sweep, plan):
+    """The files and bag messages of one sweep, in the order they were written in one thread."""
+    whole = result.k1 - result.k0 == plan.sweeps
+
+    def write() -> None:
+        if whole:
+            points.append(context.write_scan(stage, result.k0 // plan.sweeps, result))
+        feed.scans(result, last=result.k1 == plan.scans_2d)
+        if whole:
+            feed.clouds(result)
+
+    return write
+
+
+class _Behind:
+    """One sweep's writing (PLY, SemanticKITTI, the bags' messages) on a thread of its own
+    while the next sweep is cast: the two take turns on the two cores instead of one waiting
+    for the other (a 300 m drive spent 10.6 s of its 25 s writing). One write at a time, in
+    the drive's order, so every file and bag gets the same bytes as written in line; at most
+    one sweep's clouds wait (memory stays bounded)."""
+
+    def __init__(self):
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="wildscan-drive-write")
+        self._pending: Future | None = None
+
+    def __call__(self, write) -> None:
+        """`write()` begun once the previous one is done (its error raised here)."""
+        self.wait()
+        self._pending = self._pool.submit(write)
+
+    def wait(self) -> None:
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            pending.result()
+
+    def __enter__(self) -> _Behind:
+        return self
+
+    def __exit__(self, kind, value, trace) -> None:
+        try:
+            if kind is None:
+                self.wait()
+            elif self._pending is not None:  # interrupted: let the write end before the bags close
+                futures_wait([self._pending])
+        finally:
+            self._pool.shutdown(wait=True)
 
 
 def _groups(runs: list[tuple[int, int]], sweeps: int) -> list[tuple[int, int, tuple | None]]:
@@ -308,7 +356,7 @@ class _Context:
         kitti = {"velodyne": paths["velodyne"], "labels": paths["labels"]}
         files.stage_format(stage, "semantickitti", scan, kitti)
         self.class_points += np.bincount(self.labels.map(deskewed.label), minlength=len(self.class_points))
-        self.carried.update(np.unique(deskewed.label).tolist())
+        self.carried.update(present_ids(deskewed.label).tolist())
         self.pose_matrices.append(pose_matrix(start, frame))
         self.start_times.append(float(self.motion.times[result.k0]))
         self.start_centres.append(self.motion.centre[result.k0])

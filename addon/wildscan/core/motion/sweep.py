@@ -32,7 +32,7 @@ from ..pointcloud import PointCloud
 from ..runtime.cast_clock import scanning
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame, with_weather_field
 from ..sensors import SensorConfig, directions_at
-from ..spatial.rotations import rotate
+from ..spatial.rotations import rotate_columns
 from .placements import Motion
 from .timing import beam_fractions, beam_times, head_angles_rad
 
@@ -132,8 +132,10 @@ def _turned_during_scan(dirs: np.ndarray, step: np.ndarray, fraction: np.ndarray
     if not len(turning):
         return dirs
     out = dirs.copy()
-    rotvec = fraction[None, :, None] * step[turning][:, None, :]
-    out[turning] = rotate(dirs[turning].reshape(-1, 3), rotvec.reshape(-1, 3)).reshape(-1, dirs.shape[1], 3)
+    # beam n of 2D scan k turns by fraction[n] * step[k] (rotate's products, column by column)
+    rotvec = [fraction[None, :] * step[turning, i][:, None] for i in range(3)]
+    turned = dirs[turning]
+    out[turning] = np.stack(rotate_columns([turned[..., i] for i in range(3)], rotvec), axis=-1)
     return out
 
 
@@ -149,12 +151,19 @@ def _runs(matrices: np.ndarray):
 def _by_attitude(local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """(K, N, 3) directions in each 2D scan's sensor frame -> (K * N, 3) world directions,
     2D scans sharing one attitude turned by one product."""
-    n = local.shape[1]
     if len(_runs(rotation)) == 1:
         return dm.apply(rotation[0], local.reshape(-1, 3))
     # one matrix a ray: the same products in the same order as one matrix a run (detmath's
-    # apply multiplies element by element), without a Python loop over the 2D scans
-    return dm.apply(np.repeat(rotation, n, axis=0), local.reshape(-1, 3))
+    # apply: ((m_i0 v0 + m_i1 v1) + m_i2 v2)), without a Python loop over the 2D scans, each
+    # component over whole (K, N) columns, the matrices' entries broadcast along each 2D scan
+    v = [local[..., j] for j in range(3)]
+    out = np.empty(local.shape)
+    for i in range(3):
+        component = v[0] * rotation[:, i, 0, None]
+        component += v[1] * rotation[:, i, 1, None]
+        component += v[2] * rotation[:, i, 2, None]
+        out[..., i] = component
+    return out.reshape(-1, 3)
 
 
 def _origins(motion: Motion, k0: int, k1: int, fraction: np.ndarray) -> np.ndarray:
@@ -163,7 +172,10 @@ def _origins(motion: Motion, k0: int, k1: int, fraction: np.ndarray) -> np.ndarr
     if np.all(centre == centre[0]):
         return centre[0]
     step = centre[1:] - centre[:-1]
-    return (centre[:-1, None, :] + fraction[None, :, None] * step[:, None, :]).reshape(-1, 3)
+    out = np.empty((len(step), len(fraction), 3))
+    for i in range(3):  # c + f s, column by column: numpy's loops over N values, not 3
+        out[..., i] = centre[:-1, i, None] + fraction[None, :] * step[:, i, None]
+    return out.reshape(-1, 3)
 
 
 def _deskewed(
