@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from concurrent.futures import Future, ThreadPoolExecutor
 from concurrent.futures import wait as futures_wait
-from contextlib import ExitStack
+from contextlib import ExitStack, closing
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -36,6 +36,7 @@ from ...raycast.wind import drive_effects, moving_scene
 from ..interrupts import Interrupted, Terminated, sigterm_raises
 from ..scan import crop_radius
 from . import files
+from .ahead import one_ahead
 from .bags import BagFeed, open_bags
 from .imu import IMU_CSV, drive_imu
 from .memory import keep_freed_memory
@@ -95,22 +96,20 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
     runs = pieces(plan.scans_2d, plan.sweeps, request.speed * period, request.long_trail)
     reach = crop_radius(sensor)
     motions, backend, backend_name = [], None, None
-    for k0, k1 in runs:  # the robot stood on each piece's own triangles (the sweep's, below)
-        backend, effects = _piece_backend(
-            request, world, xy[k0 : k1 + 1], reach, say if not motions else None, placing=len(runs) > 1
-        )
-        backend_name = backend_name or backend.name
-        clock.lap("crop")
-        span = slice(k0, k1 + 1)
-        distance = request.speed * times[span]
-        keep = [s - k0 for s in range(k0, k1, plan.sweeps)]  # the 3D scans' first 2D scans: their metadata
-        height = sensor.mount_height
-        motions.append(
-            place_all(backend, times[span], xy[span], yaw[span], distance, request.z_start, height, keep, k0)
-        )
-        clock.lap("placement")
-        if len(runs) > 1:
-            backend = None  # built again for its sweeps: the placements of every piece come first (IMU)
+
+    def ground(run):  # the robot stood on each piece's own triangles (the sweep's, below)
+        k0, k1 = run
+        return _piece_backend(request, world, xy[k0 : k1 + 1], reach, say if k0 == 0 else None, len(runs) > 1)
+
+    with closing(one_ahead(ground, runs)) as grounds:
+        for k0, k1 in runs:
+            backend, effects = next(grounds)
+            backend_name = backend_name or backend.name
+            clock.lap("crop")  # the wait for the piece's ground, made while the last was placed
+            motions.append(_placed(request, sensor, plan, backend, times, xy, yaw, k0, k1))
+            clock.lap("placement")
+            if len(runs) > 1:
+                backend = None  # built again for its sweeps: the placements of every piece come first (IMU)
     motion = joined_motion(motions, [k0 for k0, _ in runs])
     check_reach(motion.centre, sensor.max_range, request.frame, backend_name)
     imu = drive_imu(
@@ -137,13 +136,16 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
             counter = _Rays(progress, plan.scans_2d * sensor.beams_per_column)
             points = []
             behind = bags.enter_context(_Behind())  # closed before the bags: its last writes first
+
+            def whole(run):  # a piece's world for its sweeps (the placement's was its ground)
+                return _piece_backend(request, world, xy[run[0] : run[1] + 1], reach, None)
+
+            worlds = bags.enter_context(closing(one_ahead(whole, runs if len(runs) > 1 else [])))
             for k0, k1, piece in _groups(runs, plan.sweeps):
                 if piece is not None and len(runs) > 1:
-                    backend = None  # the previous piece's triangles go before the next are joined
-                    backend, effects = _piece_backend(
-                        request, world, xy[piece[0] : piece[1] + 1], reach, None
-                    )
-                    clock.lap("crop")
+                    backend = None  # the previous piece's triangles go as the next come
+                    backend, effects = next(worlds)
+                    clock.lap("crop")  # the wait for the piece's world, made while the last was swept
                 noise = context.noise(k1 - k0)
                 result = sweep(
                     backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter, effects
@@ -169,6 +171,15 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
         bag_counts=feed.counts(),
         seconds=clock.laps,
     )
+
+
+def _placed(request: DriveRequest, sensor, plan, backend, times, xy, yaw, k0: int, k1: int) -> Motion:
+    """The robot placed at the instants k0 ... k1 of the path on `backend`'s ground."""
+    span = slice(k0, k1 + 1)
+    distance = request.speed * times[span]
+    keep = [s - k0 for s in range(k0, k1, plan.sweeps)]  # the 3D scans' first 2D scans: their metadata
+    height = sensor.mount_height
+    return place_all(backend, times[span], xy[span], yaw[span], distance, request.z_start, height, keep, k0)
 
 
 def _piece_backend(request: DriveRequest, world, xy: np.ndarray, reach: float, say, placing: bool = False):
