@@ -25,7 +25,7 @@ from ...core.io.tum import tum_text
 from ...core.io.writer import ScanOutput
 from ...core.label_schemes import scheme
 from ...core.motion.placements import Motion, motion_of, place_all
-from ...core.motion.sweep import Sweep, sweep
+from ...core.motion.sweep import Sweep, beams_of, sweep
 from ...core.motion.trajectory import instants, schedule
 from ...core.rng import seeded
 from ...core.scan import points_in_frame
@@ -141,14 +141,21 @@ def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
                 return _piece_backend(request, world, xy[run[0] : run[1] + 1], reach, None)
 
             worlds = bags.enter_context(closing(one_ahead(whole, runs if len(runs) > 1 else [])))
-            for k0, k1, piece in _groups(runs, plan.sweeps):
+            groups = _groups(runs, plan.sweeps)
+
+            def rays(group):  # the next sweep's noise and rays, made while this one casts
+                k0, k1, _ = group
+                return context.noise(k1 - k0), beams_of(motion, k0, k1, sensor, request.head)
+
+            ready = bags.enter_context(closing(one_ahead(rays, groups)))
+            for k0, k1, piece in groups:
                 if piece is not None and len(runs) > 1:
                     backend = None  # the previous piece's triangles go as the next come
                     backend, effects = next(worlds)
                     clock.lap("crop")  # the wait for the piece's world, made while the last was swept
-                noise = context.noise(k1 - k0)
+                noise, beams = next(ready)
                 result = sweep(
-                    backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter, effects
+                    backend, motion, k0, k1, sensor, request.head, noise, "sensor", counter, effects, beams
                 )
                 clock.lap("sweep")
                 behind(_writes(context, stage, feed, points, result, plan))

@@ -51,6 +51,29 @@ class Sweep:
     times: np.ndarray  # (N,) beam times, seconds after the start of 2D scan k0
 
 
+@dataclass
+class Beams:
+    """The rays of the 2D scans k0 ... k1 - 1, before any is cast: a pure function of the
+    motion (a drive makes the next sweep's while this one casts, app/drive/run.py)."""
+
+    k0: int
+    k1: int
+    believed: np.ndarray  # (K, N, 3) Eq. 1's directions in the sensor frame
+    true_local: np.ndarray  # (K, N, 3) turned by the motion during each 2D scan
+    dirs_world: np.ndarray  # (K * N, 3)
+    origins: np.ndarray  # (3,) or (K * N, 3)
+
+
+def beams_of(motion: Motion, k0: int, k1: int, sensor: SensorConfig, head: str) -> Beams:
+    device = sensor.device
+    ks = np.arange(k0, k1)
+    fraction = beam_fractions(device.timing)
+    believed = directions_at(head_angles_rad(ks, sensor.rh_deg, head, device.timing), device)  # Eq. 1
+    true_local = _turned_during_scan(believed, motion.step[k0:k1], fraction)
+    dirs_world = _by_attitude(true_local, motion.rotation[k0:k1])
+    return Beams(k0, k1, believed, true_local, dirs_world, _origins(motion, k0, k1, fraction))
+
+
 @scanning
 def sweep(
     backend: RayBackend,
@@ -63,17 +86,24 @@ def sweep(
     frame: str = "sensor",
     progress=None,
     effects: Effects = CLEAR_AIR,
+    beams: Beams | None = None,
 ) -> Sweep:
     """Cast the beams of 2D scans k0 ... k1 - 1 and make their clouds. `noise` (N,) is the
     range noise of each beam; `progress(rays)` hears of each chunk cast; the first hits pass
-    through `effects`' medium (none: clear air)."""
+    through `effects`' medium (none: clear air). `beams`: beams_of(motion, k0, k1, sensor,
+    head), made beforehand (else here)."""
     device = sensor.device
     ks = np.arange(k0, k1)
     fraction = beam_fractions(device.timing)
-    believed = directions_at(head_angles_rad(ks, sensor.rh_deg, head, device.timing), device)  # Eq. 1
-    true_local = _turned_during_scan(believed, motion.step[k0:k1], fraction)
-    dirs_world = _by_attitude(true_local, motion.rotation[k0:k1])
-    origins = _origins(motion, k0, k1, fraction)
+    if beams is None:
+        beams = beams_of(motion, k0, k1, sensor, head)
+    assert (beams.k0, beams.k1) == (k0, k1), "the beams of another sweep"
+    believed, true_local, dirs_world, origins = (
+        beams.believed,
+        beams.true_local,
+        beams.dirs_world,
+        beams.origins,
+    )
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     hits = cast_in_chunks(backend, origins, dirs_world, cast_range, ks, progress)
     if effects.changes_medium:  # the beams' times since the drive's start, for the medium
