@@ -19,7 +19,7 @@ import numpy as np
 
 from ... import __version__
 from ...core.backend import RayBackend
-from ...core.classes import class_table_dict, listed_classes, present_ids
+from ...core.classes import class_table_dict, ids_present, listed_classes
 from ...core.effects import Effects
 from ...core.io.tum import tum_text
 from ...core.io.writer import ScanOutput
@@ -374,7 +374,7 @@ class _Context:
         kitti = {"velodyne": paths["velodyne"], "labels": paths["labels"]}
         files.stage_format(stage, "semantickitti", scan, kitti)
         self.class_points += np.bincount(self.labels.map(deskewed.label), minlength=len(self.class_points))
-        self.carried.update(present_ids(deskewed.label).tolist())
+        self.carried.update(ids_present(deskewed.label))
         self.pose_matrices.append(pose_matrix(start, frame))
         self.start_times.append(float(self.motion.times[result.k0]))
         self.start_centres.append(self.motion.centre[result.k0])

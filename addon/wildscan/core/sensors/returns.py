@@ -54,15 +54,16 @@ def select_returns(beam: np.ndarray, intensity: np.ndarray, mode: str, dual: str
     last = np.ones(n, dtype=bool)
     last[:-1] = first[1:]
     start = np.flatnonzero(first)
+    if mode == "last":
+        return index[last], np.full(int(last.sum()), LAST, dtype=np.uint8)
+    if mode == "strongest":
+        kept = strongest_of_each(np.asarray(intensity, dtype=np.float64), start)
+        return kept, np.full(len(kept), STRONGEST, dtype=np.uint8)
     # each beam's strongest: the highest intensity, the nearest of equals (a stable order)
     order = np.lexsort((index, -np.asarray(intensity, dtype=np.float64), beam))
     rank = np.empty(n, dtype=np.int64)
     rank[order] = index - np.repeat(start, np.diff(np.append(start, n)))
     strongest = rank == 0
-    if mode == "strongest":
-        return index[strongest], np.full(int(strongest.sum()), STRONGEST, dtype=np.uint8)
-    if mode == "last":
-        return index[last], np.full(int(last.sum()), LAST, dtype=np.uint8)
     if dual == "two-strongest":
         keep = rank <= 1
         kind = np.where(strongest, STRONGEST, SECOND_STRONGEST)
@@ -73,3 +74,14 @@ def select_returns(beam: np.ndarray, intensity: np.ndarray, mode: str, dual: str
             [strongest & last, strongest, last], [STRONGEST_AND_LAST, STRONGEST, LAST], SECOND_STRONGEST
         )
     return index[keep], kind[keep].astype(np.uint8)
+
+
+def strongest_of_each(strength: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """The index of each group's strongest echo, the nearest (first) of equals: groups begin at
+    `start`, echoes in range order. Per-group maxima in one pass each, where the dual modes'
+    rank needs a sort of every echo (most beams of a scan have one echo)."""
+    n = len(strength)
+    counts = np.diff(np.append(start, n))
+    top = np.maximum.reduceat(strength, start)
+    is_top = strength == np.repeat(top, counts)
+    return np.minimum.reduceat(np.where(is_top, np.arange(n), n), start)
