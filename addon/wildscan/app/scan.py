@@ -181,13 +181,15 @@ def endless_scan_geometry(
     cache=None,
     memory=None,
     progress=None,
+    reach: float | None = None,
 ):
     """(SceneGeometry, TileCounts): the endless world of `seed` as a scan from `pose` sees it,
-    the tiles within the sensor's reach (crop_radius), each at the level the device resolves
-    there (full detail with `lod` off), from memory, the world cache or built (app/tiles.py)."""
+    the tiles within the sensor's reach (crop_radius; `reach` when given: a dataset's scan also
+    needs its bird's-eye square), each at the level the device resolves there (full detail with
+    `lod` off), from memory, the world cache or built (app/tiles.py)."""
     from .tiles import TiledWorld, scan_levels, tiles_geometry
 
     world = TiledWorld(seed, biome, detail, vegetation)
-    reach = crop_radius(sensor)
+    reach = crop_radius(sensor) if reach is None else reach
     levels = scan_levels(sensor, pose.x, pose.y, reach, lod, detail)
     return tiles_geometry(world, levels, cache, memory, (pose.x, pose.y), progress, radius=reach)
