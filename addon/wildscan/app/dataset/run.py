@@ -55,6 +55,7 @@ class RunReport:
     world_build_seconds: float = 0.0
     scan_seconds: float = 0.0  # summed over workers: inside their scans, and the cast within
     cast_seconds: float = 0.0
+    tiles: dict[str, float] = field(default_factory=dict)  # worker.tile_facts, summed over tasks
     bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
     worlds: dict[str, int] = field(default_factory=dict)  # "built" / "cache" -> worlds a worker loaded so
     world_sources: dict[int, str] = field(default_factory=dict)  # seed -> "built" / "cache"
@@ -276,6 +277,8 @@ def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport
         report.world_build_seconds += facts["world_build_seconds"]
         report.scan_seconds += facts.get("scan_seconds", 0.0)
         report.cast_seconds += facts.get("cast_seconds", 0.0)
+        for name, value in facts.get("tiles", {}).items():
+            report.tiles[name] = report.tiles.get(name, 0) + value
         report.bpy_imported |= facts["bpy_imported"]
         report.worlds = count_worlds(report.world_sources, batch.seed, facts, warn)
         if "task" in facts:
