@@ -39,7 +39,7 @@ from . import files
 from .ahead import one_ahead
 from .bags import BagFeed, open_bags
 from .imu import IMU_CSV, drive_imu
-from .memory import keep_freed_memory
+from .memory import keep_freed_memory, one_heap
 from .request import DriveRequest
 from .trails import TrailWorld, pieces, trail_world
 from .world import drive_path, drive_world
@@ -76,6 +76,7 @@ def run_drive(request: DriveRequest, progress=None, say=print, cache=None) -> Dr
 
 def _drive(request: DriveRequest, progress, say, cache) -> DriveReport:
     keep_freed_memory()  # the sweeps' arrays reuse heap pages instead of faulting in new ones
+    one_heap()  # and the drive's threads share one heap (memory.py)
     clock = _Clock()
     request.check()
     files.check_out_dir(request.out)
