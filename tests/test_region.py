@@ -111,6 +111,10 @@ def test_an_extended_region_holds_the_reach_and_keeps_under_the_limit():
             ],
             "--lod applies to --layout endless only",
         ),
+        (  # a 245 m device's full-detail tiles would take tens of GB
+            "scan --seed 1 --sensor vls128 --lod off --pose 0 0 0 --out s.ply".split(),
+            "--lod off builds every tile within the scan's reach at full detail: 247 m",
+        ),
     ],
 )
 def test_the_command_line_says_in_one_line_what_is_wrong_with_a_region(argv, line, capsys, tmp_path):

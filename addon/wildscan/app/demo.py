@@ -150,7 +150,7 @@ def scan_endless(
     for cover, found in nearest_cover_poses(world, backends).items():
         pose = Pose(found["x"], found["y"], found["yaw"])
         geometry, counts = endless_scan_geometry(
-            seed, pose, sensor, True, world.biome, world.vegetation, DETAIL, cache, memory
+            seed, pose, sensor, True, world.biome, world.vegetation, DETAIL, cache, memory, backend=backend
         )
         result = scan_current_scene(pose, sensor, "leveled", None, backend, notify=notify, geometry=geometry)
         ply = out / f"scan_{cover}.ply"

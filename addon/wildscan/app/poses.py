@@ -105,8 +105,11 @@ class TileBackends:
     def __init__(self, world, cache=None, memory=None):
         from collections import OrderedDict
 
+        from .tiles import TileCounts
+
         self.world, self.cache, self.memory = world, cache, memory
         self.kept: OrderedDict = OrderedDict()
+        self.counts = TileCounts()  # the tiles every backend asked for so far, and their seconds
 
     def key(self, x: float, y: float) -> tuple:
         from .tiles import ELEMENT_OVERHANG_M, endless
@@ -121,7 +124,11 @@ class TileBackends:
         from ..raycast.select import make_backend
         from .tiles import full_detail, tiles_geometry
 
-        geometry, _ = tiles_geometry(self.world, full_detail(key), self.cache, self.memory)
+        geometry, counts = tiles_geometry(self.world, full_detail(key), self.cache, self.memory)
+        self.counts.built += counts.built
+        self.counts.cache += counts.cache
+        self.counts.memory += counts.memory
+        self.counts.seconds += counts.seconds
         self.kept[key] = make_backend("auto", geometry=geometry, notify=None)
         while len(self.kept) > BACKENDS_KEPT:
             self.kept.popitem(last=False)
@@ -136,13 +143,16 @@ def endless_poses(
     cache=None,
     memory=None,
     backends: TileBackends | None = None,
+    progress=None,
 ) -> list[dict]:
     """Up to `count` poses in `region` of the endless world `world` (app/tiles.py TiledWorld)
     that the placement accepts, on the land covers `covers` (None: any), each listed with
     its land cover. Candidates are drawn uniformly over the region from a generator of the
     seed, the region and the covers, a batch at a time; a batch is checked tile by tile
     (TileBackends) and its accepted poses taken in the order drawn, so the same request lists
-    the same poses. `backends`: shared when a caller asks for several covers of one region."""
+    the same poses. `backends`: shared when a caller asks for several covers of one region.
+    `progress(found, count, checked, tiles)` after each candidate checked (`tiles`: the
+    backends' TileCounts so far): a command's progress lines."""
     from .tiles import endless
 
     E = endless()
@@ -150,6 +160,14 @@ def endless_poses(
     wanted = None if covers is None else {E.LAND_COVERS.index(c) for c in covers}
     rng = stage_rng(world.seed, f"poses.endless:{region.text()}:{','.join(covers or ())}")
     accepted: list[dict] = []
+    checked = [0, 0]  # candidates checked, and accepted, in this batch and the ones before
+
+    def tell(entry) -> None:
+        checked[0] += 1
+        checked[1] += entry is not None
+        if progress is not None:
+            progress(min(checked[1], count), count, checked[0], backends.counts)
+
     for _ in range(ENDLESS_TRIES):
         if len(accepted) >= count:
             break
@@ -160,7 +178,9 @@ def endless_poses(
         cover = np.asarray(E.land_cover_at(world.seed, world.biome, x, y))
         tried = [k for k in range(batch) if wanted is None or int(cover[k]) in wanted]
         found = placed_poses(
-            backends, [(round(float(x[k]), 3), round(float(y[k]), 3), round(float(yaw[k]), 1)) for k in tried]
+            backends,
+            [(round(float(x[k]), 3), round(float(y[k]), 3), round(float(yaw[k]), 1)) for k in tried],
+            tell,
         )
         for k, entry in zip(tried, found):
             if entry is not None and len(accepted) < count:
@@ -168,9 +188,9 @@ def endless_poses(
     return accepted
 
 
-def placed_poses(backends: TileBackends, poses: list[tuple]) -> list[dict | None]:
+def placed_poses(backends: TileBackends, poses: list[tuple], checked=None) -> list[dict | None]:
     """Each (x, y, yaw) placed (its entry) or rejected (None), checked grouped by the tiles
-    around it so each group's backend is built once."""
+    around it so each group's backend is built once. `checked(entry or None)` after each."""
     from ..core.placement import Pose, place
 
     keys = [backends.key(x, y) for x, y, _ in poses]
@@ -180,6 +200,8 @@ def placed_poses(backends: TileBackends, poses: list[tuple]) -> list[dict | None
         try:
             placement = place(backends.backend(keys[k]), pose)
         except PoseRejected:
+            if checked is not None:
+                checked(None)
             continue
         out[k] = {
             "x": pose.x,
@@ -188,4 +210,6 @@ def placed_poses(backends: TileBackends, poses: list[tuple]) -> list[dict | None
             "tilt_deg": round(float(placement.to_dict()["tilt_deg"]), 2),
             "optical_centre_z": round(float(placement.optical_centre[2]), 3),
         }
+        if checked is not None:
+            checked(out[k])
     return out

@@ -182,14 +182,111 @@ def endless_scan_geometry(
     memory=None,
     progress=None,
     reach: float | None = None,
+    backend: str = "embree",
+    z_start: float | None = None,
 ):
     """(SceneGeometry, TileCounts): the endless world of `seed` as a scan from `pose` sees it,
     the tiles within the sensor's reach (crop_radius; `reach` when given: a dataset's scan also
     needs its bird's-eye square), each at the level the device resolves there (full detail with
-    `lod` off), from memory, the world cache or built (app/tiles.py)."""
+    `lod` off), from memory, the world cache or built (app/tiles.py). With `lod` on, tiles
+    beyond full detail (a far-reaching device) and the geometry for the scan alone (no
+    `reach`), the triangles no beam of the scan can meet are left out (beam_reach), which
+    changes none of its points; the scan's `backend` and `z_start` place it first, as the
+    scan will."""
     from .tiles import TiledWorld, scan_levels, tiles_geometry
 
     world = TiledWorld(seed, biome, detail, vegetation)
+    culled = reach is None and lod
     reach = crop_radius(sensor) if reach is None else reach
+    if not lod:
+        check_full_detail_reach(reach, sensor)
     levels = scan_levels(sensor, pose.x, pose.y, reach, lod, detail)
+    if culled and any(levels.values()):
+        return _reached_geometry(
+            world, levels, pose, sensor, reach, cache, memory, progress, backend, z_start
+        )
     return tiles_geometry(world, levels, cache, memory, (pose.x, pose.y), progress, radius=reach)
+
+
+def _reached_geometry(world, levels, pose, sensor, reach, cache, memory, progress, backend, z_start):
+    """endless_scan_geometry's LOD scan: the tiles round the pose first (the placement's),
+    then each tile, nearest first, cut to what the scan's beams can meet as soon as it is
+    made: only those triangles are held together (the tile memory keeps whole tiles, bounded
+    in bytes), so a far-reaching device's scan holds a fraction of its tiles' triangles."""
+    import time
+
+    from .tiles import ELEMENT_OVERHANG_M, TileCounts, cut, endless, join, tile_part
+
+    t0, counts = time.perf_counter(), TileCounts()
+    centre = (pose.x, pose.y)
+    order = sorted(levels, key=lambda t: (endless().tile_distance(*t, pose.x, pose.y), t))
+    made = {}
+    for t in order:  # the placement's tiles: every element that can stand within its reach
+        if endless().tile_distance(*t, pose.x, pose.y) <= PLACEMENT_RADIUS_M + ELEMENT_OVERHANG_M:
+            made[t] = tile_part(world, t, levels[t], cache, memory, counts)
+    keep = beam_reach([made[t] for t in sorted(made)], pose, sensor, backend, z_start)
+    kept = {}
+    for k, t in enumerate(order):
+        part = made.pop(t, None) or tile_part(world, t, levels[t], cache, memory, counts)
+        kept[t] = cut(part, centre, reach, keep)
+        if progress is not None:
+            progress(k + 1, len(order))
+    geometry = join([kept[t] for t in sorted(kept)], centre)
+    counts.seconds = time.perf_counter() - t0
+    return geometry, counts
+
+
+# m: the farthest a `--lod off` scan builds every tile at full detail. A 120 m device's scan
+# reaches ~123 m: ~31 tiles, 4-6 M triangles, 2-3 GB while it is made; a 245 m device's would be
+# ~100 tiles (15 GB resident measured on a 2-core machine before it was killed)
+FULL_DETAIL_REACH_M = 130.0
+
+
+def check_full_detail_reach(reach: float, sensor: SensorConfig) -> None:
+    """A UserError when a `--lod off` scan would build full-detail tiles farther than
+    FULL_DETAIL_REACH_M."""
+    if reach > FULL_DETAIL_REACH_M:
+        limit = FULL_DETAIL_REACH_M - (reach - sensor.max_range)
+        raise UserError(
+            f"off builds every tile within the scan's reach at full detail: {reach:.0f} m for "
+            f"max_range {sensor.max_range:g} m, more than the {FULL_DETAIL_REACH_M:g} m it may (the tiles "
+            f"would take tens of GB); use --lod on, or --max-range {limit:.0f} or less",
+            setting="lod",
+            allowed=("on",),
+        )
+
+
+# m: every triangle this near the pose (in xy) is kept, so the rays that place the robot (the
+# ground probe, the lasers at its arms' ends within 0.5 m, the 1 m enclosing test) meet the
+# same triangles in the culled geometry as in the whole, and the scan stands where it was placed
+PLACEMENT_RADIUS_M = 5.0
+
+
+def beam_reach(parts, pose: Pose, sensor: SensorConfig, backend: str, z_start: float | None):
+    """`keep(vertices, faces)` for app/tiles.py join: the triangles some beam of the scan may meet
+    (raycast/beam_reach.py) or that lie within PLACEMENT_RADIUS_M of the pose. The beams'
+    directions are the placement's (placed on the tiles' triangles round the pose, as the scan
+    places itself); None when the pose cannot be placed (the scan then says why)."""
+    from ..core.errors import PoseRejected
+    from ..core.placement import place
+    from ..core.sensors.beams import rotated_beam_directions
+    from ..raycast.beam_reach import MARGIN_RAD, BeamGrid
+    from ..raycast.select import make_backend
+    from .tiles import join
+
+    centre = (pose.x, pose.y)
+    near = join(parts, centre, PLACEMENT_RADIUS_M)
+    caster = make_backend(backend, center=centre, radius=PLACEMENT_RADIUS_M, geometry=near, notify=None)
+    try:
+        placement = place(caster, pose, z_start, sensor.mount_height)
+    except PoseRejected:
+        return None
+    # a realistic beam's sub-rays leave its axis by less than its full divergence (core/realism/footprint.py)
+    margin = MARGIN_RAD + (1e-3 * sensor.divergence_mrad if sensor.realistic else 0.0)
+    grid = BeamGrid(rotated_beam_directions(placement.rotation, sensor.rh_deg, sensor.device), margin)
+    origin = placement.optical_centre
+
+    def keep(vertices, faces):
+        return grid.reachable(vertices, faces, origin, (centre, PLACEMENT_RADIUS_M))
+
+    return keep

@@ -291,7 +291,7 @@ def part_from_entry(meta: dict, arrays: dict[str, np.ndarray]) -> TilePart:
     return TilePart(geometry, cover, arrays["object_lo"], arrays["object_hi"])
 
 
-def join(parts: list[TilePart], centre=None, radius: float | None = None) -> SceneGeometry:
+def join(parts: list[TilePart], centre=None, radius: float | None = None, keep=None) -> SceneGeometry:
     """The tiles as one SceneGeometry (in the order given: callers sort by tile), object
     indices moved past the previous tiles' objects, covers merged; `offset` at `centre`
     (x, y) when given (a scan's pose), else the middle of the triangles. With `radius`, each
@@ -299,14 +299,13 @@ def join(parts: list[TilePart], centre=None, radius: float | None = None) -> Sce
     join: the triangles of the objects whose box comes that near (object_bounds), a set
     that holds every triangle the crop keeps, in the same order, so the scan's own crop of
     the join keeps the same triangles in the same order as a crop of the whole; the rest is
-    never copied."""
+    never copied. `keep(vertices, faces)`: a boolean mask of the given triangles of a part
+    (those that crop leaves) to keep, the others left out of the join too (app/scan.py: the
+    ones no beam of a scan can reach)."""
     names: list[str] = []
     moved = []
     for part in parts:
-        g = part.geometry
-        if radius is not None:
-            keep = objects_near(*part.bounds(), centre, float(radius))[g.object_index]
-            g = g if keep.all() else g.subset(keep)
+        g = cut(part, centre, radius, keep).geometry
         shifted = SceneGeometry(
             g.vertices,
             g.faces,
@@ -327,6 +326,22 @@ def join(parts: list[TilePart], centre=None, radius: float | None = None) -> Sce
     covers = [p.cover for p in parts if p.cover is not None]
     geometry.cover = merge_covers(covers) if covers else None
     return geometry
+
+
+def cut(part: TilePart, centre=None, radius: float | None = None, keep=None) -> TilePart:
+    """One tile's part as `join` takes it into the whole (its docstring: the objects near
+    `centre`, then `keep`'s triangles); the part itself when nothing is left out."""
+    g = part.geometry
+    chosen = None  # indices of the triangles kept, None: all
+    if radius is not None:
+        near = objects_near(*part.bounds(), centre, float(radius))[g.object_index]
+        chosen = None if near.all() else np.flatnonzero(near)
+    if keep is not None:
+        faces = g.faces if chosen is None else g.faces[chosen]
+        mask = keep(g.vertices, faces)
+        if not mask.all():
+            chosen = np.flatnonzero(mask) if chosen is None else chosen[mask]
+    return part if chosen is None else TilePart(g.subset(chosen), part.cover)
 
 
 def merge_covers(covers: list):
@@ -377,20 +392,40 @@ def tiles_geometry(
     order, and where they came from: cropped to `radius` around `centre` when given (join),
     or to the triangles meeting `region` (crop_to_region, tile by tile: only the kept
     triangles are ever held together). `progress(done, total)` after each tile."""
+    t0 = time.perf_counter()
+
+    def cropped(part: TilePart) -> TilePart:
+        return TilePart(crop_to_region(part.geometry, region), part.cover)
+
+    parts, counts = tile_parts(world, levels, cache, memory, progress, cropped if region else None)
+    geometry = join(parts, centre, radius)
+    counts.seconds = time.perf_counter() - t0
+    return geometry, counts
+
+
+def tile_parts(
+    world: TiledWorld,
+    levels: dict,
+    cache: DiskCache | None = None,
+    memory: TileMemory | None = None,
+    progress=None,
+    each=None,
+) -> tuple[list[TilePart], TileCounts]:
+    """The parts of the tiles `levels` names (tile -> level), in sorted tile order (join's),
+    and where they came from; `each(part)`, when given, makes each tile's part before the
+    next is made (a region's crop: only the kept triangles are held together).
+    `progress(done, total)` after each tile."""
     counts = TileCounts()
     t0 = time.perf_counter()
     parts = []
     tiles = sorted(levels)
     for k, tile in enumerate(tiles):
         part = tile_part(world, tile, levels[tile], cache, memory, counts)
-        if region is not None:
-            part = TilePart(crop_to_region(part.geometry, region), part.cover)
-        parts.append(part)
+        parts.append(part if each is None else each(part))
         if progress is not None:
             progress(k + 1, len(tiles))
-    geometry = join(parts, centre, radius)
     counts.seconds = time.perf_counter() - t0
-    return geometry, counts
+    return parts, counts
 
 
 def full_detail(tiles) -> dict:

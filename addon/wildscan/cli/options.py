@@ -150,8 +150,9 @@ REGION_HELP = (
     f"around the origin, {DEFAULT_REGION.text()})"
 )
 LOD_HELP = (
-    "on: tiles far from the sensor coarser, as fine as its beams resolve there (docs/scanning.md); off: "
-    "every tile at full detail (default on)"
+    "on: tiles far from the sensor coarser, as fine as its beams resolve there, and the triangles none of "
+    "its beams can meet left out (the same points; docs/scanning.md); off: every tile at full detail, "
+    "every triangle cast against (default on)"
 )
 
 

@@ -58,7 +58,9 @@ def _endless(args: argparse.Namespace, region, zone: str | None) -> int:
     world = TiledWorld(args.seed, args.biome, args.detail, args.vegetation)
     cache = options.cache_of(args, "wildscan poses")
     covers = None if zone is None else (zone,)
-    poses = endless_poses(world, region, args.count, covers, cache, process_memory())
+    progress = PosesProgress()
+    poses = endless_poses(world, region, args.count, covers, cache, process_memory(), progress=progress)
+    progress.end()
     if args.json:
         doc = {"seed": args.seed, "layout": "endless", "detail": args.detail, "vegetation": args.vegetation}
         doc.update(biome=args.biome, region=region.to_dict(), poses=poses)
@@ -70,3 +72,40 @@ def _endless(args: argparse.Namespace, region, zone: str | None) -> int:
     if len(poses) < args.count:
         print(f"# {len(poses)} of {args.count} found: little ground of that cover in the region fits a pose")
     return 0
+
+
+class PosesProgress:
+    """The pose search's progress on stderr (stdout keeps the table or JSON): on a terminal one
+    updating line; in a log a line each time a pose is found or TILES_A_LINE more tiles are
+    made, e.g. 'poses: 2 of 5 found, 31 candidates checked, 12 tiles (10 built, 2 from the
+    cache) in 24.1 s'."""
+
+    TILES_A_LINE = 4
+
+    def __init__(self, stream=None):
+        import sys
+
+        self.stream = stream or sys.stderr
+        self.tty = self.stream.isatty()
+        self.said = (-1, 0)  # (found, tiles) at the last line written
+        self.text = ""
+
+    def __call__(self, found: int, count: int, checked: int, tiles) -> None:
+        made = tiles.built + tiles.cache
+        self.text = (
+            f"poses: {found} of {count} found, {checked} candidates checked, {made} tiles ({tiles.built} "
+            f"built, {tiles.cache} from the cache) in {tiles.seconds:.1f} s"
+        )
+        if self.tty:
+            self.stream.write("\r" + self.text)
+        elif found > self.said[0] or made >= self.said[1] + self.TILES_A_LINE:
+            self.stream.write(self.text + "\n")
+            self.said = (found, made)
+        else:
+            return
+        self.stream.flush()
+
+    def end(self) -> None:
+        if self.tty and self.text:
+            self.stream.write("\n")
+            self.stream.flush()

@@ -132,6 +132,8 @@ def _endless_geometry(args, pose, sensor, biome: str, vegetation: str, lod: str)
         cache=cache,
         memory=process_memory(),
         progress=Progress("tiles", args.quiet),
+        backend=args.backend,
+        z_start=args.z_start,
     )
     say(args, counts.text())
     return geometry, {"layout": "endless", "biome": biome, "vegetation": vegetation, "lod": lod}

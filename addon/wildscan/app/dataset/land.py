@@ -3,8 +3,9 @@ spec's region by land cover, and each scan's world, the tiles its sensor reaches
 
 Poses. Scan k of a world is given a land cover by the interleaved quotas of the [poses] cover
 weights (core/posesampler.py scan_zones), or a class to be drawn near (min_scans_with: its share
-of the indices, class_scan_indices), and whether it stands in tall cover (tall_cover: that share
-of the indices, spread evenly; the others must not). A land cover's candidates are uniform over
+of the indices, class_scan_indices; a class the region has none of leaves its indices to the
+cover weights), and whether it stands in tall cover (tall_cover: that share of the indices,
+spread evenly; the others must not). A land cover's candidates are uniform over
 the region (edge kept 2 m off), kept where the landscape's land cover (fields.land_cover_at) is
 that one; a class's are 2-8 m from one of its elements where the landscape places them (park
 furniture in the clearings, poles and wires along the power lines: the anchors, no tile built)
@@ -208,6 +209,10 @@ def sample_land_poses(world: TiledWorld, poses, count: int, cache=None, memory=N
     region = Region(*poses.land_region())
     covers = scan_zones(dict(poses.cover), count, LAND_COVERS)
     near = class_scan_indices(dict(poses.min_scans_with), count)
+    # a class the region holds none of (a square no power line crosses) leaves its scans to
+    # the cover weights: the card's table of scans containing each class says it was not met
+    absent = {n for n in set(near.values()) if n in ANCHORED and not class_anchors(world, region, n)}
+    near = {k: n for k, n in near.items() if n not in absent}
     tall = tall_indices(poses.tall_cover, count)
     backends = LandBackends(world, cache, memory)
     streams: dict[str, Iterator] = {}
@@ -241,12 +246,8 @@ def _first_kept(stream, kept, min_distance: float, tall: bool, backends: LandBac
     for _ in range(CANDIDATES_PER_SCAN):
         c = next(stream, None)
         if c is None:
-            what = (
-                f"no {want[len(NEAR) :]} in the region"
-                if want.startswith(NEAR)
-                else f"no {want} in the region"
-            )
-            return f"{what} (uniform draws of {DRAWS_PER_SCAN:,} points in a row found none)"
+            what = want[len(NEAR) :] if want.startswith(NEAR) else want
+            return f"no {what} in the region ({DRAWS_PER_SCAN:,} uniform points in a row found none)"
         x, y, yaw = c
         if any(dm.hypot(x - p.x, y - p.y) < min_distance for p in kept):
             continue

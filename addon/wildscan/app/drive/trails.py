@@ -11,7 +11,6 @@ grow with its length.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,14 +22,6 @@ from .world import crop_along
 
 PIECE_M = 40.0  # m of path a piece of the drive's world covers (whole 3D scans)
 NETWORK_MARGIN_M = 300.0  # the network is read this far past the drive's reach (one anchor cell)
-# A trail is driven only where the land is gentler than this: the placement refuses a tilt
-# over 25 deg (core/placement.py MAX_TILT_DEG), and the terrain's own bumps and the cross slope
-# add a few degrees to the field's smooth slope (seed 1 at (170.0, -528.1): a 25.3 deg tilt
-# refused where the field's slope is 25.2 deg).
-MAX_TRAIL_SLOPE_DEG = 18.0
-MAX_TRAIL_GRADE = math.tan(math.radians(MAX_TRAIL_SLOPE_DEG))
-SLOPE_STEP_M = 2.0  # m between the slope's samples along a trail
-SLOPE_SPAN_M = 0.6  # m: the placement lasers' span (core/placement.py: ARM_X 0.335, ARM_Y 0.27 m each way)
 PLACE_REACH_M = 2.0  # m: the placement lasers stand within 0.5 m of the path (placement.py ARM_X, ARM_Y)
 START = (0.0, 0.0)  # the route starts at the trail point nearest the seed's origin
 # Tiles kept between pieces: a piece of PIECE_M with a 30 m sensor touches up to 3 x 3 of
@@ -80,17 +71,17 @@ class TrailWorld:
 
     def drivable(self, path: np.ndarray) -> bool:
         """Whether the robot can drive the trail: the land's slope (height_at, over the
-        placement lasers' span) stays under MAX_TRAIL_SLOPE_DEG every SLOPE_STEP_M along it."""
-        x, y = _along(path, SLOPE_STEP_M).T
-        h = SLOPE_SPAN_M / 2
+        placement lasers' span) stays under MAX_TRAIL_SLOPE_DEG along it (the measure
+        the endless world's trails are laid by, anchors.steepest_grades: every one of its
+        trails passes; the check stays for a network laid otherwise)."""
+        from ...core.world.endless.anchors import MAX_TRAIL_GRADE, steepest_grades
+
         seed, biome = self.tiled.seed, self.tiled.biome
 
-        def height(dx: float, dy: float) -> np.ndarray:
-            return endless().height_at(seed, biome, x + dx, y + dy)
+        def height(x, y) -> np.ndarray:
+            return endless().height_at(seed, biome, x, y)
 
-        gx = (height(h, 0.0) - height(-h, 0.0)) / SLOPE_SPAN_M
-        gy = (height(0.0, h) - height(0.0, -h)) / SLOPE_SPAN_M
-        return bool(np.all(gx * gx + gy * gy <= MAX_TRAIL_GRADE**2))
+        return bool(steepest_grades([path], height)[0] <= MAX_TRAIL_GRADE)
 
     def crop(self, xy: np.ndarray, radius: float):
         """Every object a sensor anywhere on `xy` (n, 2) can reach, from the tiles within
@@ -129,15 +120,6 @@ class TrailWorld:
         self.tiles_seen.update(tiles)
         parts = [tile_part(self.tiled, tile, 0, self.cache, self.memory) for tile in tiles]
         return parts, 0.5 * (lo + hi), float(np.hypot(*(hi - lo)) / 2 + radius + 1.0)
-
-
-def _along(path: np.ndarray, step: float) -> np.ndarray:
-    """Points of the polyline at most `step` apart, its vertices included."""
-    out = [path[:1]]
-    for a, b in zip(path[:-1], path[1:]):
-        count = max(1, int(np.ceil(float(np.hypot(*(b - a))) / step)))
-        out.append(a + np.outer(np.arange(1, count + 1) / count, b - a))
-    return np.concatenate(out)
 
 
 def trail_world(request, cache=None) -> TrailWorld:

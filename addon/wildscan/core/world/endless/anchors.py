@@ -7,6 +7,13 @@ outcrop with a cave in another, and whether a trail leaves the node east and nor
 neighbouring cells' nodes. A power line runs along a row of cells when that row's own
 generator says so. Nothing depends on which tile asks, so every tile a lake, a trail, a
 power line or a cave crosses agrees on it.
+
+A trail keeps to land a robot can drive: its drawn bend is kept when the land along it is
+nowhere steeper than MAX_TRAIL_SLOPE_DEG (the terrain's slope over SLOPE_SPAN_M, every
+SLOPE_STEP_M along it: `steepest_grades`); else it takes the first of a fixed list of other
+bends and S-shapes (TRAIL_SHAPES) that is, and where none is the trail is not laid. The
+terrain it is measured on (lakes, caves and clearings included, never the trails) is a pure
+function of the seed, so this too is decided from the anchor cell alone.
 """
 
 from __future__ import annotations
@@ -38,6 +45,23 @@ LAKE_SHORE = 1.2  # normalised radius within which the lake's water may stand
 WET_SHORE = 1.6  # ... and its wet shore reaches
 SHORE_RISE = 0.5  # m the flattened shore lies above the water
 WET_ABOVE = 0.9  # m above the water the shore is wet (stages/cover.py WET_ABOVE_LAKE)
+# The steepest land a trail crosses. The robot's placement refuses a tilt over 25 deg
+# (core/placement.py MAX_TILT_DEG), and the terrain's own bumps and the cross slope add a
+# few degrees to the field's smooth slope (seed 1 at (170.0, -528.1): a 25.3 deg tilt refused
+# where the field's slope was 25.2 deg), so trails keep under 18 deg; forest roads are built
+# to grades of 8-12 % with short pitches to 20 % (~11 deg; USDA Forest Service, Low-Volume
+# Roads Engineering Best Management Practices, Keller & Sherar 2003, ch. 7), footpaths steeper.
+MAX_TRAIL_SLOPE_DEG = 18.0
+MAX_TRAIL_GRADE = math.tan(math.radians(MAX_TRAIL_SLOPE_DEG))
+SLOPE_STEP_M = 2.0  # m between the slope's samples along a trail
+SLOPE_SPAN_M = 0.6  # m: the placement lasers' span (core/placement.py: ARM_X 0.335, ARM_Y 0.27 m each way)
+# The other shapes a trail may take, in the order tried: (added to its drawn bend, an S-wiggle),
+# both of its length at the arch's top (_bent); sideways at most 0.58 of the length
+TRAIL_SHAPES = tuple(
+    (bend, wiggle)
+    for bend in (0.0, -0.1, 0.1, -0.2, 0.2, -0.3, 0.3)
+    for wiggle in (0.0, 0.08, -0.08, 0.16, -0.16)
+)[1:]
 
 
 @dataclass(frozen=True)
@@ -90,13 +114,14 @@ class Cell:
 class Anchors:
     """The anchor cells of a seed, drawn on demand and kept (a pure function of the cell)."""
 
-    def __init__(self, seed: int, base_height):
+    def __init__(self, seed: int, base_height, height=None):
         self.seed = int(seed)
         self.base_height = base_height  # the terrain before lakes and caves (their levels)
+        self.height = height or base_height  # the terrain with them: what a trail's slope is read on
         self._levels: dict = {}
         self.cell = functools.lru_cache(maxsize=4096)(self._draw)
         self.row_line = functools.lru_cache(maxsize=1024)(self._draw_row)
-        self.trails_of = functools.lru_cache(maxsize=4096)(self._trails_of)
+        self.trail_way = functools.lru_cache(maxsize=8192)(self._trail_way)
 
     # -- drawing --------------------------------------------------------------------------
 
@@ -121,15 +146,48 @@ class Anchors:
             return None
         return (cj + rng.uniform(0.25, 0.75)) * ANCHOR_M
 
-    def _trails_of(self, ci: int, cj: int) -> tuple[Trail, ...]:
-        """The trails leaving cell (ci, cj)'s node east and north."""
+    def trails_of(self, ci: int, cj: int) -> tuple[Trail, ...]:
+        """The trails leaving cell (ci, cj)'s node east and north (each as gentle as the
+        module docstring says, or none)."""
         c = self.cell(ci, cj)
-        out = []
-        ways = ((c.east, (1, 0), c.east_kind, c.bend[0]), (c.north, (0, 1), c.north_kind, c.bend[1]))
-        for go, (di, dj), kind, bend in ways:
-            if go:
-                out.append(Trail(_bent(c.node, self.cell(ci + di, cj + dj).node, bend), kind))
-        return tuple(out)
+        ways = [self.trail_way(ci, cj, way) for way, go in enumerate((c.east, c.north)) if go]
+        return tuple(t for t in ways if t is not None)
+
+    def _trail_way(self, ci: int, cj: int, way: int) -> Trail | None:
+        """The trail from cell (ci, cj)'s node east (way 0) or north (1), if it leaves."""
+        c = self.cell(ci, cj)
+        if not (c.east, c.north)[way]:
+            return None
+        di, dj = WAYS[way]
+        path = self._gentle(c.node, self.cell(ci + di, cj + dj).node, c.bend[way])
+        return None if path is None else Trail(path, (c.east_kind, c.north_kind)[way])
+
+    def _gentle(self, a, b, bend: float) -> np.ndarray | None:
+        """The drawn bend from a to b if the land along it is gentle enough, else the first
+        of TRAIL_SHAPES that is (tried a few at a time), else None."""
+        drawn = _bent(a, b, bend)
+        if steepest_grades([drawn], self.height)[0] <= MAX_TRAIL_GRADE:
+            return drawn
+        for k in range(0, len(TRAIL_SHAPES), SHAPES_A_CALL):
+            shapes = TRAIL_SHAPES[k : k + SHAPES_A_CALL]
+            others = [_bent(a, b, bend + more, wiggle, TURNING_SAMPLES) for more, wiggle in shapes]
+            ok = np.flatnonzero(steepest_grades(others, self.height) <= MAX_TRAIL_GRADE)
+            if len(ok):
+                return others[int(ok[0])]
+        return None
+
+    def _may_reach(self, c: Cell, way: int, xmin, xmax, ymin, ymax) -> bool:
+        """Whether the trail from cell c east or north, in any shape it may take, can come
+        within TRAIL_REACH of the rectangle (so the rest need not be laid to be known)."""
+        di, dj = WAYS[way]
+        a, b = c.node, self.cell(c.ci + di, c.cj + dj).node
+        side = (abs(c.bend[way]) + MAX_SIDEWAYS) * math.hypot(b[0] - a[0], b[1] - a[1]) + TRAIL_REACH
+        return (
+            min(a[0], b[0]) - side <= xmax
+            and max(a[0], b[0]) + side >= xmin
+            and min(a[1], b[1]) - side <= ymax
+            and max(a[1], b[1]) + side >= ymin
+        )
 
     # -- which cells matter where ---------------------------------------------------------
 
@@ -143,7 +201,16 @@ class Anchors:
         return self.cells_over(float(np.min(x)), float(np.max(x)), float(np.min(y)), float(np.max(y)), margin)
 
     def trails_over(self, xmin, xmax, ymin, ymax) -> list[Trail]:
-        return [t for c in self.cells_over(xmin, xmax, ymin, ymax) for t in self.trails_of(c.ci, c.cj)]
+        """Every trail that may come within TRAIL_REACH of the rectangle (and perhaps a few
+        more), in the order of their cells, east before north."""
+        out = []
+        for c in self.cells_over(xmin, xmax, ymin, ymax):
+            for way, go in enumerate((c.east, c.north)):
+                if go and self._may_reach(c, way, xmin, xmax, ymin, ymax):
+                    t = self.trail_way(c.ci, c.cj, way)
+                    if t is not None:
+                        out.append(t)
+        return out
 
     def lines_over(self, ymin: float, ymax: float) -> list[float]:
         """The y of every power line within a band of y."""
@@ -153,12 +220,16 @@ class Anchors:
     # -- the terrain's features -----------------------------------------------------------
 
     def level(self, c: Cell, which: str) -> float:
-        """The water level of a cell's lake, or the plateau of its cave: the base terrain at
-        its centre (kept once asked)."""
+        """The water level of a cell's lake, the plateau of its cave, or its clearing's lawn:
+        the base terrain at its centre (kept once asked)."""
         key = (c.ci, c.cj, which)
         if key not in self._levels:
-            e = c.lake.basin if which == "lake" else c.cave.pit
-            self._levels[key] = float(self.base_height(np.array([e.cx]), np.array([e.cy]))[0])
+            if which == "clearing":
+                x, y = c.node
+            else:
+                e = c.lake.basin if which == "lake" else c.cave.pit
+                x, y = e.cx, e.cy
+            self._levels[key] = float(self.base_height(np.array([x]), np.array([y]))[0])
         return self._levels[key]
 
     def terrain_features(self, x, y) -> list:
@@ -169,8 +240,7 @@ class Anchors:
         for c in self._near(x, y):
             if c.clearing:
                 ring = Ellipse(c.node[0], c.node[1], c.clearing, c.clearing, 0.0)
-                level = float(self.base_height(np.array([c.node[0]]), np.array([c.node[1]]))[0])
-                out.append(Flatten(EllipseWindow(ring, 0.8, 1.5), level, 0.6))
+                out.append(Flatten(EllipseWindow(ring, 0.8, 1.5), self.level(c, "clearing"), 0.6))
             if c.lake is not None:
                 level = self.level(c, "lake")
                 out.append(Flatten(EllipseWindow(c.lake.basin, 1.25, 2.0), level + SHORE_RISE))
@@ -273,15 +343,48 @@ def _cave(rng, cx: float, cy: float, quadrant: int) -> Cave:
     return Cave(Ellipse(centre[0], centre[1], a, b, angle), rng.uniform(2.5, 3.5), rng.uniform(22.0, 32.0))
 
 
-def _bent(a, b, bend: float, samples: int = 9) -> np.ndarray:
+WAYS = ((1, 0), (0, 1))  # a trail leaves its node east, or north
+TRAIL_REACH = 10.0  # m: trails_over lists every trail within this of its rectangle (trail_nearest asks 5 m)
+MAX_SIDEWAYS = max(abs(more) + abs(wiggle) for more, wiggle in TRAIL_SHAPES)  # of the length, past the bend
+SHAPES_A_CALL = 6  # shapes tried together (one call of the height: most steep trails pass by the first few)
+TURNING_SAMPLES = 13  # points of a trail's polyline that bends round steep land (an S takes more)
+
+
+def _bent(a, b, bend: float, wiggle: float = 0.0, samples: int = 9) -> np.ndarray:
     """A gently bent path from a to b: the chord pushed sideways by `bend` of its length at
-    the middle (a sine arch)."""
+    the middle (a sine arch), and by `wiggle` of it in an S (a full sine)."""
     a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     t = np.linspace(0.0, 1.0, samples)
     d = b - a
     normal = np.array([-d[1], d[0]])
     arch = bend * dm.sin(math.pi * t)
+    if wiggle:
+        arch = arch + wiggle * dm.sin(2.0 * math.pi * t)
     return a[None] + t[:, None] * d[None] + arch[:, None] * normal[None]
+
+
+def along(path: np.ndarray, step: float) -> np.ndarray:
+    """Points of the polyline at most `step` apart, its vertices included."""
+    out = [path[:1]]
+    for a, b in zip(path[:-1], path[1:]):
+        count = max(1, int(np.ceil(float(np.hypot(*(b - a))) / step)))
+        out.append(a + np.outer(np.arange(1, count + 1) / count, b - a))
+    return np.concatenate(out)
+
+
+def steepest_grades(paths, height) -> np.ndarray:
+    """(len(paths),) the steepest grade (rise over run) of the land `height(x, y)` along each
+    polyline: the slope over SLOPE_SPAN_M (central differences along x and y), every
+    SLOPE_STEP_M of it (`along`). All paths' samples in one call of `height`."""
+    points = [along(np.asarray(p, dtype=np.float64), SLOPE_STEP_M) for p in paths]
+    xy = np.concatenate(points)
+    n, h = len(xy), SLOPE_SPAN_M / 2
+    x, y = xy[:, 0], xy[:, 1]
+    z = height(np.concatenate([x + h, x - h, x, x]), np.concatenate([y, y, y + h, y - h]))
+    gx, gy = (z[:n] - z[n : 2 * n]) / SLOPE_SPAN_M, (z[2 * n : 3 * n] - z[3 * n :]) / SLOPE_SPAN_M
+    grade = np.sqrt(gx * gx + gy * gy)
+    ends = np.cumsum([len(p) for p in points])
+    return np.array([grade[e - len(p) : e].max() for p, e in zip(points, ends)])
 
 
 def _polyline_distance(path: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:

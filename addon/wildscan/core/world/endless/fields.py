@@ -89,7 +89,7 @@ class Landscape:
         self.rockiness = FractalNoise(stage_rng(self.seed, "endless.rockiness"), 0.6 * FIELD_WAVELENGTH, 3)
         self.patch = FractalNoise(stage_rng(self.seed, "endless.patch"), 12.0, 2)  # cover's clumps
         self._thresholds()
-        self.anchors = A.Anchors(self.seed, self.base_height)
+        self.anchors = A.Anchors(self.seed, self.base_height, self.height)
 
     def _thresholds(self) -> None:
         """The field values that cut the shares: quantiles over a 3.2 km lattice (a pure
