@@ -50,6 +50,7 @@ class BenchRow:
     idle: Idle | None = None  # worker time without a task (app/dataset/timeline.py)
     tiles: dict[str, float] = field(default_factory=dict)  # tiles built and read (worker.tile_facts)
     tasks: list[tuple[int, float, float]] = field(default_factory=list)  # (pid, start, end)
+    client_poses: float = 0.0  # s: poses placed before the workers started (land.poses_before_the_workers)
 
     @property
     def rate(self) -> float:
@@ -105,6 +106,7 @@ def run_once(spec, workers: int, cache_dir=None, cache: str = "cold") -> BenchRo
         idle_time(report.started, report.tasks),
         dict(report.tiles),
         list(report.tasks),
+        report.client_poses_seconds,
     )
 
 

@@ -9,9 +9,9 @@ ray caster built over them, labels, truth, files), the world's poses, and the wo
 
 The cluster figures extrapolate the measured per-worker work on paper: every scan's work
 (its busy worker-seconds, the poses' aside) divides over the machines' workers, while the
-poses of a world are placed by each worker that scans it (the engine today: a worker that
-takes a batch of a world places all of that world's poses itself, unless the world cache
-already holds them), so they do not divide.
+poses of a world are placed by each worker of a remote cluster that scans it (each has its
+own world cache; on one machine the client places a world's poses once for its workers,
+app/dataset/land.py poses_before_the_workers), so they do not divide.
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ class Work:
     read_s: float  # reading tiles from the world cache
     scan_build_s: float  # of build_s, inside scans
     scan_read_s: float
+    client_poses: float = 0.0  # s before the workers: one world's poses placed once for them all
 
     @property
     def floor(self) -> float:
@@ -64,6 +65,8 @@ class Work:
             f"    scans around their casts (each scan's tiles joined, its ray caster built, labels, "
             f"truth, files): {around:.1f} s ({around / max(self.scans, 1) * 1e3:.0f} ms a scan)",
             f"    the rest of the tasks (batches' set-up, manifest rows): {other:.1f} s",
+            f"    before the workers: the poses of the worlds several workers scan, placed once: "
+            f"{self.client_poses:.1f} s of the wall time",
         ]
 
 
@@ -86,6 +89,7 @@ def work_of(row) -> Work:
         read_s=t.get("world_read_seconds", 0.0) + t.get("scans_read_seconds", 0.0),
         scan_build_s=t.get("scans_build_seconds", 0.0),
         scan_read_s=t.get("scans_read_seconds", 0.0),
+        client_poses=getattr(row, "client_poses", 0.0),
     )
 
 
@@ -96,7 +100,7 @@ def cluster_lines(one: Work, worlds: int, scans: int = CLUSTER_SCANS) -> list[st
     by every worker that scans it, so a worker places max(a world's poses, its share of all
     poses)."""
     per_scan = (one.busy - one.poses) / max(one.scans, 1)
-    per_pose = one.poses / max(one.scans, 1)
+    per_pose = (one.poses + one.client_poses) / max(one.scans, 1)
     per_world = max(1, one.scans // max(worlds, 1))
     floor_per_scan = (one.casts + one.scan_build_s) / max(one.scans, 1)  # the poses' tiles are the poses'
     floor_per_pose = (one.build_s - one.scan_build_s) / max(one.scans, 1)

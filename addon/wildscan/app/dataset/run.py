@@ -56,6 +56,7 @@ class RunReport:
     scan_seconds: float = 0.0  # summed over workers: inside their scans, and the cast within
     cast_seconds: float = 0.0
     tiles: dict[str, float] = field(default_factory=dict)  # worker.tile_facts, summed over tasks
+    client_poses_seconds: float = 0.0  # poses placed before the workers (land.poses_before_the_workers)
     bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
     worlds: dict[str, int] = field(default_factory=dict)  # "built" / "cache" -> worlds a worker loaded so
     world_sources: dict[int, str] = field(default_factory=dict)  # seed -> "built" / "cache"
@@ -232,6 +233,12 @@ def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn, cache=N
     try:
         state.save()  # complete: false until finalize has written the card
         engine = Engine(workers, scheduler, cache=cache)
+        if scheduler is None and any(pending.values()):  # the workers share this machine's world cache
+            from .land import poses_before_the_workers
+
+            seeds, count = [seed for seed, todo in pending.items() if todo], workers or os.cpu_count() or 1
+            news = None if quiet else say
+            report.client_poses_seconds = poses_before_the_workers(spec, seeds, count, cache, news)
         stop = _run_engine(state, pending, engine, quiet, report, warn) if any(pending.values()) else None
         _finish(state, report, stop)
     except (KeyboardInterrupt, Terminated) as signal_:  # one landing between the steps above
