@@ -32,7 +32,7 @@ import numpy as np
 # every device's beams are >= 0.08 deg apart, coarser than the coarsest cell)
 CELL_RAD = math.radians(0.05)
 FINE_CELL_RAD = math.radians(0.02)
-MAX_CELLS = 24_000_000  # int32: ~100 MB for the table while a scan's tiles are cut
+MAX_CELLS = 8_000_000  # int32: 32 MB, summed in ~0.1 s (24 M took 0.25-0.9 s for 12 % fewer triangles)
 MARGIN_RAD = 2e-4  # rad: far above float32's casting error on a triangle's edge (~1e-7 rad)
 WIDE_RAD = math.pi / 2  # a triangle seen over a wider arc of azimuth is kept without a test
 
@@ -53,7 +53,9 @@ class BeamGrid:
         self.rows = rows
         occupied = np.zeros((rows + 1, self.columns + 1), dtype=np.int32)
         occupied[self._row(el) + 1, self._column(az) + 1] = 1
-        self.table = occupied.cumsum(axis=0, dtype=np.int32).cumsum(axis=1, dtype=np.int32)
+        np.cumsum(occupied, axis=0, out=occupied)  # in place: the table is its own summed areas
+        np.cumsum(occupied, axis=1, out=occupied)
+        self.table = occupied
 
     def _row(self, el) -> np.ndarray:
         row = np.floor((el - np.float32(self.el0)) / np.float32(self.cell)).astype(np.int64)
