@@ -46,12 +46,19 @@ from tests.helpers.reader_helpers import (
 # --------------------------------------------------------------------------- the spec
 
 
-def test_a_spec_may_name_the_paper_layout_its_worlds_have():
-    assert spec_from_dict({"layout": "paper"}) == spec_from_dict({})
+def test_a_spec_names_its_layout_endless_by_default_and_paper_keeps_its_config_hash():
+    assert spec_from_dict({}).layout == "endless" and spec_from_dict({"layout": "endless"}) == spec_from_dict(
+        {}
+    )
+    paper = spec_from_dict({"layout": "paper"})
+    assert (
+        paper.layout == "paper" and "layout" not in paper.to_dict()
+    )  # a paper spec's dict as before layouts
+    assert set(paper.to_dict()["poses"]) == {"strategy", "zones", "min_distance"}
 
 
 def test_an_empty_spec_takes_every_documented_default():
-    spec = spec_from_dict({})
+    spec = spec_from_dict({"layout": "paper"})
     assert spec.seeds == (0, 1, 2)
     assert spec.detail == "default" and spec.scans_per_world == 50
     assert spec.formats == ("semantickitti", "las", "ply") and spec.label_scheme == "wildscan"
@@ -68,7 +75,7 @@ def test_an_empty_spec_takes_every_documented_default():
     [
         ({"seed": [1]}, ["unknown key 'seed'", "seeds"]),
         ({"sensor": {"nosie": 0.01}}, ["unknown key 'sensor.nosie'", "noise"]),
-        ({"poses": {"zones": {"desert": 1}}}, ["poses.zones.desert", "hills"]),
+        ({"layout": "paper", "poses": {"zones": {"desert": 1}}}, ["poses.zones.desert", "hills"]),
         ({"seeds": "5..2"}, ["seeds must be", '"A..B"']),
         ({"seeds": [1, 1]}, ["without repeats"]),
         ({"seeds": "0..30000000"}, ["seeds must be", "30,000,001 worlds"]),  # sized, not expanded
@@ -84,7 +91,7 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"sensor": {"min_range": [0.1, 20.0], "max_range": 15.0}}, ["min_range must stay below"]),
         ({"scans_per_world": 0}, ["scans_per_world must be a whole number"]),
         ({"scans_per_world": True}, ["scans_per_world"]),
-        ({"poses": {"strategy": "grid"}}, ["poses.strategy", '"uniform"']),
+        ({"layout": "paper", "poses": {"strategy": "grid"}}, ["poses.strategy", '"uniform"']),
         ({"intensity": "tag"}, ["intensity must be one of", '"physical"', '"class"']),
         ({"vegetation": "leafy"}, ["vegetation must be one of", '"porous"', '"solid"']),
         ({"sensor": {"model": "lidar"}}, ["sensor.model must be one of", '"realistic"']),
@@ -96,8 +103,43 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"sensor": {"model": "realistic", "divergence": 80}}, ["sensor.divergence must be", "0 to 50 mrad"]),
         ({"sensor": {"model": "realistic", "echo_separation": 0}}, ["sensor.echo_separation", "above 0"]),
         ({"sensor": {"model": "realistic", "echo-separation": 1}}, ["unknown key", "echo_separation"]),
-        ({"layout": "endless"}, ['layout = "endless" is not available for datasets yet', '"paper"']),
-        ({"layout": "island"}, ['layout must be "paper"']),
+        ({"layout": "island"}, ["layout must be one of", "'endless'", "'paper'"]),
+        # [poses] of the endless layout (tests/test_dataset_land.py)
+        ({"biome": "paper"}, ['biome = "paper"', 'layout = "paper"', "endless landscape"]),
+        (
+            {"poses": {"zones": {"forest": 1}}},
+            ['poses.zones applies to layout = "paper"', "poses.cover"],
+        ),
+        ({"poses": {"strategy": "uniform"}}, ['poses.strategy applies to layout = "paper" only']),
+        (
+            {"layout": "paper", "poses": {"region": [0, 0, 50, 50]}},
+            ['poses.region applies to layout = "endless"'],
+        ),
+        (
+            {"layout": "paper", "poses": {"cover": {"forest": 1}}},
+            ['poses.cover applies to layout = "endl'],
+        ),
+        (
+            {"layout": "paper", "poses": {"tall_cover": 0.1}},
+            ["poses.tall_cover applies to layout"],
+        ),
+        (
+            {"poses": {"region": [0, 0, 50]}},
+            ["poses.region must be four", "XMIN < XMAX", "[0, 0, 50]"],
+        ),
+        ({"poses": {"region": [10, 0, 0, 50]}}, ["poses.region must be", "got [10, 0, 0, 50]"]),
+        ({"poses": {"region": [0, 0, 5, 50]}}, ["poses.region must be", "at least 10 m"]),
+        ({"poses": {"region": [0, 0, 9000, 50]}}, ["poses.region must be", "8900 m"]),
+        ({"poses": {"region": [0, 0, "a", 50]}}, ["poses.region must be four numbers"]),
+        ({"poses": {"region": "everywhere"}}, ["poses.region must be four numbers"]),
+        ({"poses": {"cover": {"lake": 1}}}, ["unknown key 'poses.cover.lake'", "wetland", "clearing"]),
+        (
+            {"poses": {"cover": {"forest": 0}}},
+            ["poses.cover must give at least one land cover"],
+        ),
+        ({"poses": {"cover": {"forest": -1}}}, ["poses.cover.forest must be a number from 0"]),
+        ({"poses": {"tall_cover": 1.5}}, ["poses.tall_cover must be a number from 0 to 1", "1.5"]),
+        ({"poses": {"tall_cover": "some"}}, ["poses.tall_cover must be a number"]),
     ],
 )
 def test_a_bad_key_or_value_names_the_key_and_what_is_allowed(data, words):
@@ -357,6 +399,7 @@ def test_an_independent_semantickitti_reader_loads_every_scan(dataset):
 # One world whose cave zone runs out of room at scan 4 while the hills go on: scans 0-3 and 5
 # have a pose, scan 4 has none (tests/test_dataset.py found this layout with seed 1).
 GAP_SPEC = """\
+layout = "paper"
 seeds = [1]
 detail = "low"
 vegetation = "solid"

@@ -26,6 +26,7 @@ from tests.helpers.semantic_kitti_laserscan import LaserScan
 
 # one low, solid world, two scans: these runs test the sensor's setting, not the world
 ONE_WORLD = """\
+layout = "paper"
 seeds = [0]
 detail = "low"
 vegetation = "solid"
@@ -118,6 +119,7 @@ def device_named_text(name: str) -> str:
 
 
 SIX = """\
+layout = "paper"
 seeds = [1, 2]
 detail = "low"
 vegetation = "solid"
@@ -260,8 +262,9 @@ def test_a_batch_the_disk_fills_mid_way_returns_its_whole_scans(tmp_path, monkey
     from wildscan.app.dataset import worker
     from wildscan.core.errors import UserError
 
-    spec = spec_from_dict({"seeds": [1], "detail": "low", "vegetation": "solid", "scans_per_world": 3,
-                           "formats": ["semantickitti"], "sensor": {"rh": 10.0}})  # fmt: skip
+    spec = spec_from_dict({"layout": "paper", "seeds": [1], "detail": "low", "vegetation": "solid",
+                           "scans_per_world": 3, "formats": ["semantickitti"],
+                           "sensor": {"rh": 10.0}})  # fmt: skip
     real, calls = worker.write_scan, []
 
     def fills_on_the_second(root, files):

@@ -23,6 +23,7 @@ from tests.helpers.dataset_helpers import manifest_rows, read_kitti_scan, wildsc
 pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `make test-fast` not
 
 TINY_REALISTIC = """\
+layout = "paper"
 seeds = [1]
 detail = "low"
 vegetation = "solid"

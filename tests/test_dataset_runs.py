@@ -30,6 +30,7 @@ pytestmark = pytest.mark.slow  # tens of seconds or more: `make test` runs it, `
 # Solid crowns: these runs test stopping and resuming, not vegetation, and a porous world
 # takes about five times longer to build (tests/test_dataset.py writes porous ones).
 SPEC = """\
+layout = "paper"
 seeds = [1, 2, 3]
 scans_per_world = 4
 vegetation = "solid"

@@ -74,6 +74,7 @@ def test_iou_table_is_tp_over_tp_fp_fn_for_classes_with_points():
 
 
 TINY = """\
+layout = "paper"
 seeds = [1, 2]
 scans_per_world = 1
 formats = ["semantickitti"]

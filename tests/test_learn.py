@@ -111,6 +111,7 @@ def test_a_dataset_without_a_test_or_val_world_is_refused_in_one_line():
 # --------------------------------------------------------------------------- the command
 
 TINY = """\
+layout = "paper"
 seeds = [1, 2]
 scans_per_world = 2
 formats = ["semantickitti"]

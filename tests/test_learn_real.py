@@ -21,6 +21,7 @@ pytest.importorskip("sklearn")
 pytestmark = pytest.mark.slow  # a small dataset, then the baseline trained twice
 
 TRAIN_SPEC = """\
+layout = "paper"
 seeds = [3]
 scans_per_world = 4
 formats = ["semantickitti"]

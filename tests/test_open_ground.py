@@ -54,7 +54,9 @@ def context():
     from wildscan.app.dataset import spec_from_dict
     from wildscan.app.dataset.worker import build_world
 
-    spec = spec_from_dict({"seeds": [2], "scans_per_world": 1, "detail": "low", "vegetation": "porous"})
+    spec = spec_from_dict(
+        {"layout": "paper", "seeds": [2], "scans_per_world": 1, "detail": "low", "vegetation": "porous"}
+    )
     return build_world(spec, 2)
 
 

@@ -84,7 +84,9 @@ def test_open_sky_gives_the_distance_the_cast_gives_everywhere_in_a_world():
     from wildscan.core.truth.traversability import ROBOT_HEIGHT
     from wildscan.core.world import EXTENT as world_extent
 
-    spec = spec_from_dict({"seeds": [2], "scans_per_world": 1, "detail": "low", "vegetation": "porous"})
+    spec = spec_from_dict(
+        {"layout": "paper", "seeds": [2], "scans_per_world": 1, "detail": "low", "vegetation": "porous"}
+    )
     context = build_world(spec, 2)
     rng = np.random.default_rng(11)
     x0, x1, y0, y1 = world_extent

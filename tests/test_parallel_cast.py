@@ -78,7 +78,7 @@ def test_a_small_cast_stays_on_one_thread(monkeypatch):
 
 
 def test_a_commands_backend_uses_the_cores_and_a_dataset_workers_one(monkeypatch):
-    from wildscan.app.dataset.worker import _embree
+    from wildscan.app.dataset.context import embree_backend as _embree
     from wildscan.core.runtime.threads import THREADS_ENV, backend_threads
     from wildscan.raycast.select import make_backend
 

@@ -24,6 +24,7 @@ from tests.helpers.dataset_helpers import (
 from tests.helpers.semantic_kitti_laserscan import LaserScan, SemLaserScan
 
 SPEC = """\
+layout = "paper"
 seeds = [1]
 scans_per_world = 3
 formats = ["semantickitti"]

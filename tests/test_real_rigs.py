@@ -16,6 +16,7 @@ from wildscan.core.label_schemes import scheme
 from tests.helpers.dataset_helpers import written_dataset
 
 WILDSCENES_SPEC = """\
+layout = "paper"
 seeds = [1]
 scans_per_world = 2
 formats = ["semantickitti", "wildscenes"]

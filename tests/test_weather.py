@@ -225,7 +225,8 @@ def test_a_dataset_in_rain_writes_particles_and_its_card_gives_their_share(tmp_p
 
     spec = tmp_path / "SPEC.toml"
     spec.write_text(
-        'seeds = [1]\nscans_per_world = 1\nformats = ["ply"]\n[poses]\nzones = { park = 1 }\n'
+        'layout = "paper"\nseeds = [1]\nscans_per_world = 1\nformats = ["ply"]\n'
+        "[poses]\nzones = { park = 1 }\n"
         "[sensor]\nrh = 6.0\n[weather]\nrain = [150, 200]\nfog = 100\n"
     )
     run = wildscan("dataset", str(spec), "--out", str(tmp_path / "out"), "--workers", "1")

@@ -260,7 +260,7 @@ def test_a_dataset_scanned_from_a_warm_cache_is_the_one_scanned_cold_or_without(
     from wildscan.app.dataset.spec import spec_from_dict
 
     spec = spec_from_dict(
-        {"seeds": [1], "detail": "low", "vegetation": "solid", "scans_per_world": 2,
+        {"layout": "paper", "seeds": [1], "detail": "low", "vegetation": "solid", "scans_per_world": 2,
          "formats": ["semantickitti", "ply"], "sensor": {"rh": 10.0}}
     )  # fmt: skip
     config = cache_config(tmp_path / "cache")
@@ -307,7 +307,8 @@ def test_the_default_cache_is_the_users_cache_directory(monkeypatch, tmp_path):
 )
 def test_a_cache_the_run_cannot_use_is_one_line_and_exit_2_before_any_work(tmp_path, args, says):
     (tmp_path / "file").write_text("")
-    (tmp_path / "spec.toml").write_text('seeds = [1]\ndetail = "low"\nscans_per_world = 1\n')
+    text = 'layout = "paper"\nseeds = [1]\ndetail = "low"\nscans_per_world = 1\n'
+    (tmp_path / "spec.toml").write_text(text)
     out = tmp_path / "out"
     done = wildscan("dataset", str(tmp_path / "spec.toml"), "--out", str(out),
                     *[a.format(d=tmp_path) for a in args])  # fmt: skip
@@ -316,6 +317,7 @@ def test_a_cache_the_run_cannot_use_is_one_line_and_exit_2_before_any_work(tmp_p
 
 
 TWO_WORLDS = """\
+layout = "paper"
 seeds = [1, 2]
 detail = "low"
 vegetation = "solid"

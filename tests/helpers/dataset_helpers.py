@@ -18,6 +18,7 @@ RUN_TIMEOUT_S = 300
 TIMED = ("manifest.jsonl", "dataset.json", "CARD.md")
 
 SMALL_SPEC = """\
+layout = "paper"
 seeds = [1, 2]
 scans_per_world = 3
 formats = ["semantickitti", "las", "ply"]

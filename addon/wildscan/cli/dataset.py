@@ -16,9 +16,9 @@ HELP, DESCRIPTION = (
     "code reads (SemanticKITTI, LAS 1.4, PLY), with a manifest of every file (size, SHA-256), a dataset card "
     "and ground truth for traversability (height above terrain per point, a bird's-eye grid per scan). Runs "
     "on a local Dask cluster, or on an existing one with --scheduler; rerunning the same command into the "
-    "same --out resumes and gives the bytes of one uninterrupted run. A dataset's worlds are the paper "
-    'layout\'s island (layout = "paper"; datasets over the endless layout come with the next issue). See '
-    "docs/datasets.md for the spec keys.",
+    "same --out resumes and gives the bytes of one uninterrupted run. By default each seed's scans stand "
+    "over a 1 km square of the endless landscape, weighed by land cover ([poses] region, cover, tall_cover); "
+    'layout = "paper" scans the paper\'s island of six zones. See docs/datasets.md for the spec keys.',
 )
 BENCH_HELP, BENCH_DESCRIPTION = (
     "time `wildscan dataset` with 1 and 2 workers side by side, cold and warm world cache",

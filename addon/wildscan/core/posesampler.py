@@ -70,24 +70,24 @@ class NoPose:
     reason: str
 
 
-def zone_quotas(weights: dict[str, float], count: int) -> dict[str, int]:
-    """Scans per zone: `count` shared in proportion to the weights (largest remainders, ties
-    in ZONES order)."""
-    zones = [z for z in ZONES if weights.get(z, 0) > 0]
+def zone_quotas(weights: dict[str, float], count: int, names: tuple[str, ...] = ZONES) -> dict[str, int]:
+    """Scans per zone (or land cover: `names` in their order): `count` shared in proportion to
+    the weights (largest remainders, ties in the order of `names`)."""
+    zones = [z for z in names if weights.get(z, 0) > 0]
     total = sum(weights[z] for z in zones)
     exact = {z: count * weights[z] / total for z in zones}
     quota = {z: math.floor(exact[z]) for z in zones}
-    by_remainder = sorted(zones, key=lambda z: (-(exact[z] - quota[z]), ZONES.index(z)))
+    by_remainder = sorted(zones, key=lambda z: (-(exact[z] - quota[z]), names.index(z)))
     for z in by_remainder[: count - sum(quota.values())]:
         quota[z] += 1
     return quota
 
 
-def scan_zones(weights: dict[str, float], count: int) -> list[str]:
+def scan_zones(weights: dict[str, float], count: int, names: tuple[str, ...] = ZONES) -> list[str]:
     """The zone of each scan index: zones interleaved in proportion to their quotas, so any
     prefix of a world's scans (a --limit run) already covers its zones fairly."""
-    quota = zone_quotas(weights, count)
-    keyed = [((j + 0.5) / q, ZONES.index(z), z) for z, q in quota.items() for j in range(q)]
+    quota = zone_quotas(weights, count, names)
+    keyed = [((j + 0.5) / q, names.index(z), z) for z, q in quota.items() for j in range(q)]
     return [z for _, _, z in sorted(keyed)]
 
 

@@ -270,11 +270,11 @@ def world_poses(
     """(The `count` scan poses of the world for the spec's [poses] (app/dataset/spec.py
     PoseSpec), whether they came from the cache). Sampled, when not cached, with the four-laser
     placement on `backend` as the check (core/posesampler.py)."""
-    inputs = dict(world.inputs, scans=count, poses=json.loads(json.dumps(asdict(poses_spec))))
+    inputs = dict(world.inputs, scans=count, poses=json.loads(json.dumps(poses_spec.paper_dict())))
     key = entry_key(POSES, inputs)
     entry = cache.get(POSES, key) if cache is not None else None
     if entry is not None:
-        return [_pose_from_json(p) for p in entry.meta["poses"]], True
+        return [pose_from_json(p) for p in entry.meta["poses"]], True
 
     def accept(candidate: ScanPose) -> bool:
         try:
@@ -288,17 +288,17 @@ def world_poses(
         world.world_plan(), count, p.strategy, dict(p.zones), p.min_distance, accept, dict(p.min_scans_with)
     )
     if cache is not None:
-        cache.put(POSES, key, {"inputs": inputs, "poses": [_pose_to_json(p) for p in poses]}, {})
+        cache.put(POSES, key, {"inputs": inputs, "poses": [pose_to_json(p) for p in poses]}, {})
     return poses, False
 
 
-def _pose_to_json(p) -> dict:
+def pose_to_json(p) -> dict:
     if isinstance(p, NoPose):
         return {"no_pose": {"zone": p.zone, "reason": p.reason}}
     return {"pose": asdict(p)}
 
 
-def _pose_from_json(d: dict):
+def pose_from_json(d: dict):
     if "no_pose" in d:
         return NoPose(**d["no_pose"])
     return ScanPose(**d["pose"])

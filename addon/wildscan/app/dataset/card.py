@@ -20,6 +20,7 @@ from ...core.realism.lost_returns import add_stats
 from ...core.runtime.pause import pause_here
 from .classes import dataset_classes
 from .intensity import intensity_lines, remission_totals
+from .land_card import land_lines, land_totals
 from .layout import CARD, CARD_FIGURES, DATASET_JSON
 from .manifest import Manifest
 from .spec import SPLITS, DatasetSpec
@@ -52,15 +53,20 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
     # the classes the scans' effects declare (a paper, clear dataset's card keeps its bytes)
     class_points = {c.name: 0 for c in dataset_classes(spec.weather, spec.biome)}
     class_scans = dict.fromkeys(class_points, 0)
+    listed = tuple(class_points)
     ranges = [0] * RANGE_BINS
     zones: dict[str, dict[str, int]] = {}
     for r in ok:
         for cid, n in r["class_counts"].items():
             name = BY_ID[int(cid)].name
-            class_points[name] += n
-            class_scans[name] += 1
+            class_points[name] = class_points.get(name, 0) + n
+            class_scans[name] = class_scans.get(name, 0) + 1
         ranges = [a + b for a, b in zip(ranges, r["range_histogram"], strict=True)]
         zones.setdefault(r["zone"], dict.fromkeys(SPLITS, 0))[r["split"]] += 1
+    if len(class_points) > len(listed):  # classes only some worlds carry (the endless world's materials)
+        order = [c.name for c in dataset_classes(spec.weather, spec.biome, class_points)]
+        class_points = {n: class_points.get(n, 0) for n in order}
+        class_scans = {n: class_scans.get(n, 0) for n in order}
     return {
         "scans_planned": len(spec.seeds) * spec.scans_per_world,
         "scans_ok": len(ok),
@@ -77,6 +83,7 @@ def totals(spec: DatasetSpec, manifest: Manifest) -> dict:
         **_particle_totals(spec, ok, class_points),
         **_height_totals(ok),
         **remission_totals(ok),
+        **land_totals(ok),
     }
 
 
@@ -297,6 +304,7 @@ def card_markdown(spec: DatasetSpec, data: dict, figures: list[tuple[str, str]])
         "it is not compared here.",
     ]
     lines += _height_lines(t)
+    lines += land_lines(t)
     lines += ["", "## Points against range", "", "| range (m) | points |", "|---|---:|"]
     counts = t["range_histogram"]["counts"]
     step = 5  # 2.5 m rows

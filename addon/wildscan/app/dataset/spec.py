@@ -16,23 +16,24 @@ from dataclasses import asdict, dataclass, field, replace
 
 from ... import __version__
 from ...core.checks import Table, is_int, is_number, show
-from ...core.classes import TAG_NAMES
 from ...core.errors import UserError
 from ...core.io.files import user_path
 from ...core.io.formats import FORMATS
 from ...core.label_schemes import SCHEME_NAMES
-from ...core.posesampler import STRATEGIES
 from ...core.realism.intensity import DEFAULT_DATASET_INTENSITY, INTENSITY_MODES
 from ...core.rng import stage_seed
 from ...core.sensors import DEFAULT_DEVICE
 from ...core.sensors.config import DEFAULT_MODEL, REALISTIC_SETTINGS, SENSOR_SETTINGS
 from ...core.spatial.frames import FRAMES
-from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION, ZONES
-from ...core.world.region import dataset_layout
+from ...core.world import BIOMES, DEFAULT_BIOME, DEFAULT_VEGETATION, DETAILS, MAX_SEED, VEGETATION
+from ...core.world.region import DEFAULT_LAYOUT, dataset_layout
 from ..settings import SETTINGS, default, limits
 from .devices import DEVICE_KEYS, device_values, is_default, spec_device, spec_limits, spec_returns
 from .effects_spec import effects_table, weather_table
 from .like import with_like
+from .pose_spec import DEFAULT_LAND_MIN_SCANS, DEFAULT_ZONE_WEIGHTS, POSE_CLASSES, PoseSpec, poses_table
+
+__all__ = ["DEFAULT_ZONE_WEIGHTS", "POSE_CLASSES", "DatasetSpec", "PoseSpec", "SensorSpec", "load_spec"]
 
 # what a spec without `formats` writes: fixed, so a format added to the table (core/io/formats.py)
 # changes no existing spec's files or config hash
@@ -40,15 +41,6 @@ DEFAULT_FORMATS = ("semantickitti", "las", "ply")
 SPLITS = ("train", "val", "test")
 MAX_SCANS_PER_WORLD = 100_000
 MAX_WORLDS = 100_000
-POSE_CLASSES = tuple(n for n in TAG_NAMES if n != "water")  # what [poses] min_scans_with may name
-DEFAULT_ZONE_WEIGHTS = (
-    ("hills", 1.0),
-    ("forest", 2.0),
-    ("park", 1.0),
-    ("lake", 1.0),
-    ("cave", 1.0),
-    ("trail", 1.0),
-)
 Value = float | tuple[float, float]
 TOP_KEYS = ("seeds", "detail", "vegetation", "biome", "scans_per_world", "formats", "label_scheme")
 TOP_KEYS += ("split", "poses", "sensor", "weather", "effects", "intensity", "layout")  # layout: region.py
@@ -75,15 +67,6 @@ class SensorSpec:
 
 
 @dataclass(frozen=True)
-class PoseSpec:
-    strategy: str = "zones"
-    zones: tuple[tuple[str, float], ...] = DEFAULT_ZONE_WEIGHTS
-    min_distance: float = 2.0
-    # class -> share of a world's scans drawn near its elements (core/posesampler.py)
-    min_scans_with: tuple[tuple[str, float], ...] = ()
-
-
-@dataclass(frozen=True)
 class DatasetSpec:
     seeds: tuple[int, ...] = (0, 1, 2)
     detail: str = "default"
@@ -93,15 +76,23 @@ class DatasetSpec:
     formats: tuple[str, ...] = DEFAULT_FORMATS
     label_scheme: str = "wildscan"
     split: tuple[tuple[str, float], ...] = (("train", 0.8), ("val", 0.1), ("test", 0.1))
-    poses: PoseSpec = field(default_factory=PoseSpec)
+    # the endless default's poses: class-aware for its rare classes (app/dataset/pose_spec.py)
+    poses: PoseSpec = field(default_factory=lambda: PoseSpec(min_scans_with=DEFAULT_LAND_MIN_SCANS))
     sensor: SensorSpec = field(default_factory=SensorSpec)
     # [weather]: key (core/effects/weather.py KEYS) -> a value or a range [lo, hi] drawn per scan
     weather: tuple[tuple[str, Value], ...] = ()
     effects: tuple[tuple[str, Value], ...] = ()  # [effects]: name (core/effects/table.py) -> value or range
     intensity: str = DEFAULT_DATASET_INTENSITY  # "physical" or "class" (core/realism/intensity.py)
+    layout: str = DEFAULT_LAYOUT  # "endless" or "paper" (core/world/region.py)
 
     def to_dict(self) -> dict:
         out = json.loads(json.dumps(asdict(self)))
+        if self.layout == "paper":  # a paper spec keeps the dict, so the config hash, of before layouts
+            del out["layout"]
+            out["poses"] = json.loads(json.dumps(self.poses.paper_dict()))
+        else:  # the island's keys mean nothing on the endless layout
+            for key in ("strategy", "zones"):
+                del out["poses"][key]
         for key in ("weather", "effects"):  # a spec without them keeps its dict, so its config hash
             if not getattr(self, key):
                 del out[key]
@@ -186,9 +177,18 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
     top = Table(with_like(data, where), "", where)  # `like`: a real dataset's rig and files
     top.only(*TOP_KEYS)
     d = DatasetSpec()
-    dataset_layout(top.data.get("layout"), where)
+    layout = dataset_layout(top.data.get("layout"), where)
+    if layout == "endless" and top.data.get("biome") == "paper":
+        # an endless dataset's ground truth reads its terrain from the tiles' ground cover grid,
+        # which the paper biome (bare ground, the worlds of before) does not have
+        raise UserError(
+            f'{where}: biome = "paper" (the world from before biomes) is the island\'s: give '
+            'layout = "paper", or another biome (mixed, meadow, forest, scrub) for a dataset over the '
+            "endless landscape"
+        )
     return replace(
         d,
+        layout=layout,
         seeds=_seeds(top),
         detail=top.choice("detail", tuple(DETAILS), default=d.detail),
         vegetation=top.choice("vegetation", VEGETATION, default=d.vegetation),
@@ -197,7 +197,7 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
         formats=_formats(top),
         label_scheme=top.choice("label_scheme", SCHEME_NAMES, default=d.label_scheme),
         split=_split(top.table("split", dict(d.split))),
-        poses=_poses(top.table("poses", {})),
+        poses=poses_table(top.table("poses", {}), layout),
         sensor=_sensor(top.table("sensor", {})),
         weather=weather_table(top.table("weather", {})),
         effects=effects_table(top.table("effects", {})),
@@ -260,26 +260,6 @@ def _split(t: Table) -> tuple[tuple[str, float], ...]:
             f"{t.where}: split shares must add up to 1 (train + val + test), got {sum(shares.values()):g}"
         )
     return tuple(shares.items())
-
-
-def _poses(t: Table) -> PoseSpec:
-    t.only("strategy", "zones", "min_distance", "min_scans_with")
-    d = PoseSpec()
-    zones = t.table("zones", dict(d.zones))
-    zones.only(*ZONES)
-    weights = tuple((z, zones.number(z, 0.0, 1e9, default=0.0)) for z in ZONES if z in zones.data)
-    if not any(w > 0 for _, w in weights):
-        raise UserError(f"{t.where}: poses.zones must give at least one zone a weight above 0")
-    shares = t.table("min_scans_with", {})  # class -> share 0..1 of the scans
-    shares.only(*POSE_CLASSES)
-    return PoseSpec(
-        strategy=t.choice("strategy", STRATEGIES, default=d.strategy),
-        zones=weights,
-        min_distance=t.number("min_distance", 0.0, 50.0, default=d.min_distance),
-        min_scans_with=tuple(
-            (c, shares.number(c, 0.0, 1.0, default=0.0)) for c in POSE_CLASSES if c in shares.data
-        ),
-    )
 
 
 # the sensor values that may be numbers or ranges of numbers, with their limits the device's
@@ -418,4 +398,5 @@ def spec_from_json(data: dict) -> DatasetSpec:
         weather=tuple((k, value(v)) for k, v in data.get("weather", [])),
         effects=tuple((k, value(v)) for k, v in data.get("effects", [])),
         intensity=data.get("intensity", DEFAULT_DATASET_INTENSITY),
+        layout=data.get("layout", "paper"),  # a paper spec's dict names no layout (to_dict)
     )

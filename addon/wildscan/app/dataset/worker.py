@@ -1,12 +1,14 @@
 """What a Dask worker runs: one world seed with a batch of its scan indices.
 
-The world is planned once per worker (a small cache keeps it for the next batch of the
-same world; the world cache on disk, app/cache/, keeps it for every worker and run) and
-turned straight into triangles (the Blender-free path: no bpy), which
+The paper layout's world is planned once per worker (a small cache keeps it for the next
+batch of the same world; the world cache on disk, app/cache/, keeps it for every worker and
+run) and turned straight into triangles (the Blender-free path: no bpy), which
 one Embree scene holds for every scan of that world: placement, the sweep and the
 bird's-eye rays all cast against it, so nothing is cropped or rebuilt per pose (a
 bird's-eye cell on open ground, where the terrain is the only surface, is not cast:
-core/truth/open_ground.py). Every
+core/truth/open_ground.py). An endless world keeps its poses per worker, and each scan casts
+against the tiles it reaches, from the process's tile memory, the world cache or built
+(land.py LandWorld.for_scan). Every
 file of a scan is written under a temporary name and renamed with the others only when
 all of them are complete; the rows returned say what was written, with sizes and SHA-256.
 
@@ -23,13 +25,11 @@ import os
 import resource
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ... import __version__
-from ...core.classes import class_by_name
 from ...core.errors import PoseRejected, UserError
 from ...core.io.files import atomic_outputs
 from ...core.label_schemes import scheme
@@ -45,89 +45,17 @@ from ...core.truth.groundtruth import (
     pose_matrix,
     world_points,
 )
-from ...core.truth.open_ground import OpenGround
-from ...core.truth.open_sky import open_sky
-from ...core.truth.traversability import (
-    ROBOT_HEIGHT,
-    class_height_histogram,
-    support_flags,
-    traversability_fields,
-)
-from ...core.world import EXTENT
-from ...core.world.cover import CoverGrid
-from ...core.world.ground import StandingGround
+from ...core.truth.traversability import class_height_histogram, support_flags
 from ..cache.config import open_cache, world_facts
 from ..cache.store import DiskCache
+from .context import WorldContext, embree_backend
 from .draws import draw_effects, draw_sensor, draw_weather
 from .intensity import scan_intensity_facts, with_dataset_intensity
 from .layout import scan_paths
 from .spec import DatasetSpec, spec_from_json
 
-TERRAIN_ID = class_by_name("terrain").id
 RANGE_BIN = 0.5  # m, the range histogram kept per scan (dataset card)
 RANGE_BINS = 60
-
-
-@dataclass
-class WorldContext:
-    seed: int
-    backend: object
-    poses: list
-    instances: np.ndarray
-    z_range: tuple[float, float]
-    open_ground: OpenGround
-    build_seconds: float
-    # The ground the robot stands on (terrain mesh, trail flooring): what `hag` and the
-    # bird's-eye `terrain_z` measure from (core/world/ground.py).
-    ground: StandingGround
-    cover: CoverGrid | None = None  # the world's ground cover (None: bare ground)
-    from_cache: bool = False  # the world was read from the world cache, not built
-    sky: OpenGround | None = None  # the world's open sky, when the world cache made it
-
-    @functools.cached_property
-    def file_numbers(self) -> list[int]:
-        """The number in the file names of each scan: its place among the world's scans
-        that have a pose. A SemanticKITTI loader (semantic-kitti-api) lists a sequence's
-        files sorted and takes line k of poses.txt for the k-th, so a scan without a pose
-        must leave no gap: files 000000..N-1, one poses.txt line each, in scan order. The
-        poses are the sampler's (the same on every worker), and a pose it kept passed the
-        placement the scan runs again, so only a NoPose scan has no files."""
-        kept = np.cumsum([not isinstance(p, NoPose) for p in self.poses])
-        return [int(n) - 1 for n in kept]
-
-    def traversability(self, x: np.ndarray, y: np.ndarray, z=None) -> dict[str, np.ndarray]:
-        """The bird's-eye traversability fields at world points (core/truth/traversability.py); `z`:
-        the ground's height there, when known."""
-        cover = None if self.cover is None else (lambda px, py: self.cover.at(px, py)[1])
-        return traversability_fields(x, y, self.ground, cover, self.cast_up, z)
-
-    @functools.cached_property
-    def open_sky(self) -> OpenGround:
-        """Where an upward ray from the robot's height meets nothing (core/truth/open_sky.py)."""
-        if self.sky is not None:
-            return self.sky
-        g = self.backend.geometry
-        return open_sky(g.vertices, g.faces, self.ground.terrain, ROBOT_HEIGHT, EXTENT)
-
-    def cast_up(self, origins: np.ndarray, reach: float) -> np.ndarray:
-        """Distance to the first surface straight up from each origin (inf for none): cast,
-        but under open sky, where the cast would meet nothing (core/truth/open_sky.py)."""
-        distance = np.full(len(origins), np.inf)
-        cast = np.flatnonzero(~self.open_sky.contains(origins[:, 0], origins[:, 1]))
-        up = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (len(cast), 3))
-        distance[cast] = self.backend.cast(origins[cast], up, reach).distance
-        return distance
-
-    def top_classes(self, origins: np.ndarray, max_range: float) -> np.ndarray:
-        """Class of the first surface straight below each origin (0 for none): the terrain
-        on open ground (core/truth/open_ground.py), elsewhere cast like every other ray, so the
-        float64 settling decides edge hits the same on every CPU."""
-        classes = np.full(len(origins), TERRAIN_ID, dtype=np.int16)
-        cast = np.flatnonzero(~self.open_ground.contains(origins[:, 0], origins[:, 1]))
-        down = np.broadcast_to(np.array([0.0, 0.0, -1.0]), (len(cast), 3))
-        classes[cast] = np.maximum(self.backend.first_hit_classes(origins[cast], down, max_range), 0)
-        return classes
-
 
 # The worker's last world, kept for the next batch of the same world (a world's batches
 # follow each other in the queue). One only, freed before the next is built: a porous world
@@ -136,15 +64,22 @@ _last_world: dict[tuple, WorldContext] = {}
 
 
 def _world_key(spec: DatasetSpec, seed: int) -> tuple:
-    return (seed, spec.detail, spec.vegetation, spec.biome, spec.scans_per_world, spec.poses)
+    return (seed, spec.layout, spec.detail, spec.vegetation, spec.biome, spec.scans_per_world, spec.poses)
 
 
-def world_context(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) -> WorldContext:
+def world_context(spec: DatasetSpec, seed: int, cache: DiskCache | None = None):
+    """The world of `seed` ready to scan (a WorldContext; on the endless layout a LandWorld, its
+    poses, each scan's tiles made by LandWorld.for_scan)."""
     _keep_freed_memory()
     key = _world_key(spec, seed)
     if key not in _last_world:
         _last_world.clear()
-        _last_world[key] = build_world(spec, seed, cache)
+        if spec.layout == "endless":
+            from .land import land_world
+
+            _last_world[key] = land_world(spec, seed, cache)
+        else:
+            _last_world[key] = build_world(spec, seed, cache)
     return _last_world[key]
 
 
@@ -173,7 +108,7 @@ def build_world(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) ->
 
     t0 = time.perf_counter()
     world = prepared_world(world_inputs(seed, spec.detail, spec.vegetation, spec.biome), cache)
-    backend = _embree(world.geometry, world.settler)
+    backend = embree_backend(world.geometry, world.settler)
     poses, _ = world_poses(world, backend, spec.scans_per_world, spec.poses, cache)
     return WorldContext(
         seed=seed,
@@ -188,17 +123,6 @@ def build_world(spec: DatasetSpec, seed: int, cache: DiskCache | None = None) ->
         from_cache=world.from_cache,
         sky=world.open_sky,
     )
-
-
-def _embree(geometry, settler=None):
-    try:
-        from ...raycast.embree_backend import EmbreeBackend
-
-        backend = EmbreeBackend(geometry, settler=settler)
-    except ImportError as e:
-        raise UserError(f"a dataset worker needs the embreex wheel (pip install embreex): {e}") from None
-    backend.threads = 1  # one worker a core: its casts on its own thread (core/runtime/threads.py)
-    return backend
 
 
 # ---------------------------------------------------------------------------------------
@@ -308,6 +232,7 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         return dict(row, zone=choice.zone, status="failed", reason=choice.reason, files=[], seconds=0.0)
     row.update(zone=choice.zone, pose=choice.to_dict())
     sensor = draw_sensor(spec.sensor, context.seed, index)
+    context = context.for_scan(choice, sensor)
     frame = spec.sensor.frame
     row["sensor"] = sensor_row(sensor, frame)
     weather, others = draw_weather(spec, context.seed, index), draw_effects(spec, context.seed, index)
@@ -349,6 +274,10 @@ def scan_one(spec: DatasetSpec, context: WorldContext, root: Path, index: int) -
         **scan_intensity_facts(cloud),
         **_lost_returns(result.metadata),
     )
+    if spec.layout == "endless":  # the card's share of points near the sensor (a paper row as before)
+        from .land_card import NEAR_SENSOR_M
+
+        row["near_points"] = int(np.count_nonzero(cloud.range < NEAR_SENSOR_M))
     row["seconds"] = time.perf_counter() - t0
     return row
 
@@ -412,7 +341,12 @@ def encode_scan(spec: DatasetSpec, context: WorldContext, row: dict, result, wor
     hag = height_above_ground(world, context.ground)
     paths = scan_paths(spec.formats, row["sequence"], context.file_numbers[row["scan"]])
     grid = bev_grid(
-        context.top_classes, context.ground, placement, EXTENT, context.z_range, context.traversability
+        context.top_classes,
+        context.ground,
+        placement,
+        context.extent,
+        context.z_range,
+        context.traversability,
     )
     files = {paths["bev"]: npy_bytes(map_top_class(grid, labels.lookup()))}
     scan = ScanOutput(

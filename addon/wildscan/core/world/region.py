@@ -140,15 +140,12 @@ def extended_region(region: Region, x: float, y: float, reach: float) -> Region:
 
 
 def dataset_layout(value, where: str = "SPEC.toml") -> str:
-    """A dataset spec's `layout`: "paper", its default. A dataset's poses, zones, open ground
-    and world cache are the island's; datasets over the endless layout (a region around each
-    seed's origin, its land covers as pose weights) are not built yet, so until then
-    `layout = "endless"` is refused saying so, not silently given the island."""
-    if value is None or value == "paper":
-        return "paper"
-    if value == "endless":
+    """A dataset spec's `layout`: "endless", its default (poses over a region of the landscape,
+    weighed by land cover), or "paper" (the island's six zones, today's datasets byte for byte)."""
+    if value is None:
+        return DEFAULT_LAYOUT
+    if value not in LAYOUTS:
         raise UserError(
-            f'{where}: layout = "endless" is not available for datasets yet: a dataset scans the '
-            'paper layout\'s island, layout = "paper"; `wildscan scan --seed` scans the endless world'
+            f"{where}: layout must be one of {', '.join(repr(v) for v in LAYOUTS)}, got {value!r}"
         )
-    raise UserError(f'{where}: layout must be "paper" (the only layout of datasets for now), got {value!r}')
+    return value
