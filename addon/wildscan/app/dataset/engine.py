@@ -147,10 +147,11 @@ class Engine:
         topic = f"wildscan-dataset-{self.token}"
         self.client.subscribe_topic(topic, self._tick)
         futures = {}
+        placed = self._place_poses(spec_json, batches, futures)
         for b in batches:
             f = self.client.submit(
                 scan_batch, spec_json, out, b.seed, b.indices, __version__, topic, b.label, self.cache,
-                key=b.label, pure=False, priority=-b.order,
+                placed.get(b.seed), key=b.label, pure=False, priority=-2 * b.order,
             )  # fmt: skip
             futures[f] = b
         pending = set(futures)
@@ -168,6 +169,28 @@ class Engine:
                 if "failure" in result:
                     raise UserError(result["failure"])
             on_poll()
+
+    def _place_poses(self, spec_json: dict, batches: list[Batch], futures: dict) -> dict:
+        """seed -> the future of an endless world's pose task (worker.py world_poses_task), one
+        per world, which the world's scan tasks take as an argument: Dask runs it first (just
+        before the world's first batch, by priority) and its batches wait on it, on a local
+        cluster and on a scheduler alike; no worker places a world's poses beside another.
+        The task is recorded in `futures` as a batch without scans (its facts are the run's)."""
+        from .spec import spec_from_json
+        from .worker import world_poses_task
+
+        if spec_from_json(spec_json).layout != "endless":
+            return {}
+        placed = {}
+        for b in batches:
+            if b.seed not in placed:
+                label = f"{b.label}-poses"
+                placed[b.seed] = self.client.submit(
+                    world_poses_task, spec_json, b.seed, __version__, self.cache,
+                    key=label, pure=False, priority=1 - 2 * b.order,
+                )  # fmt: skip
+                futures[placed[b.seed]] = Batch(b.seed, [], b.order, label)
+        return placed
 
     def _lost(self, error: BaseException) -> RunFailed:
         where = f"the Dask scheduler at {self.scheduler}" if self.scheduler else "the local Dask scheduler"

@@ -379,11 +379,17 @@ class LandWorld:
         )
 
 
-def land_world(spec, seed: int, cache=None) -> LandWorld:
+def land_world(spec, seed: int, cache=None, placed: list | None = None) -> LandWorld:
+    """The LandWorld of `seed`: its poses `placed` when given (pose_to_json's, as the run's
+    pose task of the world placed them: worker.py world_poses_task), else land_poses."""
+    from ..cache.worlds import pose_from_json
     from ..tiles import process_memory
 
     t0 = time.perf_counter()
-    poses, cached = land_poses(spec, seed, cache, process_memory())
+    if placed is not None:
+        poses, cached = [pose_from_json(p) for p in placed], True
+    else:
+        poses, cached = land_poses(spec, seed, cache, process_memory())
     world = TiledWorld(seed, spec.biome, spec.detail, spec.vegetation)
     return LandWorld(seed, world, poses, cache, time.perf_counter() - t0, cached)
 

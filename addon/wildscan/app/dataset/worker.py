@@ -68,9 +68,10 @@ def _world_key(spec: DatasetSpec, seed: int) -> tuple:
     return (seed, spec.layout, spec.detail, spec.vegetation, spec.biome, spec.scans_per_world, spec.poses)
 
 
-def world_context(spec: DatasetSpec, seed: int, cache: DiskCache | None = None):
+def world_context(spec: DatasetSpec, seed: int, cache: DiskCache | None = None, placed: list | None = None):
     """The world of `seed` ready to scan (a WorldContext; on the endless layout a LandWorld, its
-    poses, each scan's tiles made by LandWorld.for_scan)."""
+    poses, each scan's tiles made by LandWorld.for_scan; `placed`: its poses as the run's pose
+    task placed them, world_poses_task)."""
     _keep_freed_memory()
     key = _world_key(spec, seed)
     if key not in _last_world:
@@ -78,7 +79,7 @@ def world_context(spec: DatasetSpec, seed: int, cache: DiskCache | None = None):
         if spec.layout == "endless":
             from .land import land_world
 
-            _last_world[key] = land_world(spec, seed, cache)
+            _last_world[key] = land_world(spec, seed, cache, placed)
         else:
             _last_world[key] = build_world(spec, seed, cache)
     return _last_world[key]
@@ -139,13 +140,12 @@ def scan_batch(
     topic: str = "",
     label: str = "",
     cache: dict | None = None,
+    placed: dict | None = None,
 ) -> dict:
     """Scan `indices` of world `seed` into `out`; return the manifest rows and worker facts.
-    `cache`: where the worker keeps built worlds (app/cache/config.py; None: nowhere)."""
-    if version != __version__:
-        raise UserError(
-            f"this Dask worker runs WildScan {__version__}, the client {version}: install the same on both"
-        )
+    `cache`: where the worker keeps built worlds (app/cache/config.py; None: nowhere).
+    `placed`: an endless world's poses, world_poses_task's result (None: the worker's own)."""
+    _check_version(version)
     root = Path(out)
     if not root.is_dir():
         raise UserError(
@@ -157,7 +157,7 @@ def scan_batch(
     cached = _world_key(spec, seed) in _last_world
     disk = open_cache(cache)
     tiles = [TILE_WORK.copy()]  # the tiles built and read for the world (its poses), then its scans
-    context = world_context(spec, seed, disk)
+    context = world_context(spec, seed, disk, None if placed is None else placed["poses"])
     tiles.append(TILE_WORK.copy())
     build = 0.0 if cached else context.build_seconds
     rows, failure = [], None
@@ -178,6 +178,32 @@ def scan_batch(
     facts |= {"scan_seconds": spent.scans, "cast_seconds": spent.cast, "task": [started, time.time()]}
     facts["tiles"] = tile_facts(*tiles, TILE_WORK.copy())
     return {"rows": rows, "worker": facts} | ({"failure": failure} if failure else {})
+
+
+def world_poses_task(spec_json: dict, seed: int, version: str, cache: dict | None = None) -> dict:
+    """The poses of the endless world `seed` (land.py land_poses), placed once for a run: the
+    engine hands this task's result to every scan task of the world, which waits on it
+    (engine.py), so two workers never place one world's poses side by side. Its facts are a
+    scan task's, with no rows (the client adds them up the same way)."""
+    from ..cache.worlds import pose_to_json
+    from ..tiles import process_memory
+    from .land import land_poses
+
+    _check_version(version)
+    started, t0 = time.time(), time.perf_counter()
+    disk = open_cache(cache)
+    before = TILE_WORK.copy()
+    poses, cached = land_poses(spec_from_json(spec_json), seed, disk, process_memory())
+    facts = _worker_facts(time.perf_counter() - t0) | world_facts("cache" if cached else "built", disk)
+    facts |= {"task": [started, time.time()], "tiles": tile_facts(before, TILE_WORK.copy(), TILE_WORK.copy())}
+    return {"rows": [], "worker": facts, "poses": [pose_to_json(p) for p in poses]}
+
+
+def _check_version(version: str) -> None:
+    if version != __version__:
+        raise UserError(
+            f"this Dask worker runs WildScan {__version__}, the client {version}: install the same on both"
+        )
 
 
 def tile_facts(before: TileWork, world: TileWork, after: TileWork) -> dict[str, float]:
