@@ -105,6 +105,7 @@ def test_an_empty_spec_takes_every_documented_default():
         ({"sensor": {"model": "realistic", "echo-separation": 1}}, ["unknown key", "echo_separation"]),
         ({"layout": "island"}, ["layout must be one of", "'endless'", "'paper'"]),
         # [poses] of the endless layout (tests/test_dataset_land.py)
+        ({"biome": "paper"}, ['biome = "paper"', 'layout = "paper"', "endless landscape"]),
         (
             {"poses": {"zones": {"forest": 1}}},
             ['poses.zones applies to layout = "paper"', "poses.cover"],

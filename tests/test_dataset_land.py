@@ -116,10 +116,11 @@ def test_cover_weights_set_the_mix_and_tall_cover_its_share(tmp_path):
 
 # --------------------------------------------------------------------------- the bar
 
-# The endless default (seed 1's 1 km square, the default cover weights and class-aware poses)
-# with a small sensor, so that 40 scans take a minute or two from a cold cache.
+# The endless default (a seed's 1 km square, the default cover weights and class-aware poses)
+# with a small sensor, so that 40 scans take a minute or two from a cold cache. Seed 3: two of
+# its scans' pairs stand within 3 m (seeds 0-2 have none), so the revisits hold positives.
 LAND_SPEC = """\
-seeds = [1]
+seeds = [3]
 scans_per_world = 40
 formats = ["semantickitti"]
 split = { train = 1.0 }
@@ -151,7 +152,7 @@ def test_a_40_scan_dataset_spans_the_landscape_and_its_revisits_match_its_poses(
         for a, b in itertools.combinations(range(40), 2)
         if math.dist(xy[a], xy[b]) <= 3.0
     }
-    assert set(listed) == set(near)  # every pair within 3 m, and only those
+    assert set(listed) == set(near) and len(listed) >= 1  # every pair within 3 m, and only those
     for pair, d in listed.items():
         assert d <= 3.0 and d == pytest.approx(near[pair], abs=1e-5)
     rows = manifest_rows(land)

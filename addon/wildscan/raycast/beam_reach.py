@@ -7,7 +7,7 @@ triangles: a leaf cluster 80 m off spans ~0.1 deg, while a 100 m lidar's beams a
 apart, so about one in five of a far tile's leaves lies on a beam (bench --suite lod).
 
 The test is conservative, never exact-to-the-edge: the beams' directions are binned on a
-grid of CELL_RAD cells in (azimuth, elevation) as seen from the optical centre; a triangle
+grid of 0.02-0.05 deg cells in (azimuth, elevation) as seen from the optical centre; a triangle
 is kept when any occupied cell meets its angular box widened by a margin (float32 casting
 tolerance, and for a realistic beam its divergence, the spread of its sub-rays). The box
 bounds every direction that meets the triangle:
@@ -27,7 +27,12 @@ import math
 
 import numpy as np
 
-CELL_RAD = math.radians(0.05)  # grid cell, finer than any device's beam spacing (>= 0.08 deg)
+# The grid's cell: the finest of FINE_CELL_RAD .. CELL_RAD whose table stays within MAX_CELLS
+# (a triangle's box is widened to whole cells, so the finer, the more far leaves are left out;
+# every device's beams are >= 0.08 deg apart, coarser than the coarsest cell)
+CELL_RAD = math.radians(0.05)
+FINE_CELL_RAD = math.radians(0.02)
+MAX_CELLS = 8_000_000  # int32: 32 MB, summed in ~0.1 s (24 M took 0.25-0.9 s for 12 % fewer triangles)
 MARGIN_RAD = 2e-4  # rad: far above float32's casting error on a triangle's edge (~1e-7 rad)
 WIDE_RAD = math.pi / 2  # a triangle seen over a wider arc of azimuth is kept without a test
 
@@ -40,20 +45,24 @@ class BeamGrid:
         az = np.arctan2(d[:, 1], d[:, 0])
         el = np.arctan2(d[:, 2], np.hypot(d[:, 0], d[:, 1]))
         self.margin = float(margin_rad)
-        self.columns = int(math.ceil(2 * math.pi / CELL_RAD))
-        self.el0 = float(el.min()) - self.margin - CELL_RAD  # the grid's rows span the beams' band
-        rows = int((float(el.max()) + self.margin + CELL_RAD - self.el0) / CELL_RAD) + 2
+        band = float(el.max()) - float(el.min()) + 2 * self.margin
+        self.cell = max(FINE_CELL_RAD, min(CELL_RAD, math.sqrt(band * 2 * math.pi / MAX_CELLS)))
+        self.columns = int(math.ceil(2 * math.pi / self.cell))
+        self.el0 = float(el.min()) - self.margin - self.cell  # the grid's rows span the beams' band
+        rows = int((float(el.max()) + self.margin + self.cell - self.el0) / self.cell) + 2
         self.rows = rows
         occupied = np.zeros((rows + 1, self.columns + 1), dtype=np.int32)
         occupied[self._row(el) + 1, self._column(az) + 1] = 1
-        self.table = occupied.cumsum(axis=0, dtype=np.int32).cumsum(axis=1, dtype=np.int32)
+        np.cumsum(occupied, axis=0, out=occupied)  # in place: the table is its own summed areas
+        np.cumsum(occupied, axis=1, out=occupied)
+        self.table = occupied
 
     def _row(self, el) -> np.ndarray:
-        row = np.floor((el - np.float32(self.el0)) / np.float32(CELL_RAD)).astype(np.int64)
+        row = np.floor((el - np.float32(self.el0)) / np.float32(self.cell)).astype(np.int64)
         return np.clip(row, 0, self.rows - 1)
 
     def _column(self, az) -> np.ndarray:
-        return np.floor((np.asarray(az) + math.pi) / CELL_RAD).astype(np.int64) % self.columns
+        return np.floor((np.asarray(az) + math.pi) / self.cell).astype(np.int64) % self.columns
 
     def _count(self, r0, r1, c0, c1) -> np.ndarray:
         """Occupied cells in rows r0..r1, columns c0..c1 (inclusive, c0 <= c1 < columns)."""
@@ -86,8 +95,9 @@ class BeamGrid:
         el_lo = np.arctan2(z_lo, np.where(z_lo > 0, rho_far, rho_near))
         m = np.float32(self.margin)
         r0, r1 = self._row(el_lo - m), self._row(el_hi + m)
-        c0 = np.floor((lo - m + np.float32(math.pi)) / np.float32(CELL_RAD)).astype(np.int64)
-        c1 = np.floor((hi + m + np.float32(math.pi)) / np.float32(CELL_RAD)).astype(np.int64)
+        cell = np.float32(self.cell)
+        c0 = np.floor((lo - m + np.float32(math.pi)) / cell).astype(np.int64)
+        c1 = np.floor((hi + m + np.float32(math.pi)) / cell).astype(np.int64)
         shift = np.floor_divide(c0, self.columns) * self.columns  # c0 into 0..columns-1
         c0, c1 = c0 - shift, c1 - shift
         n = self.columns

@@ -28,7 +28,7 @@ class WorldContext:
     seed: int
     backend: object
     poses: list
-    instances: np.ndarray
+    instances: np.ndarray | None  # the world's instance ids (None: rank among each scan's own)
     z_range: tuple[float, float]
     open_ground: OpenGround
     build_seconds: float

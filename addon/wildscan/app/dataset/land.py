@@ -4,12 +4,14 @@ spec's region by land cover, and each scan's world, the tiles its sensor reaches
 Poses. Scan k of a world is given a land cover by the interleaved quotas of the [poses] cover
 weights (core/posesampler.py scan_zones), or a class to be drawn near (min_scans_with: its share
 of the indices, class_scan_indices; a class the region has none of leaves its indices to the
-cover weights), and whether it stands in tall cover (tall_cover: that share of the indices,
-spread evenly; the others must not). A land cover's candidates are uniform over
-the region (edge kept 2 m off), kept where the landscape's land cover (fields.land_cover_at) is
-that one; a class's are 2-8 m from one of its elements where the landscape places them (park
-furniture in the clearings, poles and wires along the power lines: the anchors, no tile built)
-or uniform over the covers it grows in. A candidate is kept when it is min_distance from the
+cover weights), and whether it stands in tall cover (tall_cover: that share of all indices,
+spread evenly over those not drawn near a class; the others must not; a tall-cover scan whose
+land cover is a lawn, a tread or rock draws over the covers tall cover grows in). A land
+cover's candidates are uniform over the region (edge kept 2 m off), kept where the landscape's
+land cover (fields.land_cover_at) is that one; a class's are 2-8 m from one of its elements
+where the landscape places them (park furniture in the clearings, poles and wires along the
+power lines, points along the trails of a tread's material: the anchors, no tile built) or
+uniform over the covers it grows in. A candidate is kept when it is min_distance from the
 poses kept, the placement accepts it on the full-detail tiles around it (app/poses.py
 placed_poses, TileBackends) and its tall cover is as asked. Every draw comes from a stream of
 (seed, region, cover or class), so the same spec gives the same poses on any worker.
@@ -51,6 +53,8 @@ from .pose_spec import LAND_COVERS
 
 TALL_CLASSES = (class_by_name("high grass").id, class_by_name("bush").id)
 TALL_REACH_M = 1.0  # m: tall grass, reeds or undergrowth this near (xy) puts a pose in tall cover
+TALL_LAND = ("forest", "meadow", "scrub", "wetland")  # the land covers tall cover grows in
+TALL = "tall"  # the candidates of a tall-cover scan whose own land cover has none: over TALL_LAND
 PLACE_BLOCK_M = 100.0  # m: the squares the poses are numbered by (two tiles a side)
 CANDIDATES_PER_SCAN = 200  # placements tried for one scan before its cover or class is given up
 DRAWS_PER_SCAN = 20_000  # uniform points drawn (no tile built) before a cover is given up
@@ -193,10 +197,11 @@ class LandBackends(TileBackends):
         return bool(np.any(dm.hypot(xy[:, 0] - x, xy[:, 1] - y) < TALL_REACH_M))
 
 
-def tall_indices(share: float, count: int) -> set[int]:
-    """The scan indices standing in tall cover: ceil(share x count), spread evenly."""
-    wanted = min(count, math.ceil(share * count - 1e-9))
-    return {int((j + 0.5) * count / wanted) for j in range(wanted)}
+def tall_indices(share: float, count: int, free: list[int]) -> set[int]:
+    """The scan indices standing in tall cover: ceil(share x count) of the `free` ones (those
+    not drawn near a class), spread evenly over them."""
+    wanted = min(len(free), math.ceil(share * count - 1e-9))
+    return {free[int((j + 0.5) * len(free) / wanted)] for j in range(wanted)}
 
 
 # ---------------------------------------------------------------------------------------
@@ -213,7 +218,7 @@ def sample_land_poses(world: TiledWorld, poses, count: int, cache=None, memory=N
     # the cover weights: the card's table of scans containing each class says it was not met
     absent = {n for n in set(near.values()) if n in ANCHORED and not class_anchors(world, region, n)}
     near = {k: n for k, n in near.items() if n not in absent}
-    tall = tall_indices(poses.tall_cover, count)
+    tall = tall_indices(poses.tall_cover, count, [k for k in range(count) if k not in near])
     backends = LandBackends(world, cache, memory)
     streams: dict[str, Iterator] = {}
     kept: list[ScanPose] = []
@@ -221,13 +226,15 @@ def sample_land_poses(world: TiledWorld, poses, count: int, cache=None, memory=N
     exhausted: dict[tuple, str] = {}
     for k in range(count):
         want = f"{NEAR}{near[k]}" if k in near else covers[k]
+        if k in tall and want not in TALL_LAND:  # a mown lawn, a tread, bare rock: tall grows elsewhere
+            want = TALL
         asked = (want, k in tall)
         if asked not in exhausted:
             if want not in streams:
                 streams[want] = (
                     _near_candidates(world, region, near[k])
                     if k in near
-                    else _cover_candidates(world, region, (want,), want)
+                    else _cover_candidates(world, region, TALL_LAND if want == TALL else (want,), want)
                 )
             found = _first_kept(streams[want], kept, poses.min_distance, k in tall, backends, want)
             if isinstance(found, ScanPose):
@@ -251,7 +258,7 @@ def _first_kept(stream, kept, min_distance: float, tall: bool, backends: LandBac
         x, y, yaw = c
         if any(dm.hypot(x - p.x, y - p.y) < min_distance for p in kept):
             continue
-        if placed_poses(backends, [c])[0] is None or backends.in_tall_cover(x, y) != tall:
+        if backends.in_tall_cover(x, y) != tall or placed_poses(backends, [c])[0] is None:
             continue
         cover = LAND_COVERS[int(np.asarray(E.land_cover_at(backends.world.seed, backends.world.biome, x, y)))]
         kind = want if want.startswith(NEAR) else "tall cover" if tall else "random"

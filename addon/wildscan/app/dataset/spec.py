@@ -178,6 +178,14 @@ def spec_from_dict(data: dict, where: str = "SPEC.toml") -> DatasetSpec:
     top.only(*TOP_KEYS)
     d = DatasetSpec()
     layout = dataset_layout(top.data.get("layout"), where)
+    if layout == "endless" and top.data.get("biome") == "paper":
+        # an endless dataset's ground truth reads its terrain from the tiles' ground cover grid,
+        # which the paper biome (bare ground, the worlds of before) does not have
+        raise UserError(
+            f'{where}: biome = "paper" (the world from before biomes) is the island\'s: give '
+            'layout = "paper", or another biome (mixed, meadow, forest, scrub) for a dataset over the '
+            "endless landscape"
+        )
     return replace(
         d,
         layout=layout,
