@@ -240,6 +240,7 @@ def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn, cache=N
             news = None if quiet else say
             report.client_poses_seconds = poses_before_the_workers(spec, seeds, count, cache, news)
         stop = _run_engine(state, pending, engine, quiet, report, warn) if any(pending.values()) else None
+        report.seconds += report.client_poses_seconds  # the run's time: its poses placed first included
         _finish(state, report, stop)
     except (KeyboardInterrupt, Terminated) as signal_:  # one landing between the steps above
         raise _stopped(STOPPED[type(signal_)], state, report) from None
