@@ -34,3 +34,16 @@ def test_each_row_is_printed_beside_its_target(capsys):
         [f"{WIND_TARGET_SECONDS:g}", "met"],
         [f"{WIND_TARGET_SECONDS:g}", "MISSED"],
     ]
+
+
+def test_the_long_drive_runs_as_a_user_runs_it_and_is_printed_beside_its_targets(capsys):
+    """bench/drive_long.py: the drive in a process of its own (its own peak memory and CPU)."""
+    from wildscan.bench.drive_long import TARGET_PEAK_BYTES, TARGET_SECONDS, long_drive, print_long
+
+    row = long_drive(20.0)
+    assert row["command"] == "wildscan drive --seed 1 --trail --distance 20 --bag ros2 --out DIR"
+    assert row["seconds"] > 0 and row["cpu"] > 0 and 50e6 < row["peak"] < TARGET_PEAK_BYTES
+    assert row["bytes"] > 0 and row["said"][0].startswith("drove 20.00 m")
+    print_long(row, (0.5, 0.7))
+    out = capsys.readouterr().out
+    assert f"(<= {TARGET_SECONDS:g} " in out and "load average 0.50 before, 0.70 after" in out

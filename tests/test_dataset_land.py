@@ -177,3 +177,30 @@ def test_an_endless_dataset_resumed_on_two_workers_is_the_clean_one(land, tmp_pa
     assert second.returncode == 0 and "wrote 25 scans" in second.stdout, second.stderr
     assert_same_dataset(land, out)
     assert (out / "revisits.json").read_bytes() == (land / "revisits.json").read_bytes()
+
+
+def test_one_worlds_poses_are_placed_once_before_its_workers_and_read_back_by_them(tmp_path):
+    """land.poses_before_the_workers: a world that several workers scan gets its poses placed
+    once, into the world cache, where each worker's land_poses reads them (the same poses a
+    worker places itself); with a world for every worker, or no cache, nothing is done."""
+    from wildscan.app.cache.config import cache_config, open_cache
+    from wildscan.app.dataset.land import land_poses, poses_before_the_workers
+    from wildscan.app.tiles import TileMemory
+
+    spec = spec_from_dict(
+        {
+            "seeds": [1],
+            "scans_per_world": 3,
+            "detail": "low",
+            "poses": {"region": [-100, -100, 100, 100], "cover": {"meadow": 1}, "min_scans_with": {}},
+        }
+    )
+    config = cache_config(tmp_path / "cache")
+    said = []
+    assert poses_before_the_workers(spec, [1], 1, config) == 0.0  # one worker places its own
+    assert poses_before_the_workers(spec, [1], 2, None) == 0.0  # no shared cache to leave them in
+    assert poses_before_the_workers(spec, [1], 2, config, said.append) > 0.0
+    assert said == ["placing the 3 poses of seed 1 before the workers start (they share them)"]
+    read, cached = land_poses(spec, 1, open_cache(config), TileMemory())
+    fresh, fresh_cached = land_poses(spec, 1, None, TileMemory())
+    assert cached and not fresh_cached and read == fresh and len(read) == 3

@@ -541,11 +541,12 @@ def test_ctrl_c_after_the_last_scan_leaves_the_dataset_incomplete_until_its_card
 
 def test_bench_dataset_times_each_worker_count_side_by_side_cold_and_warm():
     result = wildscan(
-        "bench-dataset", "--worlds", "2", "--scans", "2", "--rh", "10",
+        "bench-dataset", "--layout", "paper", "--worlds", "2", "--scans", "2", "--rh", "10",
         "--workers", "1", "--workers", "2", "--vegetation", "solid",
     )  # fmt: skip
     assert result.returncode == 0 and result.stderr == "", result.stderr
-    assert "2 scans at r_h = 10 deg from 2 worlds (default detail, solid vegetation)" in result.stdout
+    said = "2 scans at r_h = 10 deg from 2 worlds (paper layout; default detail, solid vegetation)"
+    assert said in result.stdout
     lines = result.stdout.splitlines()
     steps = lines[lines.index(next(line for line in lines if line.startswith("| step |"))) :]
     assert any(line.startswith("| read and verify the entry |") for line in steps)
@@ -556,8 +557,8 @@ def test_bench_dataset_times_each_worker_count_side_by_side_cold_and_warm():
         ("2", "cold", "2"),
         ("2", "warm", "2"),
     ]
-    assert [r[6].strip() for r in rows] == ["0 / 2", "0 / 2", "2 / 0"]  # worlds read / built
-    assert float(rows[1][5].strip().rstrip("x")) > 0 and rows[1][8].count("GB") == 2  # a worker each
+    assert [r[8].strip() for r in rows] == ["0 / 2", "0 / 2", "2 / 0"]  # worlds read / built
+    assert float(rows[1][7].strip().rstrip("x")) > 0 and rows[1][10].count("GB") == 2  # a worker each
     assert "speed-up >= 1.85x" in result.stdout and "warm cache, at most 30 s" in result.stdout
     # each run's line says how much of its scans' time the caster took (core/runtime/cast_clock.py)
     assert sum("s in scans (" in line and "scan/cast" in line for line in result.stdout.splitlines()) == 3

@@ -51,3 +51,16 @@ def test_an_array_comes_from_the_heap_and_its_pages_stay_for_the_next():
     assert mapped < 40_000_000 and free >= 40_000_000
     mapped, free = where("default")
     assert mapped >= 40_000_000 and free < 40_000_000  # glibc's own way: a mapping, given back
+
+
+def test_one_heap_is_set_once_freed_memory_is_kept():
+    """one_heap (glibc's M_ARENA_MAX = 1, app/drive/memory.py) is accepted by malloc in a fresh
+    process, after keep_freed_memory, and asking again is harmless."""
+    code = (
+        "from wildscan.app.drive.memory import keep_freed_memory, one_heap\n"
+        "print(one_heap(), keep_freed_memory(), one_heap())"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=300
+    )
+    assert done.stdout.split() == ["True", "True", "True"]

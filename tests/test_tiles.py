@@ -286,3 +286,20 @@ def test_world_builds_a_region_of_the_endless_world_with_its_poses_and_map(tmp_p
         assert all(p["cover"] == cover and 10 <= p["x"] <= 60 and 10 <= p["y"] <= 50 for p in poses)
     assert imread(str(tmp_path / "m.png")).shape[0] > 400
     assert out.stat().st_size > 0
+
+
+def test_the_process_counts_the_tiles_it_built_and_read_and_their_seconds(tmp_path):
+    """TILE_WORK: what a dataset worker reports of its tiles (bench-dataset's floor)."""
+    from wildscan.app.tiles import TILE_WORK, TiledWorld, tile_part
+
+    world = TiledWorld(3, "mixed", "low", "solid")
+    cache = DiskCache(tmp_path, 10**10)
+    before = TILE_WORK.copy()
+    built = tile_part(world, (0, 0), 0, cache)
+    after_build = TILE_WORK.since(before)
+    assert (after_build.built, after_build.read) == (1, 0) and after_build.build_seconds > 0
+    read = tile_part(world, (0, 0), 0, cache)  # no memory given: from the cache
+    work = TILE_WORK.since(before)
+    assert (work.built, work.read) == (1, 1) and work.read_seconds > 0
+    assert work.build_seconds == after_build.build_seconds
+    np.testing.assert_array_equal(read.geometry.vertices, built.geometry.vertices)

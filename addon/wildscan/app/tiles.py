@@ -151,6 +151,30 @@ class TileCounts:
         )
 
 
+@dataclass
+class TileWork:
+    """The tiles this process built, or read from the world cache, and the seconds they took
+    (a dataset worker reports them per task: `wildscan bench-dataset`'s floor counts the
+    builds). One per process (`TILE_WORK`); `copy()` before and after a task for its share."""
+
+    built: int = 0
+    build_seconds: float = 0.0  # planning, triangles, object boxes, and storing in the cache
+    read: int = 0
+    read_seconds: float = 0.0
+
+    def copy(self) -> TileWork:
+        return TileWork(self.built, self.build_seconds, self.read, self.read_seconds)
+
+    def since(self, before: TileWork) -> TileWork:
+        return TileWork(
+            self.built - before.built,
+            self.build_seconds - before.build_seconds,
+            self.read - before.read,
+            self.read_seconds - before.read_seconds,
+        )
+
+
+TILE_WORK = TileWork()
 _MEMORY = TileMemory()
 
 
@@ -174,16 +198,21 @@ def tile_part(
     if part is not None:
         counts.memory += 1
         return part
+    t0 = time.perf_counter()
     entry = cache.get(TILE, key) if cache is not None else None
     if entry is not None:
         part = part_from_entry(entry.meta, entry.arrays)
         counts.cache += 1
+        TILE_WORK.read += 1
+        TILE_WORK.read_seconds += time.perf_counter() - t0
     else:
         ready_library(world, cache)
         part = build_tile(world, tile, level)
         counts.built += 1
         if cache is not None:
             cache.put(TILE, key, *part_to_entry(part))
+        TILE_WORK.built += 1
+        TILE_WORK.build_seconds += time.perf_counter() - t0  # the cache's miss included
     if memory is not None:
         memory.put(key, part)
     return part

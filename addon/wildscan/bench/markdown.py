@@ -19,12 +19,18 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 
+def _command(suite: str) -> str:
+    """The command a section comes from: a suite of `wildscan bench`, or a bench command of
+    its own (`bench-dataset`)."""
+    return f"wildscan {suite}" if suite.startswith("bench-") else f"wildscan bench --suite {suite}"
+
+
 def begin_marker(suite: str) -> str:
-    return f"<!-- begin wildscan bench --suite {suite} (generated: rerun the command below, do not edit) -->"
+    return f"<!-- begin {_command(suite)} (generated: rerun the command below, do not edit) -->"
 
 
 def end_marker(suite: str) -> str:
-    return f"<!-- end wildscan bench --suite {suite} -->"
+    return f"<!-- end {_command(suite)} -->"
 
 
 @dataclass(frozen=True)

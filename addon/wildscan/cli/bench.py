@@ -73,7 +73,9 @@ def add_arguments(p: ArgumentParser, in_blender: bool = False) -> None:
         help="backends: every ray backend on the test world, analytic primitives, the default world per "
         "detail level and scaling (default); world: the world built at each detail level, as "
         "`wildscan bench-world`; drive: a 60 s drive along the trail with both ROS bags on the "
-        "--seed world's trail, stepped and continuous head; realism: vegetation porosity, echoes, "
+        "--seed world's trail, stepped and continuous head, then `drive --seed 1 --trail --distance 2000 "
+        "--bag ros2` in a process of its own (wall, CPU, peak memory; --quick: 100 m); realism: "
+        "vegetation porosity, echoes, "
         "realistic scan speed, build time and memory; far: the largest point error of every backend "
         "and frame with the scene 0 m to 999 km from the origin (docs/accuracy.md 'Far from the origin'); "
         "weather: each effect's lost returns on a wall at known ranges and its maximum range against the "
@@ -282,9 +284,11 @@ def _run_chosen_suite(args: argparse.Namespace) -> int:
         return 0
     if args.suite == "drive":
         from ..bench.drive import bench_drive
+        from ..bench.drive_long import bench_long_drive
 
         _only_for_backends(args, also=("details",))
         bench_drive(args.seed)
+        bench_long_drive(args.quick)  # drive --seed 1 --trail --distance 2000 (--quick: 100 m)
         return 0
     if args.suite in SEED_AND_QUICK_SUITES:
         _only_for_backends(args, also=("details",))

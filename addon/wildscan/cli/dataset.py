@@ -22,12 +22,15 @@ HELP, DESCRIPTION = (
 )
 BENCH_HELP, BENCH_DESCRIPTION = (
     "time `wildscan dataset` with 1 and 2 workers side by side, cold and warm world cache",
-    "Make the same SemanticKITTI dataset (default: 1,000 scans at r_h = 1 deg from 20 worlds, world builds "
-    "included) once per worker count, in fresh temporary folders with an empty world cache (cold), then with "
-    "the last count again on the cache that run filled (warm), and print scans per second, the speed-up, the "
-    "worlds read and built and the peak memory of each worker side by side, with the targets met or not; "
-    "each run's line also gives the caster's share of the scans' time and how long the workers waited "
-    "(starting, between tasks, in the tail). First, one world's steps built and read back from the cache.",
+    "Make the same SemanticKITTI dataset (default: 1,000 scans at r_h = 1 deg of one seed spread over the "
+    "endless layout's default region, tiles and poses included; --layout paper: 20 island worlds) once per "
+    "worker count, in fresh temporary folders with an empty world cache (cold), then with the last count "
+    "again on the cache that run filled (warm), and print scans per second, the speed-up, the worlds read "
+    "and built, the peak memory of each worker and the floor (casts + tile builds summed over the workers, "
+    "divided by the workers) beside the wall time, with the targets met or not; then where the workers' "
+    "time went and what 10,000 scans would take on a Dask cluster of N machines. Each run's line also gives "
+    "the caster's share of the scans' time and how long the workers waited (starting, between tasks, in the "
+    "tail). On the paper layout, first one world's steps built and read back from the cache.",
 )
 
 
@@ -161,7 +164,23 @@ def _verify(folder: str) -> int:
 
 
 def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) -> None:
-    p.add_argument("--worlds", type=lambda t: _positive(t, "worlds", 10_000), default=20, metavar="N")
+    from ..bench.dataset import DEFAULT_WORLDS, LAYOUTS
+
+    p.add_argument(
+        "--layout",
+        choices=LAYOUTS,
+        default="endless",
+        help="endless (default): one seed's scans spread over the spec's default region of the endless "
+        "landscape; paper: the island's worlds",
+    )
+    p.add_argument(
+        "--worlds",
+        type=lambda t: _positive(t, "worlds", 10_000),
+        default=None,
+        metavar="N",
+        help=f"seeds to scan (default {DEFAULT_WORLDS['endless']} on endless, "
+        f"{DEFAULT_WORLDS['paper']} on paper)",
+    )
     p.add_argument("--scans", type=lambda t: _positive(t, "scans", 10**7), default=1000, metavar="N")
     options.add(
         p,
@@ -180,12 +199,35 @@ def add_bench_arguments(p: argparse.ArgumentParser, in_blender: bool = False) ->
 
     p.add_argument("--format", default="semantickitti", choices=FORMATS)
     options.add(p, "vegetation")
+    from .bench import _markdown_file
+
+    options.add(
+        p,
+        options.Option("markdown", dict(metavar="FILE.md"), _markdown_file),
+        help="also write what it prints, with the date, the machine, the WildScan version and this command, "
+        "into FILE.md: created, or its bench-dataset section replaced (the rest of the page is kept). "
+        "docs/benchmarks.md is made this way",
+    )
 
 
 def run_bench(args, in_blender: bool = False) -> int:
-    from ..bench.dataset import bench_dataset
+    from ..bench.dataset import DEFAULT_WORLDS, bench_dataset
 
-    bench_dataset(
-        args.worlds, args.scans, args.rh, tuple(args.workers or (1, 2)), (args.format,), args.vegetation
-    )
+    def bench() -> None:
+        worlds = args.worlds or DEFAULT_WORLDS[args.layout]
+        counts = tuple(args.workers or (1, 2))
+        bench_dataset(
+            worlds, args.scans, args.rh, counts, (args.format,), args.vegetation, layout=args.layout
+        )
+
+    if args.markdown is None:
+        bench()
+        return 0
+    from ..bench.markdown import printed_copy, run_facts, write_markdown
+
+    facts = run_facts(getattr(args, "command_line", "wildscan bench-dataset"))
+    with printed_copy() as printed:
+        bench()
+    written = write_markdown(args.markdown, "bench-dataset", facts, printed.getvalue())
+    print(f"wrote {written} (section bench-dataset)")
     return 0

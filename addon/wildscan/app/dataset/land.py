@@ -372,3 +372,33 @@ def land_world(spec, seed: int, cache=None) -> LandWorld:
     poses, cached = land_poses(spec, seed, cache, process_memory())
     world = TiledWorld(seed, spec.biome, spec.detail, spec.vegetation)
     return LandWorld(seed, world, poses, cache, time.perf_counter() - t0, cached)
+
+
+def poses_before_the_workers(
+    spec, seeds: list[int], workers: int, cache_config: dict | None, say=None
+) -> float:
+    """Place the poses of the endless worlds that more than one worker would scan, here, once,
+    into the world cache, before the workers start (seconds spent; 0 when nothing to do): a
+    worker that takes a batch of a world places all of that world's poses itself unless the
+    cache holds them, so two workers on one seed's world (the default spec) both placed them,
+    side by side, each at half speed, and each held the placement's tiles and ray casters
+    (2 GB a worker). With as many worlds as workers or more, each worker places its own
+    worlds' poses in parallel, as before. The poses are the same (land_poses, one cache
+    entry); tiles built here go to the cache for the workers' scans. Needs a cache the
+    workers share (a local engine's)."""
+    from ..cache.config import open_cache
+    from ..tiles import TileMemory
+
+    if spec.layout != "endless" or cache_config is None or len(seeds) >= workers:
+        return 0.0
+    t0 = time.perf_counter()
+    disk = open_cache(cache_config)
+    memory = TileMemory()  # this step's own: freed when it ends
+    for seed in seeds:
+        if say is not None:
+            say(
+                f"placing the {spec.scans_per_world:,} poses of seed {seed} before the workers start "
+                "(they share them)"
+            )
+        land_poses(spec, seed, disk, memory)
+    return time.perf_counter() - t0

@@ -55,6 +55,8 @@ class RunReport:
     world_build_seconds: float = 0.0
     scan_seconds: float = 0.0  # summed over workers: inside their scans, and the cast within
     cast_seconds: float = 0.0
+    tiles: dict[str, float] = field(default_factory=dict)  # worker.tile_facts, summed over tasks
+    client_poses_seconds: float = 0.0  # poses placed before the workers (land.poses_before_the_workers)
     bpy_imported: bool = False  # whether any worker had imported bpy (it never should)
     worlds: dict[str, int] = field(default_factory=dict)  # "built" / "cache" -> worlds a worker loaded so
     world_sources: dict[int, str] = field(default_factory=dict)  # seed -> "built" / "cache"
@@ -231,7 +233,14 @@ def _run_locked(spec, root, workers, scheduler, limit, quiet, say, warn, cache=N
     try:
         state.save()  # complete: false until finalize has written the card
         engine = Engine(workers, scheduler, cache=cache)
+        if scheduler is None and any(pending.values()):  # the workers share this machine's world cache
+            from .land import poses_before_the_workers
+
+            seeds, count = [seed for seed, todo in pending.items() if todo], workers or os.cpu_count() or 1
+            news = None if quiet else say
+            report.client_poses_seconds = poses_before_the_workers(spec, seeds, count, cache, news)
         stop = _run_engine(state, pending, engine, quiet, report, warn) if any(pending.values()) else None
+        report.seconds += report.client_poses_seconds  # the run's time: its poses placed first included
         _finish(state, report, stop)
     except (KeyboardInterrupt, Terminated) as signal_:  # one landing between the steps above
         raise _stopped(STOPPED[type(signal_)], state, report) from None
@@ -276,6 +285,8 @@ def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport
         report.world_build_seconds += facts["world_build_seconds"]
         report.scan_seconds += facts.get("scan_seconds", 0.0)
         report.cast_seconds += facts.get("cast_seconds", 0.0)
+        for name, value in facts.get("tiles", {}).items():
+            report.tiles[name] = report.tiles.get(name, 0) + value
         report.bpy_imported |= facts["bpy_imported"]
         report.worlds = count_worlds(report.world_sources, batch.seed, facts, warn)
         if "task" in facts:

@@ -48,6 +48,7 @@ from ...core.truth.groundtruth import (
 from ...core.truth.traversability import class_height_histogram, support_flags
 from ..cache.config import open_cache, world_facts
 from ..cache.store import DiskCache
+from ..tiles import TILE_WORK, TileWork
 from .context import WorldContext, embree_backend
 from .draws import draw_effects, draw_sensor, draw_weather
 from .intensity import scan_intensity_facts, with_dataset_intensity
@@ -155,7 +156,9 @@ def scan_batch(
     spec = spec_from_json(spec_json)
     cached = _world_key(spec, seed) in _last_world
     disk = open_cache(cache)
+    tiles = [TILE_WORK.copy()]  # the tiles built and read for the world (its poses), then its scans
     context = world_context(spec, seed, disk)
+    tiles.append(TILE_WORK.copy())
     build = 0.0 if cached else context.build_seconds
     rows, failure = [], None
     before = CLOCK.reading()
@@ -173,7 +176,19 @@ def scan_batch(
     spent = CLOCK.reading() - before
     facts = _worker_facts(build) | world_facts(source, disk)
     facts |= {"scan_seconds": spent.scans, "cast_seconds": spent.cast, "task": [started, time.time()]}
+    facts["tiles"] = tile_facts(*tiles, TILE_WORK.copy())
     return {"rows": rows, "worker": facts} | ({"failure": failure} if failure else {})
+
+
+def tile_facts(before: TileWork, world: TileWork, after: TileWork) -> dict[str, float]:
+    """A task's tiles (app/tiles.py TILE_WORK): built and read while its world was made (an
+    endless world's poses: their placement stands on tiles) and while it scanned, with the
+    seconds; summed over tasks by the client (RunReport.tiles), bench-dataset's floor."""
+    out = {}
+    for stage, work in (("world", world.since(before)), ("scans", after.since(world))):
+        out |= {f"{stage}_built": work.built, f"{stage}_build_seconds": work.build_seconds}
+        out |= {f"{stage}_read": work.read, f"{stage}_read_seconds": work.read_seconds}
+    return out
 
 
 def _tick(topic: str, label: str) -> None:

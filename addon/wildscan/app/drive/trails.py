@@ -25,8 +25,12 @@ NETWORK_MARGIN_M = 300.0  # the network is read this far past the drive's reach 
 PLACE_REACH_M = 2.0  # m: the placement lasers stand within 0.5 m of the path (placement.py ARM_X, ARM_Y)
 START = (0.0, 0.0)  # the route starts at the trail point nearest the seed's origin
 # Tiles kept between pieces: a piece of PIECE_M with a 30 m sensor touches up to 3 x 3 of
-# the 50 m tiles; a few more keep the next piece's shared tiles without rebuilding them.
-DRIVE_TILE_BYTES = 700_000_000
+# the 50 m tiles (5-40 MB each on seed 1's route); this keeps the next piece's shared tiles
+# without reading them again. Not more: the sweeps' pass reads the placements' tiles back
+# from the world cache anyway (a long route's tiles never all fit), and with the next
+# piece's world made while one is swept (ahead.py), 700 MB took a 2 km drive to 2.29 GB
+# peak; 400 MB keeps it at 1.85 GB, under the 2 GB target.
+DRIVE_TILE_BYTES = 400_000_000
 
 
 @dataclass

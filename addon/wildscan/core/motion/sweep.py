@@ -32,7 +32,7 @@ from ..pointcloud import PointCloud
 from ..runtime.cast_clock import scanning
 from ..scan import NOISE_MARGIN_SIGMAS, Returns, measure, points_in_frame, with_weather_field
 from ..sensors import SensorConfig, directions_at
-from ..spatial.rotations import rotate
+from ..spatial.rotations import rotate_columns
 from .placements import Motion
 from .timing import beam_fractions, beam_times, head_angles_rad
 
@@ -51,6 +51,29 @@ class Sweep:
     times: np.ndarray  # (N,) beam times, seconds after the start of 2D scan k0
 
 
+@dataclass
+class Beams:
+    """The rays of the 2D scans k0 ... k1 - 1, before any is cast: a pure function of the
+    motion (a drive makes the next sweep's while this one casts, app/drive/run.py)."""
+
+    k0: int
+    k1: int
+    believed: np.ndarray  # (K, N, 3) Eq. 1's directions in the sensor frame
+    true_local: np.ndarray  # (K, N, 3) turned by the motion during each 2D scan
+    dirs_world: np.ndarray  # (K * N, 3)
+    origins: np.ndarray  # (3,) or (K * N, 3)
+
+
+def beams_of(motion: Motion, k0: int, k1: int, sensor: SensorConfig, head: str) -> Beams:
+    device = sensor.device
+    ks = np.arange(k0, k1)
+    fraction = beam_fractions(device.timing)
+    believed = directions_at(head_angles_rad(ks, sensor.rh_deg, head, device.timing), device)  # Eq. 1
+    true_local = _turned_during_scan(believed, motion.step[k0:k1], fraction)
+    dirs_world = _by_attitude(true_local, motion.rotation[k0:k1])
+    return Beams(k0, k1, believed, true_local, dirs_world, _origins(motion, k0, k1, fraction))
+
+
 @scanning
 def sweep(
     backend: RayBackend,
@@ -63,17 +86,24 @@ def sweep(
     frame: str = "sensor",
     progress=None,
     effects: Effects = CLEAR_AIR,
+    beams: Beams | None = None,
 ) -> Sweep:
     """Cast the beams of 2D scans k0 ... k1 - 1 and make their clouds. `noise` (N,) is the
     range noise of each beam; `progress(rays)` hears of each chunk cast; the first hits pass
-    through `effects`' medium (none: clear air)."""
+    through `effects`' medium (none: clear air). `beams`: beams_of(motion, k0, k1, sensor,
+    head), made beforehand (else here)."""
     device = sensor.device
     ks = np.arange(k0, k1)
     fraction = beam_fractions(device.timing)
-    believed = directions_at(head_angles_rad(ks, sensor.rh_deg, head, device.timing), device)  # Eq. 1
-    true_local = _turned_during_scan(believed, motion.step[k0:k1], fraction)
-    dirs_world = _by_attitude(true_local, motion.rotation[k0:k1])
-    origins = _origins(motion, k0, k1, fraction)
+    if beams is None:
+        beams = beams_of(motion, k0, k1, sensor, head)
+    assert (beams.k0, beams.k1) == (k0, k1), "the beams of another sweep"
+    believed, true_local, dirs_world, origins = (
+        beams.believed,
+        beams.true_local,
+        beams.dirs_world,
+        beams.origins,
+    )
     cast_range = sensor.max_range + NOISE_MARGIN_SIGMAS * sensor.max_noise_sigma
     hits = cast_in_chunks(backend, origins, dirs_world, cast_range, ks, progress)
     if effects.changes_medium:  # the beams' times since the drive's start, for the medium
@@ -132,8 +162,10 @@ def _turned_during_scan(dirs: np.ndarray, step: np.ndarray, fraction: np.ndarray
     if not len(turning):
         return dirs
     out = dirs.copy()
-    rotvec = fraction[None, :, None] * step[turning][:, None, :]
-    out[turning] = rotate(dirs[turning].reshape(-1, 3), rotvec.reshape(-1, 3)).reshape(-1, dirs.shape[1], 3)
+    # beam n of 2D scan k turns by fraction[n] * step[k] (rotate's products, column by column)
+    rotvec = [fraction[None, :] * step[turning, i][:, None] for i in range(3)]
+    turned = dirs[turning]
+    out[turning] = np.stack(rotate_columns([turned[..., i] for i in range(3)], rotvec), axis=-1)
     return out
 
 
@@ -149,12 +181,19 @@ def _runs(matrices: np.ndarray):
 def _by_attitude(local: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     """(K, N, 3) directions in each 2D scan's sensor frame -> (K * N, 3) world directions,
     2D scans sharing one attitude turned by one product."""
-    n = local.shape[1]
     if len(_runs(rotation)) == 1:
         return dm.apply(rotation[0], local.reshape(-1, 3))
     # one matrix a ray: the same products in the same order as one matrix a run (detmath's
-    # apply multiplies element by element), without a Python loop over the 2D scans
-    return dm.apply(np.repeat(rotation, n, axis=0), local.reshape(-1, 3))
+    # apply: ((m_i0 v0 + m_i1 v1) + m_i2 v2)), without a Python loop over the 2D scans, each
+    # component over whole (K, N) columns, the matrices' entries broadcast along each 2D scan
+    v = [local[..., j] for j in range(3)]
+    out = np.empty(local.shape)
+    for i in range(3):
+        component = v[0] * rotation[:, i, 0, None]
+        component += v[1] * rotation[:, i, 1, None]
+        component += v[2] * rotation[:, i, 2, None]
+        out[..., i] = component
+    return out.reshape(-1, 3)
 
 
 def _origins(motion: Motion, k0: int, k1: int, fraction: np.ndarray) -> np.ndarray:
@@ -163,7 +202,10 @@ def _origins(motion: Motion, k0: int, k1: int, fraction: np.ndarray) -> np.ndarr
     if np.all(centre == centre[0]):
         return centre[0]
     step = centre[1:] - centre[:-1]
-    return (centre[:-1, None, :] + fraction[None, :, None] * step[:, None, :]).reshape(-1, 3)
+    out = np.empty((len(step), len(fraction), 3))
+    for i in range(3):  # c + f s, column by column: numpy's loops over N values, not 3
+        out[..., i] = centre[:-1, i, None] + fraction[None, :] * step[:, i, None]
+    return out.reshape(-1, 3)
 
 
 def _deskewed(
