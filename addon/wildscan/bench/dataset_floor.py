@@ -8,10 +8,9 @@ much the rest costs: everything a scan does around its cast (its world's tiles j
 ray caster built over them, labels, truth, files), the world's poses, and the workers' waits.
 
 The cluster figures extrapolate the measured per-worker work on paper: every scan's work
-(its busy worker-seconds, the poses' aside) divides over the machines' workers, while the
-poses of a world are placed by each worker of a remote cluster that scans it (each has its
-own world cache; on one machine the client places a world's poses once for its workers,
-app/dataset/land.py poses_before_the_workers), so they do not divide.
+(its busy worker-seconds, the poses' aside) divides over the machines' workers, and so do
+the poses: a world's poses are placed once, by one task its scans wait on (app/dataset/engine.py
+_place_poses, worker.world_poses_task), so a world's poses are one worker's work.
 """
 
 from __future__ import annotations
@@ -97,8 +96,7 @@ def cluster_lines(one: Work, worlds: int, scans: int = CLUSTER_SCANS) -> list[st
     """What `scans` scans would take on N machines of WORKERS_PER_MACHINE workers, from a
     1-worker cold run of `worlds` worlds, as many scans a world as it had (so its worlds
     scale with the scans): a scan's work divides over the workers; a world's poses are placed
-    by every worker that scans it, so a worker places max(a world's poses, its share of all
-    poses)."""
+    once, by one worker, so a worker places max(a world's poses, its share of all poses)."""
     per_scan = (one.busy - one.poses) / max(one.scans, 1)
     per_pose = (one.poses + one.client_poses) / max(one.scans, 1)
     per_world = max(1, one.scans // max(worlds, 1))
@@ -108,8 +106,7 @@ def cluster_lines(one: Work, worlds: int, scans: int = CLUSTER_SCANS) -> list[st
         f"{scans:,} scans ({scans // per_world:,} worlds of {per_world:,}) on a Dask cluster of N machines x "
         f"{WORKERS_PER_MACHINE} workers, extrapolated from the 1-worker cold run: {per_scan:.2f} worker-s a "
         f"scan (of which casts and tile builds {floor_per_scan:.2f} s), {per_pose:.2f} worker-s a pose "
-        "placed; a world's poses placed by each worker that scans it (a worker of a cluster has its own "
-        "world cache)",
+        "placed; a world's poses placed once, by one worker (its scans wait on that task)",
     ]
     for machines in CLUSTER_MACHINES:
         workers = machines * WORKERS_PER_MACHINE
