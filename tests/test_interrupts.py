@@ -167,6 +167,30 @@ def test_a_signal_while_signals_are_deferred_is_raised_when_the_moment_is_over()
     assert reached == ["end of the deferred block"]
 
 
+@pytest.mark.parametrize("name", ["KeyboardInterrupt", "Terminated"])
+def test_a_signal_that_lands_in_a_finaliser_is_not_dropped(name):
+    """A signal handled while a weakref callback or a __del__ runs raises there, where Python
+    prints "Exception ignored" and drops it (a dataset once finished after its Ctrl-C this
+    way): the next check (a dataset's poll, a file about to be placed) raises it."""
+    from wildscan.app.interrupts import Terminated, stopping_on_signals
+    from wildscan.core.runtime.signals import check_host_break, check_lost_signal
+
+    kind = Terminated if name == "Terminated" else KeyboardInterrupt
+
+    class Dropped:
+        def __del__(self):
+            raise kind()  # what on_signal raises when the signal lands here
+
+    with stopping_on_signals():
+        Dropped()  # freed at once: its exception is unraisable
+        with pytest.raises(kind):
+            check_lost_signal()
+        check_host_break()  # noted once: raised once
+        Dropped()
+        with pytest.raises(kind):
+            check_host_break()
+
+
 # Without the test hook: the process signals itself from inside the work, the way a user's
 # Ctrl-C or a scheduler's SIGTERM lands mid-write or mid-cast.
 SELF_SIGNAL = """

@@ -31,6 +31,7 @@ from ..core.runtime.signals import (
     enter,
     forget_pending,
     leave,
+    note_lost_signal,
     on_signal,
     signal_pending,
     watch_host_break,
@@ -130,9 +131,12 @@ def stopping_on_signals():
         return
     finder = _DeferBpyImport()
     sys.meta_path.insert(0, finder)
+    hook = sys.unraisablehook
+    sys.unraisablehook = lambda unraisable: note_lost_signal(unraisable, hook)
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         sys.meta_path.remove(finder)
         for s, handler in previous.items():
             if _owns_process:  # the command is over and has said what it wrote: a signal

@@ -24,7 +24,7 @@ from ...core.io import semantickitti as sk
 from ...core.io.files import atomic_outputs, output_directory, write_durably
 from ...core.label_schemes import scheme
 from ...core.runtime.pause import pause_here
-from ...core.runtime.signals import deferred, on_signal, signal_pending
+from ...core.runtime.signals import check_lost_signal, deferred, on_signal, signal_pending
 from ..cache.config import count_worlds
 from ..interrupts import Interrupted, Terminated, raise_terminated
 from . import card
@@ -296,6 +296,7 @@ def _run_engine(state: _State, pending, engine: Engine, quiet, report: RunReport
             state.save()
 
     def on_poll() -> None:
+        check_lost_signal()  # a Ctrl-C Python dropped in a finaliser stops the run here
         ticking = sum(min(n, in_flight.get(k, 0)) for k, n in engine.ticks.items())
         progress.update(len(state.manifest.rows) + ticking)
 

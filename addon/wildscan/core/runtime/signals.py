@@ -24,6 +24,7 @@ _pending: list[int] = []  # signals received inside them
 # A host's own record of a Ctrl-C that reached its handler before ours was installed (Blender's
 # G.is_break: app/host_break.py), read until it is found set once.
 _host_break: list[Callable[[], bool]] = []
+_lost: list[int] = []  # signals whose exception Python dropped (note_lost_signal)
 
 
 def raise_for(signum: int):
@@ -39,6 +40,29 @@ def on_signal(signum, frame):
     raise_for(signum)
 
 
+def note_lost_signal(unraisable, otherwise: Callable) -> None:
+    """sys.unraisablehook while signals raise (app/interrupts.py): a signal that lands in a
+    weakref callback, a __del__ or the garbage collector raises its exception there, where
+    Python prints "Exception ignored" and drops it, so the command would finish as if nothing
+    had happened (seen: a dataset's Ctrl-C inside WeakSet._remove). Note it for
+    check_lost_signal; anything else goes to `otherwise`, the hook from before. (Raising
+    again from here is no use: the hook is such a place too.)"""
+    kind = unraisable.exc_type
+    if kind is not None and issubclass(kind, (KeyboardInterrupt, Terminated)):
+        _lost.append(signal.SIGTERM if issubclass(kind, Terminated) else signal.SIGINT)
+        return
+    otherwise(unraisable)
+
+
+def check_lost_signal() -> None:
+    """A signal note_lost_signal saw dropped, handled here as if it arrived now. Called where
+    a long run polls (a dataset's progress) and before files are renamed into place."""
+    if _lost:
+        signum = _lost[0]
+        _lost.clear()
+        on_signal(signum, None)
+
+
 def watch_host_break(reader: Callable[[], bool]) -> None:
     """Treat `reader()` turning true as a Ctrl-C (check_host_break)."""
     _host_break[:] = [reader]
@@ -48,6 +72,7 @@ def check_host_break() -> None:
     """A Ctrl-C the host's own handler took (before ours) as one that reached ours: noted
     inside deferred(), raised outside it. Called where a run begins and before files are
     renamed into place, so it never finishes as if nothing had happened."""
+    check_lost_signal()
     if _host_break and _host_break[0]():
         _host_break.clear()
         on_signal(signal.SIGINT, None)
