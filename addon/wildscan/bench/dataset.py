@@ -28,7 +28,8 @@ from ..core.runtime.cast_clock import Reading, cast_share_line
 from ..core.world import DEFAULT_VEGETATION
 from .dataset_floor import cluster_lines, work_of
 
-TARGETS = {"endless": (60.0, 40.0), "paper": (45.0, 30.0)}  # s: cold, warm cache
+TARGETS = {"endless": (60.0, 40.0), "paper": (45.0, 30.0)}  # s: cold, warm cache, for TARGET_SCANS
+TARGET_SCANS = 1000  # the targets' dataset size: a run of another size is judged scaled to it
 TARGET_SPEEDUP = 1.85
 TARGET_WORKER_BYTES = 1.5e9
 TARGET_FLOOR_RATIO = 1.3  # the wall time at most this many times the floor
@@ -180,12 +181,12 @@ def _table(rows: list[BenchRow], stream, layout: str = "endless") -> None:
     best = min(cold, key=lambda r: r.seconds)
     worst_memory = max((b for r in rows for b in r.peak_rss), default=0)
     stream.write("\ntargets:\n")
-    met = best.seconds <= target_seconds
+    scaled = _scaled(best.seconds, best.scans)
     _target(
         stream,
-        f"cold cache, at most {target_seconds:g} s",
-        met,
-        f"{best.seconds:.1f} s, {best.workers} workers",
+        f"cold cache, at most {target_seconds:g} s for {TARGET_SCANS:,} scans",
+        scaled <= target_seconds,
+        f"{_seconds_text(best.seconds, best.scans)}, {best.workers} workers",
     )
     if len(cold) > 1:
         speedup = cold[-1].rate / base
@@ -194,15 +195,29 @@ def _table(rows: list[BenchRow], stream, layout: str = "endless") -> None:
     limit = f"every worker under {TARGET_WORKER_BYTES / 1e9:g} GB"
     _target(stream, limit, worst_memory < TARGET_WORKER_BYTES, f"peak {worst_memory / 1e9:.2f} GB")
     for r in (r for r in rows if r.cache == "warm"):
-        met = r.seconds <= target_warm
         _target(
-            stream, f"warm cache, at most {target_warm:g} s", met, f"{r.seconds:.1f} s, {r.workers} workers"
+            stream,
+            f"warm cache, at most {target_warm:g} s for {TARGET_SCANS:,} scans",
+            _scaled(r.seconds, r.scans) <= target_warm,
+            f"{_seconds_text(r.seconds, r.scans)}, {r.workers} workers",
         )
     if layout == "endless":
         ratio = best.seconds / max(work_of(best).floor, 1e-9)
         where = f"{ratio:.2f}x ({best.workers} workers, cold cache)"
         _target(stream, f"wall within {TARGET_FLOOR_RATIO:g}x the floor", ratio <= TARGET_FLOOR_RATIO, where)
     stream.flush()
+
+
+def _scaled(seconds: float, scans: int) -> float:
+    """A run's seconds scaled to TARGET_SCANS scans (linearly: a smaller run's start-up counts
+    as if it were paid again and again, so a small run is judged on the strict side)."""
+    return seconds * TARGET_SCANS / max(scans, 1)
+
+
+def _seconds_text(seconds: float, scans: int) -> str:
+    if scans == TARGET_SCANS:
+        return f"{seconds:.1f} s"
+    return f"{seconds:.1f} s for {scans:,} scans, {_scaled(seconds, scans):.0f} s scaled to {TARGET_SCANS:,}"
 
 
 def _target(stream, what: str, met: bool, measured: str) -> None:
