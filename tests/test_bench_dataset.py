@@ -77,7 +77,9 @@ def test_bench_dataset_on_the_endless_layout_prints_the_floor_and_writes_its_sec
     assert [r[:3] for r in rows] == [["1", "cold", "3"], ["1", "warm", "3"]]
     for r in rows:  # the floor beside the wall time, and their ratio (of the unrounded figures)
         wall, floor, ratio = float(r[3]), float(r[4]), float(r[5])
-        assert floor > 0 and wall == pytest.approx(floor * ratio, abs=0.05 * ratio + 0.05)
+        # a warm run's floor is its casts alone: 3 coarse scans' may print as 0.0 s
+        assert (floor > 0 if r[1] == "cold" else floor >= 0) and ratio > 0
+        assert wall == pytest.approx(floor * ratio, abs=0.05 * ratio + 0.05)
     assert "wall within 1.3x the floor" in out and "warm cache, at most 40 s" in out
     assert "where the time went" in out and "tiles:" in out and "poses of the world" in out
     assert "10,000 scans" in out and "N = 16:" in out
