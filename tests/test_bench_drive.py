@@ -47,3 +47,34 @@ def test_the_long_drive_runs_as_a_user_runs_it_and_is_printed_beside_its_targets
     print_long(row, (0.5, 0.7))
     out = capsys.readouterr().out
     assert f"(<= {TARGET_SECONDS:g} " in out and "load average 0.50 before, 0.70 after" in out
+
+
+def test_a_measured_childs_peak_is_its_own_not_its_parents():
+    """Linux keeps the high-water resident size across execve and Python starts children by
+    vfork: measured directly, a tiny child of a big process reads the parent's peak."""
+    import sys
+
+    from wildscan.bench.drive_long import measured_run
+
+    ballast = bytearray(600 * 2**20)  # this process: 600 MB resident
+    ballast[::4096] = b"x" * len(ballast[::4096])
+    said, seconds, cpu, peak, code = measured_run([sys.executable, "-c", "print('small')"])
+    assert code == 0 and said == ["small"] and seconds > 0 and cpu > 0
+    assert 1e6 < peak < 200e6, peak
+    del ballast
+
+
+def test_a_workers_own_peak_is_not_its_starters():
+    """core/runtime/peak.py (a dataset worker's reported peak): VmHWM, not ru_maxrss, which a
+    child of a big process starts at."""
+    import subprocess
+    import sys
+
+    ballast = bytearray(600 * 2**20)
+    ballast[::4096] = b"x" * len(ballast[::4096])
+    code = "from wildscan.core.runtime.peak import peak_resident_bytes as p; import resource; "
+    code += "print(p(), resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)"
+    own, inherited = map(int, subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                             check=True, timeout=120).stdout.split())  # fmt: skip
+    assert own < 200e6 < 600e6 < inherited
+    del ballast

@@ -294,20 +294,10 @@ def scan_spread(seed: int, count: int) -> tuple[float, int, float]:
 
 
 def peak_resident_kb() -> int:
-    """This process's own peak resident set (kB): /proc/self/status VmHWM, the high-water mark
-    of its address space since its exec. Not getrusage's ru_maxrss: on Linux that keeps the
-    parent's high-water mark across fork and exec, so a child started by a process that has
-    scanned with the 120 m devices reports the parent's gigabytes, not its own."""
-    import resource
+    """This process's own peak resident set (kB; core/runtime/peak.py says why not ru_maxrss)."""
+    from ..core.runtime.peak import peak_resident_bytes
 
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                if line.startswith("VmHWM:"):
-                    return int(line.split()[1])
-    except OSError:
-        pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # kilobytes on Linux
+    return peak_resident_bytes() // 1024
 
 
 def bench_lod(seed: int = 0, quick: bool = False, stream=None) -> dict:

@@ -22,7 +22,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
-import resource
 import sys
 import time
 from pathlib import Path
@@ -36,6 +35,7 @@ from ...core.label_schemes import scheme
 from ...core.placement import COLUMN_HEIGHT
 from ...core.posesampler import NoPose
 from ...core.runtime.cast_clock import CLOCK
+from ...core.runtime.peak import peak_resident_bytes
 from ...core.scan import run_scan
 from ...core.truth.groundtruth import (
     bev_grid,
@@ -232,7 +232,7 @@ def _tick(topic: str, label: str) -> None:
 def _worker_facts(build_seconds: float) -> dict:
     return {
         "pid": os.getpid(),
-        "peak_rss_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+        "peak_rss_bytes": peak_resident_bytes(),  # its own, not its starter's (core/runtime/peak.py)
         "world_build_seconds": build_seconds,
         "bpy_imported": "bpy" in sys.modules,  # the Blender-free path: tests check it stays False
     }
