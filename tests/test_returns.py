@@ -168,3 +168,18 @@ def test_a_dataset_spec_sets_the_return_mode_and_refuses_one_its_device_lacks(tm
     sensor = draw_sensor(load_spec(spec).sensor, 0, 0)
     assert (sensor.return_mode, sensor.echoes) == ("dual", 2)
     assert sensor.to_dict()["returns"] == "dual"
+
+
+def test_a_beams_strongest_is_the_highest_and_the_nearest_of_equals_on_random_echoes():
+    """select_returns' strongest (per-beam maxima, no sort) against the definition: the echo
+    of highest intensity, the nearest (first in range order) of equals."""
+    from wildscan.core.sensors.returns import STRONGEST, select_returns
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        per_beam = rng.integers(1, 5, rng.integers(1, 40))
+        beam = np.repeat(np.arange(len(per_beam)) * 3, per_beam)  # beams numbered with gaps
+        intensity = rng.integers(0, 4, len(beam)).astype(np.float32)  # many ties
+        expected = [int(np.flatnonzero(beam == b)[np.argmax(intensity[beam == b])]) for b in np.unique(beam)]
+        kept, kinds = select_returns(beam, intensity, "strongest")
+        assert kept.tolist() == expected and set(kinds.tolist()) == {STRONGEST}
