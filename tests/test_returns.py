@@ -173,8 +173,6 @@ def test_a_dataset_spec_sets_the_return_mode_and_refuses_one_its_device_lacks(tm
 def test_a_beams_strongest_is_the_highest_and_the_nearest_of_equals_on_random_echoes():
     """select_returns' strongest (per-beam maxima, no sort) against the definition: the echo
     of highest intensity, the nearest (first in range order) of equals."""
-    from wildscan.core.sensors.returns import STRONGEST, select_returns
-
     rng = np.random.default_rng(7)
     for _ in range(200):
         per_beam = rng.integers(1, 5, rng.integers(1, 40))
