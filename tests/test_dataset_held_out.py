@@ -175,7 +175,7 @@ def test_two_ctrl_cs_count_and_name_the_scans_completed(tmp_path):
 
 
 def test_a_run_names_the_scans_it_wrote():
-    from wildscan.app.dataset.run import scan_names
+    from wildscan.app.dataset.scan_names import scan_names
 
     keys = [("00", 0), ("00", 1), ("00", 2), ("00", 5), ("01", 2)]
     assert scan_names(keys) == "sequence 00 scans 0-2 and 5, sequence 01 scan 2"

@@ -84,7 +84,8 @@ def test_cover_weights_set_the_mix_and_tall_cover_its_share(tmp_path):
     its land cover, and tall_cover's share of the poses in tall cover, the others out of it."""
     from wildscan.app.cache.config import cache_config, open_cache
     from wildscan.app.dataset.land import LandBackends, sample_land_poses
-    from wildscan.app.tiles import TiledWorld, TileMemory
+    from wildscan.app.tile_memory import TileMemory
+    from wildscan.app.tiles import TiledWorld
     from wildscan.core.posesampler import ScanPose
     from wildscan.core.world.endless import LAND_COVERS, land_cover_at
 
@@ -185,7 +186,7 @@ def test_one_worlds_poses_are_placed_once_before_its_workers_and_read_back_by_th
     worker places itself); with a world for every worker, or no cache, nothing is done."""
     from wildscan.app.cache.config import cache_config, open_cache
     from wildscan.app.dataset.land import land_poses, poses_before_the_workers
-    from wildscan.app.tiles import TileMemory
+    from wildscan.app.tile_memory import TileMemory
 
     spec = spec_from_dict(
         {

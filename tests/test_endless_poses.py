@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import io
 
-from wildscan.app.tiles import TileCounts
+from wildscan.app.tile_memory import TileCounts
 from wildscan.cli import main
 from wildscan.cli.poses import PosesProgress
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from wildscan.app.scan import crop_radius, endless_scan_geometry, scan_current_scene
-from wildscan.app.tiles import TiledWorld, TileMemory, scan_levels, tiles_geometry
+from wildscan.app.tile_memory import TileMemory
+from wildscan.app.tiles import TiledWorld, scan_levels, tiles_geometry
 from wildscan.core.placement import Pose
 from wildscan.core.sensors import SensorConfig, device_named
 from wildscan.raycast.beam_reach import BeamGrid

@@ -45,7 +45,8 @@ def test_a_pose_placed_near_stands_as_on_the_whole_tiles_and_where_the_scan_plac
     from wildscan.app.dataset.draws import draw_sensor
     from wildscan.app.dataset.land import LandWorld
     from wildscan.app.poses import TileBackends
-    from wildscan.app.tiles import TiledWorld, TileMemory, full_detail, tiles_geometry
+    from wildscan.app.tile_memory import TileMemory
+    from wildscan.app.tiles import TiledWorld, full_detail, tiles_geometry
     from wildscan.core.placement import Pose
     from wildscan.core.posesampler import ScanPose
     from wildscan.raycast.select import make_backend

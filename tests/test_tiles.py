@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from wildscan.app.cache.store import DiskCache
+from wildscan.app.tile_memory import TileMemory
 from wildscan.app.tiles import (
-    TileMemory,
     TilePart,
     join,
     merge_covers,
@@ -290,7 +290,8 @@ def test_world_builds_a_region_of_the_endless_world_with_its_poses_and_map(tmp_p
 
 def test_the_process_counts_the_tiles_it_built_and_read_and_their_seconds(tmp_path):
     """TILE_WORK: what a dataset worker reports of its tiles (bench-dataset's floor)."""
-    from wildscan.app.tiles import TILE_WORK, TiledWorld, tile_part
+    from wildscan.app.tile_memory import TILE_WORK
+    from wildscan.app.tiles import TiledWorld, tile_part
 
     world = TiledWorld(3, "mixed", "low", "solid")
     cache = DiskCache(tmp_path, 10**10)

@@ -142,7 +142,8 @@ def scan_endless(
     from ..viz.preview import render_preview
     from .poses import TileBackends
     from .scan import endless_scan_geometry, scan_current_scene, write_scan
-    from .tiles import TiledWorld, process_memory
+    from .tile_memory import process_memory
+    from .tiles import TiledWorld
 
     world = TiledWorld(seed, DEFAULT_BIOME, DETAIL, DEFAULT_VEGETATION)
     memory = process_memory()

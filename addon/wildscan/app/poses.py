@@ -109,7 +109,7 @@ class TileBackends:
     def __init__(self, world, cache=None, memory=None, backend: str = "auto"):
         from collections import OrderedDict
 
-        from .tiles import TileCounts
+        from .tile_memory import TileCounts
 
         self.world, self.cache, self.memory, self.backend_name = world, cache, memory, backend
         self.kept: OrderedDict = OrderedDict()

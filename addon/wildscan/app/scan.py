@@ -216,7 +216,8 @@ def _reached_geometry(world, levels, pose, sensor, reach, cache, memory, progres
     in bytes), so a far-reaching device's scan holds a fraction of its tiles' triangles."""
     import time
 
-    from .tiles import ELEMENT_OVERHANG_M, TileCounts, cut, endless, join, tile_part
+    from .tile_memory import TileCounts
+    from .tiles import ELEMENT_OVERHANG_M, cut, endless, join, tile_part
 
     t0, counts = time.perf_counter(), TileCounts()
     centre = (pose.x, pose.y)

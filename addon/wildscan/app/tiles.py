@@ -4,7 +4,7 @@ The endless layout (core/world/endless/) is a pure function of (seed, biome, det
 vegetation, tile, level): a tile's triangles never depend on which tiles were built before
 or in what order. So a tile is the unit kept: one world-cache entry per tile and level
 (`tile-<key>.npz`, keyed by those inputs and the code, app/cache/key.py), and in memory a
-least-recently-used set of tiles bounded in bytes (`TileMemory`), so a process that scans
+least-recently-used set of tiles bounded in bytes (`TileMemory`, app/tile_memory.py), so a process that scans
 poses kilometres apart holds only the tiles of its last scans.
 
 Any set of tiles is joined the one way, in sorted tile order (`join`): their triangles one
@@ -16,8 +16,7 @@ bit, whichever was built first or came from the cache.
 from __future__ import annotations
 
 import time
-from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,14 +24,10 @@ from ..core.world.region import Region
 from ..raycast.geometry import SceneGeometry, concatenate, local_origin
 from .cache.key import entry_key
 from .cache.store import DiskCache
+from .tile_memory import TILE_WORK, TileCounts, TileMemory
 
 TILE = "tile"  # the cache entry's kind
 GEOMETRY_ARRAYS = ("vertices", "faces", "class_id", "instance", "object_index", "reflectivity")
-# Tiles kept in memory: five full-detail tiles (~150 MB each at the default detail), more
-# than the four a Hokuyo's disc can touch, so that scans near each other rebuild nothing,
-# while with a scan's own work a process stays under the 1.5 GB budget of one that
-# scans kilometres apart (bench/lod.py scan_spread measures it).
-DEFAULT_MEMORY_BYTES = 800_000_000
 
 
 def endless():
@@ -109,78 +104,6 @@ def objects_near(lo: np.ndarray, hi: np.ndarray, centre, radius: float) -> np.nd
     c = np.asarray(centre, dtype=np.float64)[:2]
     gap = np.clip(c, lo, hi) - c
     return gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= radius * radius
-
-
-@dataclass
-class TileMemory:
-    """Tiles a process keeps between scans, least recently used dropped past `max_bytes`."""
-
-    max_bytes: int = DEFAULT_MEMORY_BYTES
-    parts: OrderedDict = field(default_factory=OrderedDict)
-    held: int = 0
-
-    def get(self, key: str) -> TilePart | None:
-        part = self.parts.get(key)
-        if part is not None:
-            self.parts.move_to_end(key)
-        return part
-
-    def put(self, key: str, part: TilePart) -> None:
-        if key in self.parts:
-            return
-        self.parts[key] = part
-        self.held += part.nbytes()
-        while self.held > self.max_bytes and len(self.parts) > 1:
-            _, dropped = self.parts.popitem(last=False)
-            self.held -= dropped.nbytes()
-
-
-@dataclass
-class TileCounts:
-    """Where the tiles of a request came from, and the seconds spent making them."""
-
-    built: int = 0
-    cache: int = 0
-    memory: int = 0
-    seconds: float = 0.0
-
-    def text(self) -> str:
-        return (
-            f"{self.built + self.cache + self.memory} tiles: {self.built} built, {self.cache} from the "
-            f"cache, {self.memory} in memory ({self.seconds:.2f} s)"
-        )
-
-
-@dataclass
-class TileWork:
-    """The tiles this process built, or read from the world cache, and the seconds they took
-    (a dataset worker reports them per task: `wildscan bench-dataset`'s floor counts the
-    builds). One per process (`TILE_WORK`); `copy()` before and after a task for its share."""
-
-    built: int = 0
-    build_seconds: float = 0.0  # planning, triangles, object boxes, and storing in the cache
-    read: int = 0
-    read_seconds: float = 0.0
-
-    def copy(self) -> TileWork:
-        return TileWork(self.built, self.build_seconds, self.read, self.read_seconds)
-
-    def since(self, before: TileWork) -> TileWork:
-        return TileWork(
-            self.built - before.built,
-            self.build_seconds - before.build_seconds,
-            self.read - before.read,
-            self.read_seconds - before.read_seconds,
-        )
-
-
-TILE_WORK = TileWork()
-_MEMORY = TileMemory()
-
-
-def process_memory() -> TileMemory:
-    """The tiles this process keeps (one set per process: every command shares it)."""
-    return _MEMORY
 
 
 def tile_part(

@@ -222,7 +222,8 @@ def make_world(
 def _endless_poses(plan: WorldPlan, region, per_cover: int, cache) -> dict[str, list[dict]]:
     """Up to `per_cover` valid poses of each land cover in the region (the sidecar's)."""
     from .poses import TileBackends, endless_poses
-    from .tiles import TiledWorld, endless, process_memory
+    from .tile_memory import process_memory
+    from .tiles import TiledWorld, endless
 
     world = TiledWorld(plan.seed, plan.biome, plan.detail.name, plan.vegetation)
     backends = TileBackends(world, cache, process_memory())

@@ -63,7 +63,7 @@ def spread_points(seed: int, count: int) -> np.ndarray:
 def find_poses(seed: int, count: int, world) -> list:
     """`count` valid poses, one near each of the first spread points that has one."""
     from ..app.poses import endless_poses
-    from ..app.tiles import TileMemory
+    from ..app.tile_memory import TileMemory
     from ..core.placement import Pose
     from ..core.world.region import region_around
 
@@ -82,7 +82,7 @@ def cold_scan(world, pose, sensor, lod: bool, memory=None):
     """(ScanResult, seconds, tile counts): the tiles built (a fresh memory unless given, no
     world cache) and the scan, timed together."""
     from ..app.scan import endless_scan_geometry, scan_current_scene
-    from ..app.tiles import TileMemory
+    from ..app.tile_memory import TileMemory
 
     memory = TileMemory() if memory is None else memory
     t0 = time.perf_counter()
@@ -214,7 +214,7 @@ def print_devices(rows: list[dict], poses, out, runs: int = COLD_RUNS) -> None:
 def hokuyo_lines(world, poses, seed: int, out) -> dict:
     """The cold and warm Hokuyo scans beside today's scan of the 150 m world."""
     from ..app.scan import scan_current_scene
-    from ..app.tiles import TileMemory
+    from ..app.tile_memory import TileMemory
     from ..bench.devices import world_and_pose
     from ..core.sensors import SensorConfig
 
@@ -267,7 +267,8 @@ def scan_spread(seed: int, count: int) -> tuple[float, int, float]:
     next point), tiles kept in the process's bounded memory as `wildscan` keeps them; (peak
     resident GB, poses scanned, seconds)."""
     from ..app.scan import endless_scan_geometry, scan_current_scene
-    from ..app.tiles import TiledWorld, process_memory
+    from ..app.tile_memory import process_memory
+    from ..app.tiles import TiledWorld
     from ..core.errors import PoseRejected
     from ..core.placement import Pose
     from ..core.sensors import SensorConfig
@@ -355,7 +356,8 @@ def horizon_line(out, count: int = 5) -> float:
     (leveled frame) at each: the median share of its near-horizon beams that returned."""
     from ..app.poses import endless_poses
     from ..app.scan import endless_scan_geometry, scan_current_scene
-    from ..app.tiles import TiledWorld, process_memory
+    from ..app.tile_memory import process_memory
+    from ..app.tiles import TiledWorld
     from ..core.placement import Pose
     from ..core.sensors import SensorConfig, device_named
     from ..core.world import DEFAULT_BIOME, DEFAULT_VEGETATION

@@ -53,7 +53,8 @@ def run(args: argparse.Namespace, in_blender: bool = False) -> int:
 
 def _endless(args: argparse.Namespace, region, zone: str | None) -> int:
     from ..app.poses import endless_poses
-    from ..app.tiles import TiledWorld, process_memory
+    from ..app.tile_memory import process_memory
+    from ..app.tiles import TiledWorld
 
     world = TiledWorld(args.seed, args.biome, args.detail, args.vegetation)
     cache = options.cache_of(args, "wildscan poses")

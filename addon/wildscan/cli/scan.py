@@ -110,7 +110,7 @@ def _endless_geometry(args, pose, sensor, biome: str, vegetation: str, lod: str)
     """The tiles a scan from `pose` reaches, and the metadata its files carry."""
     from ..app.geometry import GEOMETRY_BACKENDS
     from ..app.scan import endless_scan_geometry
-    from ..app.tiles import process_memory
+    from ..app.tile_memory import process_memory
     from .output import Progress, say
 
     if args.backend not in GEOMETRY_BACKENDS:

@@ -19,7 +19,7 @@ the same poses on any worker.
 
 Then the poses are numbered by place (PLACE_BLOCK_M squares in a serpentine), so the engine's
 contiguous batches (engine.py make_batches) are neighbourhoods: a worker scans poses near each
-other one after the other, and builds or reads each tile once (app/tiles.py TileMemory, the
+other one after the other, and builds or reads each tile once (app/tile_memory.py TileMemory, the
 world cache). A --limit prefix is therefore a part of the region, not a sample of all of it.
 
 A scan's world (`LandWorld.for_scan`) is the tiles its sensor reaches at their levels of
@@ -341,7 +341,7 @@ class LandWorld:
     def for_scan(self, choice: ScanPose, sensor):
         """The WorldContext (worker.py) of one scan: the tiles its sensor reaches."""
         from ..scan import crop_radius, endless_scan_geometry
-        from ..tiles import process_memory
+        from ..tile_memory import process_memory
         from .context import WorldContext, embree_backend
 
         t0 = time.perf_counter()
@@ -383,7 +383,7 @@ def land_world(spec, seed: int, cache=None, placed: list | None = None) -> LandW
     """The LandWorld of `seed`: its poses `placed` when given (pose_to_json's, as the run's
     pose task of the world placed them: worker.py world_poses_task), else land_poses."""
     from ..cache.worlds import pose_from_json
-    from ..tiles import process_memory
+    from ..tile_memory import process_memory
 
     t0 = time.perf_counter()
     if placed is not None:
@@ -407,7 +407,7 @@ def poses_before_the_workers(
     entry); tiles built here go to the cache for the workers' scans. Needs a cache the
     workers share (a local engine's)."""
     from ..cache.config import open_cache
-    from ..tiles import TileMemory
+    from ..tile_memory import TileMemory
 
     if spec.layout != "endless" or cache_config is None or len(seeds) >= workers:
         return 0.0

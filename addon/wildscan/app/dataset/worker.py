@@ -48,7 +48,7 @@ from ...core.truth.groundtruth import (
 from ...core.truth.traversability import class_height_histogram, support_flags
 from ..cache.config import open_cache, world_facts
 from ..cache.store import DiskCache
-from ..tiles import TILE_WORK, TileWork
+from ..tile_memory import TILE_WORK, TileWork
 from .context import WorldContext, embree_backend
 from .draws import draw_effects, draw_sensor, draw_weather
 from .intensity import scan_intensity_facts, with_dataset_intensity
@@ -186,7 +186,7 @@ def world_poses_task(spec_json: dict, seed: int, version: str, cache: dict | Non
     (engine.py), so two workers never place one world's poses side by side. Its facts are a
     scan task's, with no rows (the client adds them up the same way)."""
     from ..cache.worlds import pose_to_json
-    from ..tiles import process_memory
+    from ..tile_memory import process_memory
     from .land import land_poses
 
     _check_version(version)

@@ -17,7 +17,8 @@ import numpy as np
 
 from ...core.motion.routes import trail_route
 from ...core.motion.trajectory import Path, polyline_path
-from ..tiles import ELEMENT_OVERHANG_M, TiledWorld, TileMemory, endless, join, objects_near, tile_part
+from ..tile_memory import TileMemory
+from ..tiles import ELEMENT_OVERHANG_M, TiledWorld, endless, join, objects_near, tile_part
 from .world import crop_along
 
 PIECE_M = 40.0  # m of path a piece of the drive's world covers (whole 3D scans)
